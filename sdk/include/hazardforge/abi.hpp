@@ -1,0 +1,50 @@
+// SDK version and the ABI tag a plugin and the host must share before any C++ type crosses between them.
+#pragma once
+
+#include <opencv2/core/version.hpp>
+#include <nlohmann/json.hpp>
+
+#define HF_SDK_ABI_MAJOR 1
+#define HF_SDK_ABI_MINOR 0
+#define HF_SDK_VERSION "0.1.0"
+
+#define HF_STR_INNER(x) #x
+#define HF_STR(x) HF_STR_INNER(x)
+
+#if defined(__clang__)
+#define HF_ABI_COMPILER "clang" HF_STR(__clang_major__)
+#elif defined(__GNUC__)
+#define HF_ABI_COMPILER "gcc" HF_STR(__GNUC__)
+#else
+#define HF_ABI_COMPILER "unknown"
+#endif
+
+#if defined(_GLIBCXX_USE_CXX11_ABI)
+#define HF_ABI_CXX11 "cxx11abi" HF_STR(_GLIBCXX_USE_CXX11_ABI)
+#else
+#define HF_ABI_CXX11 "cxx11abi-na"
+#endif
+
+#if __cplusplus >= 202002L
+#define HF_ABI_STD "c++20"
+#elif __cplusplus >= 201703L
+#define HF_ABI_STD "c++17"
+#else
+#define HF_ABI_STD "c++old"
+#endif
+
+// Types from OpenCV and nlohmann-json cross the boundary inside payloads, so their versions are part of the tag.
+#define HF_ABI_TAG                                                                              \
+  HF_ABI_COMPILER ";" HF_ABI_CXX11 ";" HF_ABI_STD ";opencv" HF_STR(CV_VERSION_MAJOR) "." HF_STR( \
+      CV_VERSION_MINOR) ";json" HF_STR(NLOHMANN_JSON_VERSION_MAJOR) "." HF_STR(NLOHMANN_JSON_VERSION_MINOR)
+
+#if defined(_WIN32)
+#define HF_EXPORT __declspec(dllexport)
+#else
+#define HF_EXPORT __attribute__((visibility("default")))
+#endif
+
+// SDK classes keep default visibility even in plugins built with -fvisibility=hidden, so their type_info and
+// vtables are the single copies in libhazardforge_sdk and dynamic_cast works across libraries.
+#define HF_SDK_BEGIN _Pragma("GCC visibility push(default)")
+#define HF_SDK_END _Pragma("GCC visibility pop")

@@ -1,0 +1,289 @@
+// Stage and component interfaces: what a plugin implements, and what the host hands it while running.
+#pragma once
+
+#include "hazardforge/abi.hpp"
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazardforge/packet.hpp"
+#include "hazardforge/params.hpp"
+#include "hazardforge/types.hpp"
+
+HF_SDK_BEGIN
+namespace hf {
+
+// ---- Ports ---------------------------------------------------------------------------------------------------
+
+inline constexpr const char* kAnyType = "*";
+
+struct PortSpec {
+  std::string name;
+  std::string type_name;  // payload kTypeName, or "*" for any
+  int type_version = 0;   // 0 with "*"
+  std::string doc;
+  bool optional = false;  // input: the stage runs even when this stream has no packet this frame
+  bool sticky = false;    // input: the latest packet is kept and offered on later frames (sparse streams)
+  bool multi = false;     // input: accepts a list of streams (e.g. several risk metrics)
+
+  std::string type_str() const;  // "Frame v1" / "*"
+};
+
+template <PayloadType T>
+PortSpec port(std::string name, std::string doc = {}) {
+  return PortSpec{std::move(name), T::kTypeName, T::kTypeVersion, std::move(doc)};
+}
+inline PortSpec any_port(std::string name, std::string doc = {}) {
+  return PortSpec{std::move(name), kAnyType, 0, std::move(doc)};
+}
+inline PortSpec optional(PortSpec p) {
+  p.optional = true;
+  return p;
+}
+inline PortSpec sticky(PortSpec p) {
+  p.sticky = true;
+  p.optional = true;
+  return p;
+}
+inline PortSpec multi(PortSpec p) {
+  p.multi = true;
+  return p;
+}
+
+// ---- Component description ------------------------------------------------------------------------------------
+
+// Kinds the host knows. Graph nodes are stages (all kinds but the last two); llm_provider and
+// hazard_template are components that stages create by name (see ComponentFactory).
+namespace kind {
+inline constexpr const char* kSource = "source";
+inline constexpr const char* kDetector = "detector";
+inline constexpr const char* kTracker = "tracker";
+inline constexpr const char* kEstimator = "estimator";
+inline constexpr const char* kRiskMetric = "risk_metric";
+inline constexpr const char* kGenerator = "generator";
+inline constexpr const char* kPlanner = "planner";
+inline constexpr const char* kRenderer = "renderer";
+inline constexpr const char* kVerifier = "verifier";
+inline constexpr const char* kSink = "sink";
+inline constexpr const char* kFilter = "filter";
+inline constexpr const char* kLlmProvider = "llm_provider";
+inline constexpr const char* kHazardTemplate = "hazard_template";
+}  // namespace kind
+
+struct ComponentInfo {
+  std::string name;     // lower_snake, unique within its kind
+  std::string kind;     // one of hf::kind
+  std::string summary;  // one line
+  std::string doc;      // longer text: timestamp behaviour, method, references
+  std::vector<ParamSpec> params;
+  std::vector<PortSpec> inputs;   // stages only
+  std::vector<PortSpec> outputs;  // stages only
+  bool is_stage = false;          // set by the registrar
+  bool is_source = false;         // set by the registrar
+
+  const ParamSpec* param(const std::string& n) const;
+  const PortSpec* input(const std::string& n) const;
+  const PortSpec* output(const std::string& n) const;
+};
+
+// ---- Runtime context ------------------------------------------------------------------------------------------
+
+class Component;
+
+// Lets a stage create components (LLM providers, hazard templates) by kind and name.
+class ComponentFactory {
+ public:
+  virtual ~ComponentFactory();
+  // Throws hf::Error naming the kind/name (with a suggestion) or the invalid parameters.
+  virtual std::unique_ptr<Component> create_component(const std::string& kind, const std::string& name,
+                                                      const Json& params) const = 0;
+  virtual std::vector<std::string> component_names(const std::string& kind) const = 0;
+
+  template <class T>
+  std::unique_ptr<T> create(const std::string& kind_name, const std::string& name, const Json& params) const;
+};
+
+enum class LogLevel { kDebug, kInfo, kWarning, kError };
+
+class StageContext {
+ public:
+  virtual ~StageContext();
+  virtual const std::string& node_id() const = 0;
+  virtual const Params& params() const = 0;
+  // The run's output folder (created by the host); stages write their artefacts below it.
+  virtual const std::filesystem::path& output_dir() const = 0;
+  virtual const ComponentFactory& components() const = 0;
+  virtual void log(LogLevel level, const std::string& message) const = 0;
+  // Index and timestamp of the frame being processed (valid during process/next).
+  virtual int64_t frame_index() const = 0;
+  virtual double timestamp() const = 0;
+  // Records an input file (model, calibration) in the run manifest with its content hash.
+  virtual void record_resource(const std::filesystem::path& file) const = 0;
+  // Cooperative cancellation (Ctrl-C): long-running stages should check it.
+  virtual bool stop_requested() const = 0;
+};
+
+// Inputs of one frame. Ports absent this frame return nullptr / empty.
+class Inputs {
+ public:
+  virtual ~Inputs();
+  virtual const Packet* packet(const std::string& port) const = 0;
+  virtual std::vector<const Packet*> packets(const std::string& port) const = 0;  // multi ports
+  // Which upstream node produced each packet of a multi port (same order as packets()).
+  virtual std::vector<std::string> producers(const std::string& port) const = 0;
+
+  template <PayloadType T>
+  const T* get(const std::string& port) const {
+    const Packet* p = packet(port);
+    return (p && !p->empty()) ? &p->get<T>() : nullptr;
+  }
+  template <PayloadType T>
+  const T& require(const std::string& port) const {
+    const T* v = get<T>(port);
+    if (!v) throw Error("input '" + port + "' has no packet for this frame");
+    return *v;
+  }
+};
+
+class Outputs {
+ public:
+  virtual ~Outputs();
+  virtual void emit_packet(const std::string& port, Packet p) = 0;
+  virtual double timestamp() const = 0;
+
+  template <PayloadType T>
+  void emit(const std::string& port, T value) {
+    emit_packet(port, Packet::make<T>(std::move(value), timestamp()));
+  }
+};
+
+// ---- Components and stages -------------------------------------------------------------------------------------
+
+class Component {
+ public:
+  virtual ~Component();
+};
+
+// A graph node. Lifecycle: open() once (params validated), process() once per frame in timestamp order,
+// finish() once at end of stream (may emit final packets stamped with the last frame's time).
+// Each instance is called from one thread at a time; different nodes run concurrently.
+class Stage : public Component {
+ public:
+  ~Stage() override;
+  virtual void open(StageContext& /*ctx*/) {}
+  virtual void process(StageContext& ctx, const Inputs& in, Outputs& out) = 0;
+  virtual void finish(StageContext& /*ctx*/, Outputs& /*out*/) {}
+};
+
+// Produces the frame stream. The host calls next() until it returns false; each call emits one frame.
+class SourceStage : public Stage {
+ public:
+  virtual bool next(StageContext& ctx, Outputs& out) = 0;
+  // Number of frames if known (drives the progress bar's ETA).
+  virtual std::optional<int64_t> frame_count() const { return std::nullopt; }
+  void process(StageContext&, const Inputs&, Outputs&) final {}
+  static ComponentInfo base_info(std::string name, std::string summary);
+};
+
+// Typed conveniences for the common stage shapes. Each fixes the port names, so graphs stay uniform.
+class Detector : public Stage {
+ public:
+  virtual Detections detect(StageContext& ctx, const Frame& frame) = 0;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  static ComponentInfo base_info(std::string name, std::string summary);  // frames -> detections
+};
+
+class Tracker : public Stage {
+ public:
+  virtual Tracks update(StageContext& ctx, const Detections& dets, const Frame& frame) = 0;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  static ComponentInfo base_info(std::string name, std::string summary);  // detections, frames -> tracks
+};
+
+class Estimator : public Stage {
+ public:
+  virtual ObjectStates estimate(StageContext& ctx, const Tracks& tracks, const Frame& frame) = 0;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  static ComponentInfo base_info(std::string name, std::string summary);  // tracks, frames -> states
+};
+
+class RiskMetric : public Stage {
+ public:
+  virtual RiskAssessment assess(StageContext& ctx, const ObjectStates& states, const Frame* frame) = 0;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  // states (+ optional frames) -> risk. Adds the shared corridor and threshold params.
+  static ComponentInfo base_info(std::string name, std::string summary);
+};
+
+// ---- LLM providers ---------------------------------------------------------------------------------------------
+
+struct LlmMessage {
+  std::string role;  // system / user / assistant
+  std::string content;
+};
+
+struct LlmRequest {
+  std::vector<LlmMessage> messages;
+  Json response_schema;      // JSON Schema the reply must follow
+  double temperature = 0.2;
+  int64_t seed = 0;
+  int max_tokens = 1024;
+  Json scene = Json::object();  // the structured scene context the prompt was filled from
+};
+
+struct LlmReply {
+  std::string content;  // raw text of the model's answer
+  std::string model;
+  double latency_s = 0.0;
+  Json raw = Json::object();  // the full response body, for the run record
+};
+
+// A text-generation backend. Throws hf::Error (with the endpoint and cause) on transport failures.
+class LlmProvider : public Component {
+ public:
+  ~LlmProvider() override;
+  virtual void open(const Params& params) = 0;
+  virtual LlmReply complete(const LlmRequest& request) = 0;
+  virtual std::string describe_backend() const = 0;  // e.g. "ollama llama3 @ http://127.0.0.1:11434"
+};
+
+// ---- Hazard templates ------------------------------------------------------------------------------------------
+
+struct SceneContext {
+  double timestamp = 0.0;
+  std::optional<double> ego_speed_mps;
+  CameraModel camera;
+  std::vector<ObjectState> objects;
+  Json meta = Json::object();  // environment, road type, dataset description
+};
+
+// Turns a hazard spec into a kinematically plausible trajectory for one hazard kind.
+class HazardTemplate : public Component {
+ public:
+  ~HazardTemplate() override;
+  virtual void open(const Params& params) = 0;
+  virtual std::string hazard_kind() const = 0;
+  // Physical feasibility of the spec (speeds, decelerations, visibility ...). Empty = feasible.
+  virtual std::vector<std::string> check(const HazardSpec& spec, const SceneContext& scene) const = 0;
+  virtual HazardTrajectory plan(const HazardSpec& spec, const SceneContext& scene) const = 0;
+};
+
+// ---- inline template ---------------------------------------------------------------------------------------------
+
+template <class T>
+std::unique_ptr<T> ComponentFactory::create(const std::string& kind_name, const std::string& name,
+                                            const Json& params) const {
+  std::unique_ptr<Component> c = create_component(kind_name, name, params);
+  T* t = dynamic_cast<T*>(c.get());
+  if (!t) throw Error(kind_name + " '" + name + "' does not implement the requested interface");
+  c.release();
+  return std::unique_ptr<T>(t);
+}
+
+}  // namespace hf
+HF_SDK_END

@@ -1,0 +1,286 @@
+// SDK-owned payload types that flow between stages, with their JSON forms for sinks and reports.
+//
+// Coordinate conventions (used everywhere):
+//  * ego frame: x forward, y left, z up; origin on the ground below the rear axle (as nuScenes' ego frame).
+//  * camera (optical) frame: x right, y down, z forward.
+//  * world frame: whatever the dataset's global frame is; only used through EgoState::T_world_ego.
+#pragma once
+
+#include "hazardforge/abi.hpp"
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+HF_SDK_BEGIN
+namespace hf {
+
+using Json = nlohmann::json;
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Pinhole intrinsics, distortion and the camera's mounting on the ego vehicle.
+struct CameraModel {
+  int width = 0;
+  int height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::vector<double> distortion;  // OpenCV order k1 k2 p1 p2 [k3 ...]; empty = none / already undistorted
+  // Camera pose in the ego frame: p_ego = R_ego_cam * p_cam + t_ego_cam.
+  cv::Matx33d R_ego_cam = cv::Matx33d(0, 0, 1, -1, 0, 0, 0, -1, 0);
+  cv::Vec3d t_ego_cam = cv::Vec3d(1.5, 0.0, 1.5);
+
+  bool valid() const { return width > 0 && height > 0 && fx > 0 && fy > 0; }
+  cv::Matx33d K() const { return {fx, 0, cx, 0, fy, cy, 0, 0, 1}; }
+  double height_above_ground() const { return t_ego_cam[2]; }
+  // Downward pitch of the optical axis (rad, positive = looking down), derived from R_ego_cam.
+  double pitch() const;
+
+  cv::Vec3d ego_to_cam(const cv::Vec3d& p_ego) const;
+  cv::Vec3d cam_to_ego(const cv::Vec3d& p_cam) const;
+  // Pixel of a camera-frame point; nullopt when it is behind the camera (z <= 1 cm).
+  std::optional<cv::Point2d> project_cam(const cv::Vec3d& p_cam) const;
+  std::optional<cv::Point2d> project_ego(const cv::Vec3d& p_ego) const;
+  // Ray through a pixel intersected with the ground plane (z = 0 in the ego frame); nullopt above the horizon.
+  std::optional<cv::Vec3d> pixel_to_ground(const cv::Point2d& px) const;
+  // Same camera for an image resized to (w, h).
+  CameraModel scaled_to(int w, int h) const;
+
+  // A level camera (zero roll/pitch) mounted `height` m above the ground, `forward` m ahead of the rear axle.
+  static CameraModel pinhole(int w, int h, double fx, double fy, double cx, double cy, double height = 1.5,
+                             double pitch_rad = 0.0, double forward = 1.5);
+};
+
+// What is known about the ego vehicle at a frame.
+struct EgoState {
+  std::optional<double> speed_mps;                   // from dataset poses / CAN / a param
+  std::optional<double> yaw_rate;                    // rad/s, positive = turning left
+  std::optional<cv::Matx44d> T_world_ego;            // ego pose in the dataset's world frame
+  std::optional<cv::Vec3d> velocity_world;           // m/s in the world frame
+};
+
+// A dataset annotation carried with the frame, in the ego frame of that frame.
+struct AnnotatedObject {
+  std::string instance_id;
+  std::string category;  // dataset category, e.g. "vehicle.car"
+  std::string label;     // road-user class used by the project: car, truck, bus, person, bicycle, motorcycle
+  cv::Vec3d center_ego;  // box centre
+  cv::Vec3d size_lwh;    // length (along heading), width, height in m
+  double yaw_ego = 0.0;  // heading in the ego frame (rad)
+  std::optional<cv::Vec3d> velocity_ego;  // absolute velocity expressed in ego axes (m/s), if derivable
+  int num_points = -1;                    // lidar+radar points in the box (nuScenes), -1 unknown
+  std::optional<cv::Rect2d> box2d;        // image box if the dataset gives one (KITTI)
+  double occlusion = 0.0;                 // dataset occlusion/truncation hint, 0 = fully visible
+};
+
+struct Annotations {
+  static constexpr const char* kTypeName = "Annotations";
+  static constexpr int kTypeVersion = 1;
+  std::vector<AnnotatedObject> objects;
+  std::optional<cv::Vec3d> ego_velocity_ego;  // ego velocity in its own axes (m/s), if derivable
+};
+
+struct Frame {
+  static constexpr const char* kTypeName = "Frame";
+  static constexpr int kTypeVersion = 1;
+  int64_t index = 0;       // 0-based position in the source's stream
+  double timestamp = 0.0;  // seconds since the start of the stream
+  cv::Mat image;           // BGR 8-bit
+  CameraModel camera;
+  EgoState ego;
+  std::string source_id;  // file name / dataset token
+  Json meta = Json::object();  // source-specific (scene description, sample token, ...)
+  std::shared_ptr<const Annotations> annotations;  // dataset ground truth, when the source carries it
+};
+
+struct Detection {
+  cv::Rect2f box;  // pixels, in the frame's image
+  int class_id = -1;
+  std::string label;  // car, truck, bus, person, bicycle, motorcycle, ...
+  float score = 0.f;
+  int annotation_index = -1;  // for ground-truth detections: index into Frame::annotations
+};
+
+struct Detections {
+  static constexpr const char* kTypeName = "Detections";
+  static constexpr int kTypeVersion = 1;
+  int64_t frame_index = 0;
+  cv::Size image_size;
+  std::string detector;  // stage + model, for reports
+  std::vector<Detection> items;
+};
+
+struct Track {
+  int64_t id = -1;  // persistent across frames
+  cv::Rect2f box;
+  std::string label;
+  float score = 0.f;
+  int age = 0;     // frames since the track was born
+  int hits = 0;    // frames in which it was matched
+  int misses = 0;  // consecutive frames without a match (box is then predicted/held)
+  cv::Point2f velocity_px;  // image-plane velocity of the box centre, px/s
+  int detection_index = -1;  // index into this frame's Detections, -1 when not matched this frame
+  int annotation_index = -1;
+};
+
+struct Tracks {
+  static constexpr const char* kTypeName = "Tracks";
+  static constexpr int kTypeVersion = 1;
+  int64_t frame_index = 0;
+  std::string tracker;
+  std::vector<Track> items;
+};
+
+// Metric state of one tracked object, in the ego frame.
+struct ObjectState {
+  int64_t track_id = -1;
+  std::string label;
+  float score = 0.f;
+  cv::Rect2f box;
+  double distance_m = kInf;     // longitudinal distance d along ego x (camera-to-object for the pinhole model)
+  double lateral_m = 0.0;       // y in the ego frame, positive left
+  double width_m = 0.0;         // assumed/annotated object width, for corridor tests
+  double length_m = 0.0;
+  std::optional<cv::Vec2d> velocity_rel;  // (vx, vy) relative to ego, m/s
+  std::optional<double> speed_mps;        // v_obj: absolute speed estimate
+  std::optional<double> heading_rad;      // psi: object's motion direction relative to ego heading
+  std::optional<double> scale_rate;       // (dh/dt)/h of the box height, 1/s
+  double box_height_px = 0.0;
+  int age = 0;
+  int misses = 0;
+  bool in_path = false;
+  std::string distance_method;  // "pinhole", "ground", "annotation"
+  int annotation_index = -1;
+};
+
+struct ObjectStates {
+  static constexpr const char* kTypeName = "ObjectStates";
+  static constexpr int kTypeVersion = 1;
+  int64_t frame_index = 0;
+  double timestamp = 0.0;
+  std::optional<double> ego_speed_mps;
+  std::vector<ObjectState> objects;
+};
+
+enum class SafetyLabel { kSafe, kUnsafe };
+const char* to_string(SafetyLabel l);
+
+struct ObjectRisk {
+  int64_t track_id = -1;
+  double value = kInf;
+  bool in_path = false;
+};
+
+// One metric's verdict on a frame. For TTC-like metrics lower is riskier; for DRAC higher is riskier.
+struct RiskAssessment {
+  static constexpr const char* kTypeName = "RiskAssessment";
+  static constexpr int kTypeVersion = 1;
+  int64_t frame_index = 0;
+  std::string metric;     // node id, e.g. "ttc" or "ttc_scale"
+  std::string stage;      // stage name
+  std::string unit;       // "s", "m/s2"
+  bool lower_is_riskier = true;
+  double threshold = 1.5;
+  std::vector<ObjectRisk> objects;
+  double scene_value = kInf;  // min (or max) over in-path objects
+  int64_t critical_track = -1;
+  SafetyLabel label = SafetyLabel::kSafe;
+};
+
+// The hazard the generator asks for (mirrors share/schemas/hazard_spec.schema.json).
+struct HazardSpec {
+  static constexpr const char* kTypeName = "HazardSpec";
+  static constexpr int kTypeVersion = 1;
+  std::string schema_version = "1.0";
+  std::string kind;           // pedestrian_crossing, cut_in, sudden_stop, or a third-party kind
+  std::string object_class;   // person, car, truck, ...
+  double initial_distance_m = 0.0;  // longitudinal, ego frame, at start_time
+  double lateral_offset_m = 0.0;    // y at start, positive left
+  std::string side;                 // left / right / center
+  double speed_mps = 0.0;           // object's speed at start
+  double heading_deg = 0.0;         // motion direction relative to ego heading, positive = to the left
+  std::string motion;               // free text: "crossing left to right", ...
+  double start_time_s = 0.0;        // stream time at which the hazard appears
+  std::optional<double> deceleration_mps2;  // sudden_stop
+  std::optional<double> target_ttc_s;       // TTC the hazard is designed to reach
+  Json extra = Json::object();              // kind-specific fields
+  std::string rationale;
+  Json provenance = Json::object();  // backend, model, prompt hash, retries ...
+};
+
+struct TrajectoryPoint {
+  double t = 0.0;  // stream time, s
+  double x = 0.0, y = 0.0;  // position of the object's ground-contact centre in the anchor frame
+  double heading = 0.0;     // rad, anchor frame
+  double speed = 0.0;
+  double accel = 0.0;
+};
+
+// Object motion over time in the *anchor frame*: the ego frame at `anchor_time` (fixed in the world).
+struct HazardTrajectory {
+  static constexpr const char* kTypeName = "HazardTrajectory";
+  static constexpr int kTypeVersion = 1;
+  std::string kind;
+  std::string object_class;
+  cv::Vec3d size_lwh{4.5, 1.8, 1.5};
+  double anchor_time = 0.0;
+  std::vector<TrajectoryPoint> points;  // increasing t, regular spacing
+  std::vector<TrajectoryPoint> ego;     // planned ego motion in the same frame (for replay/export)
+  double intended_min_ttc_s = kInf;
+  HazardSpec spec;
+  // Linear interpolation; nullopt outside [front.t, back.t].
+  std::optional<TrajectoryPoint> at(double t) const;
+};
+
+// Where the renderer put the hazard in one frame (the intent that verification checks against).
+struct HazardInstance {
+  static constexpr const char* kTypeName = "HazardInstance";
+  static constexpr int kTypeVersion = 1;
+  int64_t frame_index = 0;
+  bool visible = false;
+  std::string kind;
+  std::string object_class;
+  cv::Rect2f box;               // projected 2D box of the inserted object
+  double distance_m = kInf;     // longitudinal distance in the current ego frame
+  double lateral_m = 0.0;
+  double intended_ttc_s = kInf;
+  double occluded_fraction = 0.0;
+};
+
+// Generic per-frame record (verification, evaluation) for sinks.
+struct Record {
+  static constexpr const char* kTypeName = "Record";
+  static constexpr int kTypeVersion = 1;
+  std::string kind;
+  Json data = Json::object();
+};
+
+// ---- JSON forms (ADL) --------------------------------------------------------------------------------------
+void to_json(Json& j, const CameraModel& v);
+void from_json(const Json& j, CameraModel& v);
+void to_json(Json& j, const Detection& v);
+void to_json(Json& j, const Detections& v);
+void to_json(Json& j, const Track& v);
+void to_json(Json& j, const Tracks& v);
+void to_json(Json& j, const ObjectState& v);
+void to_json(Json& j, const ObjectStates& v);
+void to_json(Json& j, const RiskAssessment& v);
+void to_json(Json& j, const HazardSpec& v);
+void from_json(const Json& j, HazardSpec& v);
+void to_json(Json& j, const TrajectoryPoint& v);
+void to_json(Json& j, const HazardTrajectory& v);
+void to_json(Json& j, const HazardInstance& v);
+void to_json(Json& j, const Record& v);
+void to_json(Json& j, const AnnotatedObject& v);
+void to_json(Json& j, const Annotations& v);
+void to_json(Json& j, const Frame& v);  // metadata only, not pixels
+
+// JSON has no infinity: non-finite numbers are written as null.
+Json finite_or_null(double v);
+
+}  // namespace hf
+HF_SDK_END

@@ -1,0 +1,293 @@
+// Parameter declarations, validation against YAML-given values, and typed access for stages.
+#include "hazardforge/params.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace hf {
+
+const char* param_type_name(ParamType t) {
+  switch (t) {
+    case ParamType::kBool: return "bool";
+    case ParamType::kInt: return "int";
+    case ParamType::kDouble: return "number";
+    case ParamType::kString: return "string";
+    case ParamType::kPath: return "path";
+    case ParamType::kIntList: return "list of int";
+    case ParamType::kDoubleList: return "list of number";
+    case ParamType::kStringList: return "list of string";
+    case ParamType::kObject: return "mapping";
+  }
+  return "?";
+}
+
+namespace {
+ParamSpec make(std::string name, ParamType t, Json def) {
+  ParamSpec s;
+  s.name = std::move(name);
+  s.type = t;
+  s.default_value = std::move(def);
+  return s;
+}
+}  // namespace
+
+ParamSpec ParamSpec::boolean(std::string name, bool def) { return make(std::move(name), ParamType::kBool, def); }
+ParamSpec ParamSpec::integer(std::string name, std::optional<long long> def) {
+  return make(std::move(name), ParamType::kInt, def ? Json(*def) : Json());
+}
+ParamSpec ParamSpec::number(std::string name, std::optional<double> def) {
+  return make(std::move(name), ParamType::kDouble, def ? Json(*def) : Json());
+}
+ParamSpec ParamSpec::string(std::string name, std::optional<std::string> def) {
+  return make(std::move(name), ParamType::kString, def ? Json(*def) : Json());
+}
+ParamSpec ParamSpec::path(std::string name, std::optional<std::string> def) {
+  return make(std::move(name), ParamType::kPath, def ? Json(*def) : Json());
+}
+ParamSpec ParamSpec::int_list(std::string name, std::vector<long long> def) {
+  return make(std::move(name), ParamType::kIntList, Json(def));
+}
+ParamSpec ParamSpec::number_list(std::string name, std::vector<double> def) {
+  return make(std::move(name), ParamType::kDoubleList, Json(def));
+}
+ParamSpec ParamSpec::string_list(std::string name, std::vector<std::string> def) {
+  return make(std::move(name), ParamType::kStringList, Json(def));
+}
+ParamSpec ParamSpec::object(std::string name, Json def) {
+  return make(std::move(name), ParamType::kObject, def.is_null() ? Json::object() : std::move(def));
+}
+ParamSpec& ParamSpec::range(std::optional<double> lo, std::optional<double> hi) {
+  min = lo;
+  max = hi;
+  return *this;
+}
+ParamSpec& ParamSpec::one_of(std::vector<std::string> values) {
+  choices = std::move(values);
+  return *this;
+}
+ParamSpec& ParamSpec::describe(std::string text) {
+  doc = std::move(text);
+  return *this;
+}
+
+// ---- Params ----------------------------------------------------------------------------------------------------
+
+Params::Params(Json values, std::filesystem::path base_dir)
+    : values_(std::move(values)), base_dir_(std::move(base_dir)) {
+  if (!values_.is_object()) values_ = Json::object();
+}
+
+bool Params::has(const std::string& name) const { return values_.contains(name) && !values_[name].is_null(); }
+
+const Json& Params::raw(const std::string& name) const {
+  auto it = values_.find(name);
+  if (it == values_.end()) throw Error("parameter '" + name + "' is not declared");
+  return *it;
+}
+
+namespace {
+[[noreturn]] void type_error(const std::string& name, const char* want, const Json& v) {
+  throw Error("parameter '" + name + "' should be " + want + ", got " + v.dump());
+}
+}  // namespace
+
+bool Params::get_bool(const std::string& name) const {
+  const Json& v = raw(name);
+  if (!v.is_boolean()) type_error(name, "a bool", v);
+  return v.get<bool>();
+}
+long long Params::get_int(const std::string& name) const {
+  const Json& v = raw(name);
+  if (!v.is_number_integer()) type_error(name, "an int", v);
+  return v.get<long long>();
+}
+double Params::get_double(const std::string& name) const {
+  const Json& v = raw(name);
+  if (!v.is_number()) type_error(name, "a number", v);
+  return v.get<double>();
+}
+std::string Params::get_string(const std::string& name) const {
+  const Json& v = raw(name);
+  if (v.is_null()) return {};
+  if (!v.is_string()) type_error(name, "a string", v);
+  return v.get<std::string>();
+}
+std::filesystem::path Params::get_path(const std::string& name) const {
+  std::string s = get_string(name);
+  if (s.empty()) return {};
+  std::filesystem::path p(s);
+  if (p.is_relative() && !base_dir_.empty()) p = base_dir_ / p;
+  return p.lexically_normal();
+}
+std::vector<double> Params::get_doubles(const std::string& name) const {
+  std::vector<double> out;
+  for (const Json& v : raw(name)) out.push_back(v.get<double>());
+  return out;
+}
+std::vector<long long> Params::get_ints(const std::string& name) const {
+  std::vector<long long> out;
+  for (const Json& v : raw(name)) out.push_back(v.get<long long>());
+  return out;
+}
+std::vector<std::string> Params::get_strings(const std::string& name) const {
+  std::vector<std::string> out;
+  for (const Json& v : raw(name)) out.push_back(v.get<std::string>());
+  return out;
+}
+
+// ---- validation --------------------------------------------------------------------------------------------------
+
+std::string nearest_name(const std::string& name, const std::vector<std::string>& candidates) {
+  auto lower = [](std::string s) {
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+    return s;
+  };
+  const std::string a = lower(name);
+  std::string best;
+  size_t best_d = std::string::npos;
+  for (const std::string& cand : candidates) {
+    const std::string b = lower(cand);
+    std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+      cur[0] = i;
+      for (size_t j = 1; j <= b.size(); ++j)
+        cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      std::swap(prev, cur);
+    }
+    size_t d = prev[b.size()];
+    if (d < best_d) {
+      best_d = d;
+      best = cand;
+    }
+  }
+  const size_t limit = std::max<size_t>(2, name.size() / 3);
+  return best_d <= limit ? best : std::string();
+}
+
+namespace {
+
+std::string fmt_num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+std::string range_text(const ParamSpec& s) {
+  if (s.min && s.max) return "[" + fmt_num(*s.min) + ", " + fmt_num(*s.max) + "]";
+  if (s.min) return ">= " + fmt_num(*s.min);
+  if (s.max) return "<= " + fmt_num(*s.max);
+  return "";
+}
+
+bool type_ok(ParamType t, const Json& v) {
+  auto all_of = [&](auto pred) {
+    if (!v.is_array()) return false;
+    return std::all_of(v.begin(), v.end(), pred);
+  };
+  switch (t) {
+    case ParamType::kBool: return v.is_boolean();
+    case ParamType::kInt: return v.is_number_integer();
+    case ParamType::kDouble: return v.is_number();
+    case ParamType::kString:
+    case ParamType::kPath: return v.is_string();
+    case ParamType::kIntList: return all_of([](const Json& e) { return e.is_number_integer(); });
+    case ParamType::kDoubleList: return all_of([](const Json& e) { return e.is_number(); });
+    case ParamType::kStringList: return all_of([](const Json& e) { return e.is_string(); });
+    case ParamType::kObject: return v.is_object();
+  }
+  return false;
+}
+
+}  // namespace
+
+Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, const std::string& what,
+                     const SourceLocation& owner_loc, const ParamLocations& locs,
+                     std::vector<Diagnostic>& diags) {
+  const size_t before = diags.size();
+  auto err = [&](const std::string& key, std::string msg) {
+    auto it = locs.find(key);
+    diags.push_back({Diagnostic::Severity::kError, it != locs.end() ? it->second : owner_loc, std::move(msg)});
+  };
+  Json out = Json::object();
+  if (!given.is_null() && !given.is_object()) {
+    err("", what + ": params must be a mapping");
+    return Json();
+  }
+  std::vector<std::string> names;
+  for (const ParamSpec& s : specs) names.push_back(s.name);
+  if (given.is_object()) {
+    for (auto it = given.begin(); it != given.end(); ++it) {
+      if (std::find(names.begin(), names.end(), it.key()) == names.end()) {
+        std::string near = nearest_name(it.key(), names);
+        err(it.key(), what + " has no parameter '" + it.key() + "'" +
+                          (near.empty() ? std::string() : "; did you mean '" + near + "'?"));
+      }
+    }
+  }
+  for (const ParamSpec& s : specs) {
+    const bool present = given.is_object() && given.contains(s.name) && !given[s.name].is_null();
+    if (!present) {
+      if (s.required()) {
+        diags.push_back({Diagnostic::Severity::kError, owner_loc,
+                         what + ": required parameter '" + s.name + "' (" + param_type_name(s.type) +
+                             ") is missing"});
+      } else {
+        out[s.name] = s.default_value;
+      }
+      continue;
+    }
+    Json v = given[s.name];
+    // An integer given where a number is declared is fine; keep it a double so stages read one type.
+    if (s.type == ParamType::kDouble && v.is_number()) v = v.get<double>();
+    if (s.type == ParamType::kDoubleList && v.is_array()) {
+      for (Json& e : v)
+        if (e.is_number()) e = e.get<double>();
+    }
+    if (!type_ok(s.type, v)) {
+      err(s.name, what + ": parameter '" + s.name + "' expects " + param_type_name(s.type) + ", got " + v.dump());
+      continue;
+    }
+    auto check_range = [&](double x) {
+      if ((s.min && x < *s.min) || (s.max && x > *s.max)) {
+        err(s.name, what + ": parameter '" + s.name + "' = " + fmt_num(x) + " is out of range " + range_text(s));
+        return false;
+      }
+      return true;
+    };
+    if (v.is_number()) {
+      if (!check_range(v.get<double>())) continue;
+    } else if (v.is_array()) {
+      bool ok = true;
+      for (const Json& e : v)
+        if (e.is_number() && !check_range(e.get<double>())) {
+          ok = false;
+          break;
+        }
+      if (!ok) continue;
+    }
+    if (!s.choices.empty()) {
+      auto bad = [&](const std::string& x) {
+        if (std::find(s.choices.begin(), s.choices.end(), x) != s.choices.end()) return false;
+        std::string list;
+        for (const auto& c : s.choices) list += (list.empty() ? "" : ", ") + c;
+        std::string near = nearest_name(x, s.choices);
+        err(s.name, what + ": parameter '" + s.name + "' = '" + x + "' is not one of: " + list +
+                        (near.empty() ? std::string() : "; did you mean '" + near + "'?"));
+        return true;
+      };
+      if (v.is_string() && bad(v.get<std::string>())) continue;
+      if (v.is_array()) {
+        bool any_bad = false;
+        for (const Json& e : v)
+          if (e.is_string() && bad(e.get<std::string>())) any_bad = true;
+        if (any_bad) continue;
+      }
+    }
+    out[s.name] = v;
+  }
+  return diags.size() == before ? out : Json();
+}
+
+}  // namespace hf

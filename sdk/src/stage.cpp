@@ -1,0 +1,128 @@
+// Out-of-line pieces of the stage interfaces: key functions, lookups and the typed stage adapters.
+#include <algorithm>
+#include <cmath>
+
+#include "hazardforge/geometry.hpp"
+#include "hazardforge/plugin.hpp"
+#include "hazardforge/stage.hpp"
+
+namespace hf {
+
+ComponentFactory::~ComponentFactory() = default;
+StageContext::~StageContext() = default;
+Inputs::~Inputs() = default;
+Outputs::~Outputs() = default;
+Component::~Component() = default;
+Stage::~Stage() = default;
+LlmProvider::~LlmProvider() = default;
+HazardTemplate::~HazardTemplate() = default;
+Registrar::~Registrar() = default;
+
+std::string PortSpec::type_str() const {
+  return type_name == kAnyType ? std::string("*") : type_name + " v" + std::to_string(type_version);
+}
+
+const ParamSpec* ComponentInfo::param(const std::string& n) const {
+  for (const auto& p : params)
+    if (p.name == n) return &p;
+  return nullptr;
+}
+const PortSpec* ComponentInfo::input(const std::string& n) const {
+  for (const auto& p : inputs)
+    if (p.name == n) return &p;
+  return nullptr;
+}
+const PortSpec* ComponentInfo::output(const std::string& n) const {
+  for (const auto& p : outputs)
+    if (p.name == n) return &p;
+  return nullptr;
+}
+
+namespace {
+ComponentInfo info_of(std::string name, const char* k, std::string summary) {
+  ComponentInfo i;
+  i.name = std::move(name);
+  i.kind = k;
+  i.summary = std::move(summary);
+  return i;
+}
+}  // namespace
+
+ComponentInfo SourceStage::base_info(std::string name, std::string summary) {
+  ComponentInfo i = info_of(std::move(name), kind::kSource, std::move(summary));
+  i.outputs = {port<Frame>("frames", "decoded frames with camera model, ego state and optional annotations")};
+  return i;
+}
+
+ComponentInfo Detector::base_info(std::string name, std::string summary) {
+  ComponentInfo i = info_of(std::move(name), kind::kDetector, std::move(summary));
+  i.inputs = {port<Frame>("frames", "images to detect in")};
+  i.outputs = {port<Detections>("detections", "boxes in the frame's pixel coordinates, one packet per frame")};
+  return i;
+}
+
+void Detector::process(StageContext& ctx, const Inputs& in, Outputs& out) {
+  out.emit("detections", detect(ctx, in.require<Frame>("frames")));
+}
+
+ComponentInfo Tracker::base_info(std::string name, std::string summary) {
+  ComponentInfo i = info_of(std::move(name), kind::kTracker, std::move(summary));
+  i.inputs = {port<Detections>("detections", "this frame's detections"),
+              port<Frame>("frames", "the frame (timestamp, size)")};
+  i.outputs = {port<Tracks>("tracks", "tracks alive this frame with persistent ids")};
+  return i;
+}
+
+void Tracker::process(StageContext& ctx, const Inputs& in, Outputs& out) {
+  out.emit("tracks", update(ctx, in.require<Detections>("detections"), in.require<Frame>("frames")));
+}
+
+ComponentInfo Estimator::base_info(std::string name, std::string summary) {
+  ComponentInfo i = info_of(std::move(name), kind::kEstimator, std::move(summary));
+  i.inputs = {port<Tracks>("tracks", "tracked boxes"), port<Frame>("frames", "camera model and ego state")};
+  i.outputs = {port<ObjectStates>("states", "per-object distance, lateral offset, velocity, heading")};
+  return i;
+}
+
+void Estimator::process(StageContext& ctx, const Inputs& in, Outputs& out) {
+  out.emit("states", estimate(ctx, in.require<Tracks>("tracks"), in.require<Frame>("frames")));
+}
+
+ComponentInfo RiskMetric::base_info(std::string name, std::string summary) {
+  ComponentInfo i = info_of(std::move(name), kind::kRiskMetric, std::move(summary));
+  i.inputs = {port<ObjectStates>("states", "per-object states"),
+              optional(port<Frame>("frames", "the frame, for metrics that need the image or annotations"))};
+  i.outputs = {port<RiskAssessment>("risk", "per-object values, the scene value and the Safe/Unsafe label")};
+  i.params.push_back(ParamSpec::number("threshold", 1.5)
+                         .range(0, 1000)
+                         .describe("Unsafe when the scene value is below (TTC-like) or above (DRAC) this"));
+  for (ParamSpec& p : Corridor::params()) i.params.push_back(std::move(p));
+  return i;
+}
+
+void RiskMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) {
+  const ObjectStates& states = in.require<ObjectStates>("states");
+  RiskAssessment r = assess(ctx, states, in.get<Frame>("frames"));
+  const Corridor corridor = Corridor::from(ctx.params());
+  r.frame_index = states.frame_index;
+  r.metric = ctx.node_id();
+  r.threshold = ctx.params().get_double("threshold");
+  r.scene_value = r.lower_is_riskier ? kInf : 0.0;
+  r.critical_track = -1;
+  for (ObjectRisk& o : r.objects) {
+    auto it = std::find_if(states.objects.begin(), states.objects.end(),
+                           [&](const ObjectState& s) { return s.track_id == o.track_id; });
+    o.in_path = it != states.objects.end() && corridor.contains(*it);
+    if (!o.in_path || std::isnan(o.value)) continue;
+    const bool worse = r.lower_is_riskier ? o.value < r.scene_value : o.value > r.scene_value;
+    if (worse) {
+      r.scene_value = o.value;
+      r.critical_track = o.track_id;
+    }
+  }
+  const bool unsafe = r.lower_is_riskier ? r.scene_value < r.threshold : r.scene_value > r.threshold;
+  r.label = unsafe ? SafetyLabel::kUnsafe : SafetyLabel::kSafe;
+  out.emit("risk", std::move(r));
+}
+
+}  // namespace hf

@@ -1,0 +1,258 @@
+// Camera geometry and the JSON forms of the SDK payload types.
+#include "hazardforge/types.hpp"
+
+#include <cmath>
+
+namespace hf {
+
+// ---- CameraModel -------------------------------------------------------------------------------------------------
+
+double CameraModel::pitch() const {
+  // Optical axis (camera z) in ego axes; pitch is its downward angle.
+  const cv::Vec3d axis = R_ego_cam * cv::Vec3d(0, 0, 1);
+  return std::atan2(-axis[2], std::hypot(axis[0], axis[1]));
+}
+
+cv::Vec3d CameraModel::ego_to_cam(const cv::Vec3d& p_ego) const { return R_ego_cam.t() * (p_ego - t_ego_cam); }
+cv::Vec3d CameraModel::cam_to_ego(const cv::Vec3d& p_cam) const { return R_ego_cam * p_cam + t_ego_cam; }
+
+std::optional<cv::Point2d> CameraModel::project_cam(const cv::Vec3d& p) const {
+  if (p[2] <= 0.01) return std::nullopt;
+  return cv::Point2d(fx * p[0] / p[2] + cx, fy * p[1] / p[2] + cy);
+}
+
+std::optional<cv::Point2d> CameraModel::project_ego(const cv::Vec3d& p_ego) const {
+  return project_cam(ego_to_cam(p_ego));
+}
+
+std::optional<cv::Vec3d> CameraModel::pixel_to_ground(const cv::Point2d& px) const {
+  const cv::Vec3d ray_cam((px.x - cx) / fx, (px.y - cy) / fy, 1.0);
+  const cv::Vec3d ray = R_ego_cam * ray_cam;
+  if (ray[2] >= -1e-9) return std::nullopt;  // at or above the horizon
+  const double s = -t_ego_cam[2] / ray[2];
+  return t_ego_cam + s * ray;
+}
+
+CameraModel CameraModel::scaled_to(int w, int h) const {
+  CameraModel c = *this;
+  const double sx = static_cast<double>(w) / width, sy = static_cast<double>(h) / height;
+  c.width = w;
+  c.height = h;
+  c.fx *= sx;
+  c.cx *= sx;
+  c.fy *= sy;
+  c.cy *= sy;
+  return c;
+}
+
+CameraModel CameraModel::pinhole(int w, int h, double fx, double fy, double cx, double cy, double height,
+                                 double pitch_rad, double forward) {
+  CameraModel c;
+  c.width = w;
+  c.height = h;
+  c.fx = fx;
+  c.fy = fy;
+  c.cx = cx;
+  c.cy = cy;
+  // Level optical frame in ego axes, then pitched down about the camera's x axis.
+  const cv::Matx33d level(0, 0, 1, -1, 0, 0, 0, -1, 0);
+  const double cp = std::cos(pitch_rad), sp = std::sin(pitch_rad);
+  const cv::Matx33d pitch_cam(1, 0, 0, 0, cp, sp, 0, -sp, cp);  // rotates the optical axis downwards
+  c.R_ego_cam = level * pitch_cam;
+  c.t_ego_cam = cv::Vec3d(forward, 0.0, height);
+  return c;
+}
+
+const char* to_string(SafetyLabel l) { return l == SafetyLabel::kUnsafe ? "Unsafe" : "Safe"; }
+
+std::optional<TrajectoryPoint> HazardTrajectory::at(double t) const {
+  if (points.empty() || t < points.front().t - 1e-9 || t > points.back().t + 1e-9) return std::nullopt;
+  auto it = std::lower_bound(points.begin(), points.end(), t,
+                             [](const TrajectoryPoint& p, double tt) { return p.t < tt; });
+  if (it == points.begin()) return points.front();
+  if (it == points.end()) return points.back();
+  const TrajectoryPoint& b = *it;
+  const TrajectoryPoint& a = *(it - 1);
+  const double u = (b.t - a.t) > 1e-12 ? (t - a.t) / (b.t - a.t) : 0.0;
+  TrajectoryPoint p;
+  p.t = t;
+  p.x = a.x + u * (b.x - a.x);
+  p.y = a.y + u * (b.y - a.y);
+  double dh = std::remainder(b.heading - a.heading, 2 * CV_PI);
+  p.heading = a.heading + u * dh;
+  p.speed = a.speed + u * (b.speed - a.speed);
+  p.accel = a.accel + u * (b.accel - a.accel);
+  return p;
+}
+
+// ---- JSON ----------------------------------------------------------------------------------------------------------
+
+Json finite_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(); }
+
+namespace {
+Json rect(const cv::Rect2f& r) { return Json::array({r.x, r.y, r.width, r.height}); }
+template <class T>
+Json opt(const std::optional<T>& v) {
+  return v ? Json(*v) : Json();
+}
+Json optd(const std::optional<double>& v) { return v ? finite_or_null(*v) : Json(); }
+}  // namespace
+
+void to_json(Json& j, const CameraModel& v) {
+  j = {{"width", v.width}, {"height", v.height}, {"fx", v.fx}, {"fy", v.fy}, {"cx", v.cx}, {"cy", v.cy},
+       {"distortion", v.distortion}};
+  Json R = Json::array();
+  for (int r = 0; r < 3; ++r) R.push_back({v.R_ego_cam(r, 0), v.R_ego_cam(r, 1), v.R_ego_cam(r, 2)});
+  j["R_ego_cam"] = R;
+  j["t_ego_cam"] = {v.t_ego_cam[0], v.t_ego_cam[1], v.t_ego_cam[2]};
+}
+
+void from_json(const Json& j, CameraModel& v) {
+  v.width = j.at("width").get<int>();
+  v.height = j.at("height").get<int>();
+  v.fx = j.at("fx").get<double>();
+  v.fy = j.at("fy").get<double>();
+  v.cx = j.at("cx").get<double>();
+  v.cy = j.at("cy").get<double>();
+  v.distortion = j.value("distortion", std::vector<double>{});
+  if (j.contains("R_ego_cam"))
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) v.R_ego_cam(r, c) = j["R_ego_cam"][r][c].get<double>();
+  if (j.contains("t_ego_cam"))
+    for (int i = 0; i < 3; ++i) v.t_ego_cam[i] = j["t_ego_cam"][i].get<double>();
+}
+
+void to_json(Json& j, const Detection& v) {
+  j = {{"box", rect(v.box)}, {"class_id", v.class_id}, {"label", v.label}, {"score", v.score}};
+  if (v.annotation_index >= 0) j["annotation_index"] = v.annotation_index;
+}
+void to_json(Json& j, const Detections& v) {
+  j = {{"frame", v.frame_index}, {"detector", v.detector}, {"items", v.items}};
+}
+void to_json(Json& j, const Track& v) {
+  j = {{"id", v.id},       {"box", rect(v.box)},   {"label", v.label},
+       {"score", v.score}, {"age", v.age},         {"hits", v.hits},
+       {"misses", v.misses}, {"velocity_px", {v.velocity_px.x, v.velocity_px.y}}};
+}
+void to_json(Json& j, const Tracks& v) { j = {{"frame", v.frame_index}, {"tracker", v.tracker}, {"items", v.items}}; }
+void to_json(Json& j, const ObjectState& v) {
+  j = {{"track_id", v.track_id},
+       {"label", v.label},
+       {"score", v.score},
+       {"box", rect(v.box)},
+       {"distance_m", finite_or_null(v.distance_m)},
+       {"lateral_m", v.lateral_m},
+       {"width_m", v.width_m},
+       {"speed_mps", optd(v.speed_mps)},
+       {"heading_rad", optd(v.heading_rad)},
+       {"scale_rate", optd(v.scale_rate)},
+       {"in_path", v.in_path},
+       {"distance_method", v.distance_method},
+       {"age", v.age}};
+  j["velocity_rel"] = v.velocity_rel ? Json::array({(*v.velocity_rel)[0], (*v.velocity_rel)[1]}) : Json();
+}
+void to_json(Json& j, const ObjectStates& v) {
+  j = {{"frame", v.frame_index},
+       {"timestamp", v.timestamp},
+       {"ego_speed_mps", optd(v.ego_speed_mps)},
+       {"objects", v.objects}};
+}
+void to_json(Json& j, const RiskAssessment& v) {
+  Json objs = Json::array();
+  for (const ObjectRisk& o : v.objects)
+    objs.push_back({{"track_id", o.track_id}, {"value", finite_or_null(o.value)}, {"in_path", o.in_path}});
+  j = {{"frame", v.frame_index},
+       {"metric", v.metric},
+       {"stage", v.stage},
+       {"unit", v.unit},
+       {"threshold", v.threshold},
+       {"scene_value", finite_or_null(v.scene_value)},
+       {"critical_track", v.critical_track},
+       {"label", to_string(v.label)},
+       {"objects", objs}};
+}
+void to_json(Json& j, const HazardSpec& v) {
+  j = {{"schema_version", v.schema_version},
+       {"kind", v.kind},
+       {"object_class", v.object_class},
+       {"initial_distance_m", v.initial_distance_m},
+       {"lateral_offset_m", v.lateral_offset_m},
+       {"side", v.side},
+       {"speed_mps", v.speed_mps},
+       {"heading_deg", v.heading_deg},
+       {"motion", v.motion},
+       {"start_time_s", v.start_time_s},
+       {"rationale", v.rationale}};
+  if (v.deceleration_mps2) j["deceleration_mps2"] = *v.deceleration_mps2;
+  if (v.target_ttc_s) j["target_ttc_s"] = *v.target_ttc_s;
+  if (!v.extra.empty()) j["extra"] = v.extra;
+  if (!v.provenance.empty()) j["provenance"] = v.provenance;
+}
+void from_json(const Json& j, HazardSpec& v) {
+  v.schema_version = j.value("schema_version", std::string("1.0"));
+  v.kind = j.at("kind").get<std::string>();
+  v.object_class = j.at("object_class").get<std::string>();
+  v.initial_distance_m = j.at("initial_distance_m").get<double>();
+  v.lateral_offset_m = j.value("lateral_offset_m", 0.0);
+  v.side = j.value("side", std::string());
+  v.speed_mps = j.at("speed_mps").get<double>();
+  v.heading_deg = j.value("heading_deg", 0.0);
+  v.motion = j.value("motion", std::string());
+  v.start_time_s = j.value("start_time_s", 0.0);
+  if (j.contains("deceleration_mps2") && !j["deceleration_mps2"].is_null())
+    v.deceleration_mps2 = j["deceleration_mps2"].get<double>();
+  if (j.contains("target_ttc_s") && !j["target_ttc_s"].is_null()) v.target_ttc_s = j["target_ttc_s"].get<double>();
+  v.extra = j.value("extra", Json::object());
+  v.rationale = j.value("rationale", std::string());
+  v.provenance = j.value("provenance", Json::object());
+}
+void to_json(Json& j, const TrajectoryPoint& v) {
+  j = {{"t", v.t}, {"x", v.x}, {"y", v.y}, {"heading", v.heading}, {"speed", v.speed}, {"accel", v.accel}};
+}
+void to_json(Json& j, const HazardTrajectory& v) {
+  j = {{"kind", v.kind},
+       {"object_class", v.object_class},
+       {"size_lwh", {v.size_lwh[0], v.size_lwh[1], v.size_lwh[2]}},
+       {"anchor_time", v.anchor_time},
+       {"intended_min_ttc_s", finite_or_null(v.intended_min_ttc_s)},
+       {"points", v.points},
+       {"ego", v.ego},
+       {"spec", v.spec}};
+}
+void to_json(Json& j, const HazardInstance& v) {
+  j = {{"frame", v.frame_index},
+       {"visible", v.visible},
+       {"kind", v.kind},
+       {"object_class", v.object_class},
+       {"box", rect(v.box)},
+       {"distance_m", finite_or_null(v.distance_m)},
+       {"lateral_m", v.lateral_m},
+       {"intended_ttc_s", finite_or_null(v.intended_ttc_s)},
+       {"occluded_fraction", v.occluded_fraction}};
+}
+void to_json(Json& j, const Record& v) { j = {{"kind", v.kind}, {"data", v.data}}; }
+void to_json(Json& j, const AnnotatedObject& v) {
+  j = {{"instance", v.instance_id},
+       {"category", v.category},
+       {"label", v.label},
+       {"center_ego", {v.center_ego[0], v.center_ego[1], v.center_ego[2]}},
+       {"size_lwh", {v.size_lwh[0], v.size_lwh[1], v.size_lwh[2]}},
+       {"yaw_ego", v.yaw_ego},
+       {"num_points", v.num_points}};
+  if (v.velocity_ego) j["velocity_ego"] = {(*v.velocity_ego)[0], (*v.velocity_ego)[1], (*v.velocity_ego)[2]};
+}
+void to_json(Json& j, const Annotations& v) {
+  j = {{"objects", v.objects}};
+  if (v.ego_velocity_ego) j["ego_velocity_ego"] = {(*v.ego_velocity_ego)[0], (*v.ego_velocity_ego)[1], (*v.ego_velocity_ego)[2]};
+}
+void to_json(Json& j, const Frame& v) {
+  j = {{"index", v.index},
+       {"timestamp", v.timestamp},
+       {"source_id", v.source_id},
+       {"width", v.image.cols},
+       {"height", v.image.rows},
+       {"ego_speed_mps", optd(v.ego.speed_mps)},
+       {"meta", v.meta}};
+}
+
+}  // namespace hf

@@ -1,0 +1,111 @@
+// YAML (yaml-cpp) to JSON conversion that remembers where every value was written.
+#include "hazardforge/yaml_json.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <limits>
+#include <regex>
+#include <sstream>
+
+namespace hf {
+
+namespace {
+
+std::string escape_pointer_token(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '~') out += "~0";
+    else if (c == '/') out += "~1";
+    else out += c;
+  }
+  return out;
+}
+
+Json scalar(const YAML::Node& n) {
+  const std::string& s = n.Scalar();
+  if (n.Tag() == "!") return s;  // quoted: always a string
+  static const std::regex kInt(R"(^[-+]?[0-9]+$)");
+  static const std::regex kHex(R"(^0x[0-9a-fA-F]+$)");
+  static const std::regex kFloat(R"(^[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?$)");
+  if (s.empty() || s == "~" || s == "null" || s == "Null" || s == "NULL") return nullptr;
+  if (s == "true" || s == "True" || s == "TRUE") return true;
+  if (s == "false" || s == "False" || s == "FALSE") return false;
+  try {
+    if (std::regex_match(s, kInt)) return std::stoll(s);
+    if (std::regex_match(s, kHex)) return std::stoll(s, nullptr, 16);
+    if (std::regex_match(s, kFloat)) return std::stod(s);
+  } catch (const std::out_of_range&) {
+    return s;
+  }
+  if (s == ".inf" || s == ".Inf" || s == "+.inf") return std::numeric_limits<double>::infinity();
+  if (s == "-.inf" || s == "-.Inf") return -std::numeric_limits<double>::infinity();
+  return s;
+}
+
+Json convert(const YAML::Node& n, const std::string& ptr, const std::string& file, LocationMap& locs) {
+  const YAML::Mark m = n.Mark();
+  locs[ptr] = SourceLocation{file, m.line + 1, m.column + 1};
+  switch (n.Type()) {
+    case YAML::NodeType::Null:
+    case YAML::NodeType::Undefined: return nullptr;
+    case YAML::NodeType::Scalar: return scalar(n);
+    case YAML::NodeType::Sequence: {
+      Json a = Json::array();
+      size_t i = 0;
+      for (const YAML::Node& e : n) a.push_back(convert(e, ptr + "/" + std::to_string(i++), file, locs));
+      return a;
+    }
+    case YAML::NodeType::Map: {
+      Json o = Json::object();
+      for (const auto& kv : n) {
+        const std::string key = kv.first.as<std::string>();
+        const std::string child = ptr + "/" + escape_pointer_token(key);
+        const YAML::Mark km = kv.first.Mark();
+        locs[child + "#key"] = SourceLocation{file, km.line + 1, km.column + 1};
+        if (o.contains(key))
+          throw Error(SourceLocation{file, km.line + 1, km.column + 1}, "duplicate key '" + key + "'");
+        o[key] = convert(kv.second, child, file, locs);
+        // A null value has no useful mark of its own: point at its key.
+        if (kv.second.IsNull()) locs[child] = locs[child + "#key"];
+      }
+      return o;
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+SourceLocation YamlDocument::at(const std::string& pointer) const {
+  std::string p = pointer;
+  while (true) {
+    auto it = locations.find(p);
+    if (it != locations.end()) return it->second;
+    if (p.empty()) break;
+    const auto slash = p.rfind('/');
+    p = slash == std::string::npos ? std::string() : p.substr(0, slash);
+  }
+  return {};
+}
+
+YamlDocument parse_yaml(const std::string& text, const std::string& file_name) {
+  YamlDocument doc;
+  try {
+    YAML::Node root = YAML::Load(text);
+    doc.value = convert(root, "", file_name, doc.locations);
+  } catch (const YAML::Exception& e) {
+    throw Error(SourceLocation{file_name, e.mark.line + 1, e.mark.column + 1}, e.msg);
+  }
+  return doc;
+}
+
+YamlDocument load_yaml_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": error: cannot open file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parse_yaml(ss.str(), path);
+}
+
+}  // namespace hf
