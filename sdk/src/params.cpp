@@ -1,9 +1,14 @@
 // Parameter declarations, validation against YAML-given values, and typed access for stages.
 #include "hazardforge/params.hpp"
 
+#include <dlfcn.h>
+
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <sstream>
+
+#include "hazardforge/geometry.hpp"
 
 namespace hf {
 
@@ -114,7 +119,7 @@ std::string Params::get_string(const std::string& name) const {
   return v.get<std::string>();
 }
 std::filesystem::path Params::get_path(const std::string& name) const {
-  std::string s = get_string(name);
+  std::string s = expand_vars(get_string(name));
   if (s.empty()) return {};
   std::filesystem::path p(s);
   if (p.is_relative() && !base_dir_.empty()) p = base_dir_ / p;
@@ -288,6 +293,75 @@ Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, con
     out[s.name] = v;
   }
   return diags.size() == before ? out : Json();
+}
+
+}  // namespace hf
+
+// ---- variables ---------------------------------------------------------------------------------------------------
+
+namespace hf {
+
+std::string shared_root() {
+  namespace fs = std::filesystem;
+  if (const char* env = std::getenv("HAZARDFORGE_SHARED"); env && *env) return env;
+  auto search_up = [](fs::path start) -> std::string {
+    std::error_code ec;
+    for (fs::path p = fs::absolute(start, ec); !p.empty(); p = p.parent_path()) {
+      if (fs::is_directory(p / "shared" / "data", ec)) return (p / "shared").string();
+      if (p == p.parent_path()) break;
+    }
+    return {};
+  };
+  if (std::string s = search_up(fs::current_path()); !s.empty()) return s;
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&shared_root), &info) && info.dli_fname)
+    if (std::string s = search_up(fs::path(info.dli_fname).parent_path()); !s.empty()) return s;
+  return {};
+}
+
+std::string expand_vars(const std::string& text, const std::map<std::string, std::string>& vars) {
+  std::string out;
+  size_t i = 0;
+  while (i < text.size()) {
+    if (text[i] == '$' && i + 1 < text.size() && text[i + 1] == '{') {
+      const size_t close = text.find('}', i + 2);
+      if (close == std::string::npos) throw Error("unterminated ${ in '" + text + "'");
+      std::string body = text.substr(i + 2, close - i - 2);
+      std::string name = body, def;
+      bool has_def = false;
+      if (auto p = body.find(":-"); p != std::string::npos) {
+        name = body.substr(0, p);
+        def = body.substr(p + 2);
+        has_def = true;
+      }
+      std::string value;
+      bool found = false;
+      if (auto it = vars.find(name); it != vars.end()) {
+        value = it->second;
+        found = true;
+      } else if (const char* env = std::getenv(name.c_str()); env && *env) {
+        value = env;
+        found = true;
+      } else if (name == "HAZARDFORGE_SHARED") {
+        value = shared_root();
+        found = !value.empty();
+      } else if (name == "HAZARDFORGE_SHARE") {
+        value = share_dir();
+        found = true;
+      }
+      if (!found) {
+        if (!has_def)
+          throw Error("undefined variable ${" + name + "}" +
+                      (name == "HAZARDFORGE_SHARED" ? " (set it to the folder holding data/ and models/)" : ""));
+        value = def;
+      }
+      out += value;
+      i = close + 1;
+    } else {
+      out += text[i++];
+    }
+  }
+  return out;
 }
 
 }  // namespace hf

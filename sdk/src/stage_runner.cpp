@@ -36,6 +36,10 @@ class RunnerContext : public StageContext {
   double timestamp() const override { return ts; }
   void record_resource(const std::filesystem::path&) const override {}
   bool stop_requested() const override { return false; }
+  void record_timing(const std::string& label, double seconds) const override {
+    (*timings)[label].push_back(seconds);
+  }
+  std::map<std::string, std::vector<double>>* timings = nullptr;
 };
 
 struct Slot {
@@ -90,6 +94,7 @@ struct StageRunner::Impl {
   std::map<std::string, std::vector<Packet>> outputs;
   std::map<std::string, Packet> sticky;
   std::vector<std::string> log;
+  std::map<std::string, std::vector<double>> timings;
   bool opened = false;
   std::filesystem::path out_dir;
 };
@@ -129,6 +134,7 @@ void StageRunner::build(const std::string& kind, const std::string& name, const 
   m.ctx.out_dir = m.out_dir;
   m.ctx.factory = &m.registry;
   m.ctx.log_lines = &m.log;
+  m.ctx.timings = &m.timings;
   m.ctx.node = name;
 }
 
@@ -197,5 +203,6 @@ Stage& StageRunner::stage() { return *impl_->stage; }
 const ComponentInfo& StageRunner::info() const { return impl_->entry->info; }
 const std::filesystem::path& StageRunner::output_dir() const { return impl_->out_dir; }
 const std::vector<std::string>& StageRunner::log() const { return impl_->log; }
+const std::map<std::string, std::vector<double>>& StageRunner::timings() const { return impl_->timings; }
 
 }  // namespace hf::testing

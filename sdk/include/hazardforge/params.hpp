@@ -69,7 +69,7 @@ class Params {
   long long get_int(const std::string& name) const;
   double get_double(const std::string& name) const;
   std::string get_string(const std::string& name) const;
-  // Paths are resolved relative to the config file's folder; an empty value stays empty.
+  // ${VAR}s are expanded, then relative paths are resolved against the config file's folder; empty stays empty.
   std::filesystem::path get_path(const std::string& name) const;
   std::vector<double> get_doubles(const std::string& name) const;
   std::vector<long long> get_ints(const std::string& name) const;
@@ -87,6 +87,15 @@ class Params {
 Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, const std::string& what,
                      const SourceLocation& owner_loc, const ParamLocations& locs,
                      std::vector<Diagnostic>& diags);
+
+// Expands ${VAR} and ${VAR:-default} from `vars`, then the environment. HAZARDFORGE_SHARED and HAZARDFORGE_SHARE
+// are always defined (see shared_root() / share_dir()). Throws hf::Error naming an undefined variable.
+std::string expand_vars(const std::string& text, const std::map<std::string, std::string>& vars = {});
+
+// The shared data folder (data/, models/, schemas/): $HAZARDFORGE_SHARED, else the first folder named `shared`
+// holding `data/` found beside the current directory or one of its parents, else beside the SDK library's
+// ancestors. Empty if none.
+std::string shared_root();
 
 // Levenshtein-nearest candidate within a small distance, or "" if nothing is close.
 std::string nearest_name(const std::string& name, const std::vector<std::string>& candidates);

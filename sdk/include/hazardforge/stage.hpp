@@ -126,6 +126,9 @@ class StageContext {
   virtual void record_resource(const std::filesystem::path& file) const = 0;
   // Cooperative cancellation (Ctrl-C): long-running stages should check it.
   virtual bool stop_requested() const = 0;
+  // Reports the duration of an inner step (e.g. "forward" = bare network inference) for the per-stage
+  // latency table and `hazardforge bench`.
+  virtual void record_timing(const std::string& label, double seconds) const = 0;
 };
 
 // Inputs of one frame. Ports absent this frame return nullptr / empty.

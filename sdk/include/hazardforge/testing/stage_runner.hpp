@@ -64,6 +64,8 @@ class StageRunner {
   const std::filesystem::path& output_dir() const;
   // Log lines the stage wrote, "level: message".
   const std::vector<std::string>& log() const;
+  // Inner timings the stage reported with ctx.record_timing(), by label.
+  const std::map<std::string, std::vector<double>>& timings() const;
 
  private:
   struct Impl;
