@@ -1,0 +1,67 @@
+// Camera model, undistortion and resizing shared by the video, camera and image_sequence sources.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "hazardforge/stage.hpp"
+
+namespace hf::source {
+
+// Intrinsics as read from a calibration YAML file (the format hf::write_calibration produces).
+struct CalibrationFile {
+  int width = 0;
+  int height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::vector<double> distortion;
+};
+// Throws hf::Error naming the file and the missing/bad field.
+CalibrationFile load_calibration_file(const std::filesystem::path& yaml);
+
+// Turns the camera params into a CameraModel once the native image size is known, and prepares each frame
+// (undistort with the calibrated K, then resize) so the image and the model always agree.
+class CameraSetup {
+ public:
+  // calibration, fx, fy, cx, cy, hfov_deg, camera_height, camera_pitch_deg, camera_forward, undistort,
+  // resize_width, resize_height, ego_speed_mps.
+  static std::vector<ParamSpec> params();
+
+  // Reads the params (and the calibration file, recorded as a run resource).
+  void configure(StageContext& ctx);
+  // Builds the camera model for frames of `native` size. `what` names the input in messages.
+  void init(cv::Size native, const std::string& what, StageContext& ctx);
+  bool initialised() const { return camera_.valid(); }
+
+  // Undistorted, resized copy of a native frame. Throws when the frame's size differs from the native size.
+  cv::Mat prepare(const cv::Mat& native, const std::string& what) const;
+
+  const CameraModel& camera() const { return camera_; }
+  cv::Size native_size() const { return native_; }
+  cv::Size output_size() const { return {camera_.width, camera_.height}; }
+  EgoState ego() const;
+  // Where the intrinsics came from: "calibration", "params", "hfov", "assumed_hfov".
+  const std::string& intrinsics_source() const { return intrinsics_source_; }
+
+ private:
+  std::optional<CalibrationFile> calib_;
+  std::filesystem::path calib_path_;
+  double fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0, hfov_deg_ = 0;
+  double height_ = 1.5, pitch_deg_ = 0, forward_ = 1.5;
+  bool undistort_ = true;
+  int resize_w_ = 0, resize_h_ = 0;
+  double ego_speed_ = -1;
+
+  cv::Size native_;
+  CameraModel camera_;
+  cv::Mat map1_, map2_;  // undistortion maps at native size; empty = no undistortion
+  std::string intrinsics_source_;
+};
+
+// Horizontal field of view assumed when nothing else describes the camera.
+inline constexpr double kAssumedHfovDeg = 60.0;
+
+}  // namespace hf::source

@@ -1,0 +1,163 @@
+// VideoSource (video files) and CameraSource (live devices / stream URLs) on OpenCV VideoCapture.
+#include "video_source.hpp"
+
+#include <cmath>
+#include <filesystem>
+
+namespace hf::source {
+
+namespace fs = std::filesystem;
+
+ComponentInfo VideoSource::describe() {
+  ComponentInfo i = base_info("video", "frames of a video file (OpenCV/FFmpeg) with a pinhole camera model");
+  i.doc =
+      "Decodes a video file. Timestamps are emitted index / fps (fps from the file unless set). The camera model "
+      "comes from a calibration file, fx/fy/cx/cy, or a horizontal FOV (60 deg assumed, with a warning). With "
+      "a calibration that has distortion, frames are undistorted with the calibrated K and the model's "
+      "distortion is cleared. Resizing scales the model.";
+  i.params = {
+      ParamSpec::path("path", std::nullopt).describe("video file"),
+      ParamSpec::number("fps", 0.0).range(0, 1000).describe("frame rate for timestamps (0 = from the file)"),
+      ParamSpec::integer("start_frame", 0).range(0, std::nullopt).describe("first file frame to emit"),
+      ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = all)"),
+  };
+  for (ParamSpec& p : CameraSetup::params()) i.params.push_back(std::move(p));
+  return i;
+}
+
+void VideoSource::open(StageContext& ctx) {
+  const Params& p = ctx.params();
+  path_ = p.get_path("path").string();
+  if (!fs::exists(path_)) throw Error("video file '" + path_ + "' does not exist");
+  if (fs::is_directory(path_)) throw Error("video file '" + path_ + "' is a folder");
+  setup_.configure(ctx);
+  if (!cap_.open(path_, cv::CAP_FFMPEG) || !cap_.isOpened())
+    throw Error("cannot open video file '" + path_ + "': not a video OpenCV/FFmpeg can decode");
+  start_ = p.get_int("start_frame");
+  max_frames_ = p.get_int("max_frames");
+  fps_ = p.get_double("fps");
+  if (fps_ <= 0) {
+    fps_ = cap_.get(cv::CAP_PROP_FPS);
+    if (!(fps_ > 0 && fps_ < 1000))
+      throw Error("video file '" + path_ + "' reports no usable frame rate; set the 'fps' parameter");
+  }
+  const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
+  file_frames_ = n > 0 ? static_cast<int64_t>(std::llround(n)) : -1;
+  // Skip by decoding rather than seeking: FFmpeg seeks land on keyframes, which would shift the start.
+  for (int64_t k = 0; k < start_; ++k)
+    if (!cap_.grab())
+      throw Error("video file '" + path_ + "' ends at frame " + std::to_string(k) + ", before start_frame " +
+                  std::to_string(start_));
+  if (!cap_.grab()) throw Error("video file '" + path_ + "' has no decodable frame at frame " + std::to_string(start_));
+  if (!cap_.retrieve(pending_) || pending_.empty())
+    throw Error("video file '" + path_ + "': frame " + std::to_string(start_) + " cannot be decoded");
+  setup_.init(pending_.size(), "video file '" + path_ + "'", ctx);
+  if (file_frames_ > 0) {
+    int64_t c = std::max<int64_t>(file_frames_ - start_, 0);
+    if (max_frames_ >= 0) c = std::min(c, max_frames_);
+    count_ = c;
+  } else if (max_frames_ >= 0) {
+    count_ = max_frames_;
+  }
+  ctx.record_resource(path_);
+  ctx.log(LogLevel::kInfo, "video '" + path_ + "': " + std::to_string(pending_.cols) + "x" +
+                               std::to_string(pending_.rows) + " at " + std::to_string(fps_) + " fps, " +
+                               (file_frames_ > 0 ? std::to_string(file_frames_) : std::string("unknown")) +
+                               " frames; intrinsics from " + setup_.intrinsics_source());
+}
+
+bool VideoSource::next(StageContext& ctx, Outputs& out) {
+  if (max_frames_ >= 0 && emitted_ >= max_frames_) return false;
+  const int64_t file_frame = start_ + emitted_;
+  cv::Mat raw;
+  if (!pending_.empty()) {
+    raw = pending_;
+    pending_.release();
+  } else {
+    // grab() false = end of stream; grab() true but retrieve() false = a frame that is there but broken.
+    if (!cap_.grab()) {
+      if (file_frames_ > 0 && file_frame < file_frames_ - 1)
+        ctx.log(LogLevel::kWarning, "video file '" + path_ + "' ended at frame " + std::to_string(file_frame) +
+                                        " although it reports " + std::to_string(file_frames_) + " frames");
+      return false;
+    }
+    if (!cap_.retrieve(raw) || raw.empty())
+      throw Error("video file '" + path_ + "': frame " + std::to_string(file_frame) + " cannot be decoded");
+  }
+  Frame f;
+  f.index = emitted_;
+  f.timestamp = static_cast<double>(emitted_) / fps_;
+  f.image = setup_.prepare(raw, "video file '" + path_ + "' frame " + std::to_string(file_frame));
+  f.camera = setup_.camera();
+  f.ego = setup_.ego();
+  f.source_id = fs::path(path_).filename().string() + ":" + std::to_string(file_frame);
+  f.meta = {{"file", path_}, {"file_frame", file_frame}, {"intrinsics", setup_.intrinsics_source()}};
+  const double ts = f.timestamp;
+  out.emit_packet("frames", Packet::make<Frame>(std::move(f), ts));
+  ++emitted_;
+  return true;
+}
+
+// ---- CameraSource -------------------------------------------------------------------------------------------
+
+ComponentInfo CameraSource::describe() {
+  ComponentInfo i = base_info("camera", "frames of a live camera device or stream URL");
+  i.doc =
+      "Opens `device` (an index like \"0\" or a device path) or `url` (rtsp://, http://, a file URL). "
+      "Timestamps come from a steady clock, starting at 0 with the first frame. The frame count is unknown.";
+  i.params = {
+      ParamSpec::string("device", "").describe("device index (\"0\") or path (/dev/video0)"),
+      ParamSpec::string("url", "").describe("stream URL, e.g. rtsp://host/stream"),
+      ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = until stopped)"),
+  };
+  for (ParamSpec& p : CameraSetup::params()) i.params.push_back(std::move(p));
+  return i;
+}
+
+void CameraSource::open(StageContext& ctx) {
+  const Params& p = ctx.params();
+  const std::string device = p.get_string("device"), url = expand_vars(p.get_string("url"));
+  if (device.empty() == url.empty()) throw Error("camera source: give exactly one of 'device' and 'url'");
+  setup_.configure(ctx);
+  max_frames_ = p.get_int("max_frames");
+  bool ok = false;
+  if (!device.empty()) {
+    what_ = "camera device '" + device + "'";
+    const bool numeric = device.find_first_not_of("0123456789") == std::string::npos;
+    ok = numeric ? cap_.open(std::stoi(device), cv::CAP_ANY) : cap_.open(device, cv::CAP_ANY);
+  } else {
+    what_ = "stream '" + url + "'";
+    ok = cap_.open(url, cv::CAP_FFMPEG);
+  }
+  if (!ok || !cap_.isOpened()) throw Error("cannot open " + what_ + ": no such device or the stream is unreachable");
+}
+
+bool CameraSource::next(StageContext& ctx, Outputs& out) {
+  if (max_frames_ >= 0 && emitted_ >= max_frames_) return false;
+  if (ctx.stop_requested()) return false;
+  cv::Mat raw;
+  if (!cap_.read(raw) || raw.empty()) {
+    // A live stream that stops is the end of the run, not corrupt input; say so and end cleanly.
+    ctx.log(LogLevel::kWarning, what_ + " delivered no frame after " + std::to_string(emitted_) + " frames; stopping");
+    return false;
+  }
+  const auto now = std::chrono::steady_clock::now();
+  if (emitted_ == 0) {
+    t0_ = now;
+    setup_.init(raw.size(), what_, ctx);
+  }
+  Frame f;
+  f.index = emitted_;
+  f.timestamp = std::chrono::duration<double>(now - t0_).count();
+  f.image = setup_.prepare(raw, what_ + " frame " + std::to_string(emitted_));
+  f.camera = setup_.camera();
+  f.ego = setup_.ego();
+  f.source_id = what_;
+  f.meta = {{"intrinsics", setup_.intrinsics_source()}};
+  const double ts = f.timestamp;
+  out.emit_packet("frames", Packet::make<Frame>(std::move(f), ts));
+  ++emitted_;
+  return true;
+}
+
+}  // namespace hf::source
