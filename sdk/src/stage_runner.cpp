@@ -164,10 +164,17 @@ void StageRunner::run(bool finish, int64_t max_frames) {
   if (auto* src = dynamic_cast<SourceStage*>(m.stage)) {
     for (int64_t n = 0; max_frames < 0 || n < max_frames; ++n) {
       m.ctx.index = n;
+      std::map<std::string, size_t> before;
+      for (auto& [port, v] : m.outputs) before[port] = v.size();
       if (!src->next(m.ctx, out)) break;
-      // Sources stamp their own packets; keep the context in step with the last one.
+      // Like the host: a source's packets carry the timestamp of the frame it emitted.
+      double ts = m.ctx.ts;
       for (auto& [port, v] : m.outputs)
-        if (!v.empty()) out.ts = m.ctx.ts = v.back().timestamp();
+        for (size_t k = before[port]; k < v.size(); ++k)
+          if (v[k].is<Frame>()) ts = v[k].get<Frame>().timestamp;
+      for (auto& [port, v] : m.outputs)
+        for (size_t k = before[port]; k < v.size(); ++k) v[k] = v[k].restamped(ts);
+      out.ts = m.ctx.ts = ts;
     }
   } else {
     int64_t n = 0;

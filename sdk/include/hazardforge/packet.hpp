@@ -49,6 +49,12 @@ class Packet {
   }
 
   bool empty() const { return data_ == nullptr; }
+  // The same payload with another timestamp (the host stamps a source's packets with its frame's time).
+  Packet restamped(double timestamp) const {
+    Packet p = *this;
+    p.timestamp_ = timestamp;
+    return p;
+  }
   double timestamp() const { return timestamp_; }
   const std::string& type_name() const { return type_; }
   int type_version() const { return version_; }

@@ -1,0 +1,67 @@
+// The CLI's commands as functions (exit codes: 0 ok, 1 bad input or failure, 2 usage, 130 interrupted).
+#pragma once
+
+#include <atomic>
+#include <string>
+#include <vector>
+
+#include "hazardforge/core/host.hpp"
+
+namespace hf::core {
+
+struct CommonOptions {
+  std::string config;
+  std::vector<std::string> overrides;
+  std::string output_dir;
+  int64_t max_frames = -1;
+  bool quiet = false;
+  std::vector<std::string> argv;
+  const std::atomic<bool>* interrupt = nullptr;
+};
+
+struct BenchOptions {
+  int repeat = 3;
+  int64_t max_frames = -1;
+  std::string detector_node;
+};
+
+struct ExperimentOptions {
+  std::string spec;
+  std::string output_dir;
+  int jobs = 1;
+  bool force = false;
+  std::vector<std::string> plugin_paths;
+  const std::atomic<bool>* interrupt = nullptr;
+};
+
+struct CalibrateOptions {
+  std::string folder;
+  int cols = 9;
+  int rows = 6;
+  double square = 1.0;
+  std::string output;
+};
+
+struct HarvestOptions {
+  std::string output_dir;
+  std::string config;
+  std::vector<std::string> overrides;
+  std::vector<std::string> argv;
+  const std::atomic<bool>* interrupt = nullptr;
+};
+
+int cmd_run(Host& host, const CommonOptions& o);
+int cmd_validate(Host& host, const CommonOptions& o);
+int cmd_plugins(Host& host, bool json);
+int cmd_inspect(Host& host, const std::string& name, bool markdown);
+int cmd_graph(Host& host, const CommonOptions& o);
+int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b);
+int cmd_eval(Host& host, const CommonOptions& o);
+int cmd_experiment(Host& host, const ExperimentOptions& o);
+int cmd_calibrate(const CalibrateOptions& o);
+int cmd_assets_harvest(Host& host, const HarvestOptions& o);
+
+// Text of `inspect` for one registered component (plain or Markdown).
+std::string describe_component(const RegisteredComponent& c, bool markdown);
+
+}  // namespace hf::core

@@ -1,0 +1,38 @@
+// The run manifest: everything needed to reproduce a run (resolved config, plugins, model hashes, times).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "hazardforge/core/graph.hpp"
+#include "hazardforge/core/plugin_loader.hpp"
+#include "hazardforge/core/scheduler.hpp"
+
+namespace hf::core {
+
+std::string sha256_file(const std::filesystem::path& file);  // hex; throws hf::Error if unreadable
+std::string sha256_text(const std::string& text);
+std::string iso8601_now();
+
+// Writes `text` to `path` via a temporary file in the same folder and rename(), so readers never see a
+// half-written file and an interrupted write leaves the previous version.
+void write_file_atomic(const std::filesystem::path& path, const std::string& text);
+
+struct ManifestInput {
+  std::vector<std::string> argv;
+  const Graph* graph = nullptr;
+  const GraphConfig* config = nullptr;
+  const std::vector<LoadedPlugin>* plugins = nullptr;
+  std::string started_at;
+};
+
+// status: "running", "completed", "interrupted", "failed".
+Json make_manifest(const ManifestInput& in, const std::string& status, const RunResult* result,
+                   const std::string& ended_at);
+
+// Per-stage latency table (median/mean/p90 per frame, frames/s) as Markdown.
+std::string timing_table(const RunResult& r);
+Json timing_json(const RunResult& r);
+
+}  // namespace hf::core

@@ -1,0 +1,53 @@
+// Runs a validated graph over the source's frames: one thread per node, bounded queues between them, so
+// decoding, inference and drawing overlap across cores while every node still sees frames in order.
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazardforge/core/graph.hpp"
+
+namespace hf::core {
+
+struct RunOptions {
+  std::filesystem::path output_dir;
+  size_t queue_capacity = 4;   // frames in flight per edge
+  int64_t max_frames = -1;     // stop after this many source frames (-1 = all)
+  const std::atomic<bool>* interrupt = nullptr;  // set by the Ctrl-C handler
+  // Called from the runner's thread about every 100 ms: frames completed by every node, total if known.
+  std::function<void(int64_t done, std::optional<int64_t> total)> on_progress;
+  LogLevel min_log_level = LogLevel::kInfo;
+  bool quiet = false;  // no log lines on stderr (tests, benchmarks)
+};
+
+struct NodeTiming {
+  std::string id;
+  std::string stage;
+  std::string kind;
+  std::vector<double> process_s;                        // per frame (next() for the source)
+  std::map<std::string, std::vector<double>> inner_s;   // record_timing() labels
+};
+
+struct RunResult {
+  int64_t frames = 0;       // frames the source produced
+  double wall_s = 0.0;
+  bool interrupted = false;
+  std::vector<std::string> errors;  // "node 'x' (stage 'y', lib): frame N: message"
+  std::vector<NodeTiming> timings;
+  std::vector<std::filesystem::path> resources;
+  std::vector<std::string> log;  // warnings and errors stages logged
+  bool ok() const { return errors.empty(); }
+};
+
+// Instantiates and opens every node, runs to the end of the stream (or interruption / first error), then lets
+// every node finish() so outputs are flushed. Never throws for stage failures: they are in RunResult::errors.
+RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const RunOptions& options);
+
+double median(std::vector<double> v);
+
+}  // namespace hf::core

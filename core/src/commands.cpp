@@ -1,0 +1,203 @@
+// run / validate / plugins / inspect / graph / eval: thin layers over the host facade.
+#include "hazardforge/core/commands.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+namespace hf::core {
+
+namespace {
+
+void print_load_errors(const std::vector<std::string>& errors) {
+  for (const auto& e : errors) std::cerr << "error: " << e << "\n";
+}
+
+std::string param_line(const ParamSpec& p) {
+  std::ostringstream os;
+  os << p.name << " (" << param_type_name(p.type);
+  if (p.required()) os << ", required";
+  else os << ", default " << p.default_value.dump();
+  if (p.min || p.max) {
+    os << ", range ";
+    os << (p.min ? std::to_string(*p.min) : std::string("-inf")) << ".."
+       << (p.max ? std::to_string(*p.max) : std::string("inf"));
+  }
+  if (!p.choices.empty()) {
+    os << ", one of";
+    for (const auto& c : p.choices) os << " " << c;
+  }
+  os << ")";
+  return os.str();
+}
+
+std::string port_flags(const PortSpec& p) {
+  std::string f;
+  if (p.sticky) f += " sticky";
+  else if (p.optional) f += " optional";
+  if (p.multi) f += " multi";
+  return f;
+}
+
+}  // namespace
+
+std::string describe_component(const RegisteredComponent& c, bool md) {
+  const ComponentInfo& i = c.info;
+  std::ostringstream os;
+  if (md) {
+    os << "### `" << i.name << "` (" << i.kind << ")\n\n" << i.summary << "\n\n";
+    if (!i.doc.empty()) os << i.doc << "\n\n";
+    os << "Plugin `" << c.plugin_name << "` " << c.plugin_version << "\n\n";
+    if (!i.inputs.empty() || !i.outputs.empty()) {
+      os << "| port | direction | type | flags | description |\n|---|---|---|---|---|\n";
+      for (const auto& p : i.inputs)
+        os << "| `" << p.name << "` | in | " << p.type_str() << " |" << port_flags(p) << " | " << p.doc << " |\n";
+      for (const auto& p : i.outputs)
+        os << "| `" << p.name << "` | out | " << p.type_str() << " | | " << p.doc << " |\n";
+      os << "\n";
+    }
+    if (!i.params.empty()) {
+      os << "| param | type | default | range / choices | description |\n|---|---|---|---|---|\n";
+      for (const auto& p : i.params) {
+        std::string range;
+        if (p.min || p.max) {
+          std::ostringstream r;
+          r << (p.min ? std::to_string(*p.min) : "") << " .. " << (p.max ? std::to_string(*p.max) : "");
+          range = r.str();
+        }
+        for (const auto& ch : p.choices) range += (range.empty() ? "" : ", ") + ch;
+        os << "| `" << p.name << "` | " << param_type_name(p.type) << " | "
+           << (p.required() ? std::string("*required*") : "`" + p.default_value.dump() + "`") << " | " << range
+           << " | " << p.doc << " |\n";
+      }
+      os << "\n";
+    }
+    return os.str();
+  }
+  os << i.kind << "/" << i.name << " — " << i.summary << "\n";
+  os << "  plugin:  " << c.plugin_name << " " << c.plugin_version << "\n";
+  os << "  library: " << (c.library.empty() ? "<built-in>" : c.library) << "\n";
+  if (!i.doc.empty()) os << "\n" << i.doc << "\n";
+  if (!i.inputs.empty()) {
+    os << "\ninputs:\n";
+    for (const auto& p : i.inputs)
+      os << "  " << std::left << std::setw(14) << p.name << " " << p.type_str() << port_flags(p)
+         << (p.doc.empty() ? "" : "  — " + p.doc) << "\n";
+  }
+  if (!i.outputs.empty()) {
+    os << "\noutputs:\n";
+    for (const auto& p : i.outputs)
+      os << "  " << std::left << std::setw(14) << p.name << " " << p.type_str() << (p.doc.empty() ? "" : "  — " + p.doc)
+         << "\n";
+  }
+  if (!i.params.empty()) {
+    os << "\nparams:\n";
+    for (const auto& p : i.params) os << "  " << param_line(p) << (p.doc.empty() ? "" : "\n      " + p.doc) << "\n";
+  }
+  return os.str();
+}
+
+int cmd_run(Host& host, const CommonOptions& o) {
+  RunRequest req{o.config, o.overrides, o.output_dir, o.max_frames, true, o.quiet, o.argv, o.interrupt, {}};
+  RunOutcome out = run_config(host, req);
+  if (!out.message.empty()) std::cerr << out.message << "\n";
+  if (out.result && out.exit_code == 0) {
+    const RunResult& r = *out.result;
+    std::cerr << "done: " << r.frames << " frames in " << std::fixed << std::setprecision(1) << r.wall_s << " s ("
+              << (r.wall_s > 0 ? static_cast<double>(r.frames) / r.wall_s : 0.0) << " frames/s) -> "
+              << out.output_dir.string() << "\n";
+  }
+  return out.exit_code;
+}
+
+int cmd_validate(Host& host, const CommonOptions& o) {
+  try {
+    Graph g = load_graph(host, o.config, o.overrides);
+    std::cout << o.config << ": ok (" << g.nodes.size() << " nodes)\n";
+    return 0;
+  } catch (const Error& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
+}
+
+int cmd_plugins(Host& host, bool json) {
+  std::vector<std::string> errors = host.load_plugins();
+  if (json) {
+    Json j = {{"search_path", Json::array()}, {"plugins", Json::array()}, {"errors", errors}};
+    for (const auto& p : host.searched()) j["search_path"].push_back(p.string());
+    for (const auto& p : host.loader().plugins())
+      j["plugins"].push_back({{"name", p.name},
+                              {"version", p.version},
+                              {"license", p.license},
+                              {"path", p.path.string()},
+                              {"description", p.description},
+                              {"components", p.components}});
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::cout << "search path:\n";
+    for (const auto& p : host.searched()) std::cout << "  " << p.string() << "\n";
+    std::cout << "\n";
+    for (const auto& p : host.loader().plugins()) {
+      std::cout << p.name << " " << p.version << " (" << p.license << ")  " << p.path.string() << "\n";
+      if (!p.description.empty()) std::cout << "  " << p.description << "\n";
+      for (const auto& c : p.components) {
+        const auto slash = c.find('/');
+        const RegisteredComponent* rc = host.registry().find(c.substr(0, slash), c.substr(slash + 1));
+        std::cout << "    " << std::left << std::setw(34) << c << (rc ? rc->info.summary : "") << "\n";
+      }
+    }
+  }
+  print_load_errors(errors);
+  return errors.empty() ? 0 : 1;
+}
+
+int cmd_inspect(Host& host, const std::string& name, bool markdown) {
+  std::vector<std::string> errors = host.load_plugins();
+  print_load_errors(errors);
+  std::string why;
+  const RegisteredComponent* c = host.registry().find(name, false, &why);
+  if (!c) {
+    std::cerr << "error: " << why << "\n";
+    return 1;
+  }
+  std::cout << describe_component(*c, markdown);
+  return errors.empty() ? 0 : 1;
+}
+
+int cmd_graph(Host& host, const CommonOptions& o) {
+  try {
+    Graph g = load_graph(host, o.config, o.overrides);
+    std::cout << g.to_dot();
+    return 0;
+  } catch (const Error& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
+}
+
+int cmd_eval(Host& host, const CommonOptions& o) {
+  RunRequest req{o.config, o.overrides, o.output_dir, o.max_frames, true, o.quiet, o.argv, o.interrupt, {}};
+  RunOutcome out = run_config(host, req);
+  if (!out.message.empty()) std::cerr << out.message << "\n";
+  if (out.exit_code != 0) return out.exit_code;
+  // Print every Markdown report the run wrote (evaluation sinks name theirs report.md).
+  int printed = 0;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(out.output_dir, ec)) {
+    if (e.path().filename() != "report.md") continue;
+    std::ifstream in(e.path());
+    std::cout << in.rdbuf() << "\n";
+    std::cerr << "report: " << e.path().string() << "\n";
+    ++printed;
+  }
+  if (printed == 0) {
+    std::cerr << "error: " << o.config << ": the run wrote no report.md — does the graph have an evaluation sink?\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace hf::core

@@ -1,0 +1,433 @@
+// Graph config loading, overrides, expansion and whole-graph validation with compiler-style diagnostics.
+#include "hazardforge/core/graph.hpp"
+
+#include <algorithm>
+#include <functional>
+#include <set>
+#include <sstream>
+
+namespace hf::core {
+
+namespace {
+
+using Severity = Diagnostic::Severity;
+
+const std::vector<std::string> kTopKeys = {"name", "description", "nodes", "plugin_paths", "meta"};
+const std::vector<std::string> kNodeKeys = {"id", "stage", "params", "inputs", "outputs"};
+
+std::string ptr_token(const std::string& s) {
+  std::string out;
+  for (char c : s) out += c == '~' ? std::string("~0") : c == '/' ? std::string("~1") : std::string(1, c);
+  return out;
+}
+
+void expand_strings(Json& j, const std::string& ptr, const YamlDocument& doc,
+                    const std::map<std::string, std::string>& vars, std::vector<Diagnostic>& diags) {
+  if (j.is_string()) {
+    try {
+      j = expand_vars(j.get<std::string>(), vars);
+    } catch (const Error& e) {
+      diags.push_back({Severity::kError, doc.at(ptr), e.what()});
+    }
+  } else if (j.is_array()) {
+    for (size_t i = 0; i < j.size(); ++i) expand_strings(j[i], ptr + "/" + std::to_string(i), doc, vars, diags);
+  } else if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it)
+      expand_strings(it.value(), ptr + "/" + ptr_token(it.key()), doc, vars, diags);
+  }
+}
+
+void apply_override(GraphConfig& cfg, const std::string& text, std::vector<Diagnostic>& diags) {
+  const SourceLocation where{"--set " + text, 0, 0};
+  const auto eq = text.find('=');
+  const auto dot = text.find('.');
+  if (eq == std::string::npos || dot == std::string::npos || dot > eq) {
+    diags.push_back({Severity::kError, where, "expected --set node.param=value"});
+    return;
+  }
+  const std::string node_id = text.substr(0, dot);
+  const std::string key_path = text.substr(dot + 1, eq - dot - 1);
+  Json value;
+  try {
+    value = parse_yaml(text.substr(eq + 1), "--set").value;
+  } catch (const Error& e) {
+    diags.push_back({Severity::kError, where, std::string("cannot parse the value: ") + e.what()});
+    return;
+  }
+  Json& nodes = cfg.doc.value["nodes"];
+  if (!nodes.is_array()) {
+    diags.push_back({Severity::kError, where, "the config has no nodes to override"});
+    return;
+  }
+  std::vector<std::string> ids;
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    Json& n = nodes[i];
+    if (!n.is_object() || !n.contains("id") || !n["id"].is_string()) continue;
+    ids.push_back(n["id"].get<std::string>());
+    if (ids.back() != node_id) continue;
+    std::string base = "/nodes/" + std::to_string(i);
+    std::vector<std::string> parts;
+    std::stringstream ss(key_path);
+    for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);
+    Json* target;
+    if (parts.size() == 1 && (parts[0] == "stage")) {
+      target = &n["stage"];
+      base += "/stage";
+    } else {
+      if (!n.contains("params") || !n["params"].is_object()) n["params"] = Json::object();
+      target = &n["params"];
+      base += "/params";
+      for (size_t k = 0; k + 1 < parts.size(); ++k) {
+        if (!target->contains(parts[k]) || !(*target)[parts[k]].is_object()) (*target)[parts[k]] = Json::object();
+        target = &(*target)[parts[k]];
+        base += "/" + ptr_token(parts[k]);
+      }
+      target = &(*target)[parts.back()];
+      base += "/" + ptr_token(parts.back());
+    }
+    *target = value;
+    cfg.doc.locations[base] = where;
+    cfg.doc.locations[base + "#key"] = where;
+    return;
+  }
+  std::string near = nearest_name(node_id, ids);
+  diags.push_back({Severity::kError, where,
+                   "no node '" + node_id + "'" + (near.empty() ? "" : "; did you mean '" + near + "'?")});
+}
+
+}  // namespace
+
+GraphConfig load_graph_config(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+  GraphConfig cfg;
+  cfg.file = file;
+  cfg.dir = std::filesystem::absolute(file).parent_path();
+  cfg.overrides = overrides;
+  if (!std::filesystem::exists(file)) throw Error(file.string() + ": error: config file not found");
+  cfg.doc = load_yaml_file(file.string());
+  std::vector<Diagnostic> diags;
+  if (!cfg.doc.value.is_object()) {
+    throw DiagnosticError({{Severity::kError, cfg.doc.at(""), "a graph config is a mapping with 'nodes'"}});
+  }
+  for (const std::string& o : overrides) apply_override(cfg, o, diags);
+  const std::map<std::string, std::string> vars = {{"CONFIG_DIR", cfg.dir.string()}};
+  expand_strings(cfg.doc.value, "", cfg.doc, vars, diags);
+  if (cfg.doc.value.contains("plugin_paths")) {
+    const Json& pp = cfg.doc.value["plugin_paths"];
+    if (!pp.is_array()) {
+      diags.push_back({Severity::kError, cfg.doc.at("/plugin_paths"), "'plugin_paths' must be a list of folders"});
+    } else {
+      for (size_t i = 0; i < pp.size(); ++i) {
+        if (!pp[i].is_string()) {
+          diags.push_back({Severity::kError, cfg.doc.at("/plugin_paths/" + std::to_string(i)), "expected a folder"});
+          continue;
+        }
+        std::filesystem::path p = pp[i].get<std::string>();
+        cfg.plugin_paths.push_back((p.is_relative() ? cfg.dir / p : p).lexically_normal());
+      }
+    }
+  }
+  if (!diags.empty()) throw DiagnosticError(std::move(diags));
+  return cfg;
+}
+
+const NodeSpec* Graph::node(const std::string& id) const {
+  for (const auto& n : nodes)
+    if (n.id == id) return &n;
+  return nullptr;
+}
+
+Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
+  const YamlDocument& doc = cfg.doc;
+  const Json& root = doc.value;
+  std::vector<Diagnostic> diags;
+  auto error = [&](const SourceLocation& w, std::string msg) { diags.push_back({Severity::kError, w, std::move(msg)}); };
+
+  Graph g;
+  g.file = cfg.file;
+  g.dir = cfg.dir;
+  g.name = root.value("name", cfg.file.stem().string());
+  g.description = root.contains("description") && root["description"].is_string() ? root["description"].get<std::string>() : "";
+
+  for (auto it = root.begin(); it != root.end(); ++it) {
+    if (std::find(kTopKeys.begin(), kTopKeys.end(), it.key()) == kTopKeys.end()) {
+      std::string near = nearest_name(it.key(), kTopKeys);
+      error(doc.at("/" + ptr_token(it.key()) + "#key"),
+            "unknown top-level key '" + it.key() + "'" + (near.empty() ? "" : "; did you mean '" + near + "'?"));
+    }
+  }
+  if (!root.contains("nodes") || !root["nodes"].is_array() || root["nodes"].empty()) {
+    error(doc.at("/nodes"), "the graph needs a non-empty 'nodes' list");
+    throw DiagnosticError(std::move(diags));
+  }
+
+  // ---- nodes, stages, params -----------------------------------------------------------------------------------
+  std::vector<NodeSpec> nodes;
+  std::set<std::string> ids;
+  const Json& jnodes = root["nodes"];
+  for (size_t i = 0; i < jnodes.size(); ++i) {
+    const std::string base = "/nodes/" + std::to_string(i);
+    const Json& jn = jnodes[i];
+    NodeSpec n;
+    n.where = doc.at(base);
+    if (!jn.is_object()) {
+      error(n.where, "a node is a mapping with 'id' and 'stage'");
+      continue;
+    }
+    for (auto it = jn.begin(); it != jn.end(); ++it) {
+      if (std::find(kNodeKeys.begin(), kNodeKeys.end(), it.key()) == kNodeKeys.end()) {
+        std::string near = nearest_name(it.key(), kNodeKeys);
+        error(doc.at(base + "/" + ptr_token(it.key()) + "#key"),
+              "unknown node key '" + it.key() + "'" + (near.empty() ? "" : "; did you mean '" + near + "'?"));
+      }
+    }
+    if (!jn.contains("id") || !jn["id"].is_string() || jn["id"].get<std::string>().empty()) {
+      error(n.where, "node has no 'id'");
+      continue;
+    }
+    n.id = jn["id"].get<std::string>();
+    if (!ids.insert(n.id).second) error(doc.at(base + "/id"), "duplicate node id '" + n.id + "'");
+    const std::string who = "node '" + n.id + "'";
+    if (!jn.contains("stage") || !jn["stage"].is_string()) {
+      error(n.where, who + " has no 'stage'");
+      continue;
+    }
+    n.stage = jn["stage"].get<std::string>();
+    std::string why;
+    n.component = registry.find(n.stage, true, &why);
+    if (!n.component) {
+      error(doc.at(base + "/stage"), who + ": " + why);
+      continue;
+    }
+    const ComponentInfo& info = n.component->info;
+    const std::string owner = who + ": stage '" + info.name + "'";
+    // params
+    Json given = jn.contains("params") ? jn["params"] : Json::object();
+    ParamLocations locs;
+    if (given.is_object())
+      for (auto it = given.begin(); it != given.end(); ++it) {
+        const std::string p = base + "/params/" + ptr_token(it.key());
+        locs[it.key()] = doc.locations.count(p + "#key") && !doc.locations.count(p) ? doc.at(p + "#key") : doc.at(p);
+        // Unknown names are best pointed at by their key.
+        if (!info.param(it.key())) locs[it.key()] = doc.at(p + "#key");
+      }
+    n.params = validate_params(info.params, given.is_null() ? Json::object() : given, owner, doc.at(base + "/stage"),
+                               locs, diags);
+    // inputs
+    if (jn.contains("inputs")) {
+      const Json& ins = jn["inputs"];
+      if (!ins.is_object()) {
+        error(doc.at(base + "/inputs"), who + ": 'inputs' maps input ports to streams");
+      } else {
+        for (auto it = ins.begin(); it != ins.end(); ++it) {
+          const std::string p = base + "/inputs/" + ptr_token(it.key());
+          const PortSpec* port = info.input(it.key());
+          if (!port) {
+            std::vector<std::string> names;
+            for (const auto& ip : info.inputs) names.push_back(ip.name);
+            std::string near = nearest_name(it.key(), names);
+            error(doc.at(p + "#key"), who + ": stage '" + info.name + "' has no input '" + it.key() + "'" +
+                                          (near.empty() ? "" : "; did you mean '" + near + "'?"));
+            continue;
+          }
+          std::vector<std::string> streams;
+          if (it->is_string()) {
+            streams.push_back(it->get<std::string>());
+          } else if (it->is_array() && port->multi) {
+            for (const Json& s : *it)
+              if (s.is_string()) streams.push_back(s.get<std::string>());
+              else error(doc.at(p), who + ": input '" + it.key() + "' lists a non-string stream");
+          } else if (it->is_array()) {
+            error(doc.at(p), who + ": input '" + it.key() + "' takes one stream, not a list");
+            continue;
+          } else {
+            error(doc.at(p), who + ": input '" + it.key() + "' must name a stream like 'node.port'");
+            continue;
+          }
+          n.inputs[it.key()] = streams;
+        }
+      }
+    }
+    for (const PortSpec& ip : info.inputs)
+      if (!ip.optional && !n.inputs.count(ip.name))
+        error(doc.at(base + "/stage"), who + ": required input '" + ip.name + "' (" + ip.type_str() + ") is not connected");
+    // outputs: defaults to "<id>.<port>", renames allowed
+    for (const PortSpec& op : info.outputs) n.outputs[op.name] = n.id + "." + op.name;
+    if (jn.contains("outputs")) {
+      const Json& outs = jn["outputs"];
+      if (!outs.is_object()) {
+        error(doc.at(base + "/outputs"), who + ": 'outputs' maps output ports to stream names");
+      } else {
+        for (auto it = outs.begin(); it != outs.end(); ++it) {
+          if (!info.output(it.key())) {
+            std::vector<std::string> names;
+            for (const auto& op : info.outputs) names.push_back(op.name);
+            std::string near = nearest_name(it.key(), names);
+            error(doc.at(base + "/outputs/" + ptr_token(it.key()) + "#key"),
+                  who + ": stage '" + info.name + "' has no output '" + it.key() + "'" +
+                      (near.empty() ? "" : "; did you mean '" + near + "'?"));
+          } else if (!it->is_string()) {
+            error(doc.at(base + "/outputs/" + ptr_token(it.key())), who + ": output stream names are strings");
+          } else {
+            n.outputs[it.key()] = it->get<std::string>();
+          }
+        }
+      }
+    }
+    nodes.push_back(std::move(n));
+  }
+
+  // ---- streams: exactly one producer each, types match ------------------------------------------------------
+  std::map<std::string, std::pair<const NodeSpec*, const PortSpec*>> producers;
+  for (const NodeSpec& n : nodes) {
+    for (const auto& [port, stream] : n.outputs) {
+      const PortSpec* ps = n.component->info.output(port);
+      auto [it, inserted] = producers.emplace(stream, std::make_pair(&n, ps));
+      if (!inserted) {
+        error(n.where, "stream '" + stream + "' has two producers: node '" + it->second.first->id + "' (output '" +
+                           it->second.second->name + "') and node '" + n.id + "' (output '" + port + "')");
+      }
+    }
+  }
+  std::vector<std::string> stream_names;
+  for (const auto& [s, p] : producers) stream_names.push_back(s);
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const NodeSpec& n = nodes[i];
+    for (const auto& [port, streams] : n.inputs) {
+      const PortSpec* ip = n.component->info.input(port);
+      for (size_t k = 0; k < streams.size(); ++k) {
+        std::string p;
+        for (size_t j = 0; j < jnodes.size(); ++j)
+          if (jnodes[j].is_object() && jnodes[j].value("id", "") == n.id) p = "/nodes/" + std::to_string(j);
+        p += "/inputs/" + ptr_token(port);
+        if (ip->multi && jnodes.is_array()) p += "/" + std::to_string(k);
+        const std::string& s = streams[k];
+        auto it = producers.find(s);
+        if (it == producers.end()) {
+          std::string near = nearest_name(s, stream_names);
+          error(doc.at(p), "node '" + n.id + "': input '" + port + "' reads stream '" + s +
+                               "', which no node produces" + (near.empty() ? "" : "; did you mean '" + near + "'?"));
+          continue;
+        }
+        const PortSpec* op = it->second.second;
+        const bool any = ip->type_name == kAnyType || op->type_name == kAnyType;
+        if (!any && (ip->type_name != op->type_name || ip->type_version != op->type_version)) {
+          error(doc.at(p), "node '" + n.id + "': input '" + port + "' takes " + ip->type_str() + " but stream '" + s +
+                               "' carries " + op->type_str() + " (from node '" + it->second.first->id + "')");
+        }
+      }
+    }
+  }
+
+  // ---- one source ---------------------------------------------------------------------------------------------
+  std::vector<std::string> sources;
+  for (const NodeSpec& n : nodes)
+    if (n.component->info.is_source) sources.push_back(n.id);
+  if (sources.empty() && diags.empty()) error(doc.at("/nodes"), "the graph has no source node");
+  if (sources.size() > 1) {
+    std::string list;
+    for (const auto& s : sources) list += (list.empty() ? "'" : ", '") + s + "'";
+    error(doc.at("/nodes"), "the graph has " + std::to_string(sources.size()) + " source nodes (" + list +
+                                "); a graph is driven by exactly one source");
+  }
+
+  // ---- topological order and cycles -----------------------------------------------------------------------------
+  std::map<std::string, std::vector<std::string>> deps;  // node -> upstream nodes
+  for (const NodeSpec& n : nodes)
+    for (const auto& [port, streams] : n.inputs)
+      for (const auto& s : streams)
+        if (auto it = producers.find(s); it != producers.end()) deps[n.id].push_back(it->second.first->id);
+  std::map<std::string, int> state;  // 0 new, 1 on stack, 2 done
+  std::vector<std::string> order, stack;
+  std::set<std::string> reported;
+  std::function<void(const std::string&)> visit = [&](const std::string& id) {
+    state[id] = 1;
+    stack.push_back(id);
+    for (const auto& d : deps[id]) {
+      if (state[d] == 1) {
+        auto from = std::find(stack.begin(), stack.end(), d);
+        std::vector<std::string> cyc(from, stack.end());
+        std::vector<std::string> key = cyc;
+        std::sort(key.begin(), key.end());
+        std::string k;
+        for (auto& x : key) k += x + ",";
+        if (reported.insert(k).second) {
+          std::string text;
+          for (auto& x : cyc) text += "'" + x + "' -> ";
+          text += "'" + d + "'";
+          const NodeSpec* at = nullptr;
+          for (const auto& nn : nodes)
+            if (nn.id == d) at = &nn;
+          error(at ? at->where : doc.at("/nodes"), "the graph has a cycle: " + text);
+        }
+      } else if (state[d] == 0) {
+        visit(d);
+      }
+    }
+    stack.pop_back();
+    state[id] = 2;
+    order.push_back(id);
+  };
+  for (const NodeSpec& n : nodes)
+    if (state[n.id] == 0) visit(n.id);
+
+  if (!diags.empty()) throw DiagnosticError(std::move(diags));
+
+  for (const auto& [s, p] : producers) g.producers[s] = {p.first->id, p.second->name};
+  for (const std::string& id : order)
+    for (NodeSpec& n : nodes)
+      if (n.id == id) g.nodes.push_back(std::move(n));
+  return g;
+}
+
+std::string Graph::to_dot() const {
+  std::ostringstream os;
+  auto q = [](const std::string& s) {
+    std::string o = "\"";
+    for (char c : s) o += (c == '"' ? std::string("\\\"") : std::string(1, c));
+    return o + "\"";
+  };
+  os << "digraph " << q(name) << " {\n  rankdir=LR;\n  node [shape=box, style=rounded, fontname=\"Helvetica\"];\n";
+  for (const NodeSpec& n : nodes)
+    os << "  " << q(n.id) << " [label=" << q(n.id + "\\n" + n.component->info.kind + "/" + n.component->info.name)
+       << "];\n";
+  for (const NodeSpec& n : nodes)
+    for (const auto& [port, streams] : n.inputs)
+      for (const auto& s : streams) {
+        auto it = producers.find(s);
+        if (it == producers.end()) continue;
+        const NodeSpec* src = node(it->second.first);
+        const PortSpec* op = src ? src->component->info.output(it->second.second) : nullptr;
+        os << "  " << q(it->second.first) << " -> " << q(n.id) << " [label="
+           << q(it->second.second + " → " + port + (op ? "\\n" + op->type_str() : "")) << "];\n";
+      }
+  os << "}\n";
+  return os.str();
+}
+
+Json Graph::resolved() const {
+  Json j = {{"name", name}, {"file", file.string()}, {"nodes", Json::array()}};
+  for (const NodeSpec& n : nodes) {
+    Json jn = {{"id", n.id},
+               {"stage", n.component->info.kind + "/" + n.component->info.name},
+               {"library", n.component->library},
+               {"plugin", n.component->plugin_name},
+               {"plugin_version", n.component->plugin_version},
+               {"params", n.params},
+               {"inputs", n.inputs},
+               {"outputs", n.outputs}};
+    j["nodes"].push_back(jn);
+  }
+  return j;
+}
+
+Graph Graph::subgraph(const std::vector<std::string>& keep) const {
+  Graph g = *this;
+  g.nodes.clear();
+  for (const NodeSpec& n : nodes)
+    if (std::find(keep.begin(), keep.end(), n.id) != keep.end()) g.nodes.push_back(n);
+  for (auto it = g.producers.begin(); it != g.producers.end();)
+    it = std::find(keep.begin(), keep.end(), it->second.first) == keep.end() ? g.producers.erase(it) : std::next(it);
+  return g;
+}
+
+}  // namespace hf::core

@@ -1,0 +1,169 @@
+// Host facade: plugins + config + graph + run + manifest, shared by run/eval/bench/experiment.
+#include "hazardforge/core/host.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <iomanip>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+
+namespace hf::core {
+
+Host::Host(std::vector<std::string> cli_plugin_paths) : cli_paths_(std::move(cli_plugin_paths)), loader_(registry_) {}
+
+std::vector<std::string> Host::load_plugins(const std::vector<std::filesystem::path>& config_paths) {
+  std::vector<std::string> errors;
+  searched_ = plugin_search_path(cli_paths_, config_paths);
+  for (const auto& dir : searched_) loader_.load_dir(dir, errors);
+  return errors;
+}
+
+Graph load_graph(Host& host, const std::filesystem::path& config, const std::vector<std::string>& overrides,
+                 GraphConfig* config_out) {
+  GraphConfig cfg = load_graph_config(config, overrides);
+  std::vector<std::string> errors = host.load_plugins(cfg.plugin_paths);
+  if (!errors.empty()) {
+    std::vector<Diagnostic> d;
+    for (auto& e : errors) d.push_back({Diagnostic::Severity::kError, {}, e});
+    throw DiagnosticError(std::move(d));
+  }
+  Graph g = build_graph(cfg, host.registry());
+  if (config_out) *config_out = std::move(cfg);
+  return g;
+}
+
+namespace {
+
+std::string utc_stamp() {
+  std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", &tm);
+  return buf;
+}
+
+std::string fmt_duration(double s) {
+  if (!std::isfinite(s) || s < 0) return "--:--";
+  const long t = std::lround(s);
+  std::ostringstream os;
+  os << t / 60 << ":" << std::setw(2) << std::setfill('0') << t % 60;
+  return os.str();
+}
+
+// Progress bar with rate and ETA on a terminal (after the first second), a line every 5 s otherwise.
+class Progress {
+ public:
+  explicit Progress(bool enabled) : enabled_(enabled), tty_(isatty(STDERR_FILENO) == 1) {}
+  void update(int64_t done, std::optional<int64_t> total) {
+    if (!enabled_) return;
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    const double rate = el > 0 ? static_cast<double>(done) / el : 0.0;
+    const double eta = (total && rate > 0) ? static_cast<double>(*total - done) / rate : NAN;
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(1);
+    if (tty_) {
+      if (el < 1.0) return;
+      os << "\r";
+      if (total && *total > 0) {
+        const int w = 30, fill = static_cast<int>(w * static_cast<double>(done) / static_cast<double>(*total));
+        os << "[" << std::string(std::min(fill, w), '#') << std::string(std::max(0, w - fill), '.') << "] ";
+        os << done << "/" << *total;
+      } else {
+        os << done << " frames";
+      }
+      os << "  " << rate << " frames/s  ETA " << fmt_duration(eta) << "   ";
+      std::cerr << os.str() << std::flush;
+      drawn_ = true;
+    } else {
+      if (el - last_line_ < 5.0) return;
+      last_line_ = el;
+      os << "progress: " << done;
+      if (total) os << "/" << *total;
+      os << " frames, " << rate << " frames/s";
+      if (total) os << ", ETA " << fmt_duration(eta);
+      std::cerr << os.str() << "\n";
+    }
+  }
+  void done() {
+    if (drawn_) std::cerr << "\n";
+  }
+
+ private:
+  bool enabled_, tty_;
+  bool drawn_ = false;
+  double last_line_ = 0.0;
+  std::chrono::steady_clock::time_point t0_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace
+
+RunOutcome run_config(Host& host, const RunRequest& req) {
+  RunOutcome o;
+  GraphConfig cfg;
+  Graph graph;
+  try {
+    graph = load_graph(host, req.config, req.overrides, &cfg);
+  } catch (const Error& e) {
+    o.exit_code = 1;
+    o.message = e.what();
+    return o;
+  }
+  if (!req.only_nodes.empty()) graph = graph.subgraph(req.only_nodes);
+  o.output_dir = req.output_dir.empty() ? std::filesystem::path("runs") / (graph.name + "-" + utc_stamp())
+                                        : req.output_dir;
+  std::error_code ec;
+  std::filesystem::create_directories(o.output_dir, ec);
+  if (ec) {
+    o.exit_code = 1;
+    o.message = o.output_dir.string() + ": cannot create output folder: " + ec.message();
+    return o;
+  }
+  ManifestInput mi{req.argv, &graph, &cfg, &host.loader().plugins(), iso8601_now()};
+  const auto manifest_path = o.output_dir / "manifest.json";
+  try {
+    write_file_atomic(manifest_path, make_manifest(mi, "running", nullptr, "").dump(2));
+  } catch (const Error& e) {
+    o.exit_code = 1;
+    o.message = e.what();
+    return o;
+  }
+
+  RunOptions opt;
+  opt.output_dir = o.output_dir;
+  opt.max_frames = req.max_frames;
+  opt.interrupt = req.interrupt;
+  opt.quiet = req.quiet;
+  Progress progress(req.progress && !req.quiet);
+  std::mutex pmu;
+  opt.on_progress = [&](int64_t done, std::optional<int64_t> total) {
+    std::lock_guard lk(pmu);
+    progress.update(done, total);
+  };
+  RunResult r = run_graph(graph, host.registry(), opt);
+  progress.done();
+  const std::string status = !r.ok() ? "failed" : r.interrupted ? "interrupted" : "completed";
+  try {
+    write_file_atomic(manifest_path, make_manifest(mi, status, &r, iso8601_now()).dump(2));
+    write_file_atomic(o.output_dir / "timing.md", timing_table(r));
+  } catch (const Error& e) {
+    r.errors.push_back(e.what());
+  }
+  if (!r.ok()) {
+    o.exit_code = 1;
+    std::string msg;
+    for (const auto& e : r.errors) msg += (msg.empty() ? "" : "\n") + std::string("error: ") + e;
+    o.message = msg + "\noutputs written so far are kept in " + o.output_dir.string();
+  } else if (r.interrupted) {
+    o.exit_code = 130;
+    o.message = "interrupted after " + std::to_string(r.frames) + " frames; outputs kept in " + o.output_dir.string();
+  }
+  o.result = std::move(r);
+  return o;
+}
+
+}  // namespace hf::core

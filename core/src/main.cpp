@@ -1,0 +1,136 @@
+// The hazardforge command line: run, validate, plugins, inspect, graph, bench, calibrate, eval, experiment.
+#include <CLI/CLI.hpp>
+
+#include <csignal>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "hazardforge/core/commands.hpp"
+#include "hazardforge/core/host.hpp"
+
+namespace {
+
+std::atomic<bool> g_interrupt{false};
+
+extern "C" void on_sigint(int) {
+  g_interrupt = true;
+  std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C ends the process at once
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace hf::core;
+  std::vector<std::string> args(argv, argv + argc);
+  CLI::App app{"HazardForge: turn real driving recordings into safety-critical test scenarios"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("hazardforge ") + HF_SDK_VERSION);
+  std::vector<std::string> plugin_paths;
+  app.add_option("--plugin-path", plugin_paths, "Extra plugin folder (repeatable; searched first)")
+      ->type_name("DIR");
+
+  CommonOptions common;
+  auto add_config = [&](CLI::App* c) {
+    c->add_option("config", common.config, "Graph config (YAML)")->required()->check(CLI::ExistingFile);
+    c->add_option("--set", common.overrides, "Override a param: node.param=value (repeatable)")
+        ->type_name("NODE.PARAM=VALUE");
+  };
+
+  auto* run = app.add_subcommand("run", "Run a graph config over its source");
+  add_config(run);
+  run->add_option("-o,--output", common.output_dir, "Output folder (default runs/<name>-<UTC time>)");
+  run->add_option("--max-frames", common.max_frames, "Stop after N frames");
+  run->add_flag("-q,--quiet", common.quiet, "No progress or stage log lines");
+
+  auto* validate = app.add_subcommand("validate", "Validate a graph config; print every problem at once");
+  add_config(validate);
+
+  auto* plugins = app.add_subcommand("plugins", "List plugin libraries, their versions, paths and stages");
+  bool plugins_json = false;
+  plugins->add_flag("--json", plugins_json, "Machine-readable output");
+
+  auto* inspect = app.add_subcommand("inspect", "Show a stage's ports and params with their docs");
+  std::string stage_name;
+  bool inspect_md = false;
+  inspect->add_option("stage", stage_name, "Stage or component name (kind/name when ambiguous)")->required();
+  inspect->add_flag("--markdown", inspect_md, "Markdown output (for generated docs)");
+
+  auto* graph = app.add_subcommand("graph", "Print a config's graph");
+  add_config(graph);
+  bool dot = false;
+  graph->add_flag("--dot", dot, "Graphviz dot output")->required();
+
+  auto* bench = app.add_subcommand("bench", "Benchmark a config: per-stage latency, graph frames/s vs bare detector");
+  add_config(bench);
+  BenchOptions bopt;
+  bench->add_option("--repeat", bopt.repeat, "Repetitions (medians are reported)")->check(CLI::Range(1, 50));
+  bench->add_option("--max-frames", bopt.max_frames, "Frames per repetition");
+  bench->add_option("-o,--output", common.output_dir, "Folder for bench.md / bench.json");
+  bench->add_option("--detector", bopt.detector_node, "Detector node for the bare forward() measurement");
+
+  auto* eval = app.add_subcommand("eval", "Run an evaluation config and print its report");
+  add_config(eval);
+  eval->add_option("-o,--output", common.output_dir, "Output folder");
+  eval->add_option("--max-frames", common.max_frames, "Stop after N frames");
+
+  auto* experiment = app.add_subcommand("experiment", "Run a base config under a matrix of overrides");
+  ExperimentOptions eopt;
+  experiment->add_option("spec", eopt.spec, "Experiment file (YAML)")->required()->check(CLI::ExistingFile);
+  experiment->add_option("-o,--output", eopt.output_dir, "Experiment folder (default runs/<name>)");
+  experiment->add_option("-j,--jobs", eopt.jobs, "Runs in parallel")->check(CLI::Range(1, 64));
+  experiment->add_flag("--force", eopt.force, "Re-run runs that are already complete");
+
+  auto* calibrate = app.add_subcommand("calibrate", "Calibrate a camera from chessboard photos");
+  CalibrateOptions copt;
+  calibrate->add_option("folder", copt.folder, "Folder of chessboard photos")->required()->check(CLI::ExistingDirectory);
+  calibrate->add_option("--cols", copt.cols, "Inner corners per row")->check(CLI::Range(2, 100));
+  calibrate->add_option("--rows", copt.rows, "Inner corners per column")->check(CLI::Range(2, 100));
+  calibrate->add_option("--square", copt.square, "Square size (any unit; only scales extrinsics)");
+  calibrate->add_option("-o,--output", copt.output, "Calibration YAML to write")->required();
+
+  auto* assets = app.add_subcommand("assets", "Appearance assets for the AR renderer");
+  assets->require_subcommand(1);
+  auto* harvest = assets->add_subcommand("harvest", "Cut real object appearances out of a dataset into an asset folder");
+  HarvestOptions hopt;
+  harvest->add_option("-o,--output", hopt.output_dir, "Asset folder to write")->required();
+  harvest->add_option("--config", hopt.config, "Harvest graph (default: share/graphs/harvest_assets.yaml)");
+  harvest->add_option("--set", hopt.overrides, "Override a param: node.param=value");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+
+  std::signal(SIGINT, on_sigint);
+  std::signal(SIGTERM, on_sigint);
+  Host host(plugin_paths);
+  common.argv = args;
+  common.interrupt = &g_interrupt;
+  try {
+    if (*run) return cmd_run(host, common);
+    if (*validate) return cmd_validate(host, common);
+    if (*plugins) return cmd_plugins(host, plugins_json);
+    if (*inspect) return cmd_inspect(host, stage_name, inspect_md);
+    if (*graph) return cmd_graph(host, common);
+    if (*bench) return cmd_bench(host, common, bopt);
+    if (*eval) return cmd_eval(host, common);
+    if (*experiment) {
+      eopt.plugin_paths = plugin_paths;
+      eopt.interrupt = &g_interrupt;
+      return cmd_experiment(host, eopt);
+    }
+    if (*calibrate) return cmd_calibrate(copt);
+    if (*harvest) {
+      hopt.interrupt = &g_interrupt;
+      hopt.argv = args;
+      return cmd_assets_harvest(host, hopt);
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+  return 2;
+}

@@ -1,0 +1,48 @@
+// `hazardforge calibrate` and `hazardforge assets harvest`.
+#include <iostream>
+
+#include "hazardforge/core/commands.hpp"
+#include "hazardforge/geometry.hpp"
+
+#if __has_include("hazardforge/core/calibration.hpp")
+#include "hazardforge/core/calibration.hpp"
+#define HF_HAVE_CALIBRATION 1
+#endif
+
+namespace hf::core {
+
+int cmd_calibrate(const CalibrateOptions& o) {
+#ifdef HF_HAVE_CALIBRATION
+  try {
+    CalibrationResult r = calibrate_chessboard(o.folder, cv::Size(o.cols, o.rows), o.square, &std::cerr);
+    write_calibration(r, o.output);
+    std::cout << "wrote " << o.output << "\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+#else
+  (void)o;
+  std::cerr << "error: this build has no camera calibration support\n";
+  return 1;
+#endif
+}
+
+int cmd_assets_harvest(Host& host, const HarvestOptions& o) {
+  std::filesystem::path cfg = o.config.empty() ? std::filesystem::path(share_dir()) / "graphs" / "harvest_assets.yaml"
+                                               : std::filesystem::path(o.config);
+  RunRequest req;
+  req.config = cfg;
+  req.overrides = o.overrides;
+  req.overrides.push_back("harvester.out_dir=" + std::filesystem::absolute(o.output_dir).string());
+  req.output_dir = std::filesystem::path(o.output_dir) / "run";
+  req.argv = o.argv;
+  req.interrupt = o.interrupt;
+  RunOutcome out = run_config(host, req);
+  if (!out.message.empty()) std::cerr << out.message << "\n";
+  if (out.exit_code == 0) std::cerr << "assets written to " << o.output_dir << "\n";
+  return out.exit_code;
+}
+
+}  // namespace hf::core
