@@ -166,9 +166,11 @@ Tracks SortTracker::step(const Detections& dets, const Frame& frame) {
   for (Entry& e : tracks_) {
     if (e.misses > cfg_.max_age) continue;
     const bool warming_up = frame_count_ <= cfg_.min_hits;
-    if (e.misses == 0 && (e.hit_streak >= cfg_.min_hits || warming_up)) e.confirmed = true;
-    const bool emit = e.misses == 0 ? (e.hit_streak >= cfg_.min_hits || warming_up)
-                                    : (cfg_.emit_unmatched && e.confirmed);
+    const bool streak = e.misses == 0 && (e.hit_streak >= cfg_.min_hits || warming_up);
+    // SORT hides a track again after a miss until it rebuilds its streak; with emit_unmatched a confirmed
+    // track stays visible (predicted while missed) until it dies.
+    const bool emit = streak || (cfg_.emit_unmatched && e.confirmed);
+    if (streak) e.confirmed = true;
     if (emit) {
       Track tr;
       tr.id = e.id;

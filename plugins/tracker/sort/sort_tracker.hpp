@@ -20,8 +20,8 @@ namespace hf {
 //   per frame. Detections are assigned to the predicted boxes by the Hungarian algorithm on IoU; pairs below
 //   `iou_threshold` (or of different labels with `match_class`) are never matched. A track is emitted when it
 //   was matched this frame and has `min_hits` consecutive hits (every matched track during the first `min_hits`
-//   frames); with `emit_unmatched`, confirmed tracks that missed this frame are emitted too, with their
-//   predicted box and misses > 0. A track unmatched for more than `max_age` frames is dropped; ids never reused.
+//   frames); after a miss it must rebuild that streak. With `emit_unmatched`, a track once confirmed is
+//   emitted every frame until it is dropped, with its predicted box and misses > 0 while unmatched. A track unmatched for more than `max_age` frames is dropped; ids never reused.
 // Emitted boxes are the filter's estimate (after the update when matched). velocity_px: smoothed displacement of
 //   the matched detections' centres over their timestamp difference.
 class SortTracker : public Tracker {
