@@ -1,0 +1,262 @@
+// The video, image_sequence and camera sources on synthetic files with known content.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "hazardforge/core/calibration.hpp"
+#include "image_sequence_source.hpp"
+#include "io_test_util.hpp"
+#include "test_support.hpp"
+#include "video_source.hpp"
+
+namespace hf {
+namespace {
+
+using source::CameraSource;
+using source::ImageSequenceSource;
+using source::VideoSource;
+using test::error_of;
+using test::run_source;
+using test::TempDir;
+
+// Frame k: uniform grey level 10 + 20 k, with a white square whose x position encodes k.
+cv::Mat synthetic(int k, cv::Size size) {
+  cv::Mat m(size, CV_8UC3, cv::Scalar::all(10 + 20 * k));
+  cv::rectangle(m, cv::Rect(10 + 8 * k, 20, 16, 16), cv::Scalar::all(255), cv::FILLED);
+  return m;
+}
+
+std::filesystem::path write_video(const TempDir& dir, int frames, cv::Size size, double fps) {
+  const auto file = dir / "clip.mp4";
+  cv::VideoWriter w(file.string(), cv::VideoWriter::fourcc('m', 'p', '4', 'v'), fps, size);
+  EXPECT_TRUE(w.isOpened());
+  for (int k = 0; k < frames; ++k) w.write(synthetic(k, size));
+  w.release();
+  return file;
+}
+
+TEST(VideoSource, ReadsEveryFrameWithTimestampsAndContent) {
+  TempDir dir;
+  const auto file = write_video(dir, 12, {320, 240}, 25.0);
+  testing::StageRunner r;
+  auto frames = run_source<VideoSource>("{path: '" + file.string() + "', fx: 400}", &r);
+  ASSERT_EQ(frames.size(), 12u);
+  auto* src = dynamic_cast<SourceStage*>(&r.stage());
+  ASSERT_TRUE(src->frame_count());
+  EXPECT_EQ(*src->frame_count(), 12);
+  for (int k = 0; k < 12; ++k) {
+    const Frame& f = frames[static_cast<size_t>(k)];
+    EXPECT_EQ(f.index, k);
+    EXPECT_NEAR(f.timestamp, k / 25.0, 1e-12);
+    EXPECT_EQ(f.image.size(), cv::Size(320, 240));
+    EXPECT_EQ(f.image.type(), CV_8UC3);
+    // Lossy codec: the grey level of a flat area comes back within a few levels.
+    EXPECT_NEAR(cv::mean(f.image(cv::Rect(200, 150, 60, 60)))[0], 10 + 20 * k, 6.0) << "frame " << k;
+    EXPECT_EQ(f.meta["file_frame"], k);
+  }
+  EXPECT_DOUBLE_EQ(frames[0].camera.fx, 400);
+  EXPECT_DOUBLE_EQ(frames[0].camera.fy, 400);
+  EXPECT_DOUBLE_EQ(frames[0].camera.cx, 160);
+  EXPECT_DOUBLE_EQ(frames[0].camera.cy, 120);
+  EXPECT_DOUBLE_EQ(frames[0].camera.height_above_ground(), 1.5);
+  EXPECT_FALSE(frames[0].ego.speed_mps);
+}
+
+TEST(VideoSource, StartMaxFramesResizeAndFpsOverride) {
+  TempDir dir;
+  const auto file = write_video(dir, 12, {320, 240}, 25.0);
+  auto frames = run_source<VideoSource>("{path: '" + file.string() +
+                                        "', start_frame: 3, max_frames: 4, fps: 10, resize_width: 160, fx: 400, "
+                                        "camera_height: 1.2, camera_pitch_deg: 2, ego_speed_mps: 13.5}");
+  ASSERT_EQ(frames.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    const Frame& f = frames[static_cast<size_t>(k)];
+    EXPECT_EQ(f.index, k);
+    EXPECT_NEAR(f.timestamp, k / 10.0, 1e-12);
+    EXPECT_EQ(f.image.size(), cv::Size(160, 120));
+    EXPECT_NEAR(cv::mean(f.image(cv::Rect(100, 75, 30, 30)))[0], 10 + 20 * (k + 3), 6.0);
+    EXPECT_EQ(f.meta["file_frame"], k + 3);
+  }
+  const CameraModel& c = frames[0].camera;
+  EXPECT_EQ(c.width, 160);
+  EXPECT_EQ(c.height, 120);
+  EXPECT_DOUBLE_EQ(c.fx, 200);
+  EXPECT_DOUBLE_EQ(c.fy, 200);
+  EXPECT_DOUBLE_EQ(c.cx, 80);
+  EXPECT_DOUBLE_EQ(c.cy, 60);
+  EXPECT_NEAR(c.pitch(), 2 * CV_PI / 180, 1e-12);
+  EXPECT_DOUBLE_EQ(c.height_above_ground(), 1.2);
+  ASSERT_TRUE(frames[0].ego.speed_mps);
+  EXPECT_DOUBLE_EQ(*frames[0].ego.speed_mps, 13.5);
+}
+
+TEST(VideoSource, AssumedFovIsWarnedAndUsed) {
+  TempDir dir;
+  const auto file = write_video(dir, 2, {320, 240}, 25.0);
+  testing::StageRunner r;
+  auto frames = run_source<VideoSource>("{path: '" + file.string() + "'}", &r);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_NEAR(frames[0].camera.fx, 160 / std::tan(30 * CV_PI / 180), 1e-9);
+  bool warned = false;
+  for (const auto& l : r.log())
+    warned |= l.rfind("warning: ", 0) == 0 && l.find("assuming a 60 deg horizontal field of view") != std::string::npos;
+  EXPECT_TRUE(warned);
+  // An explicit FOV is used without a warning.
+  testing::StageRunner r2;
+  frames = run_source<VideoSource>("{path: '" + file.string() + "', hfov_deg: 90}", &r2);
+  EXPECT_NEAR(frames[0].camera.fx, 160, 1e-9);
+  for (const auto& l : r2.log()) EXPECT_EQ(l.rfind("warning: ", 0), std::string::npos) << l;
+}
+
+TEST(VideoSource, CalibrationUndistortsAndScales) {
+  TempDir dir;
+  // A 640x480 calibration applied to a 320x240 video: same aspect, so K scales by 1/2.
+  CalibrationResult cal;
+  cal.image_width = 640;
+  cal.image_height = 480;
+  cal.fx = 600;
+  cal.fy = 610;
+  cal.cx = 330;
+  cal.cy = 250;
+  cal.distortion = {0.3, 0.1, 0.0, 0.0, 0.0};
+  write_calibration(cal, dir / "cal.yaml");
+  const auto file = write_video(dir, 3, {320, 240}, 25.0);
+  auto frames = run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" + (dir / "cal.yaml").string() + "'}");
+  ASSERT_EQ(frames.size(), 3u);
+  const CameraModel& c = frames[0].camera;
+  EXPECT_DOUBLE_EQ(c.fx, 300);
+  EXPECT_DOUBLE_EQ(c.fy, 305);
+  EXPECT_DOUBLE_EQ(c.cx, 165);
+  EXPECT_DOUBLE_EQ(c.cy, 125);
+  EXPECT_TRUE(c.distortion.empty()) << "undistorted frames carry no distortion";
+  // Correcting a pincushion lens (k1 > 0) maps the output corners outside the recorded image: black.
+  EXPECT_LT(cv::mean(frames[2].image(cv::Rect(0, 0, 4, 4)))[0], 5.0);
+  EXPECT_NEAR(cv::mean(frames[2].image(cv::Rect(200, 150, 40, 40)))[0], 50, 6.0);
+
+  // Without undistortion the distortion stays in the model and the corner keeps its grey; undistorting that
+  // frame with cv::undistort and the scaled K gives exactly the source's frame.
+  auto raw = run_source<VideoSource>("{path: '" + file.string() + "', undistort: false, calibration: '" +
+                                     (dir / "cal.yaml").string() + "'}");
+  EXPECT_EQ(raw[0].camera.distortion, cal.distortion);
+  EXPECT_NEAR(cv::mean(raw[2].image(cv::Rect(0, 0, 4, 4)))[0], 50, 6.0);
+  cv::Mat expected;
+  cv::undistort(raw[2].image, expected, c.K(), cal.distortion);
+  EXPECT_EQ(cv::norm(expected, frames[2].image, cv::NORM_INF), 0.0);
+
+  // A calibration of another aspect ratio does not apply.
+  cal.image_width = 1280;
+  write_calibration(cal, dir / "wide.yaml");
+  EXPECT_EQ(error_of([&] {
+              run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" + (dir / "wide.yaml").string() + "'}");
+            }),
+            "calibration '" + (dir / "wide.yaml").string() + "' is for 1280x480 images but video file '" + file.string() +
+                "' is 320x240 (different aspect ratio)");
+}
+
+TEST(VideoSource, BadFilesGiveOneClearMessage) {
+  TempDir dir;
+  const auto missing = dir / "nope.mp4";
+  EXPECT_EQ(error_of([&] { run_source<VideoSource>("{path: '" + missing.string() + "'}"); }),
+            "video file '" + missing.string() + "' does not exist");
+  const auto junk = dir / "junk.mp4";
+  std::ofstream(junk) << "this is not a video\n";
+  EXPECT_EQ(error_of([&] { run_source<VideoSource>("{path: '" + junk.string() + "'}"); }),
+            "cannot open video file '" + junk.string() + "': not a video OpenCV/FFmpeg can decode");
+  const auto file = write_video(dir, 3, {320, 240}, 25.0);
+  EXPECT_EQ(error_of([&] { run_source<VideoSource>("{path: '" + file.string() + "', start_frame: 5}"); }),
+            "video file '" + file.string() + "' ends at frame 3, before start_frame 5");
+  EXPECT_EQ(error_of([&] { run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" + (dir / "none.yaml").string() + "'}"); }),
+            "calibration file '" + (dir / "none.yaml").string() + "' does not exist");
+}
+
+TEST(VideoSource, TruncatedFileEndsOrNamesTheFrame) {
+  TempDir dir;
+  const auto file = write_video(dir, 30, {320, 240}, 25.0);
+  // Cut the file in half: FFmpeg either stops early or reports the broken frame by index; both are handled
+  // without returning garbage frames.
+  const auto size = std::filesystem::file_size(file);
+  std::filesystem::resize_file(file, size / 2);
+  std::vector<Frame> frames;
+  const std::string err = error_of([&] { frames = run_source<VideoSource>("{path: '" + file.string() + "'}"); });
+  if (err.empty()) {
+    EXPECT_LT(frames.size(), 30u);
+  } else {
+    EXPECT_NE(err.find("video file '" + file.string() + "'"), std::string::npos) << err;
+  }
+}
+
+TEST(ImageSequenceSource, SortedMatchingFilesExactContent) {
+  TempDir dir;
+  // Written out of order, plus files the pattern must skip.
+  for (int k : {3, 0, 4, 1, 2}) {
+    char name[32];
+    std::snprintf(name, sizeof name, "img_%03d.png", k);
+    cv::imwrite((dir / name).string(), synthetic(k, {200, 100}));
+  }
+  std::ofstream(dir / "notes.txt") << "x";
+  cv::imwrite((dir / "other.jpg").string(), synthetic(9, {200, 100}));
+  testing::StageRunner r;
+  auto frames = run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fps: 5, fx: 150, cy: 40}", &r);
+  ASSERT_EQ(frames.size(), 5u);
+  EXPECT_EQ(*dynamic_cast<SourceStage&>(r.stage()).frame_count(), 5);
+  for (int k = 0; k < 5; ++k) {
+    const Frame& f = frames[static_cast<size_t>(k)];
+    EXPECT_EQ(f.index, k);
+    EXPECT_NEAR(f.timestamp, k * 0.2, 1e-12);
+    EXPECT_EQ(cv::norm(f.image, synthetic(k, {200, 100}), cv::NORM_INF), 0.0) << "PNG is lossless";
+    char name[32];
+    std::snprintf(name, sizeof name, "img_%03d.png", k);
+    EXPECT_EQ(f.source_id, name);
+  }
+  EXPECT_DOUBLE_EQ(frames[0].camera.cx, 100);
+  EXPECT_DOUBLE_EQ(frames[0].camera.cy, 40);
+
+  frames = run_source<ImageSequenceSource>("{path: '" + dir.path().string() +
+                                           "', pattern: '*.jpg', resize_height: 50, hfov_deg: 90}");
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].image.size(), cv::Size(100, 50));
+  EXPECT_NEAR(frames[0].camera.fx, 50, 1e-9);
+  EXPECT_EQ(frames[0].camera.width, 100);
+
+  EXPECT_EQ(error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', pattern: '*.bmp'}"); }),
+            "image folder '" + dir.path().string() + "' has no file matching '*.bmp'");
+  // An image of another size mid-stream names the file.
+  cv::imwrite((dir / "img_005.png").string(), synthetic(5, {100, 100}));
+  EXPECT_EQ(error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fx: 100}"); }),
+            "image '" + (dir / "img_005.png").string() + "' is 100x100 but the stream started at 200x100");
+  std::ofstream(dir / "img_006.png") << "broken";
+  std::filesystem::remove(dir / "img_005.png");
+  EXPECT_EQ(error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fx: 100}"); }),
+            "image '" + (dir / "img_006.png").string() + "' (frame 5) cannot be read");
+}
+
+TEST(ImageSequenceSource, KittiRawFolder) {
+  const auto folder = test::shared_data("kitti-raw-2011_09_26/2011_09_26/image_02/data");
+  HF_REQUIRE_SHARED(folder);
+  testing::StageRunner r;
+  auto frames = run_source<ImageSequenceSource>(
+      "{path: '" + folder.string() + "', fx: 721.5377, cx: 609.5593, cy: 172.854, camera_height: 1.65, max_frames: 3}", &r);
+  EXPECT_EQ(*dynamic_cast<SourceStage&>(r.stage()).frame_count(), 3);
+  ASSERT_EQ(frames.size(), 3u);
+  EXPECT_EQ(frames[2].image.size(), cv::Size(1242, 375));
+  EXPECT_NEAR(frames[2].timestamp, 0.2, 1e-12);
+  EXPECT_EQ(frames[0].source_id, "0000000000.png");
+}
+
+TEST(CameraSource, NonexistentDeviceOrUrlFails) {
+  EXPECT_EQ(error_of([] { run_source<CameraSource>("{device: '57'}"); }),
+            "cannot open camera device '57': no such device or the stream is unreachable");
+  EXPECT_EQ(error_of([] { run_source<CameraSource>("{url: 'file:///nonexistent/hf/stream.ts'}"); }),
+            "cannot open stream 'file:///nonexistent/hf/stream.ts': no such device or the stream is unreachable");
+  EXPECT_EQ(error_of([] { run_source<CameraSource>("{}"); }),
+            "camera source: give exactly one of 'device' and 'url'");
+}
+
+}  // namespace
+}  // namespace hf
