@@ -1,0 +1,139 @@
+// Shared hazard kinematics: per-class limits, jerk-limited profiles, lane-change shapes, TTC of two trajectories.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazardforge/params.hpp"
+#include "hazardforge/types.hpp"
+
+namespace hf::hazard {
+
+// What a road-user class can physically do (share/hazard_limits.yaml). Decelerations are positive numbers.
+struct KinematicLimits {
+  std::string object_class;
+  double max_speed_mps = 0;
+  double max_accel_mps2 = 0;          // speeding up along the path
+  double max_decel_mps2 = 0;          // braking along the path
+  double max_jerk_mps3 = 0;           // |da/dt| of the acceleration vector
+  double max_lateral_accel_mps2 = 0;  // across the path (turning, lane change)
+  double max_lateral_speed_mps = 0;   // sideways speed during a lane change
+  double max_yaw_rate_dps = 0;        // heading change, deg/s
+};
+
+// The limits table, read once; the same file drives planning and check() so both agree.
+class LimitsTable {
+ public:
+  // YAML mapping class -> limits. Throws hf::Error "file:line:col: error: ..." naming the class and field.
+  static LimitsTable load(const std::string& path);
+  // share_dir()/hazard_limits.yaml
+  static std::string default_path();
+
+  bool has(const std::string& object_class) const { return limits_.count(object_class) != 0; }
+  // Throws hf::Error naming the class, the file and the known classes.
+  const KinematicLimits& at(const std::string& object_class) const;
+  std::vector<std::string> classes() const;
+  const std::string& file() const { return file_; }
+  void set(const KinematicLimits& l) { limits_[l.object_class] = l; }
+
+ private:
+  std::map<std::string, KinematicLimits> limits_;
+  std::string file_;
+};
+
+// One-dimensional motion made of constant-jerk pieces: distance s, speed v, acceleration a along a path.
+// Speed changes are S-curves (acceleration ramps with bounded jerk at both ends), so the result stays within
+// an acceleration and a jerk limit at every instant.
+class SpeedProfile {
+ public:
+  struct State {
+    double s = 0, v = 0, a = 0, j = 0;
+  };
+
+  explicit SpeedProfile(double v0 = 0.0) : v_end_(v0) {}
+  // Constant speed for `duration` seconds.
+  SpeedProfile& hold(double duration);
+  // Changes speed to v1 with |a| <= max_accel and |jerk| <= max_jerk, starting and ending with a = 0.
+  SpeedProfile& change_speed(double v1, double max_accel, double max_jerk);
+
+  // State at time t >= 0 after the start; past the end the final speed is held.
+  State at(double t) const;
+  double duration() const { return t_end_; }
+  double end_speed() const { return v_end_; }
+  double end_distance() const { return s_end_; }
+  // Earliest time at which the distance reaches `s`; nullopt when it never does (the motion stops first).
+  std::optional<double> time_at_distance(double s) const;
+  // Duration of change_speed(v1, ...) from speed v0, without building it.
+  static double change_duration(double v0, double v1, double max_accel, double max_jerk);
+
+ private:
+  struct Piece {
+    double t0, dur, s0, v0, a0, j;
+  };
+  void push(double dur, double j);
+  std::vector<Piece> pieces_;
+  double t_end_ = 0, s_end_ = 0, v_end_ = 0, a_end_ = 0;
+};
+
+// Rest-to-rest minimum-jerk shift (quintic 10u^3 - 15u^4 + 6u^5) of `distance` over `duration`.
+struct Shift {
+  double p = 0, v = 0, a = 0, j = 0;
+};
+Shift min_jerk_shift(double distance, double duration, double t);
+// Shortest duration for which a min-jerk shift of `distance` keeps its peak rate, acceleration and jerk within
+// the given limits (peaks: 1.875 D/T, 5.7735 D/T^2, 60 D/T^3).
+double min_jerk_duration(double distance, double max_rate, double max_accel, double max_jerk);
+
+// The ground-truth protocol's TTC conventions (GUIDE section 3), every constant configurable.
+struct TtcConventions {
+  double ego_half_width = 1.0;  // m
+  double margin = 0.5;          // m; in path when x > 0 and |y| < ego_half_width + margin + w/2
+  double ego_front = 3.4;       // m, rear axle (ego origin) to front bumper; gap = x - ego_front - l/2
+  double min_closing = 0.1;     // m/s; below it TTC is infinite
+  static std::vector<ParamSpec> params();
+  static TtcConventions from(const Params& p);
+};
+
+struct TtcSample {
+  double t = 0;                   // stream time
+  double x_rel = 0, y_rel = 0;    // object centre in the ego frame at t
+  bool in_path = false;
+  double gap = kInf;              // m
+  double closing = 0;             // m/s, positive = approaching
+  double ttc = kInf;              // s; infinite when not in path or not closing
+};
+
+// TTC of one object sample seen from one ego sample (both in the same fixed frame).
+TtcSample ttc_at(const TrajectoryPoint& ego, const TrajectoryPoint& obj, const cv::Vec3d& size_lwh,
+                 const TtcConventions& conv);
+// Pairs samples by index; both trajectories must share their time stamps (throws hf::Error otherwise).
+std::vector<TtcSample> ttc_series(const std::vector<TrajectoryPoint>& ego, const std::vector<TrajectoryPoint>& obj,
+                                  const cv::Vec3d& size_lwh, const TtcConventions& conv);
+double min_ttc(const std::vector<TtcSample>& series);
+
+// Peak kinematic quantities of a sampled trajectory, from finite differences of the positions only (so they
+// also hold for trajectories this library did not make).
+struct MotionStats {
+  double max_speed = 0;
+  double max_accel = 0;       // |a| (vector)
+  double max_long_accel = 0;  // along the motion, speeding up
+  double max_long_decel = 0;  // along the motion, braking (positive)
+  double max_lat_accel = 0;   // across the motion
+  double max_jerk = 0;        // |da/dt| (vector)
+  double max_yaw_rate = 0;    // rad/s, from the headings
+};
+MotionStats measure(const std::vector<TrajectoryPoint>& points);
+// One reason per limit the stats exceed (relative tolerance for sampling error), naming the class.
+std::vector<std::string> exceeded_limits(const MotionStats& stats, const KinematicLimits& limits,
+                                         double tolerance = 0.02);
+
+// Compact number for messages: at most `decimals` decimals, trailing zeros removed ("12", "1.25", "inf").
+std::string num(double v, int decimals = 2);
+
+// Writes `text` to `path` through a temporary file and a rename, so readers never see half a file.
+void write_file_atomic(const std::filesystem::path& path, const std::string& text);
+
+}  // namespace hf::hazard

@@ -1,0 +1,118 @@
+// Base class for hazard templates: a kind only designs the object's motion; sampling, ego plan, TTC, limits and
+// visibility checks are shared so every kind is judged by the same rules.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazardforge/geometry.hpp"
+#include "hazardforge/hazard/kinematics.hpp"
+#include "hazardforge/stage.hpp"
+
+namespace hf::hazard {
+
+// A straight road with the ego lane centred on y = 0 in the anchor frame.
+struct RoadModel {
+  double lane_width = 3.5;
+  int lanes_left = 1;
+  int lanes_right = 1;
+  double kerb_offset = 0.5;  // where pedestrians wait, beyond the road edge (m)
+  // |y| of the road edge on a side (+1 = left, -1 = right).
+  double edge(int side) const { return lane_width * (0.5 + (side > 0 ? lanes_left : lanes_right)); }
+  static std::vector<ParamSpec> params();
+  static RoadModel from(const Params& p);
+};
+
+// The object's state `tau` seconds after the anchor time, in the anchor frame.
+struct ObjectMotion {
+  double x = 0, y = 0;    // ground-contact centre (m)
+  double vx = 0, vy = 0;  // m/s
+  double accel = 0;       // along the path (m/s^2), for the record
+  std::optional<double> heading;  // rad; default: direction of motion (held while standing)
+};
+using MotionFn = std::function<ObjectMotion(double tau)>;
+
+// What a kind designs.
+struct Design {
+  MotionFn motion;
+  std::optional<cv::Vec3d> size_lwh;  // default: the class prior
+  Json notes = Json::object();        // design values worth recording (brake time, lane-change duration ...)
+};
+
+// Everything a kind needs to design a motion.
+struct PlanRequest {
+  const HazardSpec& spec;
+  const SceneContext& scene;
+  const KinematicLimits& limits;  // of spec.object_class
+  cv::Vec3d size_lwh;             // class prior (length, width, height)
+  double ego_speed = 0;           // m/s, constant over the plan
+  const RoadModel& road;
+  const TtcConventions& ttc;
+  double duration = 0;  // s
+  const Params& params;  // the template's validated params
+
+  // |y| below which an object of this width is in the ego path.
+  double path_half_width(double object_width) const {
+    return ttc.ego_half_width + ttc.margin + object_width / 2;
+  }
+  // Gap (protocol convention) of an object centred at x with length l to the ego at tau.
+  double gap(double x, double length, double tau) const { return x - ego_speed * tau - ttc.ego_front - length / 2; }
+  // +1 left / -1 right from lateral_offset_m's sign, else from `side`; 0 when neither says.
+  int side_sign() const;
+};
+
+// Projection of an object's 3D box into the camera.
+struct BoxView {
+  bool in_front = false;       // every corner ahead of the camera
+  bool centre_inside = false;  // the box centre projects inside the image
+  cv::Rect2d box;              // bounds of the projected corners that are ahead of the camera
+  double inside_fraction = 0;  // share of `box` inside the image
+};
+BoxView view_of(const CameraModel& cam, double x, double y, double heading, const cv::Vec3d& size_lwh);
+
+// The planned hazard and, when infeasible, why.
+struct PlanOutcome {
+  HazardTrajectory trajectory;
+  std::vector<std::string> reasons;
+  std::vector<TtcSample> ttc;  // per sample
+  MotionStats stats;
+  Json notes = Json::object();
+};
+
+class TemplateBase : public HazardTemplate {
+ public:
+  // kind hazard_template plus the shared params (limits file, sampling, road, TTC conventions).
+  static ComponentInfo base_info(std::string name, std::string summary);
+
+  void open(const Params& params) override;
+  std::vector<std::string> check(const HazardSpec& spec, const SceneContext& scene) const override;
+  // Throws hf::Error listing the reasons when the spec is infeasible.
+  HazardTrajectory plan(const HazardSpec& spec, const SceneContext& scene) const override;
+  // Both at once, with the TTC series and peak stats (for reports and tests).
+  PlanOutcome evaluate(const HazardSpec& spec, const SceneContext& scene) const;
+
+  const LimitsTable& limits() const { return limits_; }
+  const RoadModel& road() const { return road_; }
+  const TtcConventions& ttc_conventions() const { return ttc_; }
+
+ protected:
+  // Classes this kind accepts (empty = any class in the limits table).
+  virtual std::vector<std::string> allowed_classes() const { return {}; }
+  // Most hazards must be in view when they start; a cut-in starts beside or behind the ego instead.
+  virtual bool start_must_be_visible() const { return true; }
+  // Designs the motion, or appends human-readable reasons (and returns an empty motion) when it cannot.
+  virtual Design design(const PlanRequest& req, std::vector<std::string>& reasons) const = 0;
+
+ private:
+  Params params_;
+  LimitsTable limits_;
+  ClassPriors sizes_;
+  RoadModel road_;
+  TtcConventions ttc_;
+  double rate_hz_ = 20;
+  double duration_s_ = 6;
+};
+
+}  // namespace hf::hazard

@@ -1,0 +1,226 @@
+// Shared hazard-template pipeline: spec checks, sampling, constant-speed ego plan, contact cut-off, TTC, limits.
+#include "hazardforge/hazard/template_base.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hf::hazard {
+
+std::vector<ParamSpec> RoadModel::params() {
+  return {ParamSpec::number("lane_width_m", 3.5).range(2, 6).describe("lane width (m); the ego lane is centred on y = 0"),
+          ParamSpec::integer("lanes_left", 1).range(0, 10).describe("lanes left of the ego lane (road edge position)"),
+          ParamSpec::integer("lanes_right", 1).range(0, 10).describe("lanes right of the ego lane (road edge position)"),
+          ParamSpec::number("kerb_offset_m", 0.5)
+              .range(0, 5)
+              .describe("how far beyond the road edge a pedestrian waits (m)")};
+}
+
+RoadModel RoadModel::from(const Params& p) {
+  RoadModel r;
+  if (p.has("lane_width_m")) r.lane_width = p.get_double("lane_width_m");
+  if (p.has("lanes_left")) r.lanes_left = static_cast<int>(p.get_int("lanes_left"));
+  if (p.has("lanes_right")) r.lanes_right = static_cast<int>(p.get_int("lanes_right"));
+  if (p.has("kerb_offset_m")) r.kerb_offset = p.get_double("kerb_offset_m");
+  return r;
+}
+
+int PlanRequest::side_sign() const {
+  if (std::abs(spec.lateral_offset_m) > 0.01) return spec.lateral_offset_m > 0 ? 1 : -1;
+  if (spec.side == "left") return 1;
+  if (spec.side == "right") return -1;
+  return 0;
+}
+
+BoxView view_of(const CameraModel& cam, double x, double y, double heading, const cv::Vec3d& size) {
+  BoxView v;
+  const double c = std::cos(heading), s = std::sin(heading);
+  double x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
+  int ahead = 0;
+  for (int i = 0; i < 8; ++i) {
+    const double lx = (i & 1 ? 0.5 : -0.5) * size[0], ly = (i & 2 ? 0.5 : -0.5) * size[1];
+    const double z = i & 4 ? size[2] : 0.0;
+    const cv::Vec3d p(x + c * lx - s * ly, y + s * lx + c * ly, z);
+    if (auto px = cam.project_ego(p)) {
+      ++ahead;
+      x0 = std::min(x0, px->x), y0 = std::min(y0, px->y), x1 = std::max(x1, px->x), y1 = std::max(y1, px->y);
+    }
+  }
+  v.in_front = ahead == 8;
+  if (ahead > 0) {
+    v.box = cv::Rect2d(x0, y0, x1 - x0, y1 - y0);
+    const cv::Rect2d img(0, 0, cam.width, cam.height);
+    const double area = v.box.area();
+    v.inside_fraction = area > 0 ? (v.box & img).area() / area : 0.0;
+  }
+  if (auto px = cam.project_ego(cv::Vec3d(x, y, size[2] / 2)))
+    v.centre_inside = px->x >= 0 && px->y >= 0 && px->x < cam.width && px->y < cam.height;
+  return v;
+}
+
+ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
+  ComponentInfo i;
+  i.name = std::move(name);
+  i.kind = kind::kHazardTemplate;
+  i.summary = std::move(summary);
+  i.params = {
+      ParamSpec::path("limits", "").describe("kinematic limits per class (default: share/hazard_limits.yaml)"),
+      ParamSpec::path("class_sizes", "").describe("object sizes per class (default: share/class_sizes.yaml)"),
+      ParamSpec::number("sample_rate_hz", 20.0).range(1, 1000).describe("trajectory sampling rate (Hz)"),
+      ParamSpec::number("duration_s", 6.0)
+          .range(0.1, 120)
+          .describe("planned horizon (s); the trajectory ends earlier if the object touches the ego"),
+  };
+  for (auto& p : RoadModel::params()) i.params.push_back(p);
+  for (auto& p : TtcConventions::params()) i.params.push_back(p);
+  return i;
+}
+
+void TemplateBase::open(const Params& params) {
+  params_ = params;
+  std::string limits_path = params.get_path("limits").string();
+  limits_ = LimitsTable::load(limits_path.empty() ? LimitsTable::default_path() : limits_path);
+  std::string sizes_path = params.get_path("class_sizes").string();
+  sizes_ = ClassPriors::load(sizes_path.empty() ? share_dir() + "/class_sizes.yaml" : sizes_path);
+  road_ = RoadModel::from(params);
+  ttc_ = TtcConventions::from(params);
+  rate_hz_ = params.get_double("sample_rate_hz");
+  duration_s_ = params.get_double("duration_s");
+}
+
+std::vector<std::string> TemplateBase::check(const HazardSpec& spec, const SceneContext& scene) const {
+  return evaluate(spec, scene).reasons;
+}
+
+HazardTrajectory TemplateBase::plan(const HazardSpec& spec, const SceneContext& scene) const {
+  PlanOutcome o = evaluate(spec, scene);
+  if (!o.reasons.empty()) {
+    std::string msg = "hazard '" + spec.kind + "' is infeasible: ";
+    for (size_t i = 0; i < o.reasons.size(); ++i) msg += (i ? "; " : "") + o.reasons[i];
+    throw Error(msg);
+  }
+  return std::move(o.trajectory);
+}
+
+PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& scene) const {
+  PlanOutcome out;
+  auto& reasons = out.reasons;
+  const std::string& cls = spec.object_class;
+
+  // Spec-level checks first: a motion is only designed for a spec that is physically possible at all.
+  if (!scene.camera.valid()) reasons.push_back("the scene has no valid camera model (needed for the view check)");
+  if (!scene.ego_speed_mps) reasons.push_back("the scene has no ego speed");
+  else if (*scene.ego_speed_mps < 0) reasons.push_back("ego speed " + num(*scene.ego_speed_mps) + " m/s is negative");
+  const auto allowed = allowed_classes();
+  if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), cls) == allowed.end()) {
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+    reasons.push_back("object_class '" + cls + "' is not supported by " + hazard_kind() + " (supported: " + list + ")");
+  } else if (!limits_.has(cls)) {
+    std::string list;
+    for (const auto& a : limits_.classes()) list += (list.empty() ? "" : ", ") + a;
+    reasons.push_back("object_class '" + cls + "' has no kinematic limits in hazard_limits.yaml (known: " + list + ")");
+  } else if (!sizes_.has(cls)) {
+    reasons.push_back("object_class '" + cls + "' has no size in class_sizes.yaml");
+  }
+  if (!reasons.empty()) return out;
+
+  const KinematicLimits& lim = limits_.at(cls);
+  if (spec.speed_mps < 0) reasons.push_back("speed_mps " + num(spec.speed_mps) + " is negative");
+  if (spec.speed_mps > lim.max_speed_mps)
+    reasons.push_back("speed_mps " + num(spec.speed_mps) + " exceeds the " + cls + " limit of " +
+                      num(lim.max_speed_mps) + " m/s");
+  if (spec.deceleration_mps2) {
+    if (*spec.deceleration_mps2 <= 0)
+      reasons.push_back("deceleration_mps2 " + num(*spec.deceleration_mps2) + " must be positive");
+    else if (*spec.deceleration_mps2 > lim.max_decel_mps2)
+      reasons.push_back("deceleration_mps2 " + num(*spec.deceleration_mps2) + " exceeds the " + cls + " limit of " +
+                        num(lim.max_decel_mps2) + " m/s^2");
+  }
+  if (spec.target_ttc_s && *spec.target_ttc_s <= 0)
+    reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " must be positive");
+  if (!reasons.empty()) return out;
+
+  const ClassSize& prior = sizes_.at(cls);
+  PlanRequest req{spec,  scene, lim,       cv::Vec3d(prior.length, prior.width, prior.height), *scene.ego_speed_mps,
+                  road_, ttc_,  duration_s_, params_};
+  Design d = design(req, reasons);
+  if (!reasons.empty()) return out;
+  if (!d.motion) throw Error("hazard template '" + hazard_kind() + "' designed no motion and gave no reason");
+  out.notes = d.notes;
+
+  HazardTrajectory& tr = out.trajectory;
+  tr.kind = spec.kind;
+  tr.object_class = cls;
+  tr.size_lwh = d.size_lwh.value_or(req.size_lwh);
+  tr.anchor_time = scene.timestamp;
+  tr.spec = spec;
+  const int n = static_cast<int>(std::floor(duration_s_ * rate_hz_ + 1e-9));
+  std::vector<std::optional<double>> headings;
+  for (int k = 0; k <= n; ++k) {
+    const double tau = k / rate_hz_;
+    const ObjectMotion m = d.motion(tau);
+    TrajectoryPoint p;
+    p.t = scene.timestamp + tau;
+    p.x = m.x;
+    p.y = m.y;
+    p.speed = std::hypot(m.vx, m.vy);
+    p.accel = m.accel;
+    headings.push_back(m.heading ? m.heading : (p.speed > 0.05 ? std::optional<double>(std::atan2(m.vy, m.vx))
+                                                                : std::nullopt));
+    tr.points.push_back(p);
+    TrajectoryPoint e;
+    e.t = p.t;
+    e.x = req.ego_speed * tau;
+    e.speed = req.ego_speed;
+    tr.ego.push_back(e);
+  }
+  // Standing objects keep the heading they will move off with (or last moved with).
+  std::optional<double> last;
+  for (auto& h : headings) {
+    if (h) last = h;
+    else h = last;
+  }
+  last.reset();
+  for (auto it = headings.rbegin(); it != headings.rend(); ++it) {
+    if (*it) last = *it;
+    else *it = last;
+  }
+  for (size_t k = 0; k < headings.size(); ++k) tr.points[k].heading = headings[k].value_or(0.0);
+
+  // The ego plan does not react, so samples after contact would put the object inside the ego: stop there.
+  out.ttc = ttc_series(tr.ego, tr.points, tr.size_lwh, ttc_);
+  for (size_t k = 0; k < out.ttc.size(); ++k) {
+    if (out.ttc[k].in_path && out.ttc[k].gap <= 0) {
+      if (k < 2) {
+        reasons.push_back("the object touches the ego at the start (gap " + num(out.ttc[k].gap) + " m)");
+        return out;
+      }
+      out.notes["contact_time_s"] = tr.points[k].t;
+      tr.points.resize(k);
+      tr.ego.resize(k);
+      out.ttc.resize(k);
+      break;
+    }
+  }
+  tr.intended_min_ttc_s = min_ttc(out.ttc);
+
+  out.stats = measure(tr.points);
+  for (auto& r : exceeded_limits(out.stats, lim)) reasons.push_back(r);
+
+  if (start_must_be_visible()) {
+    const TrajectoryPoint& p0 = tr.points.front();
+    if (!view_of(scene.camera, p0.x, p0.y, p0.heading, tr.size_lwh).centre_inside)
+      reasons.push_back("the start point (x=" + num(p0.x) + " m, y=" + num(p0.y) + " m) is out of the camera's view");
+  }
+  if (spec.target_ttc_s && tr.intended_min_ttc_s > *spec.target_ttc_s + 0.05) {
+    const double window = tr.points.back().t - tr.points.front().t;
+    reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " is not reached within the " + num(window) +
+                      " s plan (planned minimum TTC " +
+                      (std::isfinite(tr.intended_min_ttc_s) ? num(tr.intended_min_ttc_s) + " s)"
+                                                            : std::string("infinite: the object never closes in "
+                                                                          "on the ego path)")));
+  }
+  return out;
+}
+
+}  // namespace hf::hazard

@@ -1,0 +1,168 @@
+// cut_in: overtaking phase, braking S-curve and min-jerk lane change, solved for the gap that gives the target TTC.
+#include "cut_in_template.hpp"
+
+#include <cmath>
+#include <numbers>
+
+namespace hf {
+
+using hazard::num;
+
+ComponentInfo CutInTemplate::describe() {
+  ComponentInfo i = base_info("cut_in", "a vehicle overtakes in the adjacent lane and cuts in close ahead");
+  i.doc =
+      "Starts beside or behind the ego in the adjacent lane, passes, then changes into the ego lane (minimum-jerk "
+      "lateral shift within the class's lateral speed/acceleration/jerk and turn-rate limits) while braking to a "
+      "final speed below the ego's. At the end of the lane change the TTC equals target_ttc_s and the gap is "
+      "inside the ego's stopping distance.";
+  i.params.push_back(hf::ParamSpec::number("closing_speed_mps", 3.0)
+                         .range(0.2, 30)
+                         .describe("final speed = ego speed minus this, unless extra.final_speed_mps is given"));
+  i.params.push_back(hf::ParamSpec::number("cut_in_decel_mps2", 3.0)
+                         .range(0.1, 15)
+                         .describe("braking during the cut-in, unless the spec gives deceleration_mps2"));
+  i.params.push_back(hf::ParamSpec::number("default_target_ttc_s", 1.2)
+                         .range(0.1, 10)
+                         .describe("TTC at the end of the lane change when the spec gives no target_ttc_s"));
+  i.params.push_back(hf::ParamSpec::number("ego_reaction_s", 1.0).range(0, 5).describe("ego reaction time (s)"));
+  i.params.push_back(
+      hf::ParamSpec::number("ego_max_decel_mps2", 7.0).range(1, 15).describe("ego braking for its stopping distance"));
+  i.params.push_back(hf::ParamSpec::number("lane_change_s", 0.0)
+                         .range(0, 20)
+                         .describe("lane-change duration (s); 0 = the shortest the class limits allow"));
+  return i;
+}
+
+hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const {
+  const HazardSpec& spec = req.spec;
+  const Params& p = req.params;
+  const hazard::KinematicLimits& lim = req.limits;
+  const double len = req.size_lwh[0], wid = req.size_lwh[1];
+  const int side = req.side_sign();
+  if (side == 0) {
+    reasons.push_back("side must be 'left' or 'right' (or lateral_offset_m non-zero) for cut_in, got '" + spec.side +
+                      "'");
+    return {};
+  }
+  const std::string side_name = side > 0 ? "left" : "right";
+  const double y0 = std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * req.road.lane_width;
+  const double half = req.path_half_width(wid);
+  if (std::abs(y0) < half)
+    reasons.push_back("the start point y=" + num(y0) + " m is already in the ego path (|y| < " + num(half) + " m)");
+  const double edge = req.road.edge(side);
+  if (std::abs(y0) + wid / 2 > edge)
+    reasons.push_back("the start point y=" + num(y0) + " m is off the road (the road edge on the " + side_name +
+                      " is at " + num(edge) + " m with lanes_" + side_name + "=" +
+                      std::to_string(side > 0 ? req.road.lanes_left : req.road.lanes_right) + ")");
+  const double ve = req.ego_speed, v0 = spec.speed_mps;
+  if (v0 <= ve)
+    reasons.push_back("speed_mps " + num(v0) + " does not exceed the ego speed " + num(ve) +
+                      " m/s: a cut-in vehicle must overtake");
+  double v1 = std::max(0.0, ve - p.get_double("closing_speed_mps"));
+  if (spec.extra.contains("final_speed_mps")) {
+    if (!spec.extra["final_speed_mps"].is_number()) {
+      reasons.push_back("extra.final_speed_mps must be a number");
+      return {};
+    }
+    v1 = spec.extra["final_speed_mps"].get<double>();
+  }
+  if (v1 < 0) reasons.push_back("extra.final_speed_mps " + num(v1) + " is negative");
+  if (v1 >= ve)
+    reasons.push_back("the final speed " + num(v1) + " m/s is not below the ego speed " + num(ve) +
+                      " m/s: the cut-in would never close in");
+  if (!reasons.empty()) return {};
+
+  const double decel = spec.deceleration_mps2.value_or(p.get_double("cut_in_decel_mps2"));
+  const double target = spec.target_ttc_s.value_or(p.get_double("default_target_ttc_s"));
+  const double jerk_long = 0.8 * lim.max_jerk_mps3, jerk_lat = 0.6 * lim.max_jerk_mps3;  // |(0.8, 0.6)| = 1
+  const double gap_end = target * (ve - v1);
+  const double reaction = p.get_double("ego_reaction_s"), ego_decel = p.get_double("ego_max_decel_mps2");
+  const double stopping = ve * reaction + ve * ve / (2 * ego_decel);
+  if (gap_end >= stopping)
+    reasons.push_back("the cut-in would end " + num(gap_end) + " m ahead, beyond the ego's stopping distance " +
+                      num(stopping) + " m (reaction " + num(reaction) + " s, braking " + num(ego_decel) + " m/s^2)");
+
+  // Solve the overtaking time t_b so the braking ends exactly gap_end ahead of the ego.
+  const hazard::SpeedProfile slow = hazard::SpeedProfile(v0).change_speed(v1, decel, jerk_long);
+  const double x0 = spec.initial_distance_m;
+  const double t_brake =
+      (gap_end + req.ttc.ego_front + len / 2 + ve * slow.duration() - x0 - slow.end_distance()) / (v0 - ve);
+  if (t_brake < 0)
+    reasons.push_back("the vehicle starts too far ahead (x=" + num(x0) + " m) to overtake and still end " +
+                      num(gap_end) + " m in front: it would have to start braking " + num(-t_brake) +
+                      " s before the hazard starts");
+  if (!reasons.empty()) return {};
+  const hazard::SpeedProfile profile = hazard::SpeedProfile(v0).hold(t_brake).change_speed(v1, decel, jerk_long);
+  const double t_end = profile.duration();
+
+  auto motion_with = [profile, x0, y0](double lane_start, double lane_dur) {
+    return [=](double tau) {
+      const auto st = profile.at(tau);
+      const hazard::Shift sh = hazard::min_jerk_shift(-y0, lane_dur, tau - lane_start);
+      hazard::ObjectMotion m;
+      m.x = x0 + st.s;
+      m.y = y0 + sh.p;
+      m.vx = st.v;
+      m.vy = sh.v;
+      m.accel = st.a;
+      return m;
+    };
+  };
+  // Shortest lane change the lateral limits allow, stretched until the turn rate (which grows as the vehicle
+  // slows) is within the class limit too.
+  const double shortest =
+      hazard::min_jerk_duration(y0, lim.max_lateral_speed_mps, lim.max_lateral_accel_mps2, jerk_lat);
+  double lane_dur = std::max(shortest, p.get_double("lane_change_s"));
+  if (p.get_double("lane_change_s") > 0 && p.get_double("lane_change_s") < shortest)
+    reasons.push_back("lane_change_s " + num(p.get_double("lane_change_s")) + " is shorter than the " +
+                      num(shortest) + " s the " + lim.object_class + " lateral limits allow");
+  for (int iter = 0; iter < 40; ++iter) {
+    const auto m = motion_with(t_end - lane_dur, lane_dur);
+    double peak = 0, prev = 0;
+    const int steps = 200;
+    const double dt = lane_dur / steps;
+    for (int k = 0; k <= steps; ++k) {
+      const auto s = m(t_end - lane_dur + k * dt);
+      const double h = std::atan2(s.vy, s.vx);
+      if (k > 0) peak = std::max(peak, std::abs(h - prev) / dt);
+      prev = h;
+    }
+    if (peak * 180 / std::numbers::pi <= 0.95 * lim.max_yaw_rate_dps) break;
+    lane_dur *= 1.1;
+  }
+  const double lane_start = t_end - lane_dur;
+  if (lane_start < 0)
+    reasons.push_back("the lane change needs " + num(lane_dur) + " s but the vehicle reaches its cut-in point " +
+                      num(t_end) + " s after the hazard starts: start it further behind");
+  if (!reasons.empty()) return {};
+  const hazard::MotionFn motion = motion_with(lane_start, lane_dur);
+
+  // It must have passed before it enters the ego path, or this is a side swipe, not a cut-in.
+  double lo = lane_start, hi = t_end;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = (lo + hi) / 2;
+    (std::abs(motion(mid).y) < half ? hi : lo) = mid;
+  }
+  const double t_enter = hi;
+  const double gap_enter = req.gap(motion(t_enter).x, len, t_enter);
+  if (gap_enter <= 0)
+    reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num(gap_enter) + " m at " +
+                      num(t_enter) + " s): it has not passed yet");
+  const hazard::BoxView start = hazard::view_of(req.scene.camera, x0, y0, 0.0, req.size_lwh);
+  if (start.in_front && start.inside_fraction > 0.999)
+    reasons.push_back("the vehicle starts fully in view (x=" + num(x0) + " m, y=" + num(y0) +
+                      " m): a cut-in starts beside or behind the ego, out of view or at the image edge");
+  const hazard::ObjectMotion end = motion(t_end);
+  if (!hazard::view_of(req.scene.camera, end.x, end.y, 0.0, req.size_lwh).centre_inside)
+    reasons.push_back("the cut-in point (x=" + num(end.x) + " m at " + num(t_end) + " s) is out of the camera's view");
+  if (!reasons.empty()) return {};
+
+  hazard::Design d;
+  d.motion = motion;
+  d.notes = {{"brake_start_s", t_brake},       {"lane_change_start_s", lane_start}, {"lane_change_s", lane_dur},
+             {"enters_path_s", t_enter},       {"cut_in_end_s", t_end},             {"gap_at_end_m", gap_end},
+             {"final_speed_mps", v1},          {"ego_stopping_distance_m", stopping}, {"target_ttc_s", target}};
+  return d;
+}
+
+}  // namespace hf

@@ -1,0 +1,23 @@
+// pedestrian_crossing hazard template: a person steps off the kerb and walks across the ego lane.
+#pragma once
+
+#include "hazardforge/hazard/template_base.hpp"
+
+namespace hf {
+
+// Kind hazard_template, name pedestrian_crossing. The person waits at the kerb on `side` (or at
+// lateral_offset_m) at x = initial_distance_m, then accelerates (jerk-limited) to speed_mps and walks straight
+// across. The wait is timed so the ego (constant speed) reaches the crossing point while the person is in its
+// path: with target_ttc_s the person enters the path when the TTC equals it; without, the person is on the lane
+// centre when the ego arrives. Params: the shared template params (see TemplateBase::base_info).
+class PedestrianCrossingTemplate : public hazard::TemplateBase {
+ public:
+  static ComponentInfo describe();
+  std::string hazard_kind() const override { return "pedestrian_crossing"; }
+
+ protected:
+  std::vector<std::string> allowed_classes() const override { return {"person"}; }
+  hazard::Design design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const override;
+};
+
+}  // namespace hf
