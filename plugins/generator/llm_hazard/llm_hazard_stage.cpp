@@ -1,0 +1,357 @@
+// LLM-guided hazard generation: prompt, provider call, validation/retry loop and the run records.
+#include "llm_hazard_stage.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <hazardforge/error.hpp>
+
+#include "llm_hash.hpp"
+#include "llm_json.hpp"
+
+namespace hf::llm_hazard {
+
+namespace {
+
+std::string share_file(const Params& p, const std::string& param, const std::string& rel) {
+  std::filesystem::path given = p.get_path(param);
+  return given.empty() ? (std::filesystem::path(share_dir()) / rel).string() : given.string();
+}
+
+std::string bullet_list(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& s : items) out += "- " + s + "\n";
+  if (!out.empty()) out.pop_back();
+  return out;
+}
+
+std::string join(const std::vector<std::string>& v, const std::string& sep) {
+  std::string out;
+  for (const std::string& s : v) out += (out.empty() ? "" : sep) + s;
+  return out;
+}
+
+Json messages_json(const std::vector<LlmMessage>& messages) {
+  Json j = Json::array();
+  for (const LlmMessage& m : messages) j.push_back({{"role", m.role}, {"content", m.content}});
+  return j;
+}
+
+}  // namespace
+
+ComponentInfo LlmHazardGenerator::describe() {
+  ComponentInfo i;
+  i.name = "llm_hazard";
+  i.kind = kind::kGenerator;
+  i.summary = "Asks an LLM for a collision-inducing hazard (HazardSpec) when the scene is Safe";
+  i.doc =
+      "Emits one HazardSpec at the trigger frame (stamped with its timestamp) when every risk input labels it "
+      "Safe. The reply is validated against share/schemas/hazard_spec.schema.json, the class limits in "
+      "share/hazard_limits.yaml, road/camera/TTC feasibility and the kind's hazard template; invalid replies are "
+      "sent back with the errors up to max_retries times. Records every call in llm/calls.jsonl and the spec in "
+      "hazard_spec.json.";
+  i.inputs = {port<ObjectStates>("states", "tracked objects in the ego frame"),
+              multi(port<RiskAssessment>("risk", "risk verdicts; the trigger frame must be Safe for all")),
+              port<Frame>("frames", "camera model, ego speed and dataset description")};
+  i.outputs = {port<HazardSpec>("hazard", "the accepted hazard, once")};
+  i.params = {
+      ParamSpec::object("provider", Json{{"name", "offline"}})
+          .describe("LLM provider: {name: offline|ollama|openai|..., <provider params>}"),
+      ParamSpec::string_list("kinds", {}).describe("allowed hazard kinds; empty = every registered hazard_template"),
+      ParamSpec::string("force_kind", "").describe("ask for exactly this kind (must be allowed)"),
+      ParamSpec::integer("max_retries", 3).range(0, 20).describe("invalid replies sent back before giving up"),
+      ParamSpec::integer("seed", 0).describe("sampling seed passed to the provider"),
+      ParamSpec::number("temperature", 0.2).range(0, 2).describe("sampling temperature passed to the provider"),
+      ParamSpec::integer("max_tokens", 1024).range(64, 32768).describe("reply length limit"),
+      ParamSpec::number("target_ttc_s", 1.0).range(0.1, 10).describe("TTC the hazard should reach"),
+      ParamSpec::number("ttc_tolerance_s", 0.25).range(0, 5).describe("slack when checking the reached TTC"),
+      ParamSpec::string("trigger", "first_safe").one_of({"first_safe", "frame"}).describe("when to generate"),
+      ParamSpec::integer("trigger_frame", 0).range(0, std::nullopt).describe("frame index for trigger: frame"),
+      ParamSpec::integer("warmup_frames", 5).range(0, std::nullopt)
+          .describe("frames skipped by first_safe so tracks have velocities"),
+      ParamSpec::string("environment", "").describe("scene environment for the prompt; empty = dataset description"),
+      ParamSpec::string("road_type", "").describe("road type for the prompt, e.g. 'urban two-lane street'"),
+      ParamSpec::string("sidewalks", "auto").one_of({"auto", "yes", "no"}).describe("pedestrians allowed"),
+      ParamSpec::string("intersection", "auto").one_of({"auto", "yes", "no"}).describe("crossing vehicles allowed"),
+      ParamSpec::string("multi_lane", "auto").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
+      ParamSpec::number("road_half_width_m", 5.25).range(1, 30).describe("drivable width either side of ego lane centre"),
+      ParamSpec::number("sidewalk_width_m", 3.0).range(0, 15).describe("sidewalk width beyond the road edge"),
+      ParamSpec::number("ego_front_m", 3.4).range(0, 10).describe("ego rear axle to front bumper"),
+      ParamSpec::number("horizon_s", 8.0).range(1, 60).describe("how long the hazard is replayed for the TTC check"),
+      ParamSpec::number("ego_speed_mps", -1.0).range(-1, 80)
+          .describe("ego speed if the data has none; negative = from ObjectStates / Frame.ego"),
+      ParamSpec::path("prompt_template", "").describe("prompt file; empty = share/prompts/hazard_generation.md"),
+      ParamSpec::path("retry_template", "").describe("retry message file; empty = share/prompts/hazard_retry.md"),
+      ParamSpec::path("schema", "").describe("hazard spec schema; empty = share/schemas/hazard_spec.schema.json"),
+      ParamSpec::path("limits", "").describe("class limits and kind rules; empty = share/hazard_limits.yaml"),
+      ParamSpec::path("class_sizes", "").describe("object sizes; empty = share/class_sizes.yaml"),
+  };
+  for (ParamSpec& p : Corridor::params()) i.params.push_back(std::move(p));
+  return i;
+}
+
+LlmHazardGenerator::LlmHazardGenerator() = default;
+LlmHazardGenerator::~LlmHazardGenerator() = default;
+
+void LlmHazardGenerator::open(StageContext& ctx) {
+  const Params& p = ctx.params();
+  const std::string who = "node '" + ctx.node_id() + "'";
+
+  // Provider: {name: ..., rest = its own params}.
+  Json provider_params = p.raw("provider");
+  if (!provider_params.is_object() || !provider_params.contains("name") || !provider_params["name"].is_string())
+    throw Error(who + ": param 'provider' needs a 'name' (e.g. {name: offline})");
+  provider_name_ = provider_params["name"].get<std::string>();
+  provider_params.erase("name");
+  provider_ = ctx.components().create<LlmProvider>(kind::kLlmProvider, provider_name_, provider_params);
+
+  // Allowed kinds: the param, else every registered template.
+  std::vector<std::string> registered = ctx.components().component_names(kind::kHazardTemplate);
+  allowed_kinds_ = p.get_strings("kinds");
+  if (allowed_kinds_.empty()) allowed_kinds_ = registered;
+  if (allowed_kinds_.empty())
+    throw Error(who + ": no hazard kinds to choose from: no hazard_template component is registered and param "
+                      "'kinds' is empty");
+  std::string force = p.get_string("force_kind");
+  if (!force.empty()) {
+    if (std::find(allowed_kinds_.begin(), allowed_kinds_.end(), force) == allowed_kinds_.end())
+      throw Error(who + ": force_kind '" + force + "' is not among the allowed kinds (" + join(allowed_kinds_, ", ") + ")");
+    allowed_kinds_ = {force};
+  }
+  for (const std::string& k : allowed_kinds_) {
+    if (std::find(registered.begin(), registered.end(), k) != registered.end())
+      templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, Json::object());
+    else
+      ctx.log(LogLevel::kWarning, "no hazard_template '" + k + "' is registered: only the generic checks apply to it");
+  }
+
+  std::string schema_file = share_file(p, "schema", "schemas/hazard_spec.schema.json");
+  spec_schema_ = load_schema_file(schema_file);
+  reply_validator_.emplace(reply_schema(spec_schema_, allowed_kinds_));
+  spec_validator_.emplace(spec_schema_);
+  prompt_ = PromptTemplate::load(share_file(p, "prompt_template", "prompts/hazard_generation.md"));
+  retry_prompt_ = PromptTemplate::load(share_file(p, "retry_template", "prompts/hazard_retry.md"));
+  limits_ = HazardLimits::load(share_file(p, "limits", "hazard_limits.yaml"));
+  sizes_ = ClassPriors::load(share_file(p, "class_sizes", "class_sizes.yaml"));
+  for (const std::string& f : {schema_file, prompt_->name(), retry_prompt_->name(), limits_.file})
+    ctx.record_resource(f);
+
+  trigger_ = p.get_string("trigger");
+  trigger_frame_ = p.get_int("trigger_frame");
+  warmup_frames_ = p.get_int("warmup_frames");
+  calls_ = std::make_unique<CallLog>(ctx.output_dir() / "llm" / "calls.jsonl");
+  ctx.log(LogLevel::kInfo, "hazards from " + provider_->describe_backend() + "; kinds: " + join(allowed_kinds_, ", "));
+}
+
+void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& out) {
+  if (done_) return;
+  const Frame& frame = in.require<Frame>("frames");
+  const ObjectStates& states = in.require<ObjectStates>("states");
+  std::vector<const RiskAssessment*> risks;
+  for (const Packet* pk : in.packets("risk"))
+    if (pk && !pk->empty()) risks.push_back(&pk->get<RiskAssessment>());
+  const int64_t seen = frames_seen_++;
+
+  if (trigger_ == "first_safe" && seen < warmup_frames_) return;
+  if (trigger_ == "frame" && frame.index != trigger_frame_) return;
+  if (risks.empty())
+    throw Error("node '" + ctx.node_id() + "': frame " + std::to_string(frame.index) +
+                " has no risk input; connect at least one risk metric to 'risk'");
+
+  std::string unsafe;
+  for (const RiskAssessment* r : risks)
+    if (r->label == SafetyLabel::kUnsafe)
+      unsafe += (unsafe.empty() ? "" : ", ") + r->metric + " = " + num(r->scene_value) + " " + r->unit +
+                " (threshold " + num(r->threshold) + ")";
+  if (!unsafe.empty()) {
+    if (trigger_ == "frame") {
+      ctx.log(LogLevel::kWarning, "frame " + std::to_string(frame.index) + " is Unsafe (" + unsafe +
+                                      "): it is already critical, no hazard generated");
+      done_ = true;
+    }
+    return;
+  }
+
+  HazardSpec spec = generate(ctx, frame, states, risks);
+  done_ = true;
+  out.emit("hazard", std::move(spec));
+}
+
+void LlmHazardGenerator::finish(StageContext& ctx, Outputs&) {
+  if (done_) return;
+  if (trigger_ == "frame")
+    ctx.log(LogLevel::kWarning, "no hazard generated: frame " + std::to_string(trigger_frame_) +
+                                    " never arrived (" + std::to_string(frames_seen_) + " frames seen)");
+  else
+    ctx.log(LogLevel::kWarning, "no hazard generated: no frame after the " + std::to_string(warmup_frames_) +
+                                    " warm-up frames was Safe (" + std::to_string(frames_seen_) + " frames seen)");
+}
+
+double LlmHazardGenerator::ego_speed(const Frame& frame, const ObjectStates& states) const {
+  if (states.ego_speed_mps && std::isfinite(*states.ego_speed_mps)) return *states.ego_speed_mps;
+  if (frame.ego.speed_mps && std::isfinite(*frame.ego.speed_mps)) return *frame.ego.speed_mps;
+  return -1.0;
+}
+
+double LlmHazardGenerator::risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const {
+  for (const RiskAssessment* r : risks)
+    if (r->unit == "s" && r->lower_is_riskier) return r->threshold;
+  throw Error("frame " + std::to_string(frame) +
+              ": no time-to-collision risk input (unit 's'); the hazard's target TTC needs one");
+}
+
+HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, const ObjectStates& states,
+                                        const std::vector<const RiskAssessment*>& risks) {
+  const Params& p = ctx.params();
+  const std::string who = "node '" + ctx.node_id() + "'";
+
+  SceneSettings s;
+  s.description = dataset_description(frame);
+  s.environment = p.get_string("environment");
+  if (s.environment.empty()) s.environment = s.description.empty() ? "unknown" : s.description;
+  s.road_type = p.get_string("road_type");
+  if (s.road_type.empty()) s.road_type = "unknown";
+  const std::string text = s.environment + " " + s.road_type + " " + s.description;
+  s.sidewalks = resolve_sidewalks(p.get_string("sidewalks"), text);
+  s.intersection = resolve_intersection(p.get_string("intersection"), text);
+  s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
+  s.allowed_kinds = allowed_kinds_;
+  s.target_ttc_s = p.get_double("target_ttc_s");
+  s.ttc_tolerance_s = p.get_double("ttc_tolerance_s");
+  s.threshold_s = risk_threshold(risks, frame.index);
+  if (s.target_ttc_s >= s.threshold_s)
+    throw Error(who + ": target_ttc_s = " + num(s.target_ttc_s) + " is not below the risk threshold " +
+                num(s.threshold_s) + " s, so no hazard could make the scene Unsafe");
+  s.ego_speed_mps = ego_speed(frame, states);
+  if (s.ego_speed_mps < 0) s.ego_speed_mps = p.get_double("ego_speed_mps");
+  if (s.ego_speed_mps < 0)
+    throw Error(who + ": the ego speed at frame " + std::to_string(frame.index) +
+                " is unknown (neither ObjectStates nor the frame carry it); set param ego_speed_mps");
+  s.horizon_s = p.get_double("horizon_s");
+  s.ego_front_m = p.get_double("ego_front_m");
+  s.road_half_width_m = p.get_double("road_half_width_m");
+  s.sidewalk_width_m = p.get_double("sidewalk_width_m");
+  s.corridor = Corridor::from(p);
+  ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + " is Safe: generating a hazard (sidewalks " +
+                               (s.sidewalks.value ? "yes" : "no") + ", " + s.sidewalks.why + "; intersection " +
+                               (s.intersection.value ? "yes" : "no") + ", " + s.intersection.why + "; multi-lane " +
+                               (s.multi_lane.value ? "yes" : "no") + ", " + s.multi_lane.why + ")");
+
+  SceneSummary scene = summarize_scene(frame, states, risks, s, limits_, sizes_);
+  std::map<std::string, std::string> values = scene.placeholders;
+  values["schema"] = reply_validator_->schema().dump(2);
+  const std::string prompt = prompt_->render(values);
+  const std::string prompt_hash = llm::sha256_hex(prompt);
+
+  FeasibilityConfig fc;
+  fc.limits = limits_;
+  fc.sizes = sizes_;
+  fc.corridor = s.corridor;
+  fc.road = {s.sidewalks.value, s.intersection.value, s.multi_lane.value, s.road_half_width_m, s.sidewalk_width_m};
+  fc.ego_front_m = s.ego_front_m;
+  fc.horizon_s = s.horizon_s;
+  fc.ttc_tolerance_s = s.ttc_tolerance_s;
+  fc.threshold_s = s.threshold_s;
+  fc.trigger_time_s = frame.timestamp;
+  fc.ego_speed_mps = s.ego_speed_mps;
+
+  LlmRequest req;
+  req.messages = {{"user", prompt}};
+  req.response_schema = reply_validator_->schema();
+  req.temperature = p.get_double("temperature");
+  req.seed = p.get_int("seed");
+  req.max_tokens = static_cast<int>(p.get_int("max_tokens"));
+  req.scene = scene.scene;
+
+  const int max_attempts = 1 + static_cast<int>(p.get_int("max_retries"));
+  const std::string backend = provider_->describe_backend();
+  std::vector<std::string> errors;
+  for (int attempt = 1; attempt <= max_attempts; ++attempt) {
+    Json record = {{"node", ctx.node_id()},
+                   {"frame_index", frame.index},
+                   {"timestamp_s", frame.timestamp},
+                   {"attempt", attempt},
+                   {"provider", provider_name_},
+                   {"backend", backend},
+                   {"temperature", req.temperature},
+                   {"seed", req.seed},
+                   {"prompt_sha256", prompt_hash},
+                   {"messages", messages_json(req.messages)}};
+    LlmReply reply;
+    auto t0 = std::chrono::steady_clock::now();
+    try {
+      reply = provider_->complete(req);
+    } catch (const Error& e) {
+      record["latency_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      record["transport_error"] = e.what();
+      record["accepted"] = false;
+      calls_->append(record);
+      throw Error(who + ": " + e.what());
+    }
+    const double latency = reply.latency_s > 0
+                               ? reply.latency_s
+                               : std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ctx.record_timing("llm_call", latency);
+    record["model"] = reply.model;
+    record["latency_s"] = latency;
+    record["reply"] = reply.content;
+    record["response"] = reply.raw;
+
+    errors.clear();
+    HazardSpec spec;
+    try {
+      Json doc = llm::extract_json_object(reply.content);
+      errors = reply_validator_->validate(doc);
+      if (errors.empty()) {
+        spec = spec_from_reply(doc, frame.timestamp);
+        std::vector<std::string> skipped;
+        errors = check_feasibility(spec, scene.context, fc, &skipped);
+        if (!skipped.empty() && !warned_skipped_) {
+          for (const std::string& note : skipped) ctx.log(LogLevel::kWarning, note);
+          warned_skipped_ = true;
+        }
+        if (auto t = templates_.find(spec.kind); t != templates_.end())
+          for (const std::string& e : t->second->check(spec, scene.context))
+            errors.push_back("hazard template '" + spec.kind + "': " + e);
+      }
+    } catch (const Error& e) {
+      errors = {e.what()};
+    }
+    record["errors"] = errors;
+    record["accepted"] = errors.empty();
+    calls_->append(record);
+
+    if (errors.empty()) {
+      spec.schema_version = "1.0";
+      spec.provenance = {{"provider", provider_name_},
+                         {"backend", backend},
+                         {"model", reply.model},
+                         {"prompt_sha256", prompt_hash},
+                         {"prompt_template", prompt_->name()},
+                         {"attempts", attempt},
+                         {"retries", attempt - 1},
+                         {"seed", req.seed},
+                         {"temperature", req.temperature},
+                         {"trigger", trigger_},
+                         {"frame_index", frame.index},
+                         {"calls", "llm/calls.jsonl"}};
+      Json written = spec;
+      if (std::vector<std::string> bad = spec_validator_->validate(written); !bad.empty())
+        throw Error(who + ": internal error: the accepted spec does not follow the schema: " + join(bad, "; "));
+      write_file_atomic(ctx.output_dir() / "hazard_spec.json", written.dump(2) + "\n");
+      ctx.log(LogLevel::kInfo, "hazard " + spec.kind + " (" + spec.object_class + ") accepted after " +
+                                   std::to_string(attempt) + " attempt(s)");
+      return spec;
+    }
+    ctx.log(LogLevel::kWarning, "attempt " + std::to_string(attempt) + " rejected: " + join(errors, "; "));
+    if (attempt < max_attempts) {
+      req.messages.push_back({"assistant", reply.content});
+      req.messages.push_back({"user", retry_prompt_->render({{"errors", bullet_list(errors)}})});
+    }
+  }
+  throw Error(who + ": no valid hazard spec after " + std::to_string(max_attempts) + " attempt(s) from " + backend +
+              "; last errors: " + join(errors, "; "));
+}
+
+}  // namespace hf::llm_hazard

@@ -1,0 +1,71 @@
+// The llm_hazard generator: asks an LLM provider for a collision-inducing hazard when the scene is Safe.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <hazardforge/geometry.hpp>
+#include <hazardforge/stage.hpp>
+
+#include "feasibility.hpp"
+#include "hazard_schema.hpp"
+#include "prompt.hpp"
+#include "run_files.hpp"
+#include "scene_summary.hpp"
+
+namespace hf::llm_hazard {
+
+// LlmHazardGenerator (stage "llm_hazard", kind generator).
+// Inputs: states (ObjectStates), risk (RiskAssessment, multi), frames (Frame).
+// Output: hazard (HazardSpec), emitted once, stamped with the trigger frame's timestamp.
+// Trigger: `first_safe` = the first frame after `warmup_frames` frames that every risk input labels Safe;
+// `frame` = the frame whose index is `trigger_frame` (if it is Unsafe nothing is generated; logged).
+// At the trigger the scene is summarised into the prompt (share/prompts/hazard_generation.md), the provider
+// (`provider: {name: ..., <its params>}`) answers, and the reply is extracted, validated against the hazard
+// spec schema, checked for physical feasibility and by the kind's hazard template. Invalid replies go back to
+// the model with the errors (share/prompts/hazard_retry.md), up to `max_retries` times; then the stage fails
+// with the last errors. Transport failures fail at once. Every call is appended to llm/calls.jsonl and the
+// accepted spec is written to hazard_spec.json in the run folder.
+class LlmHazardGenerator : public Stage {
+ public:
+  static ComponentInfo describe();
+  LlmHazardGenerator();
+  ~LlmHazardGenerator() override;
+  void open(StageContext& ctx) override;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  void finish(StageContext& ctx, Outputs& out) override;
+
+  // The allowed kinds after open(): param `kinds` (or every registered template), narrowed by `force_kind`.
+  const std::vector<std::string>& allowed_kinds() const { return allowed_kinds_; }
+
+ private:
+  HazardSpec generate(StageContext& ctx, const Frame& frame, const ObjectStates& states,
+                      const std::vector<const RiskAssessment*>& risks);
+  double ego_speed(const Frame& frame, const ObjectStates& states) const;
+  double risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const;
+
+  std::unique_ptr<LlmProvider> provider_;
+  std::string provider_name_;
+  std::map<std::string, std::unique_ptr<HazardTemplate>> templates_;
+  std::vector<std::string> allowed_kinds_;
+  Json spec_schema_;
+  std::optional<SchemaValidator> reply_validator_;
+  std::optional<SchemaValidator> spec_validator_;
+  std::optional<PromptTemplate> prompt_;
+  std::optional<PromptTemplate> retry_prompt_;
+  HazardLimits limits_;
+  ClassPriors sizes_;
+  std::unique_ptr<CallLog> calls_;
+
+  std::string trigger_;
+  int64_t trigger_frame_ = 0;
+  int64_t warmup_frames_ = 5;
+  int64_t frames_seen_ = 0;
+  bool done_ = false;
+  bool warned_skipped_ = false;
+};
+
+}  // namespace hf::llm_hazard

@@ -1,0 +1,204 @@
+// Scene context for the prompt and the offline planner, from ObjectStates, RiskAssessments and Frame metadata.
+#include "scene_summary.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <set>
+
+namespace hf::llm_hazard {
+
+namespace {
+
+std::set<std::string> words(const std::string& text) {
+  std::set<std::string> out;
+  std::string w;
+  for (char c : text + " ") {
+    if (std::isalnum(static_cast<unsigned char>(c)) || c == '-') {
+      w.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+    } else if (!w.empty()) {
+      out.insert(w);
+      w.clear();
+    }
+  }
+  return out;
+}
+
+Resolved resolve(const std::string& setting, const std::string& text, const std::set<std::string>& yes,
+                 const std::set<std::string>& no, const std::string& what) {
+  if (setting == "yes") return {true, "set to yes"};
+  if (setting == "no") return {false, "set to no"};
+  std::set<std::string> w = words(text);
+  for (const std::string& n : no)
+    if (w.count(n)) return {false, "auto: the scene text mentions '" + n + "'"};
+  for (const std::string& y : yes)
+    if (w.count(y)) return {true, "auto: the scene text mentions '" + y + "'"};
+  return {false, "auto: nothing in the scene text suggests " + what};
+}
+
+Json opt(const std::optional<double>& v) { return v && std::isfinite(*v) ? Json(*v) : Json(nullptr); }
+
+std::string fmt_opt(const std::optional<double>& v, const std::string& unit) {
+  return v && std::isfinite(*v) ? num(*v) + unit : "unknown";
+}
+
+std::string yes_no(const Resolved& r) { return r.value ? "yes" : "no"; }
+
+}  // namespace
+
+Resolved resolve_sidewalks(const std::string& setting, const std::string& text) {
+  return resolve(setting, text,
+                 {"sidewalk", "sidewalks", "pedestrian", "pedestrians", "ped", "peds", "crosswalk", "crosswalks",
+                  "urban", "city", "downtown", "residential", "parking", "shops", "school", "market", "street"},
+                 {"highway", "motorway", "freeway", "expressway", "interstate", "autobahn"}, "sidewalks");
+}
+
+Resolved resolve_intersection(const std::string& setting, const std::string& text) {
+  return resolve(setting, text,
+                 {"intersection", "intersections", "junction", "junctions", "crossroads", "roundabout", "turn",
+                  "turning"},
+                 {"highway", "motorway", "freeway", "expressway", "interstate", "autobahn"}, "an intersection");
+}
+
+Resolved resolve_multi_lane(const std::string& setting, const std::string& text) {
+  return resolve(setting, text,
+                 {"highway", "motorway", "freeway", "expressway", "interstate", "autobahn", "multi-lane",
+                  "multilane", "lanes", "arterial", "avenue", "boulevard"},
+                 {"single-lane", "one-lane", "narrow", "alley"}, "several lanes");
+}
+
+std::string dataset_description(const Frame& frame) {
+  for (const char* key : {"scene_description", "description"})
+    if (frame.meta.is_object() && frame.meta.contains(key) && frame.meta[key].is_string())
+      return frame.meta[key].get<std::string>();
+  return {};
+}
+
+SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
+                             const std::vector<const RiskAssessment*>& risks, const SceneSettings& s,
+                             const HazardLimits& limits, const ClassPriors& sizes) {
+  SceneSummary out;
+
+  // Per-object TTC from the first seconds-valued metric, so the prompt can say which object is closest in time.
+  const RiskAssessment* ttc_metric = nullptr;
+  for (const RiskAssessment* r : risks)
+    if (r->unit == "s" && r->lower_is_riskier) {
+      ttc_metric = r;
+      break;
+    }
+  auto object_ttc = [&](int64_t id) -> std::optional<double> {
+    if (!ttc_metric) return std::nullopt;
+    for (const ObjectRisk& o : ttc_metric->objects)
+      if (o.track_id == id) return o.value;
+    return std::nullopt;
+  };
+
+  Json objects = Json::array();
+  std::string object_lines;
+  for (const ObjectState& o : states.objects) {
+    std::optional<double> ttc = object_ttc(o.track_id);
+    Json j = {{"track_id", o.track_id},
+              {"label", o.label},
+              {"distance_m", finite_or_null(o.distance_m)},
+              {"lateral_m", o.lateral_m},
+              {"width_m", o.width_m},
+              {"length_m", o.length_m},
+              {"speed_mps", opt(o.speed_mps)},
+              {"in_path", o.in_path},
+              {"ttc_s", opt(ttc)}};
+    if (o.velocity_rel) j["velocity_rel"] = {(*o.velocity_rel)[0], (*o.velocity_rel)[1]};
+    objects.push_back(std::move(j));
+    object_lines += "- track " + std::to_string(o.track_id) + ": " + o.label + ", x " + num(o.distance_m) + " m, y " +
+                    num(o.lateral_m) + " m, speed " + fmt_opt(o.speed_mps, " m/s") +
+                    (o.in_path ? ", in the ego path" : "") + (ttc ? ", TTC " + fmt_opt(ttc, " s") : "") + "\n";
+  }
+  if (object_lines.empty()) object_lines = "- none\n";
+  if (!object_lines.empty()) object_lines.pop_back();
+
+  Json risk = Json::array();
+  std::string risk_summary;
+  double scene_ttc = kInf;
+  for (const RiskAssessment* r : risks) {
+    risk.push_back({{"metric", r->metric},
+                    {"stage", r->stage},
+                    {"unit", r->unit},
+                    {"scene_value", finite_or_null(r->scene_value)},
+                    {"threshold", r->threshold},
+                    {"label", to_string(r->label)}});
+    risk_summary += (risk_summary.empty() ? "" : "; ") + r->metric + " " + num(r->scene_value) + " " + r->unit + " (" +
+                    to_string(r->label) + ")";
+    if (r->unit == "s" && r->lower_is_riskier) scene_ttc = std::min(scene_ttc, r->scene_value);
+  }
+
+  Json class_sizes = Json::object();
+  for (const auto& [name, size] : sizes.all())
+    class_sizes[name] = {{"length", size.length}, {"width", size.width}, {"height", size.height}};
+
+  std::string limit_lines;
+  for (const auto& [name, c] : limits.classes)
+    limit_lines += "- " + name + ": speed <= " + num(c.max_speed_mps) + " m/s, braking <= " + num(c.max_decel_mps2) +
+                   " m/s^2\n";
+  if (!limit_lines.empty()) limit_lines.pop_back();
+
+  std::string kinds;
+  for (const std::string& k : s.allowed_kinds) kinds += (kinds.empty() ? "" : ", ") + k;
+
+  out.scene = {{"frame_index", frame.index},
+               {"timestamp_s", frame.timestamp},
+               {"ego_speed_mps", s.ego_speed_mps},
+               {"scene_ttc_s", finite_or_null(scene_ttc)},
+               {"threshold_s", s.threshold_s},
+               {"risk", risk},
+               {"objects", objects},
+               {"environment", s.environment},
+               {"road_type", s.road_type},
+               {"description", s.description},
+               {"sidewalks", s.sidewalks.value},
+               {"intersection", s.intersection.value},
+               {"multi_lane", s.multi_lane.value},
+               {"allowed_kinds", s.allowed_kinds},
+               {"target_ttc_s", s.target_ttc_s},
+               {"ttc_tolerance_s", s.ttc_tolerance_s},
+               {"horizon_s", s.horizon_s},
+               {"ego_front_m", s.ego_front_m},
+               {"road_half_width_m", s.road_half_width_m},
+               {"sidewalk_width_m", s.sidewalk_width_m},
+               {"corridor", {{"ego_half_width", s.corridor.ego_half_width}, {"margin", s.corridor.margin}}},
+               {"limits", limits.to_json()},
+               {"class_sizes", class_sizes},
+               {"camera", frame.camera.valid() ? Json(frame.camera) : Json(nullptr)}};
+
+  out.placeholders = {{"environment", s.environment},
+                      {"road_type", s.road_type},
+                      {"description", s.description.empty() ? "none" : s.description},
+                      {"sidewalks", yes_no(s.sidewalks)},
+                      {"intersection", yes_no(s.intersection)},
+                      {"multi_lane", yes_no(s.multi_lane)},
+                      {"timestamp_s", num(frame.timestamp)},
+                      {"frame_index", std::to_string(frame.index)},
+                      {"ego_speed_mps", num(s.ego_speed_mps)},
+                      {"scene_ttc_s", num(scene_ttc)},
+                      {"threshold_s", num(s.threshold_s)},
+                      {"risk_summary", risk_summary.empty() ? "none" : risk_summary},
+                      {"objects", object_lines},
+                      {"limits", limit_lines},
+                      {"allowed_kinds", kinds},
+                      {"target_ttc_s", num(s.target_ttc_s)},
+                      {"ego_front_m", num(s.ego_front_m)}};
+
+  out.context.timestamp = frame.timestamp;
+  out.context.ego_speed_mps = s.ego_speed_mps;
+  out.context.camera = frame.camera;
+  out.context.objects = states.objects;
+  out.context.meta = {{"environment", s.environment},
+                      {"road_type", s.road_type},
+                      {"description", s.description},
+                      {"sidewalks", s.sidewalks.value},
+                      {"intersection", s.intersection.value},
+                      {"multi_lane", s.multi_lane.value},
+                      {"threshold_s", s.threshold_s},
+                      {"target_ttc_s", s.target_ttc_s}};
+  return out;
+}
+
+}  // namespace hf::llm_hazard

@@ -1,0 +1,54 @@
+// The scene as the LLM sees it: structured context (LlmRequest::scene), the prompt's placeholder values and
+// the SceneContext hazard templates check against, all built from one frame's assessment.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <hazardforge/stage.hpp>
+
+#include "feasibility.hpp"
+
+namespace hf::llm_hazard {
+
+// "auto" | "yes" | "no" resolved against the environment text; `why` says which word decided.
+struct Resolved {
+  bool value = false;
+  std::string why;
+};
+Resolved resolve_sidewalks(const std::string& setting, const std::string& text);
+Resolved resolve_intersection(const std::string& setting, const std::string& text);
+Resolved resolve_multi_lane(const std::string& setting, const std::string& text);
+
+// The dataset's own words for the scene: Frame.meta "scene_description", else "description", else "".
+std::string dataset_description(const Frame& frame);
+
+struct SceneSettings {
+  std::string environment;  // param, else the dataset description, else "unknown"
+  std::string road_type;    // param, else "unknown"
+  std::string description;  // dataset description
+  Resolved sidewalks, intersection, multi_lane;
+  std::vector<std::string> allowed_kinds;
+  double target_ttc_s = 1.0;
+  double ttc_tolerance_s = 0.25;
+  double threshold_s = 1.5;
+  double ego_speed_mps = 0.0;
+  double horizon_s = 8.0;
+  double ego_front_m = 3.4;
+  double road_half_width_m = 5.25;
+  double sidewalk_width_m = 3.0;
+  Corridor corridor;
+};
+
+struct SceneSummary {
+  Json scene;                                      // LlmRequest::scene
+  std::map<std::string, std::string> placeholders;  // prompt values (all but "schema")
+  SceneContext context;                            // for feasibility and template checks
+};
+
+SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
+                             const std::vector<const RiskAssessment*>& risks, const SceneSettings& settings,
+                             const HazardLimits& limits, const ClassPriors& sizes);
+
+}  // namespace hf::llm_hazard

@@ -1,0 +1,101 @@
+// libcurl-backed JSON POST shared by the ollama and openai providers.
+#include "llm_http.hpp"
+
+#include <curl/curl.h>
+
+#include <memory>
+#include <mutex>
+
+#include <hazardforge/error.hpp>
+
+namespace hf::llm {
+
+namespace {
+
+size_t append_body(char* data, size_t size, size_t n, void* user) {
+  static_cast<std::string*>(user)->append(data, size * n);
+  return size * n;
+}
+
+// curl_global_init is not thread-safe; run it once for the process.
+void init_curl_once() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (curl_global_init(CURL_GLOBAL_DEFAULT) != CURLE_OK) throw Error("libcurl: curl_global_init failed");
+  });
+}
+
+long to_ms(double seconds) { return seconds <= 0 ? 0L : static_cast<long>(seconds * 1000.0 + 0.5); }
+
+}  // namespace
+
+HttpResponse post_json(const std::string& who, const std::string& url, const Json& body,
+                       const std::vector<std::string>& headers, const HttpTimeouts& timeouts) {
+  init_curl_once();
+  std::unique_ptr<CURL, void (*)(CURL*)> curl(curl_easy_init(), curl_easy_cleanup);
+  if (!curl) throw Error(who + ": POST " + url + " failed: curl_easy_init returned null");
+  curl_slist* list = curl_slist_append(nullptr, "Content-Type: application/json");
+  list = curl_slist_append(list, "Accept: application/json");
+  for (const std::string& h : headers) list = curl_slist_append(list, h.c_str());
+  std::unique_ptr<curl_slist, void (*)(curl_slist*)> header_list(list, curl_slist_free_all);
+
+  const std::string payload = body.dump();
+  HttpResponse res;
+  CURL* c = curl.get();
+  curl_easy_setopt(c, CURLOPT_URL, url.c_str());
+  curl_easy_setopt(c, CURLOPT_POST, 1L);
+  curl_easy_setopt(c, CURLOPT_POSTFIELDS, payload.c_str());
+  curl_easy_setopt(c, CURLOPT_POSTFIELDSIZE_LARGE, static_cast<curl_off_t>(payload.size()));
+  curl_easy_setopt(c, CURLOPT_HTTPHEADER, header_list.get());
+  curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, &append_body);
+  curl_easy_setopt(c, CURLOPT_WRITEDATA, &res.body);
+  curl_easy_setopt(c, CURLOPT_CONNECTTIMEOUT_MS, to_ms(timeouts.connect_s));
+  curl_easy_setopt(c, CURLOPT_TIMEOUT_MS, to_ms(timeouts.read_s));
+  // Signals cannot be used for timeouts in a multi-threaded host.
+  curl_easy_setopt(c, CURLOPT_NOSIGNAL, 1L);
+  // An LLM endpoint never redirects legitimately; following one could send the prompt elsewhere.
+  curl_easy_setopt(c, CURLOPT_FOLLOWLOCATION, 0L);
+  // A proxy from the environment must not intercept loopback model servers.
+  curl_easy_setopt(c, CURLOPT_NOPROXY, "127.0.0.1,localhost,::1");
+
+  CURLcode rc = curl_easy_perform(c);
+  if (rc != CURLE_OK) throw Error(who + ": POST " + url + " failed: " + curl_easy_strerror(rc));
+  curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &res.status);
+  return res;
+}
+
+std::string http_status_error(const std::string& who, const std::string& url, long status,
+                              const std::string& body) {
+  std::string detail;
+  Json j = Json::parse(body, nullptr, /*allow_exceptions=*/false);
+  if (j.is_object() && j.contains("error")) {
+    const Json& e = j["error"];
+    if (e.is_string()) detail = e.get<std::string>();
+    else if (e.is_object() && e.contains("message") && e["message"].is_string()) detail = e["message"];
+    else detail = e.dump();
+  } else {
+    constexpr size_t kMax = 200;
+    detail = body.size() > kMax ? body.substr(0, kMax) + "..." : body;
+    if (detail.empty()) detail = "(empty body)";
+  }
+  return who + ": POST " + url + " returned HTTP " + std::to_string(status) + ": " + detail;
+}
+
+Json parse_response(const std::string& who, const std::string& url, const std::string& body) {
+  try {
+    return Json::parse(body);
+  } catch (const Json::parse_error& e) {
+    std::string what = e.what();
+    if (auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    throw Error(who + ": POST " + url + ": response is not JSON: " + what);
+  }
+}
+
+std::string normalize_base_url(const std::string& url) {
+  std::string u = url;
+  if (u.find("://") == std::string::npos) u = "http://" + u;
+  while (!u.empty() && u.back() == '/') u.pop_back();
+  return u;
+}
+
+}  // namespace hf::llm
