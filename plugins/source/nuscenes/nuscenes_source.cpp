@@ -188,6 +188,7 @@ void NuScenesSource::open(StageContext& ctx) {
       const Json& pose = T.ego_pose.at(T.sample_data.str(sd, "ego_pose_token"), sd_ref);
       k.R_world_ego = quaternion_to_matrix(T.ego_pose.nums(pose, "rotation", 4));
       k.t_world_ego = vec3(T.ego_pose.nums(pose, "translation", 3));
+      k.pose_timestamp_us = T.ego_pose.i64(pose, "timestamp");
       kfs.push_back(std::move(k));
       tok = T.sample.str(sample, "next");
     }
@@ -200,11 +201,14 @@ void NuScenesSource::open(StageContext& ctx) {
     }
 
     // Ego motion by central differences of neighbouring keyframe poses (one-sided at the ends).
-    std::vector<double> ts;
+    std::vector<double> ts, pose_ts;
     std::vector<cv::Vec3d> pos;
     std::vector<double> yaw;
+    // Differences in integer microseconds first: epoch seconds as doubles lose ~0.3 us.
+    const int64_t t0_us = kfs.front().timestamp_us;
     for (const KeyFrame& k : kfs) {
-      ts.push_back(static_cast<double>(k.timestamp_us) * 1e-6);
+      ts.push_back(static_cast<double>(k.timestamp_us - t0_us) * 1e-6);
+      pose_ts.push_back(static_cast<double>(k.pose_timestamp_us - t0_us) * 1e-6);
       pos.push_back(k.t_world_ego);
       yaw.push_back(yaw_of(k.R_world_ego));
     }
@@ -219,21 +223,22 @@ void NuScenesSource::open(StageContext& ctx) {
         T_we(r, 3) = k.t_world_ego[r];
       }
       k.ego.T_world_ego = T_we;
-      auto v = central(pos, ts, i, [](const cv::Vec3d& b, const cv::Vec3d& a) { return cv::Vec3d(b - a); });
+      auto v = central(pos, pose_ts, i, [](const cv::Vec3d& b, const cv::Vec3d& a) { return cv::Vec3d(b - a); });
       if (v) {
         k.ego.velocity_world = *v;
         k.ego.speed_mps = cv::norm(*v);
       }
-      if (auto w = central(yaw, ts, i, [](double b, double a) { return std::remainder(b - a, 2 * CV_PI); }))
+      if (auto w = central(yaw, pose_ts, i, [](double b, double a) { return std::remainder(b - a, 2 * CV_PI); }))
         k.ego.yaw_rate = *w;
 
       if (!with_ann) continue;
       auto ann = std::make_shared<Annotations>();
       if (v) ann->ego_velocity_ego = k.R_world_ego.t() * *v;
       const cv::Matx33d R_ew = k.R_world_ego.t();
-      auto sample_time = [&](const Json& a) {
+      auto sample_time_us = [&](const Json& a) {
         const std::string st = T.sample_annotation.str(a, "sample_token");
-        return static_cast<double>(T.sample.i64(T.sample.at(st, "sample_annotation '" + T.sample_annotation.str(a, "token") + "'"), "timestamp")) * 1e-6;
+        return T.sample.i64(T.sample.at(st, "sample_annotation '" + T.sample_annotation.str(a, "token") + "'"),
+                            "timestamp");
       };
       auto it = anns_of_sample.find(k.sample_token);
       if (it != anns_of_sample.end()) {
@@ -258,7 +263,7 @@ void NuScenesSource::open(StageContext& ctx) {
           if (!prev.empty() || !next.empty()) {
             const Json& first = prev.empty() ? a : T.sample_annotation.at(prev, ref + " (prev)");
             const Json& last = next.empty() ? a : T.sample_annotation.at(next, ref + " (next)");
-            const double dt = sample_time(last) - sample_time(first);
+            const double dt = static_cast<double>(sample_time_us(last) - sample_time_us(first)) * 1e-6;
             const double allowed = (!prev.empty() && !next.empty()) ? 2 * max_dt : max_dt;
             if (dt > 0 && dt <= allowed) {
               const cv::Vec3d v_world = (vec3(T.sample_annotation.nums(last, "translation", 3)) -

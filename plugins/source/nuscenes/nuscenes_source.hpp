@@ -21,7 +21,8 @@ class NuScenesSource : public SourceStage {
  public:
   struct KeyFrame {
     std::string scene, scene_description, sample_token, sample_data_token, filename;
-    int64_t timestamp_us = 0;
+    int64_t timestamp_us = 0;       // sample_data (image capture) time
+    int64_t pose_timestamp_us = 0;  // ego_pose time, used for ego velocity
     double t = 0.0;
     bool scene_start = false;
     CameraModel camera;  // at the native image size
