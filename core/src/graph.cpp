@@ -185,7 +185,9 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
       continue;
     }
     n.id = jn["id"].get<std::string>();
-    if (!ids.insert(n.id).second) error(doc.at(base + "/id"), "duplicate node id '" + n.id + "'");
+    // A duplicate is reported once; its stage and params are still checked, but it joins no stream.
+    const bool duplicate = !ids.insert(n.id).second;
+    if (duplicate) error(doc.at(base + "/id"), "duplicate node id '" + n.id + "'");
     const std::string who = "node '" + n.id + "'";
     if (!jn.contains("stage") || !jn["stage"].is_string()) {
       error(n.where, who + " has no 'stage'");
@@ -273,7 +275,7 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
         }
       }
     }
-    nodes.push_back(std::move(n));
+    if (!duplicate) nodes.push_back(std::move(n));
   }
 
   // ---- streams: exactly one producer each, types match ------------------------------------------------------

@@ -1,0 +1,96 @@
+// The hazardforge executable end to end: plugins, inspect, validate, run on the real video, manifest.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+
+#include "hazardforge/types.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+struct Cmd {
+  int code = -1;
+  std::string out;
+};
+
+Cmd run(const std::string& args) {
+  Cmd c;
+  const std::string cmd = std::string(HF_EXE) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::array<char, 4096> buf{};
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) c.out.append(buf.data(), n);
+  const int st = pclose(p);
+  c.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return c;
+}
+
+TEST(Cli, HelpOnEveryCommand) {
+  for (const char* sub : {"run", "validate", "plugins", "inspect", "graph", "bench", "eval", "experiment", "calibrate"}) {
+    Cmd c = run(std::string(sub) + " --help");
+    EXPECT_EQ(c.code, 0) << sub;
+    EXPECT_NE(c.out.find("Usage"), std::string::npos) << sub << ": " << c.out;
+  }
+}
+
+TEST(Cli, PluginsListsInTreePluginsWithPaths) {
+  Cmd c = run("plugins");
+  EXPECT_EQ(c.code, 0) << c.out;
+  for (const char* s : {"source/video", "detector/yolo", "tracker/centroid", "sink/jsonl"})
+    EXPECT_NE(c.out.find(s), std::string::npos) << s << "\n" << c.out;
+  EXPECT_NE(c.out.find(hf::test::plugin_dir().string()), std::string::npos);
+}
+
+TEST(Cli, InspectDocumentsPortsAndParams) {
+  Cmd c = run("inspect yolo");
+  EXPECT_EQ(c.code, 0) << c.out;
+  for (const char* s : {"detector/yolo", "inputs:", "frames", "Frame v1", "outputs:", "detections", "params:",
+                        "conf_threshold"})
+    EXPECT_NE(c.out.find(s), std::string::npos) << s << "\n" << c.out;
+  Cmd bad = run("inspect yoloo");
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_NE(bad.out.find("error: unknown component 'yoloo'; did you mean 'yolo'?"), std::string::npos) << bad.out;
+}
+
+TEST(Cli, ValidateReportsEveryErrorAndFails) {
+  std::filesystem::current_path(hf::test::source_dir());
+  Cmd c = run("validate tests/data/cli/bad_video_graph.yaml");
+  EXPECT_EQ(c.code, 1);
+  std::ifstream in(hf::test::test_data("cli/bad_video_graph.expected"));
+  std::string expected((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(c.out, expected);
+}
+
+TEST(Cli, RunWritesPlayableVideoJsonlAndManifest) {
+  HF_REQUIRE_SHARED(hf::test::shared_data("udacity-highway/test_video.mp4"));
+  std::filesystem::current_path(hf::test::source_dir());
+  const auto out = std::filesystem::temp_directory_path() / "hf_cli_run";
+  std::filesystem::remove_all(out);
+  Cmd c = run("run configs/examples/video_to_jsonl.yaml -o " + out.string());
+  ASSERT_EQ(c.code, 0) << c.out;
+  std::ifstream mf(out / "manifest.json");
+  ASSERT_TRUE(mf);
+  hf::Json m = hf::Json::parse(mf);
+  EXPECT_EQ(m["status"], "completed");
+  EXPECT_EQ(m["frames"], 38);
+  EXPECT_FALSE(m["plugins"].empty());
+  EXPECT_FALSE(m["resolved_graph"]["nodes"].empty());
+  EXPECT_FALSE(m["started_at"].get<std::string>().empty());
+  EXPECT_FALSE(m["ended_at"].get<std::string>().empty());
+  std::ifstream jl(out / "frames.jsonl");
+  int lines = 0;
+  for (std::string l; std::getline(jl, l);) ++lines;
+  EXPECT_EQ(lines, 38);
+  EXPECT_TRUE(std::filesystem::exists(out / "timing.md"));
+}
+
+TEST(Cli, GraphDot) {
+  std::filesystem::current_path(hf::test::source_dir());
+  Cmd c = run("graph configs/examples/video_to_jsonl.yaml --dot");
+  EXPECT_EQ(c.code, 0) << c.out;
+  EXPECT_EQ(c.out.rfind("digraph", 0), 0u) << c.out;
+}
+
+}  // namespace

@@ -1,0 +1,158 @@
+// The threaded scheduler: order, timestamps, sparse and sticky streams, failures and interruption.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "hazardforge/core/host.hpp"
+#include "test_stages.hpp"
+#include "test_support.hpp"
+
+namespace hf::core {
+namespace {
+
+Graph graph_of(ComponentRegistry& reg, const std::string& yaml) {
+  auto dir = std::filesystem::temp_directory_path() / "hf_sched_test";
+  std::filesystem::create_directories(dir);
+  auto p = dir / "g.yaml";
+  std::ofstream(p) << yaml;
+  return build_graph(load_graph_config(p), reg);
+}
+
+RunOptions quiet_options(const std::string& name) {
+  RunOptions o;
+  o.output_dir = std::filesystem::temp_directory_path() / "hf_sched_test" / name;
+  o.quiet = true;
+  return o;
+}
+
+const char* kChain = R"(name: chain
+nodes:
+  - id: source
+    stage: test_source
+    params: {count: 30, fps: 20}
+  - id: detector
+    stage: test_detector
+    inputs: {frames: source.frames}
+    params: {throw_at: THROW_AT}
+  - id: filter
+    stage: test_filter
+    inputs: {detections: detector.detections}
+    params: {every: 3}
+  - id: sink
+    stage: test_sink
+    inputs: {records: [detector.detections], hint: filter.detections, frames: source.frames}
+)";
+
+std::string chain(int throw_at) {
+  std::string s = kChain;
+  s.replace(s.find("THROW_AT"), 8, std::to_string(throw_at));
+  return s;
+}
+
+TEST(Scheduler, DeliversEveryFrameInOrderWithFrameTimestamps) {
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  RunResult r = run_graph(graph_of(reg, chain(-1)), reg, quiet_options("order"));
+  ASSERT_TRUE(r.ok()) << r.errors.at(0);
+  EXPECT_EQ(r.frames, 30);
+  std::vector<int64_t> frames;
+  for (const auto& s : hf::test::g_seen["sink"])
+    if (s.port == "records") {
+      frames.push_back(s.frame);
+      EXPECT_DOUBLE_EQ(s.timestamp, static_cast<double>(s.frame) / 20.0);
+      EXPECT_EQ(s.producer, "detector.detections");
+    }
+  ASSERT_EQ(frames.size(), 30u);
+  for (size_t i = 0; i < frames.size(); ++i) EXPECT_EQ(frames[i], static_cast<int64_t>(i));
+  EXPECT_EQ(hf::test::g_finished["sink"], 1);
+  // Per-stage timing and inner timings are collected.
+  for (const auto& t : r.timings)
+    if (t.id == "detector") {
+      EXPECT_EQ(t.process_s.size(), 30u);
+      EXPECT_EQ(t.inner_s.at("forward").size(), 30u);
+    }
+}
+
+TEST(Scheduler, StickyInputHoldsTheLatestSparsePacket) {
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  RunResult r = run_graph(graph_of(reg, chain(-1)), reg, quiet_options("sticky"));
+  ASSERT_TRUE(r.ok());
+  int fresh = 0, held = 0;
+  for (const auto& s : hf::test::g_seen["sink"]) {
+    if (s.port != "hint") continue;
+    if (s.producer == "(held)") ++held;
+    else ++fresh;
+  }
+  EXPECT_EQ(fresh, 10);  // frames 0, 3, ..., 27
+  EXPECT_EQ(held, 20);   // every other frame sees the held one
+}
+
+TEST(Scheduler, StageFailureNamesNodeStageAndFrameAndSinksStillFinish) {
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  RunResult r = run_graph(graph_of(reg, chain(5)), reg, quiet_options("fail"));
+  ASSERT_EQ(r.errors.size(), 1u);
+  EXPECT_EQ(r.errors[0], "node 'detector' (stage 'test_detector', built-in): frame 5: synthetic failure");
+  EXPECT_EQ(hf::test::g_finished["sink"], 1);
+  for (const auto& s : hf::test::g_seen["sink"]) {
+    if (s.port == "records") {
+      EXPECT_LT(s.frame, 5);
+    }
+  }
+}
+
+TEST(Scheduler, InterruptStopsTheSourceAndFlushesEveryNode) {
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  std::string yaml = chain(-1);
+  yaml.replace(yaml.find("count: 30"), 9, "count: 100000");
+  std::atomic<bool> stop{false};
+  RunOptions o = quiet_options("interrupt");
+  o.interrupt = &stop;
+  o.on_progress = [&](int64_t done, std::optional<int64_t>) {
+    if (done >= 50) stop = true;
+  };
+  RunResult r = run_graph(graph_of(reg, yaml), reg, o);
+  EXPECT_TRUE(r.ok());
+  EXPECT_TRUE(r.interrupted);
+  EXPECT_GE(r.frames, 50);
+  EXPECT_LT(r.frames, 100000);
+  EXPECT_EQ(hf::test::g_finished["sink"], 1);
+}
+
+TEST(Scheduler, MaxFramesLimitsTheSource) {
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  RunOptions o = quiet_options("max");
+  o.max_frames = 7;
+  RunResult r = run_graph(graph_of(reg, chain(-1)), reg, o);
+  EXPECT_EQ(r.frames, 7);
+}
+
+TEST(Scheduler, OpenFailureStopsBeforeAnyFrame) {
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  // throw_at 0 fails on the first frame; an unwritable output folder fails before anything runs.
+  RunOptions o = quiet_options("x");
+  o.output_dir = "/proc/forbidden/out";
+  RunResult r = run_graph(graph_of(reg, chain(-1)), reg, o);
+  ASSERT_EQ(r.errors.size(), 1u);
+  EXPECT_NE(r.errors[0].find("/proc/forbidden/out: cannot create output folder"), std::string::npos) << r.errors[0];
+  EXPECT_EQ(r.frames, 0);
+}
+
+TEST(Median, OddAndEven) {
+  EXPECT_DOUBLE_EQ(median({3, 1, 2}), 2);
+  EXPECT_DOUBLE_EQ(median({4, 1, 3, 2}), 2.5);
+  EXPECT_DOUBLE_EQ(median({}), 0);
+}
+
+}  // namespace
+}  // namespace hf::core
