@@ -1,0 +1,278 @@
+// verifier: per-frame IoU/confidence/distance/TTC comparison of the re-assessment with the inserted hazard.
+#include "closed_loop_verifier.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "hazardforge/hazard/kinematics.hpp"
+
+namespace hf {
+
+using hazard::num;
+
+namespace {
+
+double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
+  const float inter = (a & b).area();
+  const float uni = a.area() + b.area() - inter;
+  return uni > 0 ? inter / uni : 0.0;
+}
+
+// Detectors confuse car/truck/bus and bicycle/motorcycle; those confusions still count as re-detections.
+int class_group(const std::string& label) {
+  if (label == "car" || label == "truck" || label == "bus" || label == "van") return 1;
+  if (label == "bicycle" || label == "motorcycle") return 2;
+  if (label == "person" || label == "pedestrian") return 3;
+  return 0;
+}
+bool same_class(const std::string& a, const std::string& b) {
+  return a == b || (class_group(a) != 0 && class_group(a) == class_group(b));
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
+}
+double mean(const std::vector<double>& v) {
+  return v.empty() ? std::nan("") : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+}
+Json maybe(double v) { return std::isfinite(v) ? Json(v) : Json(); }
+Json box_json(const cv::Rect2f& r) { return Json::array({r.x, r.y, r.width, r.height}); }
+
+}  // namespace
+
+ComponentInfo ClosedLoopVerifier::describe() {
+  ComponentInfo i;
+  i.name = "verifier";
+  i.kind = kind::kVerifier;
+  i.summary = "closed-loop check: is the inserted hazard re-detected, measured and judged Unsafe?";
+  i.doc =
+      "Per frame with a hazard packet: best IoU of a detection with the inserted box (same class group when "
+      "require_class_match), its confidence, the matched object's estimated distance against the intended one, "
+      "the scene TTC of the TTC metric and every metric's label. At finish: minimum achieved scene TTC against "
+      "the intended one, whether any frame was Unsafe while the hazard was visible, the re-detection rate over "
+      "visible frames, distance errors; passed = every criterion holds.";
+  i.inputs = {optional(port<HazardInstance>("hazard", "where the renderer put the hazard")),
+              port<Detections>("detections", "detections on the augmented frames"),
+              optional(multi(port<RiskAssessment>("risk", "re-assessed risk metrics"))),
+              optional(port<ObjectStates>("states", "re-estimated object states")),
+              sticky(port<HazardTrajectory>("trajectory", "the planned hazard"))};
+  i.outputs = {port<Record>("records", "per-frame verification records and the final summary")};
+  i.params = {
+      ParamSpec::number("min_iou", 0.5).range(0.01, 1).describe("IoU with the inserted box that counts as re-detected"),
+      ParamSpec::number("min_redetection_rate", 0.5)
+          .range(0, 1)
+          .describe("pass: share of visible frames in which the object is re-detected"),
+      ParamSpec::boolean("require_unsafe", true).describe("pass: some frame is Unsafe while the hazard is visible"),
+      ParamSpec::boolean("require_class_match", true)
+          .describe("a re-detection must have the inserted class (car/truck/bus and bicycle/motorcycle interchangeable)"),
+      ParamSpec::string("ttc_metric", "").describe(
+          "risk stream (metric name or producing node) whose scene value is the TTC; empty = the first in seconds"),
+      ParamSpec::string_list("unsafe_metrics", {}).describe("metrics whose Unsafe label counts (empty = all)"),
+      ParamSpec::number("max_ttc_error_s", -1.0)
+          .range(-1, 100)
+          .describe("pass: |achieved - intended minimum TTC| at most this (-1 = not checked)"),
+      ParamSpec::string("file", "verification.json").describe("summary written below the run's output folder"),
+  };
+  return i;
+}
+
+void ClosedLoopVerifier::open(StageContext& ctx) {
+  const Params& p = ctx.params();
+  min_iou_ = p.get_double("min_iou");
+  min_rate_ = p.get_double("min_redetection_rate");
+  require_unsafe_ = p.get_bool("require_unsafe");
+  require_class_match_ = p.get_bool("require_class_match");
+  ttc_metric_ = p.get_string("ttc_metric");
+  unsafe_metrics_ = p.get_strings("unsafe_metrics");
+  max_ttc_error_ = p.get_double("max_ttc_error_s");
+  file_ = p.get_string("file");
+  if (file_.empty()) throw Error("node '" + ctx.node_id() + "': parameter 'file' is empty");
+}
+
+void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& out) {
+  if (const HazardTrajectory* tr = in.get<HazardTrajectory>("trajectory")) {
+    intended_traj_min_ = tr->intended_min_ttc_s;
+    kind_ = tr->kind;
+    object_class_ = tr->object_class;
+  }
+  const HazardInstance* inst = in.get<HazardInstance>("hazard");
+  if (!inst) return;
+  const Detections& dets = in.require<Detections>("detections");
+  const ObjectStates* states = in.get<ObjectStates>("states");
+  ++frames_;
+  if (kind_.empty()) kind_ = inst->kind;
+  if (object_class_.empty()) object_class_ = inst->object_class;
+  const int64_t frame = ctx.frame_index();
+
+  Json rec = {{"frame", frame}, {"visible", inst->visible}, {"box", box_json(inst->box)},
+              {"intended_distance_m", maybe(inst->distance_m)}, {"intended_ttc_s", maybe(inst->intended_ttc_s)}};
+
+  // Re-detection: the best-overlapping detection of a compatible class.
+  double best = 0;
+  const Detection* hit = nullptr;
+  for (const Detection& d : dets.items) {
+    if (require_class_match_ && !same_class(d.label, inst->object_class)) continue;
+    const double v = iou(d.box, inst->box);
+    if (v > best) best = v, hit = &d;
+  }
+  const bool redetected = inst->visible && best >= min_iou_;
+  rec["best_iou"] = best;
+  rec["detection"] = hit ? Json{{"label", hit->label}, {"score", hit->score}, {"box", box_json(hit->box)}} : Json();
+  rec["redetected"] = redetected;
+
+  // Distance: the re-estimated object state on the inserted box.
+  const ObjectState* match = nullptr;
+  if (states) {
+    double best_state = 0;
+    for (const ObjectState& s : states->objects) {
+      const double v = iou(s.box, inst->box);
+      if (v >= min_iou_ && v > best_state) best_state = v, match = &s;
+    }
+  }
+  rec["state"] = match ? Json{{"track_id", match->track_id}, {"distance_m", maybe(match->distance_m)}} : Json();
+
+  // Risk: the TTC stream and every metric's label.
+  const auto risks = in.packets("risk");
+  const auto producers = in.producers("risk");
+  const RiskAssessment* ttc = nullptr;
+  bool unsafe = false;
+  Json labels = Json::object();
+  std::string names;
+  for (size_t k = 0; k < risks.size(); ++k) {
+    const RiskAssessment& r = risks[k]->get<RiskAssessment>();
+    const std::string name = r.metric.empty() ? producers.at(k) : r.metric;
+    names += (names.empty() ? "" : ", ") + name;
+    saw_risk_ = true;
+    labels[name] = to_string(r.label);
+    const bool counts = unsafe_metrics_.empty() ||
+                        std::find(unsafe_metrics_.begin(), unsafe_metrics_.end(), name) != unsafe_metrics_.end() ||
+                        std::find(unsafe_metrics_.begin(), unsafe_metrics_.end(), producers.at(k)) != unsafe_metrics_.end();
+    if (counts && r.label == SafetyLabel::kUnsafe) {
+      unsafe = true;
+      if (std::find(unsafe_by_.begin(), unsafe_by_.end(), name) == unsafe_by_.end() && inst->visible)
+        unsafe_by_.push_back(name);
+    }
+    const bool wanted = ttc_metric_.empty() ? (chosen_ttc_metric_.empty() ? r.unit == "s" && r.lower_is_riskier
+                                                                          : name == chosen_ttc_metric_)
+                                            : (name == ttc_metric_ || producers.at(k) == ttc_metric_);
+    if (wanted && !ttc) {
+      ttc = &r;
+      if (chosen_ttc_metric_.empty()) chosen_ttc_metric_ = name;
+    }
+  }
+  if (!ttc_metric_.empty() && !risks.empty() && !ttc)
+    throw Error("node '" + ctx.node_id() + "': ttc_metric '" + ttc_metric_ + "' is none of the risk streams at frame " +
+                std::to_string(frame) + " (" + names + ")");
+  rec["ttc_metric"] = ttc ? Json(chosen_ttc_metric_) : Json();
+  rec["scene_ttc_s"] = ttc ? maybe(ttc->scene_value) : Json();
+  rec["labels"] = labels;
+  rec["unsafe"] = unsafe;
+  rec["hazard_is_critical"] = ttc && match && ttc->critical_track == match->track_id;
+
+  if (inst->visible) {
+    ++visible_;
+    ious_.push_back(best);
+    if (redetected) {
+      ++redetected_;
+      scores_.push_back(hit->score);
+    }
+    if (match && std::isfinite(match->distance_m) && std::isfinite(inst->distance_m)) {
+      const double err = std::abs(match->distance_m - inst->distance_m);
+      dist_abs_.push_back(err);
+      if (inst->distance_m > 0) dist_rel_.push_back(err / inst->distance_m);
+      rec["distance_abs_error_m"] = err;
+      rec["distance_rel_error"] = inst->distance_m > 0 ? Json(err / inst->distance_m) : Json();
+    }
+    if (ttc && ttc->scene_value < achieved_min_ttc_) {
+      achieved_min_ttc_ = ttc->scene_value;
+      achieved_at_frame_ = frame;
+    }
+    intended_visible_min_ = std::min(intended_visible_min_, inst->intended_ttc_s);
+    if (unsafe) {
+      ++unsafe_frames_;
+      if (!first_unsafe_frame_) first_unsafe_frame_ = frame;
+    }
+    if (rec["hazard_is_critical"].get<bool>()) ++critical_frames_;
+  }
+  out.emit("records", Record{"verification", std::move(rec)});
+}
+
+Json ClosedLoopVerifier::summary() const {
+  std::vector<std::string> reasons;
+  const double rate = visible_ > 0 ? static_cast<double>(redetected_) / visible_ : 0.0;
+  const double intended = std::isfinite(intended_visible_min_) ? intended_visible_min_ : intended_traj_min_.value_or(kInf);
+  if (visible_ == 0) {
+    reasons.push_back("the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
+  } else if (rate < min_rate_) {
+    reasons.push_back("re-detection rate " + num(rate) + " is below min_redetection_rate " + num(min_rate_) + " (" +
+                      std::to_string(redetected_) + " of " + std::to_string(visible_) +
+                      " visible frames with IoU >= " + num(min_iou_) + ")");
+  }
+  if (require_unsafe_ && !first_unsafe_frame_ && visible_ > 0) {
+    std::string why = !saw_risk_ ? "no risk assessment arrived"
+                      : chosen_ttc_metric_.empty() ? "no TTC metric among the risk streams"
+                                                   : "minimum scene TTC " + num(achieved_min_ttc_) + " s";
+    reasons.push_back("the scene never becomes Unsafe while the hazard is visible (" + why + ")");
+  }
+  const double ttc_err = std::abs(achieved_min_ttc_ - intended);
+  if (max_ttc_error_ >= 0 && visible_ > 0) {
+    if (!std::isfinite(achieved_min_ttc_) || !std::isfinite(intended))
+      reasons.push_back("cannot compare TTC: achieved minimum " + num(achieved_min_ttc_) + " s, intended " +
+                        num(intended) + " s");
+    else if (ttc_err > max_ttc_error_)
+      reasons.push_back("achieved minimum TTC " + num(achieved_min_ttc_) + " s is " + num(ttc_err) +
+                        " s away from the intended " + num(intended) + " s (max_ttc_error_s " + num(max_ttc_error_) +
+                        ")");
+  }
+  Json j;
+  j["passed"] = reasons.empty();
+  j["reasons"] = reasons;
+  j["kind"] = kind_;
+  j["object_class"] = object_class_;
+  j["frames"] = frames_;
+  j["visible_frames"] = visible_;
+  j["ttc"] = {{"metric", chosen_ttc_metric_.empty() ? Json() : Json(chosen_ttc_metric_)},
+              {"intended_min_ttc_s", intended_traj_min_ ? maybe(*intended_traj_min_) : Json()},
+              {"intended_min_ttc_visible_s", maybe(intended_visible_min_)},
+              {"achieved_min_ttc_s", maybe(achieved_min_ttc_)},
+              {"achieved_at_frame", achieved_at_frame_ ? Json(*achieved_at_frame_) : Json()},
+              {"abs_error_s", maybe(ttc_err)}};
+  j["unsafe"] = {{"reached", first_unsafe_frame_.has_value()},
+                 {"first_frame", first_unsafe_frame_ ? Json(*first_unsafe_frame_) : Json()},
+                 {"frames", unsafe_frames_},
+                 {"metrics", unsafe_by_}};
+  j["redetection"] = {{"min_iou", min_iou_},
+                      {"redetected_frames", redetected_},
+                      {"rate", visible_ > 0 ? Json(rate) : Json()},
+                      {"mean_iou", maybe(mean(ious_))},
+                      {"median_iou", maybe(median(ious_))},
+                      {"mean_confidence", maybe(mean(scores_))}};
+  j["distance"] = {{"matched_frames", dist_abs_.size()},
+                   {"median_abs_error_m", maybe(median(dist_abs_))},
+                   {"median_rel_error", maybe(median(dist_rel_))},
+                   {"max_abs_error_m", dist_abs_.empty() ? Json() : Json(*std::max_element(dist_abs_.begin(), dist_abs_.end()))}};
+  j["hazard_critical_frames"] = critical_frames_;
+  j["criteria"] = {{"min_iou", min_iou_},
+                   {"min_redetection_rate", min_rate_},
+                   {"require_unsafe", require_unsafe_},
+                   {"require_class_match", require_class_match_},
+                   {"max_ttc_error_s", max_ttc_error_}};
+  return j;
+}
+
+void ClosedLoopVerifier::finish(StageContext& ctx, Outputs& out) {
+  if (finished_) return;
+  finished_ = true;
+  const Json s = summary();
+  hazard::write_file_atomic(ctx.output_dir() / file_, s.dump(2) + "\n");
+  ctx.log(s["passed"].get<bool>() ? LogLevel::kInfo : LogLevel::kWarning,
+          std::string("scenario ") + (s["passed"].get<bool>() ? "passed" : "failed") + " verification" +
+              (s["reasons"].empty() ? std::string() : ": " + s["reasons"][0].get<std::string>()));
+  out.emit("records", Record{"verification_summary", s});
+}
+
+}  // namespace hf

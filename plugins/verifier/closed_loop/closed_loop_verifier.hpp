@@ -1,0 +1,51 @@
+// verifier stage: checks that an inserted hazard is re-detected, measured and judged Unsafe by the same pipeline.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazardforge/stage.hpp"
+
+namespace hf {
+
+// Stage verifier (kind verifier): the closed loop. The graph re-runs detection, tracking, estimation and risk on
+// the augmented frames; this stage compares that re-assessment with what the renderer inserted.
+// Inputs: `hazard` (HazardInstance: where the object was drawn, per frame), `detections` (re-detections on the
+// augmented frames), `risk` (RiskAssessment, multi: the re-assessed metrics), `states` (ObjectStates, optional:
+// for the distance check), `trajectory` (HazardTrajectory, sticky: the intended minimum TTC).
+// Output: `records` (Record "verification" per frame with a hazard packet, stamped with that frame; and one
+// "verification_summary" at finish, stamped with the last frame). Writes <output>/verification.json at finish
+// (atomic). A scenario counts as generated only when `passed` is true; `reasons` says why not.
+// Params: min_iou, min_redetection_rate, require_unsafe, require_class_match, ttc_metric, unsafe_metrics,
+// max_ttc_error_s, file.
+class ClosedLoopVerifier : public Stage {
+ public:
+  static ComponentInfo describe();
+  void open(StageContext& ctx) override;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  void finish(StageContext& ctx, Outputs& out) override;
+
+  // The summary as written to verification.json (also usable before finish, e.g. by tests).
+  Json summary() const;
+
+ private:
+  // Params
+  double min_iou_ = 0.5, min_rate_ = 0.5, max_ttc_error_ = -1;
+  bool require_unsafe_ = true, require_class_match_ = true;
+  std::string ttc_metric_;
+  std::vector<std::string> unsafe_metrics_;
+  std::string file_;
+  // Accumulated over the run
+  int frames_ = 0, visible_ = 0, redetected_ = 0, unsafe_frames_ = 0, critical_frames_ = 0;
+  std::vector<double> ious_, scores_, dist_abs_, dist_rel_;
+  double achieved_min_ttc_ = kInf, intended_visible_min_ = kInf;
+  std::optional<int64_t> achieved_at_frame_, first_unsafe_frame_;
+  std::optional<double> intended_traj_min_;
+  std::string kind_, object_class_, chosen_ttc_metric_;
+  bool saw_risk_ = false;
+  std::vector<std::string> unsafe_by_;
+  bool finished_ = false;
+};
+
+}  // namespace hf
