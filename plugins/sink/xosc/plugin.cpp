@@ -1,0 +1,7 @@
+// Plugin entry: the xosc (OpenSCENARIO 1.2) sink.
+#include "hazardforge/plugin.hpp"
+#include "xosc_sink.hpp"
+
+HAZARDFORGE_PLUGIN("xosc", "0.1.0", "Apache-2.0", "exports planned hazards as ASAM OpenSCENARIO 1.2 files") {
+  reg.add<hf::XoscSink>();
+}
