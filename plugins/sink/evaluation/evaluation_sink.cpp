@@ -1,0 +1,114 @@
+// Evaluation sink: collects (truth, estimates) per frame, appends them to per_frame.jsonl, writes the
+// reports.
+#include "evaluation_sink.hpp"
+
+#include <cmath>
+
+namespace hf {
+
+namespace {
+
+// Write to a sibling temporary file, then rename: a report is either complete or absent.
+void write_atomically(const std::filesystem::path& file, const std::string& text) {
+  std::filesystem::path tmp = file;
+  tmp += ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error("cannot write '" + tmp.string() + "'");
+    out << text;
+    if (!out.flush()) throw Error("cannot write '" + tmp.string() + "'");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, file, ec);
+  if (ec) throw Error("cannot rename '" + tmp.string() + "' to '" + file.string() + "': " + ec.message());
+}
+
+}  // namespace
+
+ComponentInfo EvaluationSink::describe() {
+  ComponentInfo i;
+  i.name = "evaluation";
+  i.kind = kind::kSink;
+  i.summary = "scores risk-metric streams against the ground-truth metric (accuracy, confusion, TTC error)";
+  i.doc =
+      "Per metric stream and per scene, at each TTC threshold: frames, correct, incorrect, accuracy, the "
+      "confusion matrix (TP = both Unsafe), Unsafe precision and recall, balanced accuracy and the "
+      "always-Safe "
+      "baseline; labels of truth and estimate are recomputed from their scene values. Higher-is-riskier "
+      "metrics (DRAC) are scored once with their own label. TTC error: median absolute and relative error of "
+      "the scene TTC on frames whose true TTC is finite and below max_ttc_s. See docs/evaluation.md.";
+  i.inputs = {
+      port<RiskAssessment>("truth", "reference assessment (risk_metric/ground_truth)"),
+      multi(port<RiskAssessment>("estimates", "assessments to score, labelled by their producer node")),
+      optional(port<Frame>("frames", "for the scene name (Frame.meta) of each frame"))};
+  i.params = {
+      ParamSpec::string("dir", "evaluation").describe("folder below the run's output folder"),
+      ParamSpec::number_list("thresholds", {1.5, 2.0, 3.0}).describe("TTC thresholds (s): Unsafe when below"),
+      ParamSpec::number("max_ttc_s", 10.0)
+          .range(0, 1e6)
+          .describe("TTC error only on frames whose true scene TTC is finite and below this (s)"),
+      ParamSpec::number("plot_max_s", 12.0)
+          .range(0.1, 1e6)
+          .describe("upper end of the TTC plots' y axis (s)"),
+      ParamSpec::string("scene_key", "scene").describe("Frame.meta key holding the scene name"),
+      ParamSpec::string("title", "HazardForge evaluation").describe("report title"),
+  };
+  return i;
+}
+
+void EvaluationSink::open(StageContext& ctx) {
+  const Params& p = ctx.params();
+  options_.thresholds = p.get_doubles("thresholds");
+  if (options_.thresholds.empty())
+    throw Error("stage 'evaluation': 'thresholds' must list at least one value");
+  options_.max_ttc_s = p.get_double("max_ttc_s");
+  options_.plot_max_s = p.get_double("plot_max_s");
+  options_.title = p.get_string("title");
+  scene_key_ = p.get_string("scene_key");
+  dir_ = ctx.output_dir() / p.get_string("dir");
+  std::error_code ec;
+  std::filesystem::create_directories(dir_, ec);
+  if (ec) throw Error("cannot create '" + dir_.string() + "': " + ec.message());
+  records_.clear();
+  jsonl_.open(dir_ / "per_frame.jsonl", std::ios::trunc);
+  if (!jsonl_) throw Error("cannot write '" + (dir_ / "per_frame.jsonl").string() + "'");
+}
+
+void EvaluationSink::process(StageContext& ctx, const Inputs& in, Outputs&) {
+  const RiskAssessment& truth = in.require<RiskAssessment>("truth");
+  eval::FrameRecord r;
+  r.frame = truth.frame_index;
+  r.timestamp = ctx.timestamp();
+  r.truth = eval::verdict_of(truth);
+  r.scene = "all";
+  if (const Frame* f = in.get<Frame>("frames")) {
+    r.timestamp = f->timestamp;
+    if (f->meta.contains(scene_key_) && f->meta[scene_key_].is_string())
+      r.scene = f->meta[scene_key_].get<std::string>();
+  }
+  const std::vector<const Packet*> packets = in.packets("estimates");
+  const std::vector<std::string> producers = in.producers("estimates");
+  for (size_t k = 0; k < packets.size(); ++k) {
+    if (!packets[k] || packets[k]->empty()) continue;
+    const RiskAssessment& e = packets[k]->get<RiskAssessment>();
+    const std::string label = k < producers.size() && !producers[k].empty() ? producers[k] : e.metric;
+    if (!r.estimates.emplace(label, eval::verdict_of(e)).second)
+      throw Error("frame " + std::to_string(r.frame) + ": two estimate packets from '" + label + "'");
+  }
+  if (r.estimates.empty()) return;
+  jsonl_ << eval::to_json(r).dump() << "\n";
+  jsonl_.flush();
+  records_.push_back(std::move(r));
+}
+
+void EvaluationSink::finish(StageContext& ctx, Outputs&) {
+  jsonl_.close();
+  const Json report = eval::evaluate(records_, options_);
+  write_atomically(dir_ / "report.json", report.dump(2) + "\n");
+  write_atomically(dir_ / "report.md", eval::render_markdown(report));
+  write_atomically(dir_ / "report.html", eval::render_html(report, records_));
+  ctx.log(LogLevel::kInfo,
+          "evaluation of " + std::to_string(records_.size()) + " frames written to " + dir_.string());
+}
+
+}  // namespace hf

@@ -1,0 +1,36 @@
+// Sink that scores risk-metric streams against the ground-truth metric and writes the evaluation report.
+#pragma once
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "evaluation_report.hpp"
+#include "hazardforge/stage.hpp"
+
+namespace hf {
+
+// Sink "evaluation".
+// Ports: truth (RiskAssessment, from risk_metric/ground_truth), estimates (RiskAssessment, multi: one stream
+// per metric/detector combination, each labelled by its producer node id), frames (Frame, optional: scene
+// name from Frame.meta[scene_key]). A frame is recorded when the truth and at least one estimate arrive for
+// it; its time is the frame's timestamp. Writes below <output_dir>/<dir>: per_frame.jsonl (one record per
+// frame, appended as frames arrive), and at finish report.json, report.md and report.html (self-contained,
+// inline SVG), each written atomically. Params: dir, thresholds, max_ttc_s, plot_max_s, scene_key, title.
+class EvaluationSink : public Stage {
+ public:
+  static ComponentInfo describe();
+  void open(StageContext& ctx) override;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  void finish(StageContext& ctx, Outputs& out) override;
+
+ private:
+  std::filesystem::path dir_;
+  eval::Options options_;
+  std::string scene_key_;
+  std::vector<eval::FrameRecord> records_;
+  std::ofstream jsonl_;
+};
+
+}  // namespace hf
