@@ -75,19 +75,20 @@ ComponentInfo LlmHazardGenerator::describe() {
       ParamSpec::string("sidewalks", "auto").one_of({"auto", "yes", "no"}).describe("pedestrians allowed"),
       ParamSpec::string("intersection", "auto").one_of({"auto", "yes", "no"}).describe("crossing vehicles allowed"),
       ParamSpec::string("multi_lane", "auto").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
-      ParamSpec::number("road_half_width_m", 5.25).range(1, 30).describe("drivable width either side of ego lane centre"),
       ParamSpec::number("sidewalk_width_m", 3.0).range(0, 15).describe("sidewalk width beyond the road edge"),
-      ParamSpec::number("ego_front_m", 3.4).range(0, 10).describe("ego rear axle to front bumper"),
-      ParamSpec::number("horizon_s", 8.0).range(1, 60).describe("how long the hazard is replayed for the TTC check"),
+      ParamSpec::number("horizon_s", 6.0).range(1, 60)
+          .describe("how long hazards are planned/replayed for the TTC check (templates' duration_s)"),
       ParamSpec::number("ego_speed_mps", -1.0).range(-1, 80)
           .describe("ego speed if the data has none; negative = from ObjectStates / Frame.ego"),
       ParamSpec::path("prompt_template", "").describe("prompt file; empty = share/prompts/hazard_generation.md"),
       ParamSpec::path("retry_template", "").describe("retry message file; empty = share/prompts/hazard_retry.md"),
       ParamSpec::path("schema", "").describe("hazard spec schema; empty = share/schemas/hazard_spec.schema.json"),
-      ParamSpec::path("limits", "").describe("class limits and kind rules; empty = share/hazard_limits.yaml"),
+      ParamSpec::path("limits", "").describe("kinematic limits per class; empty = share/hazard_limits.yaml"),
       ParamSpec::path("class_sizes", "").describe("object sizes; empty = share/class_sizes.yaml"),
   };
-  for (ParamSpec& p : Corridor::params()) i.params.push_back(std::move(p));
+  // Road and TTC conventions, passed on to the hazard templates so both judge the same road.
+  for (ParamSpec& p : hazard::RoadModel::params()) i.params.push_back(std::move(p));
+  for (ParamSpec& p : hazard::TtcConventions::params()) i.params.push_back(std::move(p));
   return i;
 }
 
@@ -119,11 +120,34 @@ void LlmHazardGenerator::open(StageContext& ctx) {
       throw Error(who + ": force_kind '" + force + "' is not among the allowed kinds (" + join(allowed_kinds_, ", ") + ")");
     allowed_kinds_ = {force};
   }
+  road_ = hazard::RoadModel::from(p);
+  ttc_ = hazard::TtcConventions::from(p);
+  std::string limits_file = share_file(p, "limits", "hazard_limits.yaml");
+  std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
+  const Json shared = {{"limits", limits_file},
+                       {"class_sizes", sizes_file},
+                       {"lane_width_m", road_.lane_width},
+                       {"lanes_left", road_.lanes_left},
+                       {"lanes_right", road_.lanes_right},
+                       {"kerb_offset_m", road_.kerb_offset},
+                       {"ego_half_width_m", ttc_.ego_half_width},
+                       {"corridor_margin_m", ttc_.margin},
+                       {"ego_front_m", ttc_.ego_front},
+                       {"min_closing_mps", ttc_.min_closing},
+                       {"duration_s", p.get_double("horizon_s")}};
   for (const std::string& k : allowed_kinds_) {
-    if (std::find(registered.begin(), registered.end(), k) != registered.end())
+    if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
+      ctx.log(LogLevel::kWarning, "no hazard_template '" + k + "' is registered: the generic kinematic checks apply");
+      continue;
+    }
+    try {
+      templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, shared);
+    } catch (const DiagnosticError&) {
+      // Not built on the shared template kit: it declares its own params and keeps its own defaults.
       templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, Json::object());
-    else
-      ctx.log(LogLevel::kWarning, "no hazard_template '" + k + "' is registered: only the generic checks apply to it");
+      ctx.log(LogLevel::kWarning, "hazard_template '" + k +
+                                      "' does not take the road/TTC params; it checks with its own defaults");
+    }
   }
 
   std::string schema_file = share_file(p, "schema", "schemas/hazard_spec.schema.json");
@@ -132,9 +156,9 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   spec_validator_.emplace(spec_schema_);
   prompt_ = PromptTemplate::load(share_file(p, "prompt_template", "prompts/hazard_generation.md"));
   retry_prompt_ = PromptTemplate::load(share_file(p, "retry_template", "prompts/hazard_retry.md"));
-  limits_ = HazardLimits::load(share_file(p, "limits", "hazard_limits.yaml"));
-  sizes_ = ClassPriors::load(share_file(p, "class_sizes", "class_sizes.yaml"));
-  for (const std::string& f : {schema_file, prompt_->name(), retry_prompt_->name(), limits_.file})
+  limits_ = hazard::LimitsTable::load(limits_file);
+  sizes_ = ClassPriors::load(sizes_file);
+  for (const std::string& f : {schema_file, prompt_->name(), retry_prompt_->name(), limits_file})
     ctx.record_resource(f);
 
   trigger_ = p.get_string("trigger");
@@ -229,10 +253,9 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
     throw Error(who + ": the ego speed at frame " + std::to_string(frame.index) +
                 " is unknown (neither ObjectStates nor the frame carry it); set param ego_speed_mps");
   s.horizon_s = p.get_double("horizon_s");
-  s.ego_front_m = p.get_double("ego_front_m");
-  s.road_half_width_m = p.get_double("road_half_width_m");
   s.sidewalk_width_m = p.get_double("sidewalk_width_m");
-  s.corridor = Corridor::from(p);
+  s.ttc = ttc_;
+  s.road = road_;
   ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + " is Safe: generating a hazard (sidewalks " +
                                (s.sidewalks.value ? "yes" : "no") + ", " + s.sidewalks.why + "; intersection " +
                                (s.intersection.value ? "yes" : "no") + ", " + s.intersection.why + "; multi-lane " +
@@ -245,11 +268,14 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
   const std::string prompt_hash = llm::sha256_hex(prompt);
 
   FeasibilityConfig fc;
-  fc.limits = limits_;
+  fc.limits = &limits_;
   fc.sizes = sizes_;
-  fc.corridor = s.corridor;
-  fc.road = {s.sidewalks.value, s.intersection.value, s.multi_lane.value, s.road_half_width_m, s.sidewalk_width_m};
-  fc.ego_front_m = s.ego_front_m;
+  fc.ttc = ttc_;
+  fc.road = road_;
+  fc.sidewalk_width_m = s.sidewalk_width_m;
+  fc.sidewalks = s.sidewalks.value;
+  fc.intersection = s.intersection.value;
+  fc.multi_lane = s.multi_lane.value;
   fc.horizon_s = s.horizon_s;
   fc.ttc_tolerance_s = s.ttc_tolerance_s;
   fc.threshold_s = s.threshold_s;
@@ -306,13 +332,15 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
       if (errors.empty()) {
         spec = spec_from_reply(doc, frame.timestamp);
         std::vector<std::string> skipped;
+        auto tmpl = templates_.find(spec.kind);
+        fc.kinematics = tmpl == templates_.end();
         errors = check_feasibility(spec, scene.context, fc, &skipped);
         if (!skipped.empty() && !warned_skipped_) {
           for (const std::string& note : skipped) ctx.log(LogLevel::kWarning, note);
           warned_skipped_ = true;
         }
-        if (auto t = templates_.find(spec.kind); t != templates_.end())
-          for (const std::string& e : t->second->check(spec, scene.context))
+        if (tmpl != templates_.end())
+          for (const std::string& e : tmpl->second->check(spec, scene.context))
             errors.push_back("hazard template '" + spec.kind + "': " + e);
       }
     } catch (const Error& e) {

@@ -56,8 +56,10 @@ class LlmHazardGenerator : public Stage {
   std::optional<SchemaValidator> spec_validator_;
   std::optional<PromptTemplate> prompt_;
   std::optional<PromptTemplate> retry_prompt_;
-  HazardLimits limits_;
+  hazard::LimitsTable limits_;
   ClassPriors sizes_;
+  hazard::RoadModel road_;
+  hazard::TtcConventions ttc_;
   std::unique_ptr<CallLog> calls_;
 
   std::string trigger_;

@@ -76,7 +76,7 @@ std::string dataset_description(const Frame& frame) {
 
 SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                              const std::vector<const RiskAssessment*>& risks, const SceneSettings& s,
-                             const HazardLimits& limits, const ClassPriors& sizes) {
+                             const hazard::LimitsTable& limits, const ClassPriors& sizes) {
   SceneSummary out;
 
   // Per-object TTC from the first seconds-valued metric, so the prompt can say which object is closest in time.
@@ -135,9 +135,16 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
     class_sizes[name] = {{"length", size.length}, {"width", size.width}, {"height", size.height}};
 
   std::string limit_lines;
-  for (const auto& [name, c] : limits.classes)
+  Json limits_json = Json::object();
+  for (const std::string& name : limits.classes()) {
+    const hazard::KinematicLimits& c = limits.at(name);
+    limits_json[name] = {{"max_speed_mps", c.max_speed_mps},
+                         {"max_accel_mps2", c.max_accel_mps2},
+                         {"max_decel_mps2", c.max_decel_mps2},
+                         {"max_lateral_speed_mps", c.max_lateral_speed_mps}};
     limit_lines += "- " + name + ": speed <= " + num(c.max_speed_mps) + " m/s, braking <= " + num(c.max_decel_mps2) +
                    " m/s^2\n";
+  }
   if (!limit_lines.empty()) limit_lines.pop_back();
 
   std::string kinds;
@@ -160,11 +167,20 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                {"target_ttc_s", s.target_ttc_s},
                {"ttc_tolerance_s", s.ttc_tolerance_s},
                {"horizon_s", s.horizon_s},
-               {"ego_front_m", s.ego_front_m},
-               {"road_half_width_m", s.road_half_width_m},
                {"sidewalk_width_m", s.sidewalk_width_m},
-               {"corridor", {{"ego_half_width", s.corridor.ego_half_width}, {"margin", s.corridor.margin}}},
-               {"limits", limits.to_json()},
+               {"road",
+                {{"lane_width_m", s.road.lane_width},
+                 {"lanes_left", s.road.lanes_left},
+                 {"lanes_right", s.road.lanes_right},
+                 {"kerb_offset_m", s.road.kerb_offset},
+                 {"edge_left_m", s.road.edge(1)},
+                 {"edge_right_m", s.road.edge(-1)}}},
+               {"ttc",
+                {{"ego_half_width_m", s.ttc.ego_half_width},
+                 {"corridor_margin_m", s.ttc.margin},
+                 {"ego_front_m", s.ttc.ego_front},
+                 {"min_closing_mps", s.ttc.min_closing}}},
+               {"limits", limits_json},
                {"class_sizes", class_sizes},
                {"camera", frame.camera.valid() ? Json(frame.camera) : Json(nullptr)}};
 
@@ -184,7 +200,10 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                       {"limits", limit_lines},
                       {"allowed_kinds", kinds},
                       {"target_ttc_s", num(s.target_ttc_s)},
-                      {"ego_front_m", num(s.ego_front_m)}};
+                      {"ego_front_m", num(s.ttc.ego_front)},
+                      {"lane_width_m", num(s.road.lane_width)},
+                      {"road_edge_left_m", num(s.road.edge(1))},
+                      {"road_edge_right_m", num(s.road.edge(-1))}};
 
   out.context.timestamp = frame.timestamp;
   out.context.ego_speed_mps = s.ego_speed_mps;

@@ -34,11 +34,10 @@ struct SceneSettings {
   double ttc_tolerance_s = 0.25;
   double threshold_s = 1.5;
   double ego_speed_mps = 0.0;
-  double horizon_s = 8.0;
-  double ego_front_m = 3.4;
-  double road_half_width_m = 5.25;
+  double horizon_s = 6.0;
   double sidewalk_width_m = 3.0;
-  Corridor corridor;
+  hazard::TtcConventions ttc;
+  hazard::RoadModel road;
 };
 
 struct SceneSummary {
@@ -49,6 +48,6 @@ struct SceneSummary {
 
 SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                              const std::vector<const RiskAssessment*>& risks, const SceneSettings& settings,
-                             const HazardLimits& limits, const ClassPriors& sizes);
+                             const hazard::LimitsTable& limits, const ClassPriors& sizes);
 
 }  // namespace hf::llm_hazard

@@ -15,10 +15,8 @@ namespace hf::llm {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMinEgoSpeed = 1.0;  // m/s: below it no inserted object closes in on the ego
-constexpr double kLaneWidth = 3.5;
-constexpr double kMinDistance = 4.0;   // schema bounds of initial_distance_m
+constexpr double kMinDistance = 4.0;   // nearest start of an inserted lead vehicle
 constexpr double kMaxDistance = 120.0;
 
 // std::uniform_real_distribution differs between standard libraries; this does not.
@@ -56,18 +54,25 @@ struct Size {
   double length = 4.5, width = 1.8;
 };
 
+struct Limits {
+  double max_speed = 0, max_accel = 0, max_decel = 0, max_lateral_speed = 0;
+};
+
 struct Scene {
   std::vector<std::string> allowed;
   bool sidewalks = false, intersection = false, multi_lane = false;
-  double ego_speed = 0, target = 1.0, tolerance = 0.25, horizon = 8, ego_front = 3.4;
-  double road_half = 5.25, sidewalk = 3.0, ego_half = 1.0, margin = 0.5, timestamp = 0;
-  std::map<std::string, std::pair<double, double>> limits;  // class -> (max speed, max decel)
+  double ego_speed = 0, target = 1.0, horizon = 6, sidewalk = 3.0;
+  double lane_width = 3.5, edge_left = 5.25, edge_right = 5.25, kerb = 0.5;
+  double ego_half = 1.0, margin = 0.5, ego_front = 3.4;
+  std::map<std::string, Limits> limits;
   std::map<std::string, Size> sizes;
   std::optional<CameraModel> camera;
   struct Obj {
+    int64_t track_id;
     std::string label;
     double x, y, length, width;
     bool in_path;
+    std::optional<double> speed;  // absolute, along the ego heading when known
   };
   std::vector<Obj> objects;
 
@@ -76,45 +81,57 @@ struct Scene {
     if (it == sizes.end()) throw Error("offline: the scene context has no size for class '" + cls + "'");
     return it->second;
   }
-  double max_speed(const std::string& cls) const { return limits.count(cls) ? limits.at(cls).first : 0.0; }
-  double max_decel(const std::string& cls) const { return limits.count(cls) ? limits.at(cls).second : 0.0; }
+  double edge(int side) const { return side > 0 ? edge_left : edge_right; }
+  double path_half(double width) const { return ego_half + margin + width / 2.0; }
 };
 
 Scene read_scene(const Json& s) {
   if (!s.is_object() || s.empty())
     throw Error("offline: the request carries no scene context (the offline planner reads LlmRequest::scene)");
   Scene sc;
-  for (const Json& k : field(s, "allowed_kinds")) sc.allowed.push_back(k.get<std::string>());
-  sc.sidewalks = field(s, "sidewalks").get<bool>();
-  sc.intersection = field(s, "intersection").get<bool>();
-  sc.multi_lane = field(s, "multi_lane").get<bool>();
-  sc.ego_speed = number(s, "ego_speed_mps");
-  sc.target = number(s, "target_ttc_s");
-  sc.tolerance = number(s, "ttc_tolerance_s");
-  sc.horizon = number(s, "horizon_s");
-  sc.ego_front = number(s, "ego_front_m");
-  sc.road_half = number(s, "road_half_width_m");
-  sc.sidewalk = number(s, "sidewalk_width_m");
-  sc.timestamp = number(s, "timestamp_s");
-  const Json& corridor = field(s, "corridor");
-  sc.ego_half = corridor.at("ego_half_width").get<double>();
-  sc.margin = corridor.at("margin").get<double>();
-  for (auto it = field(s, "limits").at("classes").begin(); it != s["limits"]["classes"].end(); ++it)
-    sc.limits[it.key()] = {it.value().at("max_speed_mps").get<double>(), it.value().at("max_decel_mps2").get<double>()};
-  for (auto it = field(s, "class_sizes").begin(); it != s["class_sizes"].end(); ++it)
-    sc.sizes[it.key()] = {it.value().at("length").get<double>(), it.value().at("width").get<double>()};
-  if (s.contains("camera") && s["camera"].is_object()) {
-    CameraModel cam;
-    from_json(s["camera"], cam);
-    if (cam.valid()) sc.camera = cam;
-  }
-  for (const Json& o : field(s, "objects")) {
-    if (!o.at("distance_m").is_number()) continue;
-    std::string label = o.at("label").get<std::string>();
-    Size prior = sc.sizes.count(label) ? sc.sizes[label] : Size{};
-    double l = o.value("length_m", 0.0), w = o.value("width_m", 0.0);
-    sc.objects.push_back({label, o["distance_m"].get<double>(), o.at("lateral_m").get<double>(),
-                          l > 0 ? l : prior.length, w > 0 ? w : prior.width, o.value("in_path", false)});
+  try {
+    for (const Json& k : field(s, "allowed_kinds")) sc.allowed.push_back(k.get<std::string>());
+    sc.sidewalks = field(s, "sidewalks").get<bool>();
+    sc.intersection = field(s, "intersection").get<bool>();
+    sc.multi_lane = field(s, "multi_lane").get<bool>();
+    sc.ego_speed = number(s, "ego_speed_mps");
+    sc.target = number(s, "target_ttc_s");
+    sc.horizon = number(s, "horizon_s");
+    sc.sidewalk = number(s, "sidewalk_width_m");
+    const Json& road = field(s, "road");
+    sc.lane_width = road.at("lane_width_m").get<double>();
+    sc.edge_left = road.at("edge_left_m").get<double>();
+    sc.edge_right = road.at("edge_right_m").get<double>();
+    sc.kerb = road.at("kerb_offset_m").get<double>();
+    const Json& ttc = field(s, "ttc");
+    sc.ego_half = ttc.at("ego_half_width_m").get<double>();
+    sc.margin = ttc.at("corridor_margin_m").get<double>();
+    sc.ego_front = ttc.at("ego_front_m").get<double>();
+    for (auto it = field(s, "limits").begin(); it != s["limits"].end(); ++it)
+      sc.limits[it.key()] = {it.value().at("max_speed_mps").get<double>(), it.value().at("max_accel_mps2").get<double>(),
+                             it.value().at("max_decel_mps2").get<double>(),
+                             it.value().at("max_lateral_speed_mps").get<double>()};
+    for (auto it = field(s, "class_sizes").begin(); it != s["class_sizes"].end(); ++it)
+      sc.sizes[it.key()] = {it.value().at("length").get<double>(), it.value().at("width").get<double>()};
+    if (s.contains("camera") && s["camera"].is_object()) {
+      CameraModel cam;
+      from_json(s["camera"], cam);
+      if (cam.valid()) sc.camera = cam;
+    }
+    for (const Json& o : field(s, "objects")) {
+      if (!o.at("distance_m").is_number()) continue;
+      std::string label = o.at("label").get<std::string>();
+      Size prior = sc.sizes.count(label) ? sc.sizes[label] : Size{};
+      double l = o.value("length_m", 0.0), w = o.value("width_m", 0.0);
+      std::optional<double> speed;
+      if (o.contains("velocity_rel") && o["velocity_rel"].is_array()) speed = sc.ego_speed + o["velocity_rel"][0].get<double>();
+      else if (o.contains("speed_mps") && o["speed_mps"].is_number()) speed = o["speed_mps"].get<double>();
+      sc.objects.push_back({o.at("track_id").get<int64_t>(), label, o["distance_m"].get<double>(),
+                            o.at("lateral_m").get<double>(), l > 0 ? l : prior.length, w > 0 ? w : prior.width,
+                            o.value("in_path", false), speed});
+    }
+  } catch (const Json::exception& e) {
+    throw Error(std::string("offline: malformed scene context: ") + e.what());
   }
   return sc;
 }
@@ -124,22 +141,16 @@ struct Plan {
   std::string problem;  // why this kind could not be planned (empty = ok)
 };
 
-// x0 so that the object, entering the ego corridor after t_in seconds, does so with TTC = ttc.
-double start_distance(const Scene& sc, double long_half, double closing, double t_in, double ttc) {
-  return sc.ego_front + long_half + closing * (t_in + ttc);
-}
-
-std::string visibility_problem(const Scene& sc, double x, double y) {
-  if (!sc.camera) return {};
+bool visible(const Scene& sc, double x, double y) {
+  if (!sc.camera) return true;
   auto px = sc.camera->project_ego(cv::Vec3d(x, y, 0.0));
-  if (!px || px->x < 0 || px->y < 0 || px->x >= sc.camera->width || px->y >= sc.camera->height)
-    return "start point (" + fmt(x) + ", " + fmt(y) + ") m is outside the camera view";
-  return {};
+  return px && px->x >= 0 && px->y >= 0 && px->x < sc.camera->width && px->y < sc.camera->height;
 }
 
-std::string overlap_problem(const Scene& sc, double x, double y, const Size& me) {
+std::string overlap_problem(const Scene& sc, double x, double y, const Size& me, int64_t except = -1) {
   for (const Scene::Obj& o : sc.objects)
-    if (std::abs(o.x - x) < (o.length + me.length) / 2.0 + 1.0 && std::abs(o.y - y) < (o.width + me.width) / 2.0 + 0.5)
+    if (o.track_id != except && std::abs(o.x - x) < (o.length + me.length) / 2.0 + 1.0 &&
+        std::abs(o.y - y) < (o.width + me.width) / 2.0 + 0.5)
       return "start point (" + fmt(x) + ", " + fmt(y) + ") m is next to the detected " + o.label;
   return {};
 }
@@ -157,110 +168,151 @@ Json base_spec(const std::string& kind, const std::string& cls, double x, double
           {"start_time_s", nullptr},
           {"deceleration_mps2", nullptr},
           {"target_ttc_s", target},
-          {"extra", {{"crossing_from", nullptr}}},
+          {"extra", {{"crossing_from", nullptr}, {"final_speed_mps", nullptr}, {"brake_delay_s", nullptr},
+                     {"track_id", nullptr}}},
           {"rationale", ""}};
 }
 
+// Time for a start from rest to cover d at walking speed v (acceleration phase plus a jerk allowance).
+double walk_time(double d, double v, double accel) { return d / v + v / (2.0 * accel) + 0.3; }
+
+// pedestrian_crossing: waits on the kerb, walks across; the ego arrives `enter + target` after the start.
 Plan plan_pedestrian(const Scene& sc, Draw& d, double aim) {
   if (!sc.sidewalks) return {{}, "the scene has no sidewalks"};
   const std::string cls = "person";
   if (!sc.limits.count(cls)) return {{}, "the limits table has no 'person'"};
+  const Limits& lim = sc.limits.at(cls);
   const Size size = sc.size(cls);
   const bool left = d.coin();
-  const double sign = left ? 1.0 : -1.0;
-  const double lane_half = sc.ego_half + sc.margin;
-  const double max_y = std::min(sc.road_half + sc.sidewalk, lane_half + 3.5);
-  const double speed = d.uniform(1.2, std::min(2.5, sc.max_speed(cls)));
-  const double heading = -sign * d.uniform(80.0, 100.0);
-  const double h = heading * kPi / 180.0;
-  const double y0 = sign * std::min(max_y, d.uniform(lane_half + 1.0, lane_half + 3.0));
-  const double lat_half = (size.length * std::abs(std::sin(h)) + size.width * std::abs(std::cos(h))) / 2.0;
-  const double long_half = (size.length * std::abs(std::cos(h)) + size.width * std::abs(std::sin(h))) / 2.0;
-  const double t_in = (std::abs(y0) - (lane_half + lat_half)) / (speed * std::abs(std::sin(h)));
-  const double closing = sc.ego_speed - speed * std::cos(h);
-  if (closing < 0.5) return {{}, "the ego is too slow for a crossing pedestrian to matter"};
+  const int sign = left ? 1 : -1;
+  const double y0 = sign * (sc.edge(sign) + sc.kerb + d.uniform(0.0, std::min(0.5, sc.sidewalk)));
+  const double speed = d.uniform(1.6, std::min(2.5, lim.max_speed));
+  const double d_in = std::abs(y0) - sc.path_half(size.width);
+  const double enter = walk_time(d_in, speed, lim.max_accel) + d.uniform(0.3, 1.0);
   const double ttc = aim * sc.target;
-  const double x0 = start_distance(sc, long_half, closing, t_in, ttc);
-  if (x0 < kMinDistance || x0 > kMaxDistance) return {{}, "no start distance within [4, 120] m"};
-  if (t_in + ttc > sc.horizon) return {{}, "the crossing takes longer than the horizon"};
-  if (std::string p = visibility_problem(sc, x0, y0); !p.empty()) return {{}, p};
+  if (enter > sc.horizon - 0.5) return {{}, "walking into the ego path takes longer than the horizon"};
+  const double x0 = sc.ego_front + size.length / 2.0 + sc.ego_speed * (enter + ttc);
+  if (x0 > kMaxDistance) return {{}, "the crossing would be more than 120 m ahead"};
+  if (!visible(sc, x0, y0)) return {{}, "the kerb point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
   if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
   const std::string from = left ? "left" : "right";
-  Json spec = base_spec("pedestrian_crossing", cls, x0, y0, from, speed, heading,
-                        std::string("crossing from ") + from + " to " + (left ? "right" : "left"), sc.target);
+  Json spec = base_spec("pedestrian_crossing", cls, x0, y0, from, speed, -sign * 90.0,
+                        "steps off the " + from + " kerb and crosses to the " + (left ? "right" : "left"), sc.target);
   spec["extra"]["crossing_from"] = from;
-  spec["rationale"] = "The scene has sidewalks, so a pedestrian stepping off the " + from + " curb " + fmt(x0) +
-                      " m ahead at " + fmt(speed) + " m/s is realistic; with the ego at " + fmt(sc.ego_speed) +
-                      " m/s they enter its path about " + fmt(t_in) + " s later with a TTC near " + fmt(ttc) + " s.";
+  spec["rationale"] = "The scene has sidewalks, so a pedestrian stepping off the " + from + " kerb " + fmt(x0) +
+                      " m ahead and crossing at " + fmt(speed) + " m/s is realistic; with the ego at " +
+                      fmt(sc.ego_speed) + " m/s they are in its path about " + fmt(enter) + " s later, TTC near " +
+                      fmt(ttc) + " s.";
   return {spec, {}};
 }
 
+// cut_in: overtakes from beside/behind at v0 > ego, then brakes to v1 < ego while changing lanes.
 Plan plan_cut_in(const Scene& sc, Draw& d, double aim) {
   if (!sc.multi_lane) return {{}, "the road has a single lane"};
-  static const char* kClasses[] = {"car", "car", "car", "truck", "motorcycle"};
+  if (sc.ego_speed < 5.0) return {{}, "the ego is too slow (< 5 m/s) to be overtaken and cut off"};
+  static const char* kClasses[] = {"car", "car", "car", "motorcycle", "truck"};
   const std::string cls = kClasses[d.index(5)];
   if (!sc.limits.count(cls)) return {{}, "the limits table has no '" + cls + "'"};
-  if (kLaneWidth > sc.road_half) return {{}, "the road is too narrow for an adjacent lane"};
+  const Limits& lim = sc.limits.at(cls);
   const Size size = sc.size(cls);
-  const bool left = d.coin();
-  const double sign = left ? 1.0 : -1.0;
-  const double y0 = sign * kLaneWidth;
-  const double heading = -sign * d.uniform(6.0, 14.0);
-  const double h = heading * kPi / 180.0;
-  const double speed = std::clamp(sc.ego_speed - d.uniform(2.0, 5.0), 2.0, sc.max_speed(cls));
-  const double closing = sc.ego_speed - speed * std::cos(h);
-  if (closing < 0.5) return {{}, "the ego is too slow to close in on a cut-in"};
-  const double lane_half = sc.ego_half + sc.margin;
-  const double lat_half = (size.length * std::abs(std::sin(h)) + size.width * std::abs(std::cos(h))) / 2.0;
-  const double long_half = (size.length * std::abs(std::cos(h)) + size.width * std::abs(std::sin(h))) / 2.0;
-  const double t_in = std::max(0.0, (std::abs(y0) - (lane_half + lat_half)) / (speed * std::abs(std::sin(h))));
+  bool left = d.coin();
+  if (sc.edge(left ? 1 : -1) < sc.lane_width + size.width / 2.0) left = !left;
+  const int sign = left ? 1 : -1;
+  if (sc.edge(sign) < sc.lane_width + size.width / 2.0) return {{}, "there is no lane beside the ego lane"};
+  const double y0 = sign * sc.lane_width;
+  const double v0 = std::min(sc.ego_speed + d.uniform(3.0, 5.0), lim.max_speed);
+  const double v1 = std::max(0.0, sc.ego_speed - d.uniform(2.0, 4.0));
+  const double decel = std::min(d.uniform(2.5, 4.0), lim.max_decel);
+  if (v0 <= sc.ego_speed + 1.0) return {{}, "a " + cls + " cannot overtake the ego here"};
   const double ttc = aim * sc.target;
-  const double x0 = start_distance(sc, long_half, closing, t_in, ttc);
-  if (x0 < kMinDistance || x0 > kMaxDistance) return {{}, "no start distance within [4, 120] m"};
-  if (std::string p = visibility_problem(sc, x0, y0); !p.empty()) return {{}, p};
+  const double gap_end = ttc * (sc.ego_speed - v1);
+  // Braking from v0 to v1, then the lane change must fit between the start and the end of braking.
+  const double t_slow = (v0 - v1) / decel + 0.4;
+  const double s_slow = (v0 + v1) / 2.0 * t_slow;
+  const double lane_change = 1.15 * 1.875 * sc.lane_width / std::max(0.5, lim.max_lateral_speed);
+  const double t_brake = std::max(0.5, lane_change - t_slow + 0.5) + d.uniform(0.0, 1.0);
+  const double x0 = gap_end + sc.ego_front + size.length / 2.0 + sc.ego_speed * (t_brake + t_slow) - s_slow -
+                    v0 * t_brake;
+  if (x0 < -25.0 || x0 > 3.0) return {{}, "no start beside or behind the ego fits (x " + fmt(x0) + " m)"};
+  if (t_brake + t_slow > sc.horizon - 0.5) return {{}, "the cut-in takes longer than the horizon"};
   if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
   const std::string side = left ? "left" : "right";
-  Json spec = base_spec("cut_in", cls, x0, y0, side, speed, heading,
-                        "changes from the " + side + " lane into the ego lane", sc.target);
-  spec["rationale"] = "On a multi-lane road a " + cls + " in the " + side + " lane, " + fmt(sc.ego_speed - speed) +
-                      " m/s slower than the ego, cuts in " + fmt(x0) + " m ahead; it enters the ego lane after " +
-                      fmt(t_in) + " s with a TTC near " + fmt(ttc) + " s.";
+  Json spec = base_spec("cut_in", cls, x0, y0, side, v0, 0.0,
+                        "overtakes in the " + side + " lane and cuts in, braking", sc.target);
+  spec["deceleration_mps2"] = round_to(decel, 0.1);
+  spec["extra"]["final_speed_mps"] = round_to(v1, 0.05);
+  spec["rationale"] = "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " + fmt(v0) +
+                      " m/s and cuts in ahead of the ego, braking to " + fmt(v1) + " m/s; it ends about " +
+                      fmt(gap_end) + " m ahead, TTC near " + fmt(ttc) + " s.";
   return {spec, {}};
 }
 
+// First time (s) the TTC to a lead braking after `delay` falls to `ttc`, by a 20 ms replay; kInf if never.
+double time_to_ttc(double gap0, double ego, double v0, double delay, double decel, double ttc, double horizon) {
+  double gap = gap0, v = v0;
+  for (double t = 0; t <= horizon; t += 0.02) {
+    const double closing = ego - v;
+    if (gap <= 0 || (closing > 0.1 && gap / closing <= ttc)) return t;
+    gap += (v - ego) * 0.02;
+    if (t >= delay) v = std::max(0.0, v - decel * 0.02);
+  }
+  return kInf;
+}
+
+// sudden_stop: a tracked lead in the ego path brakes, or an inserted one if there is room.
 Plan plan_sudden_stop(const Scene& sc, Draw& d, double aim) {
+  const double ttc = aim * sc.target;
+  const double delay = round_to(d.uniform(0.5, 1.5), 0.1);
+  const Scene::Obj* lead = nullptr;
+  for (const Scene::Obj& o : sc.objects)
+    if (o.in_path && o.x > 0 && (!lead || o.x < lead->x)) lead = &o;
+  static const char* kVehicles[] = {"car", "truck", "bus", "motorcycle"};
+  auto is_vehicle = [](const std::string& c) {
+    return std::find(std::begin(kVehicles), std::end(kVehicles), c) != std::end(kVehicles);
+  };
+  // A moving lead vehicle that brakes is the most natural sudden stop.
+  if (lead && is_vehicle(lead->label) && lead->speed && *lead->speed >= 0.5 && sc.limits.count(lead->label)) {
+    const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(lead->label).max_decel, 0.1);
+    const double gap = lead->x - sc.ego_front - lead->length / 2.0;
+    if (gap > 0 && time_to_ttc(gap, sc.ego_speed, *lead->speed, delay, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
+      Json spec = base_spec("sudden_stop", lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
+                            "the tracked lead brakes hard in the ego lane", sc.target);
+      spec["side"] = std::abs(lead->y) <= sc.ego_half + sc.margin ? "center" : (lead->y > 0 ? "left" : "right");
+      spec["deceleration_mps2"] = decel;
+      spec["extra"]["brake_delay_s"] = delay;
+      spec["extra"]["track_id"] = lead->track_id;
+      spec["rationale"] = "The " + lead->label + " (track " + std::to_string(lead->track_id) + ") " + fmt(lead->x) +
+                          " m ahead in the ego lane brakes at " + fmt(decel) + " m/s^2 after " + fmt(delay) +
+                          " s; the ego, keeping " + fmt(sc.ego_speed) + " m/s, closes in to a TTC near " + fmt(ttc) + " s.";
+      return {spec, {}};
+    }
+  }
   static const char* kClasses[] = {"car", "car", "car", "truck", "bus"};
   const std::string cls = kClasses[d.index(5)];
   if (!sc.limits.count(cls)) return {{}, "the limits table has no '" + cls + "'"};
   const Size size = sc.size(cls);
-  const double speed = std::min(sc.ego_speed, sc.max_speed(cls));
-  const double decel = d.uniform(0.6, 0.9) * sc.max_decel(cls);
-  if (speed < kMinEgoSpeed || decel <= 0) return {{}, "a lead vehicle cannot brake from standstill"};
-  // TTC = gap / closing reaches `ttc` at t_star while the lead vehicle is still braking.
-  const double ttc = aim * sc.target;
+  const double speed = std::min(sc.ego_speed, sc.limits.at(cls).max_speed);
+  const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(cls).max_decel, 0.1);
+  if (speed < kMinEgoSpeed) return {{}, "a lead vehicle cannot brake from standstill"};
+  // Same speed as the ego: the gap holds until braking starts, then TTC = gap / closing falls.
   const double t_star = std::min(d.uniform(1.0, 2.5), 0.8 * speed / decel);
   const double gap = decel * t_star * t_star / 2.0 + decel * ttc * t_star;
   const double x0 = sc.ego_front + size.length / 2.0 + gap;
   const double y0 = d.uniform(-0.3, 0.3);
   if (x0 < kMinDistance || x0 > kMaxDistance) return {{}, "no start distance within [4, 120] m"};
-  double lead = kInf;
-  std::string lead_label;
-  for (const Scene::Obj& o : sc.objects)
-    if (o.in_path && o.x > 0 && o.x < lead) {
-      lead = o.x;
-      lead_label = o.label;
-    }
-  if (std::isfinite(lead) && x0 + size.length + 2.0 > lead)
-    return {{}, "no room to insert a lead vehicle before the " + lead_label + " at " + fmt(lead) + " m"};
-  if (std::string p = visibility_problem(sc, x0, y0); !p.empty()) return {{}, p};
+  if (time_to_ttc(gap, sc.ego_speed, speed, delay, decel, ttc, sc.horizon) > sc.horizon - 0.7)
+    return {{}, "the stop would come too late within the horizon"};
+  if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
+    return {{}, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt(lead->x) + " m"};
+  if (!visible(sc, x0, y0)) return {{}, "the start point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
   if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
-  Json spec = base_spec("sudden_stop", cls, x0, y0, "center", speed, 0.0, "drives ahead in the ego lane, then brakes hard",
-                        sc.target);
-  spec["deceleration_mps2"] = round_to(decel, 0.1);
+  Json spec = base_spec("sudden_stop", cls, x0, y0, "center", speed, 0.0,
+                        "drives ahead in the ego lane, then brakes hard", sc.target);
+  spec["deceleration_mps2"] = decel;
+  spec["extra"]["brake_delay_s"] = delay;
   spec["rationale"] = "A " + cls + " driving " + fmt(gap) + " m ahead of the ego at the same " + fmt(speed) +
-                      " m/s brakes at " + fmt(decel) + " m/s^2" +
-                      (std::isfinite(lead) ? " (traffic continues with the " + lead_label + " at " + fmt(lead) + " m)" : "") +
-                      "; the TTC falls to about " + fmt(ttc) + " s after " + fmt(t_star) + " s.";
+                      " m/s brakes at " + fmt(decel) + " m/s^2 after " + fmt(delay) + " s; the TTC falls to about " +
+                      fmt(ttc) + " s.";
   return {spec, {}};
 }
 
