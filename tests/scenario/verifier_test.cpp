@@ -1,0 +1,207 @@
+// The closed-loop verifier on synthetic hazard instances, re-detections and re-assessed risk.
+#include <gtest/gtest.h>
+
+#include "closed_loop_verifier.hpp"
+#include "hazardforge/testing/stage_runner.hpp"
+#include "scenario_support.hpp"
+
+namespace hf {
+namespace {
+
+const cv::Rect2f kBox(100, 100, 50, 100);
+
+HazardInstance instance(int64_t frame, bool visible, double intended_ttc) {
+  HazardInstance h;
+  h.frame_index = frame;
+  h.visible = visible;
+  h.kind = "pedestrian_crossing";
+  h.object_class = "person";
+  h.box = kBox;
+  h.distance_m = 20.0;
+  h.intended_ttc_s = intended_ttc;
+  return h;
+}
+
+Detections detections(int64_t frame, std::vector<Detection> items) {
+  Detections d;
+  d.frame_index = frame;
+  d.items = std::move(items);
+  return d;
+}
+
+// IoU with kBox: shifted by 5 px horizontally -> 45 * 100 / (2 * 5000 - 4500) = 0.818.
+Detection near_box(const std::string& label = "person", float score = 0.8f) {
+  return Detection{cv::Rect2f(105, 100, 50, 100), 0, label, score};
+}
+
+RiskAssessment risk(int64_t frame, double ttc, const std::string& metric = "ttc") {
+  RiskAssessment r;
+  r.frame_index = frame;
+  r.metric = metric;
+  r.unit = "s";
+  r.scene_value = ttc;
+  r.critical_track = 4;
+  r.label = ttc < 1.5 ? SafetyLabel::kUnsafe : SafetyLabel::kSafe;
+  return r;
+}
+
+// A deceleration-based metric (higher is riskier) that calls every frame Unsafe.
+RiskAssessment drac(int64_t frame) {
+  RiskAssessment r;
+  r.frame_index = frame;
+  r.metric = "drac";
+  r.unit = "m/s2";
+  r.lower_is_riskier = false;
+  r.threshold = 3.0;
+  r.scene_value = 5.0;
+  r.label = SafetyLabel::kUnsafe;
+  return r;
+}
+
+ObjectStates states(int64_t frame, double distance) {
+  ObjectStates s;
+  s.frame_index = frame;
+  ObjectState o;
+  o.track_id = 4;
+  o.label = "person";
+  o.box = cv::Rect2f(104, 100, 50, 100);
+  o.distance_m = distance;
+  s.objects.push_back(o);
+  return s;
+}
+
+HazardTrajectory trajectory(double min_ttc) {
+  HazardTrajectory t;
+  t.kind = "pedestrian_crossing";
+  t.object_class = "person";
+  t.intended_min_ttc_s = min_ttc;
+  return t;
+}
+
+TEST(Verifier, PassesWhenReDetectedMeasuredAndUnsafe) {
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>();
+  const double intended[] = {3.0, 2.5, 2.0, 1.5, 1.2};
+  const double achieved[] = {3.2, 2.6, 2.1, 1.4, 1.3};
+  r.push("trajectory", trajectory(0.9), 0.0);
+  for (int i = 0; i < 5; ++i) {
+    const double t = 0.1 * i;
+    r.push("hazard", instance(i, true, intended[i]), t);
+    r.push("detections", i < 4 ? detections(i, {near_box()}) : detections(i, {}), t);
+    r.push("risk", risk(i, achieved[i]), t, "ttc");
+    r.push("states", states(i, i < 2 ? 22.0 : 19.0), t);
+  }
+  r.run();
+  const auto recs = r.collect<Record>("records");
+  ASSERT_EQ(recs.size(), 6u);  // 5 frames + the summary
+  EXPECT_EQ(recs[0].kind, "verification");
+  EXPECT_NEAR(recs[0].data["best_iou"].get<double>(), 4500.0 / 5500.0, 1e-6);
+  EXPECT_EQ(recs[0].data["redetected"], true);
+  EXPECT_EQ(recs[4].data["redetected"], false);
+  EXPECT_EQ(recs[3].data["unsafe"], true);
+  EXPECT_EQ(recs[3].data["hazard_is_critical"], true);
+  EXPECT_DOUBLE_EQ(recs[0].data["distance_abs_error_m"].get<double>(), 2.0);
+
+  const Json s = Json::parse(test::read_text((r.output_dir() / "verification.json").string()));
+  EXPECT_EQ(s, recs[5].data);
+  EXPECT_EQ(recs[5].kind, "verification_summary");
+  EXPECT_EQ(s["passed"], true);
+  EXPECT_EQ(s["reasons"], Json::array());
+  EXPECT_EQ(s["visible_frames"], 5);
+  EXPECT_DOUBLE_EQ(s["redetection"]["rate"].get<double>(), 0.8);
+  EXPECT_NEAR(s["redetection"]["mean_confidence"].get<double>(), 0.8, 1e-6);
+  EXPECT_DOUBLE_EQ(s["ttc"]["achieved_min_ttc_s"].get<double>(), 1.3);
+  EXPECT_EQ(s["ttc"]["achieved_at_frame"], 4);
+  EXPECT_DOUBLE_EQ(s["ttc"]["intended_min_ttc_visible_s"].get<double>(), 1.2);
+  EXPECT_DOUBLE_EQ(s["ttc"]["intended_min_ttc_s"].get<double>(), 0.9);
+  EXPECT_NEAR(s["ttc"]["abs_error_s"].get<double>(), 0.1, 1e-12);
+  EXPECT_EQ(s["ttc"]["metric"], "ttc");
+  EXPECT_EQ(s["unsafe"]["reached"], true);
+  EXPECT_EQ(s["unsafe"]["first_frame"], 3);
+  EXPECT_EQ(s["unsafe"]["frames"], 2);
+  EXPECT_EQ(s["distance"]["matched_frames"], 5);
+  EXPECT_DOUBLE_EQ(s["distance"]["median_abs_error_m"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(s["distance"]["median_rel_error"].get<double>(), 0.05);
+  EXPECT_DOUBLE_EQ(s["distance"]["max_abs_error_m"].get<double>(), 2.0);
+  EXPECT_EQ(s["hazard_critical_frames"], 5);
+}
+
+TEST(Verifier, FailsWithExactReasonsWhenMissedAndNeverUnsafe) {
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>("max_ttc_error_s: 0.5");
+  for (int i = 0; i < 5; ++i) {
+    const double t = 0.1 * i;
+    r.push("hazard", instance(i, true, 1.0), t);
+    // Only frame 0 re-detects it; frame 1 finds a car on it, which does not count for a person.
+    r.push("detections", detections(i, i == 0 ? std::vector<Detection>{near_box()}
+                                          : i == 1 ? std::vector<Detection>{near_box("car", 0.9f)}
+                                                   : std::vector<Detection>{}),
+           t);
+    r.push("risk", risk(i, 2.0 + 0.1 * i), t, "ttc");
+    r.push("risk", drac(i), t, "drac");  // not a TTC; unsafe_metrics limits what counts below
+  }
+  r.run();
+  const Json s = r.collect<Record>("records").back().data;
+  EXPECT_EQ(s["passed"], false);
+  // The DRAC stream says Unsafe on every frame: with all metrics counting, the scene is Unsafe.
+  EXPECT_EQ(s["reasons"], Json::array({"re-detection rate 0.2 is below min_redetection_rate 0.5 (1 of 5 visible "
+                                       "frames with IoU >= 0.5)",
+                                       "achieved minimum TTC 2 s is 1 s away from the intended 1 s (max_ttc_error_s "
+                                       "0.5)"}));
+  EXPECT_EQ(s["unsafe"]["metrics"], Json::array({"drac"}));
+
+  auto only_ttc = testing::StageRunner::create<ClosedLoopVerifier>("unsafe_metrics: [ttc]");
+  for (int i = 0; i < 5; ++i) {
+    const double t = 0.1 * i;
+    only_ttc.push("hazard", instance(i, true, 1.0), t);
+    only_ttc.push("detections", detections(i, i == 0 ? std::vector<Detection>{near_box()} : std::vector<Detection>{}), t);
+    only_ttc.push("risk", risk(i, 2.0 + 0.1 * i), t, "ttc");
+    only_ttc.push("risk", drac(i), t, "drac");
+  }
+  only_ttc.run();
+  const Json s2 = only_ttc.collect<Record>("records").back().data;
+  EXPECT_EQ(s2["reasons"], Json::array({"re-detection rate 0.2 is below min_redetection_rate 0.5 (1 of 5 visible "
+                                        "frames with IoU >= 0.5)",
+                                        "the scene never becomes Unsafe while the hazard is visible (minimum scene "
+                                        "TTC 2 s)"}));
+}
+
+TEST(Verifier, NeverVisibleHazardFails) {
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>();
+  for (int i = 0; i < 3; ++i) {
+    r.push("hazard", instance(i, false, kInf), 0.1 * i);
+    r.push("detections", detections(i, {near_box()}), 0.1 * i);
+  }
+  r.run();
+  const Json s = r.collect<Record>("records").back().data;
+  EXPECT_EQ(s["reasons"], Json::array({"the inserted object is never visible (0 of 3 frames)"}));
+  EXPECT_EQ(s["redetection"]["rate"], Json());
+}
+
+TEST(Verifier, UnsafeOnlyCountsWhileTheHazardIsVisible) {
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>("min_redetection_rate: 0");
+  r.push("hazard", instance(0, false, 1.0), 0.0);
+  r.push("detections", detections(0, {}), 0.0);
+  r.push("risk", risk(0, 1.0), 0.0, "ttc");
+  r.push("hazard", instance(1, true, 1.0), 0.1);
+  r.push("detections", detections(1, {}), 0.1);
+  r.push("risk", risk(1, 3.0), 0.1, "ttc");
+  r.run();
+  const Json s = r.collect<Record>("records").back().data;
+  EXPECT_EQ(s["reasons"], Json::array({"the scene never becomes Unsafe while the hazard is visible (minimum scene "
+                                       "TTC 3 s)"}));
+}
+
+TEST(Verifier, NamedTtcMetricMustExist) {
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>("ttc_metric: ttc_scale");
+  r.push("hazard", instance(0, true, 1.0), 0.0);
+  r.push("detections", detections(0, {}), 0.0);
+  r.push("risk", risk(0, 1.0), 0.0, "ttc");
+  try {
+    r.run();
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "node 'verifier': ttc_metric 'ttc_scale' is none of the risk streams at frame 0 (ttc)");
+  }
+}
+
+}  // namespace
+}  // namespace hf
