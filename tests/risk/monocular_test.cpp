@@ -243,6 +243,12 @@ TEST(Monocular, MissedFramesAreNotMeasurements) {
   auto out = run("{velocity_window: 5, velocity_min_age: 3}", seq);
   EXPECT_NEAR((*out[5].objects[0].velocity_rel)[0], -4.0, 5e-3);
   EXPECT_EQ(out[4].objects[0].misses, 2);
+  // With max_misses 1 the held box of frame 4 (second miss) is not estimated, but the track's history
+  // survives.
+  auto strict = run("{velocity_window: 5, velocity_min_age: 3, max_misses: 1}", seq);
+  EXPECT_EQ(strict[3].objects.size(), 1u);
+  EXPECT_TRUE(strict[4].objects.empty());
+  EXPECT_NEAR((*strict[5].objects[0].velocity_rel)[0], -4.0, 5e-3);
 }
 
 TEST(Monocular, VelocityWindowForgetsVanishedTracks) {

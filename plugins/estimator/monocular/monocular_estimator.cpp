@@ -111,6 +111,11 @@ ComponentInfo MonocularEstimator::describe() {
       ParamSpec::boolean("use_yaw_rate", true)
           .describe("dead reckoning (frames without an ego pose) turns the ego by the frame's yaw "
                     "rate; false = the ego is assumed to drive straight"));
+  i.params.push_back(
+      ParamSpec::integer("max_misses", 2)
+          .range(0, 100000)
+          .describe("tracks missed for more consecutive frames than this (their box is held or "
+                    "predicted by the tracker) are not estimated"));
   i.params.push_back(ParamSpec::number("min_box_height_px", 2.0)
                          .range(0.01, 10000)
                          .describe("boxes shorter than this (px) are not estimated"));
@@ -141,6 +146,7 @@ void MonocularEstimator::open(StageContext& ctx) {
   if (ego >= 0) ego_speed_param_ = ego;
   use_yaw_rate_ = p.get_bool("use_yaw_rate");
   min_box_height_px_ = p.get_double("min_box_height_px");
+  max_misses_ = static_cast<int>(p.get_int("max_misses"));
   history_.clear();
 }
 
@@ -207,7 +213,7 @@ ObjectStates MonocularEstimator::estimate(StageContext& ctx, const Tracks& track
   for (const Track& tr : tracks.items) {
     alive.insert(tr.id);
     const double h = tr.box.height;
-    if (!(h >= min_box_height_px_)) continue;
+    if (!(h >= min_box_height_px_) || tr.misses > max_misses_) continue;
     if (!priors_.has(tr.label)) {
       if (warned_labels_.insert(tr.label).second)
         ctx.log(LogLevel::kWarning, "no size prior for class '" + tr.label +

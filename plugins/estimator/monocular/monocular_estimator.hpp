@@ -36,7 +36,7 @@ std::optional<double> ls_slope(const std::vector<double>& t, const std::vector<d
 // (ObjectStates), one packet per frame, stamped with the frame's time. Velocities use the frame timestamps.
 // Params: class_sizes, distance_method (pinhole | ground | fused), fused_horizon_margin_px, border_margin_px,
 // distance_origin (camera | bumper | ego_origin), front_overhang, velocity_window, velocity_min_age,
-// ego_speed_mps, use_yaw_rate, min_box_height_px, corridor_half_width, corridor_margin.
+// ego_speed_mps, use_yaw_rate, max_misses, min_box_height_px, corridor_half_width, corridor_margin.
 // See docs/risk-metrics.md for the formulas.
 class MonocularEstimator : public Estimator {
  public:
@@ -73,6 +73,7 @@ class MonocularEstimator : public Estimator {
   std::optional<double> ego_speed_param_;
   bool use_yaw_rate_ = true;
   double min_box_height_px_ = 2.0;
+  int max_misses_ = 2;
   std::map<int64_t, std::deque<Sample>> history_;
   Reference reference_ = Reference::kNone;
   cv::Vec3d odometry_{0, 0, 0};  // x, y, yaw of the ego in the dead-reckoned frame
