@@ -89,8 +89,8 @@ TEST(JsonlSink, LinesKeyedByProducerAndCsvTables) {
   for (int f = 0; f < 3; ++f) {
     const double t = f * 0.04;
     r.push("records", states(f, t), t, "estimator");
-    r.push("records", risk("ttc", f, f == 1 ? kInf : 5.0 - f, f == 1 ? kInf : 5.0 - f, false), t, "ttc");
-    if (f == 2) r.push("records", risk("drac", f, 3.5, 3.5, true), t, "drac");  // appears late
+    r.push("records", risk("ttc", f, f == 1 ? kInf : 5.0 - f, f == 1 ? kInf : 5.0 - f, false), t, "ttc.risk");
+    if (f == 2) r.push("records", risk("drac", f, 3.5, 3.5, true), t, "drac.risk");  // appears late
     r.push("records", Record{"note", {{"k", f}}}, t, "eval");
   }
   r.run();
@@ -103,10 +103,10 @@ TEST(JsonlSink, LinesKeyedByProducerAndCsvTables) {
   EXPECT_EQ(j0["estimator"]["objects"][0]["track_id"], 7);
   EXPECT_DOUBLE_EQ(j0["estimator"]["objects"][0]["distance_m"].get<double>(), 20.0);
   EXPECT_TRUE(j0["estimator"]["objects"][1]["distance_m"].is_null()) << "infinity -> null";
-  EXPECT_DOUBLE_EQ(j0["ttc"]["scene_value"].get<double>(), 5.0);
-  EXPECT_TRUE(j1["ttc"]["scene_value"].is_null());
-  EXPECT_EQ(j2["drac"]["label"], "Unsafe");
-  EXPECT_FALSE(j1.contains("drac"));
+  EXPECT_DOUBLE_EQ(j0["ttc.risk"]["scene_value"].get<double>(), 5.0);
+  EXPECT_TRUE(j1["ttc.risk"]["scene_value"].is_null());
+  EXPECT_EQ(j2["drac.risk"]["label"], "Unsafe");
+  EXPECT_FALSE(j1.contains("drac.risk"));
   EXPECT_EQ(j1["eval"]["data"]["k"], 1);
 
   const auto obj = lines_of(out / "objects.csv");
@@ -160,6 +160,18 @@ TEST(JsonlSink, LinesAreOnDiskBeforeFinish) {
   ASSERT_EQ(lines.size(), 2u);
   EXPECT_EQ(Json::parse(lines[1])["ttc"]["label"], "Unsafe");
   EXPECT_FALSE(fs::exists(r.output_dir() / "objects.csv"));
+}
+
+TEST(JsonlSink, SameProducerTwiceKeepsBothPackets) {
+  auto r = testing::StageRunner::create<JsonlSink>("{csv: false}");
+  r.push("records", risk("ttc", 0, 2.0, 2.0, false), 0.0, "ttc");
+  r.push("records", risk("ttc", 0, 1.0, 1.0, true), 0.0, "ttc");
+  r.run();
+  const auto lines = lines_of(r.output_dir() / "frames.jsonl");
+  ASSERT_EQ(lines.size(), 1u);
+  const Json j = Json::parse(lines[0]);
+  EXPECT_EQ(j["ttc"]["label"], "Safe");
+  EXPECT_EQ(j["ttc#2"]["label"], "Unsafe");
 }
 
 // ---- annotated video ------------------------------------------------------------------------------------------

@@ -160,7 +160,12 @@ void JsonlSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
     line[key] = p->serializable() ? p->as_json()
                                   : Json{{"type", p->type_name()}, {"version", p->type_version()}, {"serializable", false}};
     if (p->is<ObjectStates>()) states.emplace_back(key, &p->get<ObjectStates>());
-    if (p->is<RiskAssessment>()) risks.emplace_back(key, &p->get<RiskAssessment>());
+    if (p->is<RiskAssessment>()) {
+      // CSV columns use the metric's node id ("ttc") when it has one; the stream key otherwise.
+      const RiskAssessment& r = p->get<RiskAssessment>();
+      const bool taken = std::any_of(risks.begin(), risks.end(), [&](const auto& x) { return x.first == r.metric; });
+      risks.emplace_back(r.metric.empty() || taken ? key : r.metric, &r);
+    }
   }
   // Invalid UTF-8 in free text (dataset descriptions) must not cost the line.
   out_ << line.dump(-1, ' ', false, Json::error_handler_t::replace) << '\n';
