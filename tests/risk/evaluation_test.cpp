@@ -72,6 +72,9 @@ TEST(Evaluation, ConfusionAccuracyBaselineAndErrorAtEachThreshold) {
   const Json report = Json::parse(slurp(dir / "report.json"));
   EXPECT_EQ(report.at("frames"), 10);
   EXPECT_EQ(report.at("scenes"), Json::array({"scene-a", "scene-b"}));
+  // Metrics in input order, not alphabetical.
+  EXPECT_EQ(report.at("metrics")[0].at("name"), "ttc_yolo");
+  EXPECT_EQ(report.at("metrics")[1].at("name"), "drac_yolo");
   const Json& ttc = metric(group(report, "(all scenes)"), "ttc_yolo");
   ASSERT_EQ(ttc.at("evaluations").size(), 3u);
   const Json& e15 = ttc.at("evaluations")[0];
@@ -150,6 +153,14 @@ TEST(Evaluation, ReportsAreSelfContainedAndSayWhatDoesNotApply) {
       std::string::npos)
       << md;
   EXPECT_NE(md.find("`drac_yolo` is higher-is-riskier"), std::string::npos);
+  // The side-by-side summary: accuracy / balanced accuracy / recall per threshold, then the TTC error.
+  EXPECT_NE(
+      md.find(
+          "| ttc_yolo | 10 | 80.0 % / 76.2 % / 66.7 % | 90.0 % / 87.5 % / 75.0 % | 80.0 % / 83.3 % / 66.7 % "
+          "| — | 0.50 s / 22.2 % |"),
+      std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| drac_yolo | 10 | — | — | — | 90.0 % / 92.9 % / 100.0 % | — |"), std::string::npos);
   EXPECT_NE(md.find("| drac_yolo | own (3.35 m/s2) |"), std::string::npos);
 }
 
@@ -174,9 +185,9 @@ TEST(Evaluation, MalformedRecordsNameFileLineAndField) {
   const std::filesystem::path p = std::filesystem::temp_directory_path() / "hf_eval_bad.jsonl";
   {
     std::ofstream out(p);
-    out << R"({"frame":0,"timestamp":0,"scene":"s","truth":{"stage":"ground_truth","unit":"s","lower_is_riskier":true,"threshold":1.5,"scene_value":"inf","critical":-1},"estimates":{}})"
+    out << R"({"frame":0,"timestamp":0,"scene":"s","truth":{"stage":"ground_truth","unit":"s","lower_is_riskier":true,"threshold":1.5,"scene_value":"inf","critical":-1},"estimates":[]})"
         << "\n"
-        << R"({"frame":1,"timestamp":0.1,"scene":"s","truth":{"stage":"ground_truth","unit":"s","lower_is_riskier":true,"threshold":1.5,"scene_value":"soon","critical":-1},"estimates":{}})"
+        << R"({"frame":1,"timestamp":0.1,"scene":"s","truth":{"stage":"ground_truth","unit":"s","lower_is_riskier":true,"threshold":1.5,"scene_value":"soon","critical":-1},"estimates":[]})"
         << "\n";
   }
   try {

@@ -157,6 +157,31 @@ Table threshold_table(const Json& group) {
   return t;
 }
 
+// Every metric on one row: accuracy, balanced accuracy and Unsafe recall at each threshold, and the TTC
+// error.
+Table summary_table(const Json& group, const std::vector<double>& thresholds) {
+  Table t;
+  t.header = {"metric", "frames"};
+  for (double th : thresholds) t.header.push_back("at " + num(th) + " s: accuracy / balanced / recall");
+  t.header.push_back("own threshold: accuracy / balanced / recall");
+  t.header.push_back("TTC error: median abs / rel");
+  auto cell = [](const Json& e) {
+    return pct(e.at("accuracy")) + " / " + pct(e.at("balanced_accuracy")) + " / " + pct(e.at("recall"));
+  };
+  for (const Json& m : group.at("metrics")) {
+    const Json& ev = m.at("evaluations");
+    std::vector<std::string> row = {m.at("name").get<std::string>(),
+                                    ev.empty() ? "0" : num(ev[0].at("frames"))};
+    const bool own = !ev.empty() && ev[0].at("threshold").is_string();
+    for (size_t k = 0; k < thresholds.size(); ++k) row.push_back(own || k >= ev.size() ? "—" : cell(ev[k]));
+    row.push_back(own ? cell(ev[0]) : "—");
+    const Json& err = m.at("ttc_error");
+    row.push_back(err.is_null() ? "—" : secs(err.at("median_abs_s")) + " / " + pct(err.at("median_rel")));
+    t.rows.push_back(std::move(row));
+  }
+  return t;
+}
+
 Table error_table(const Json& group, double max_ttc) {
   Table t;
   t.header = {"metric", "frames with true TTC finite and < " + num(max_ttc) + " s", "estimate finite",
@@ -259,9 +284,19 @@ Verdict verdict_of(const RiskAssessment& r) {
   return {r.stage, r.unit, r.lower_is_riskier, r.threshold, r.scene_value, r.critical_track};
 }
 
+const Verdict* FrameRecord::estimate(const std::string& label) const {
+  for (const auto& [k, v] : estimates)
+    if (k == label) return &v;
+  return nullptr;
+}
+
 Json to_json(const FrameRecord& r) {
-  Json est = Json::object();
-  for (const auto& [k, v] : r.estimates) est[k] = verdict_json(v);
+  Json est = Json::array();
+  for (const auto& [k, v] : r.estimates) {
+    Json e = verdict_json(v);
+    e["name"] = k;
+    est.push_back(std::move(e));
+  }
   return {{"frame", r.frame},
           {"timestamp", r.timestamp},
           {"scene", r.scene},
@@ -281,10 +316,17 @@ FrameRecord record_from_json(const Json& j, const std::string& where) {
   }
   if (!j.contains("truth")) throw Error(where + ": no field 'truth'");
   r.truth = verdict_from(j["truth"], where, "truth");
-  if (!j.contains("estimates") || !j["estimates"].is_object())
-    throw Error(where + ": field 'estimates' must be an object");
-  for (auto it = j["estimates"].begin(); it != j["estimates"].end(); ++it)
-    r.estimates[it.key()] = verdict_from(*it, where, "estimates." + it.key());
+  if (!j.contains("estimates") || !j["estimates"].is_array())
+    throw Error(where + ": field 'estimates' must be an array");
+  for (size_t k = 0; k < j["estimates"].size(); ++k) {
+    const Json& e = j["estimates"][k];
+    const std::string field = "estimates[" + std::to_string(k) + "]";
+    if (!e.is_object() || !e.contains("name") || !e["name"].is_string())
+      throw Error(where + ": field '" + field + "' needs a string 'name'");
+    const std::string name = e["name"].get<std::string>();
+    if (r.estimate(name)) throw Error(where + ": estimate '" + name + "' appears twice");
+    r.estimates.emplace_back(name, verdict_from(e, where, field));
+  }
   return r;
 }
 
@@ -360,8 +402,7 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
       std::vector<std::pair<const Verdict*, const Verdict*>> pairs;  // (truth, estimate)
       for (const FrameRecord& r : records) {
         if (g != kAllScenes && r.scene != g) continue;
-        if (auto it = r.estimates.find(name); it != r.estimates.end())
-          pairs.push_back({&r.truth, &it->second});
+        if (const Verdict* e = r.estimate(name)) pairs.push_back({&r.truth, e});
       }
       Json m = {{"name", name},
                 {"stage", meta.stage},
@@ -422,7 +463,9 @@ std::string render_markdown(const Json& report) {
        "error on frames whose true TTC is finite and below "
     << num(p.at("max_ttc_s")) << " s; an infinite estimate there has no error and is counted apart.\n\n";
   for (const Json& g : report.at("results")) {
-    s << "## " << g.at("scene").get<std::string>() << "\n\n### Safe / Unsafe\n\n"
+    s << "## " << g.at("scene").get<std::string>() << "\n\n### All metrics\n\n"
+      << markdown_table(summary_table(g, p.at("thresholds").get<std::vector<double>>()))
+      << "\n### Safe / Unsafe\n\n"
       << markdown_table(threshold_table(g));
     s << "\n### TTC error\n\n" << markdown_table(error_table(g, p.at("max_ttc_s").get<double>())) << "\n";
   }
@@ -477,10 +520,8 @@ std::string svg_plot(const std::string& scene, const std::vector<const FrameReco
   for (const Json& m : report.at("metrics")) {
     if (!m.at("lower_is_riskier").get<bool>() || m.at("unit") != "s") continue;
     const std::string name = m.at("name").get<std::string>();
-    series.push_back({name, kColors[ci++ % 10], 1.5, [name](const FrameRecord& r) -> const Verdict* {
-                        auto it = r.estimates.find(name);
-                        return it == r.estimates.end() ? nullptr : &it->second;
-                      }});
+    series.push_back(
+        {name, kColors[ci++ % 10], 1.5, [name](const FrameRecord& r) { return r.estimate(name); }});
   }
   for (size_t k = 0; k < series.size(); ++k) {
     const Series& se = series[k];
@@ -521,7 +562,10 @@ std::string render_html(const Json& report, const std::vector<FrameRecord>& reco
     << num(p.at("max_ttc_s")) << " s.</p>\n";
   for (const Json& g : report.at("results")) {
     const std::string scene = g.at("scene").get<std::string>();
-    s << "<h2>" << html_escape(scene) << "</h2>\n<h3>Safe / Unsafe</h3>\n" << html_table(threshold_table(g));
+    s << "<h2>" << html_escape(scene) << "</h2>\n<h3>All metrics</h3>\n"
+      << html_table(summary_table(g, p.at("thresholds").get<std::vector<double>>()))
+      << "<h3>Safe / Unsafe</h3>\n"
+      << html_table(threshold_table(g));
     s << "<h3>TTC error</h3>\n" << html_table(error_table(g, p.at("max_ttc_s").get<double>()));
     std::vector<const FrameRecord*> recs;
     for (const FrameRecord& r : records)

@@ -27,7 +27,9 @@ struct FrameRecord {
   double timestamp = 0.0;
   std::string scene;
   Verdict truth;
-  std::map<std::string, Verdict> estimates;  // stream label (producer node id) -> verdict
+  std::vector<std::pair<std::string, Verdict>> estimates;  // (stream label, verdict) in input order
+
+  const Verdict* estimate(const std::string& label) const;
 };
 
 struct Options {

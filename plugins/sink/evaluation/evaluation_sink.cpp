@@ -92,8 +92,9 @@ void EvaluationSink::process(StageContext& ctx, const Inputs& in, Outputs&) {
     if (!packets[k] || packets[k]->empty()) continue;
     const RiskAssessment& e = packets[k]->get<RiskAssessment>();
     const std::string label = k < producers.size() && !producers[k].empty() ? producers[k] : e.metric;
-    if (!r.estimates.emplace(label, eval::verdict_of(e)).second)
+    if (r.estimate(label))
       throw Error("frame " + std::to_string(r.frame) + ": two estimate packets from '" + label + "'");
+    r.estimates.emplace_back(label, eval::verdict_of(e));
   }
   if (r.estimates.empty()) return;
   jsonl_ << eval::to_json(r).dump() << "\n";
