@@ -1,0 +1,459 @@
+// Generates the default appearance assets (share/assets): simple shaded 3D models of a car, a truck, a bus and
+// a pedestrian, ray-cast from eight viewpoints into PNGs with alpha, plus the assets.yaml index.
+//
+//   hf_make_assets --out share/assets [--height 240]
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "asset_library.hpp"
+#include "box_geometry.hpp"
+#include "hazardforge/error.hpp"
+
+namespace {
+
+using cv::Vec3d;
+namespace fs = std::filesystem;
+namespace hr = hf::render;
+
+struct Material {
+  Vec3d albedo;            // BGR, 0..1
+  double specular = 0.0;   // strength of the sky reflection
+  double emissive = 0.0;   // lamps: part of the colour that ignores shading
+};
+
+struct Hit {
+  double t = 1e30;
+  Vec3d n;
+  int material = -1;
+};
+
+// A primitive intersected by rays in the object frame.
+class Shape {
+ public:
+  explicit Shape(int material) : material_(material) {}
+  virtual ~Shape() = default;
+  virtual bool intersect(const Vec3d& o, const Vec3d& d, Hit& hit) const = 0;
+
+ protected:
+  bool accept(double t, const Vec3d& n, Hit& hit) const {
+    if (t <= 1e-6 || t >= hit.t) return false;
+    hit.t = t;
+    hit.n = n;
+    hit.material = material_;
+    return true;
+  }
+  int material_;
+};
+
+class Box : public Shape {
+ public:
+  Box(Vec3d lo, Vec3d hi, int m) : Shape(m), lo_(lo), hi_(hi) {}
+  bool intersect(const Vec3d& o, const Vec3d& d, Hit& hit) const override {
+    double t0 = -1e30, t1 = 1e30;
+    int axis = -1;
+    double sign = 0;
+    for (int a = 0; a < 3; ++a) {
+      if (std::abs(d[a]) < 1e-12) {
+        if (o[a] < lo_[a] || o[a] > hi_[a]) return false;
+        continue;
+      }
+      double ta = (lo_[a] - o[a]) / d[a], tb = (hi_[a] - o[a]) / d[a];
+      double s = -1;  // entering through the low face
+      if (ta > tb) {
+        std::swap(ta, tb);
+        s = 1;
+      }
+      if (ta > t0) {
+        t0 = ta;
+        axis = a;
+        sign = s;
+      }
+      t1 = std::min(t1, tb);
+      if (t0 > t1) return false;
+    }
+    if (axis < 0) return false;
+    Vec3d n(0, 0, 0);
+    n[axis] = sign;
+    return accept(t0, n, hit);
+  }
+
+ private:
+  Vec3d lo_, hi_;
+};
+
+// A capsule (a sphere when both ends coincide): all points within `r` of the segment a-b.
+class Capsule : public Shape {
+ public:
+  Capsule(Vec3d a, Vec3d b, double r, int m) : Shape(m), a_(a), b_(b), r_(r) {}
+  bool intersect(const Vec3d& o, const Vec3d& d, Hit& hit) const override {
+    const Vec3d ba = b_ - a_, oa = o - a_;
+    const double baba = ba.dot(ba), bard = ba.dot(d), baoa = ba.dot(oa), rdoa = d.dot(oa), oaoa = oa.dot(oa);
+    double a = baba - bard * bard, b = baba * rdoa - baoa * bard, c = baba * oaoa - baoa * baoa - r_ * r_ * baba;
+    double h = b * b - a * c;
+    if (baba > 1e-12 && h >= 0.0 && a > 1e-12) {
+      const double t = (-b - std::sqrt(h)) / a;
+      const double y = baoa + t * bard;
+      if (y > 0.0 && y < baba) {
+        const Vec3d p = o + t * d;
+        const Vec3d n = p - (a_ + ba * (y / baba));
+        return accept(t, n / cv::norm(n), hit);
+      }
+    }
+    // The end caps are spheres.
+    bool any = false;
+    for (const Vec3d& cen : {a_, b_}) {
+      const Vec3d oc = o - cen;
+      const double bb = oc.dot(d), cc = oc.dot(oc) - r_ * r_, hh = bb * bb - cc;
+      if (hh < 0) continue;
+      const double t = -bb - std::sqrt(hh);
+      const Vec3d p = o + t * d;
+      any |= accept(t, (p - cen) / r_, hit);
+    }
+    return any;
+  }
+
+ private:
+  Vec3d a_, b_;
+  double r_;
+};
+
+// A wheel: a cylinder around the y axis.
+class Wheel : public Shape {
+ public:
+  Wheel(Vec3d c, double r, double half_width, int m) : Shape(m), c_(c), r_(r), hw_(half_width) {}
+  bool intersect(const Vec3d& o, const Vec3d& d, Hit& hit) const override {
+    bool any = false;
+    const double ox = o[0] - c_[0], oz = o[2] - c_[2];
+    const double a = d[0] * d[0] + d[2] * d[2];
+    if (a > 1e-12) {
+      const double b = ox * d[0] + oz * d[2], cc = ox * ox + oz * oz - r_ * r_;
+      const double h = b * b - a * cc;
+      if (h >= 0) {
+        const double t = (-b - std::sqrt(h)) / a;
+        const double y = o[1] + t * d[1] - c_[1];
+        if (std::abs(y) <= hw_) any |= accept(t, Vec3d((ox + t * d[0]) / r_, 0, (oz + t * d[2]) / r_), hit);
+      }
+    }
+    if (std::abs(d[1]) > 1e-12)
+      for (double s : {-1.0, 1.0}) {
+        const double t = (c_[1] + s * hw_ - o[1]) / d[1];
+        const double x = ox + t * d[0], z = oz + t * d[2];
+        if (x * x + z * z <= r_ * r_) any |= accept(t, Vec3d(0, s, 0), hit);
+      }
+    return any;
+  }
+
+ private:
+  Vec3d c_;
+  double r_, hw_;
+};
+
+struct Model {
+  std::string object_class;
+  std::string instance;
+  Vec3d size_lwh;
+  std::vector<Material> materials;
+  std::vector<std::shared_ptr<const Shape>> shapes;  // shared: Model is copied into a vector
+  int target_height_px = 240;
+
+  int material(Vec3d bgr, double spec = 0.0, double emissive = 0.0) {
+    materials.push_back({bgr, spec, emissive});
+    return static_cast<int>(materials.size()) - 1;
+  }
+  void box(Vec3d lo, Vec3d hi, int m) { shapes.push_back(std::make_shared<Box>(lo, hi, m)); }
+  void capsule(Vec3d a, Vec3d b, double r, int m) { shapes.push_back(std::make_shared<Capsule>(a, b, r, m)); }
+  void wheel(Vec3d c, double r, double hw, int m) { shapes.push_back(std::make_shared<Wheel>(c, r, hw, m)); }
+};
+
+// Four wheels with lighter hubs; the tyres touch the ground and stay inside the box's width.
+void add_wheels(Model& m, const std::vector<double>& xs, double r, double half_w, double tyre_w) {
+  const int tyre = m.material({0.07, 0.07, 0.08}, 0.05);
+  const int hub = m.material({0.55, 0.55, 0.57}, 0.2);
+  for (double x : xs)
+    for (double s : {-1.0, 1.0}) {
+      const double yc = s * (half_w - tyre_w / 2);
+      m.wheel({x, yc, r}, r, tyre_w / 2, tyre);
+      m.wheel({x, yc + s * 0.005, r}, r * 0.58, tyre_w / 2, hub);
+    }
+}
+
+// Lamps and plates on the front (s = +1) or rear (s = -1) face at x = s * x_face.
+void add_lamps(Model& m, double s, double x_face, double y_in, double y_out, double z0, double z1, int lamp) {
+  for (double side : {-1.0, 1.0}) {
+    const double xa = s * x_face, xb = s * (x_face - 0.03);
+    m.box({std::min(xa, xb), std::min(side * y_in, side * y_out), z0},
+          {std::max(xa, xb), std::max(side * y_in, side * y_out), z1}, lamp);
+  }
+}
+
+Model make_car() {
+  Model m;
+  m.object_class = "car";
+  m.instance = "car_default";
+  m.size_lwh = {4.50, 1.85, 1.52};
+  const double hl = 2.25, hw = 0.925;
+  const int paint = m.material({0.62, 0.36, 0.16}, 0.25);  // metallic blue
+  const int glass = m.material({0.16, 0.12, 0.10}, 0.55);
+  const int trim = m.material({0.10, 0.10, 0.11}, 0.05);
+  const int tail = m.material({0.10, 0.08, 0.80}, 0.2, 0.45);
+  const int head = m.material({0.80, 0.92, 0.95}, 0.3, 0.45);
+  const int plate = m.material({0.90, 0.90, 0.90}, 0.05);
+  add_wheels(m, {1.42, -1.38}, 0.33, hw, 0.22);
+  m.box({-2.22, -0.90, 0.30}, {2.22, 0.90, 0.95}, paint);   // lower body
+  m.box({2.12, -0.88, 0.24}, {hl, 0.88, 0.48}, trim);       // front bumper
+  m.box({-hl, -0.88, 0.24}, {-2.12, 0.88, 0.48}, trim);     // rear bumper
+  m.box({-1.35, -0.78, 1.44}, {0.65, 0.78, 1.52}, paint);   // roof
+  for (double s : {-1.0, 1.0}) {                            // pillars
+    m.box({0.62, std::min(s * 0.72, s * 0.81), 0.95}, {0.78, std::max(s * 0.72, s * 0.81), 1.46}, paint);
+    m.box({-1.50, std::min(s * 0.72, s * 0.81), 0.95}, {-1.28, std::max(s * 0.72, s * 0.81), 1.46}, paint);
+    m.box({-0.42, std::min(s * 0.76, s * 0.81), 0.95}, {-0.32, std::max(s * 0.76, s * 0.81), 1.46}, paint);
+  }
+  m.box({-1.45, -0.78, 0.95}, {0.75, 0.78, 1.47}, glass);  // glasshouse
+  add_lamps(m, -1, hl - 0.005, 0.55, 0.86, 0.72, 0.88, tail);
+  add_lamps(m, 1, hl - 0.005, 0.55, 0.86, 0.70, 0.82, head);
+  m.box({2.22, -0.45, 0.52}, {2.235, 0.45, 0.68}, trim);          // grille
+  m.box({2.235, -0.26, 0.29}, {hl, 0.26, 0.41}, plate);            // front plate
+  m.box({-hl, -0.26, 0.56}, {-2.22, 0.26, 0.68}, plate);           // rear plate
+  return m;
+}
+
+Model make_truck() {
+  Model m;
+  m.object_class = "truck";
+  m.instance = "truck_default";
+  m.size_lwh = {8.00, 2.50, 3.00};
+  const double hl = 4.0, hw = 1.25;
+  const int cab = m.material({0.92, 0.92, 0.90}, 0.2);
+  const int cargo = m.material({0.78, 0.80, 0.80}, 0.05);
+  const int glass = m.material({0.18, 0.14, 0.12}, 0.5);
+  const int chassis = m.material({0.12, 0.12, 0.12}, 0.05);
+  const int tail = m.material({0.10, 0.08, 0.80}, 0.2, 0.45);
+  const int head = m.material({0.80, 0.92, 0.95}, 0.3, 0.45);
+  add_wheels(m, {2.9, -1.9, -3.1}, 0.50, hw - 0.02, 0.34);
+  m.box({-3.95, -1.10, 0.45}, {3.95, 1.10, 1.00}, chassis);                // chassis
+  m.box({-hl, -hw, 0.95}, {1.85, hw, 3.00}, cargo);                         // cargo box
+  m.box({2.00, -1.20, 0.55}, {3.95, 1.20, 2.70}, cab);                      // cab
+  m.box({3.30, -1.12, 1.75}, {3.97, 1.12, 2.55}, glass);                    // windscreen + side windows
+  m.box({3.90, -1.15, 0.40}, {hl, 1.15, 0.75}, chassis);                    // front bumper
+  add_lamps(m, 1, hl - 0.005, 0.75, 1.10, 0.85, 1.00, head);
+  add_lamps(m, -1, hl - 0.005, 0.80, 1.15, 0.55, 0.80, tail);
+  m.box({-hl, -1.22, 0.45}, {-3.96, 1.22, 0.55}, chassis);                  // rear underrun bar
+  return m;
+}
+
+Model make_bus() {
+  Model m;
+  m.object_class = "bus";
+  m.instance = "bus_default";
+  m.size_lwh = {11.0, 2.55, 3.20};
+  const double hl = 5.5, hw = 1.275;
+  const int paint = m.material({0.20, 0.62, 0.90}, 0.2);  // yellow-orange
+  const int glass = m.material({0.18, 0.14, 0.12}, 0.5);
+  const int trim = m.material({0.12, 0.12, 0.12}, 0.05);
+  const int tail = m.material({0.10, 0.08, 0.80}, 0.2, 0.45);
+  const int head = m.material({0.80, 0.92, 0.95}, 0.3, 0.45);
+  add_wheels(m, {3.9, -3.0}, 0.50, hw - 0.01, 0.32);
+  m.box({-hl + 0.02, -1.25, 0.30}, {hl - 0.02, 1.25, 3.20}, paint);
+  m.box({-hl + 0.40, -1.265, 1.35}, {hl - 0.40, 1.265, 2.65}, glass);      // side window band
+  m.box({hl - 0.03, -1.10, 1.00}, {hl, 1.10, 2.85}, glass);                // windscreen
+  m.box({-hl, -1.00, 2.00}, {-hl + 0.03, 1.00, 2.80}, glass);              // rear window
+  m.box({hl - 0.05, -1.26, 0.25}, {hl, 1.26, 0.55}, trim);                 // bumpers
+  m.box({-hl, -1.26, 0.25}, {-hl + 0.05, 1.26, 0.55}, trim);
+  add_lamps(m, 1, hl - 0.005, 0.85, 1.15, 0.65, 0.85, head);
+  add_lamps(m, -1, hl - 0.005, 0.90, 1.20, 0.70, 1.10, tail);
+  return m;
+}
+
+Model make_person() {
+  Model m;
+  m.object_class = "person";
+  m.instance = "person_default";
+  m.size_lwh = {0.50, 0.60, 1.70};
+  m.target_height_px = 320;
+  const int skin = m.material({0.52, 0.62, 0.80}, 0.05);
+  const int hair = m.material({0.08, 0.10, 0.14}, 0.05);
+  const int jacket = m.material({0.16, 0.18, 0.70}, 0.08);  // red jacket
+  const int jeans = m.material({0.45, 0.28, 0.18}, 0.05);
+  const int shoes = m.material({0.10, 0.10, 0.10}, 0.05);
+  // Mid-stride: one leg forward, one back, so side views read as walking.
+  m.capsule({0.02, 0.10, 0.86}, {0.16, 0.11, 0.12}, 0.075, jeans);
+  m.capsule({-0.02, -0.10, 0.86}, {-0.14, -0.11, 0.12}, 0.075, jeans);
+  m.capsule({0.16, 0.11, 0.05}, {0.20, 0.11, 0.05}, 0.05, shoes);
+  m.capsule({-0.14, -0.11, 0.05}, {-0.10, -0.11, 0.05}, 0.05, shoes);
+  m.box({-0.12, -0.18, 0.84}, {0.12, 0.18, 1.36}, jacket);  // torso
+  m.capsule({0.0, -0.17, 1.36}, {0.0, 0.17, 1.36}, 0.085, jacket);  // shoulders
+  m.capsule({0.0, 0.235, 1.36}, {-0.10, 0.245, 0.90}, 0.055, jacket);  // arms swing opposite to the legs
+  m.capsule({0.0, -0.235, 1.36}, {0.11, -0.245, 0.90}, 0.055, jacket);
+  m.capsule({-0.11, 0.245, 0.86}, {-0.11, 0.245, 0.86}, 0.048, skin);
+  m.capsule({0.12, -0.245, 0.86}, {0.12, -0.245, 0.86}, 0.048, skin);
+  m.capsule({0.0, 0.0, 1.40}, {0.0, 0.0, 1.50}, 0.05, skin);  // neck
+  m.capsule({0.0, 0.0, 1.575}, {0.0, 0.0, 1.575}, 0.11, skin);  // head
+  m.capsule({-0.015, 0.0, 1.585}, {-0.015, 0.0, 1.585}, 0.115, hair);
+  return m;
+}
+
+struct Camera {
+  Vec3d pos, x, y, z;  // optical axes in the object frame
+  double f = 1, cx = 0, cy = 0;
+  cv::Point2d project(const Vec3d& p) const {
+    const Vec3d d = p - pos;
+    return {f * d.dot(x) / d.dot(z) + cx, f * d.dot(y) / d.dot(z) + cy};
+  }
+};
+
+// A dash-camera-like viewpoint: 1.6 m above the ground, far enough for mild perspective.
+Camera view_camera(const Model& m, double azimuth_deg, cv::Size& size) {
+  const double az = azimuth_deg * CV_PI / 180.0;
+  const double dist = std::max(15.0, 2.5 * m.size_lwh[0]);
+  Camera c;
+  c.pos = Vec3d(dist * std::cos(az), dist * std::sin(az), 1.6);
+  const Vec3d target(0, 0, m.size_lwh[2] / 2);
+  c.z = (target - c.pos) / cv::norm(target - c.pos);
+  c.x = c.z.cross(Vec3d(0, 0, 1));
+  c.x /= cv::norm(c.x);
+  c.y = c.z.cross(c.x);
+  const auto corners = hr::box_corners(0, 0, 0, m.size_lwh);
+  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+  for (const auto& p : corners) {
+    const cv::Point2d q = c.project(p);
+    x0 = std::min(x0, q.x);
+    x1 = std::max(x1, q.x);
+    y0 = std::min(y0, q.y);
+    y1 = std::max(y1, q.y);
+  }
+  const double margin = 3;
+  c.f = m.target_height_px / (y1 - y0);
+  c.cx = -x0 * c.f + margin;
+  c.cy = -y0 * c.f + margin;
+  size = cv::Size(static_cast<int>(std::ceil((x1 - x0) * c.f + 2 * margin)),
+                  static_cast<int>(std::ceil((y1 - y0) * c.f + 2 * margin)));
+  return c;
+}
+
+// Sky light from above, a fill light from the viewer's side and a key light from the front-left, so every
+// visible face is readable; glass and paint reflect the sky.
+Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray) {
+  const Material& mat = m.materials[static_cast<size_t>(h.material)];
+  Vec3d n = h.n;
+  if (n.dot(ray) > 0) n = -n;
+  static const Vec3d key = Vec3d(0.45, 0.35, 0.82) / cv::norm(Vec3d(0.45, 0.35, 0.82));
+  const double sky = 0.5 + 0.5 * n[2];
+  const double fill = std::max(0.0, -n.dot(ray));
+  const double lambert = std::max(0.0, n.dot(key));
+  const double light = 0.22 + 0.30 * sky + 0.25 * fill + 0.35 * lambert;
+  Vec3d col = mat.albedo * (light * (1 - mat.emissive) + mat.emissive);
+  const Vec3d refl = ray - 2 * ray.dot(n) * n;
+  const double sky_refl = std::pow(std::max(0.0, refl[2]), 2.0);
+  col += Vec3d(0.95, 0.85, 0.78) * (mat.specular * 0.45 * sky_refl);
+  for (int k = 0; k < 3; ++k) col[k] = std::clamp(col[k], 0.0, 1.0);
+  return col;
+}
+
+cv::Mat render(const Model& m, const Camera& cam, cv::Size size) {
+  constexpr int kSuper = 4;  // supersampling per axis, for anti-aliased edges and alpha
+  cv::Mat acc(size, CV_64FC4, cv::Scalar::all(0));
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      cv::Vec4d sum(0, 0, 0, 0);
+      for (int sy = 0; sy < kSuper; ++sy)
+        for (int sx = 0; sx < kSuper; ++sx) {
+          const double u = (x + (sx + 0.5) / kSuper - cam.cx) / cam.f;
+          const double v = (y + (sy + 0.5) / kSuper - cam.cy) / cam.f;
+          Vec3d d = cam.z + u * cam.x + v * cam.y;
+          d /= cv::norm(d);
+          Hit hit;
+          for (const auto& s : m.shapes) s->intersect(cam.pos, d, hit);
+          if (hit.material < 0) continue;
+          const Vec3d c = shade(m, hit, d);
+          sum += cv::Vec4d(c[0], c[1], c[2], 1.0);
+        }
+      acc.at<cv::Vec4d>(y, x) = sum / double(kSuper * kSuper);
+    }
+  cv::Mat out(size, CV_8UC4);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const cv::Vec4d a = acc.at<cv::Vec4d>(y, x);
+      cv::Vec4b& o = out.at<cv::Vec4b>(y, x);
+      for (int k = 0; k < 3; ++k) o[k] = cv::saturate_cast<uint8_t>(a[3] > 0 ? 255.0 * a[k] / a[3] : 0.0);
+      o[3] = cv::saturate_cast<uint8_t>(255.0 * a[3]);
+    }
+  return out;
+}
+
+int run(const fs::path& out_dir, int vehicle_height) {
+  std::vector<Model> models;
+  models.push_back(make_car());
+  models.push_back(make_truck());
+  models.push_back(make_bus());
+  models.push_back(make_person());
+  hr::AssetIndex index;
+  for (Model& m : models) {
+    if (m.object_class != "person") m.target_height_px = vehicle_height;
+    for (const std::string& view : hr::view_names()) {
+      const double az = hr::view_azimuth_deg(view);
+      cv::Size size;
+      const Camera cam = view_camera(m, az, size);
+      const cv::Mat img = render(m, cam, size);
+      hr::AssetSpec s;
+      s.file = m.object_class + "_" + view + ".png";
+      s.object_class = m.object_class;
+      s.view = view;
+      s.azimuth_deg = az;
+      s.size_lwh = m.size_lwh;
+      s.image_size = size;
+      s.anchor_px = cam.project(Vec3d(0, 0, 0));
+      const auto corners = hr::box_corners(0, 0, 0, m.size_lwh);
+      for (int k = 0; k < 8; ++k) s.box_corners_px[k] = cam.project(corners[k]);
+      s.source = "generated";
+      s.instance = m.instance;
+      s.origin = "hf_make_assets";
+      hr::write_png_atomic(out_dir / s.file, img);
+      index.assets.push_back(s);
+      std::cout << "wrote " << (out_dir / s.file).string() << " (" << size.width << "x" << size.height << ")\n";
+    }
+  }
+  hr::save_asset_index(out_dir, index,
+                       "HazardForge default appearance assets, generated by hf_make_assets (tools/make_assets).\n"
+                       "Regenerate with: ninja -C <build> hf_regenerate_assets");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fs::path out;
+  int height = 240;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--out" && i + 1 < argc) {
+      out = argv[++i];
+    } else if (a == "--height" && i + 1 < argc) {
+      height = std::atoi(argv[++i]);
+    } else {
+      std::cerr << "usage: hf_make_assets --out DIR [--height PX]\n";
+      return 2;
+    }
+  }
+  if (out.empty() || height < 32) {
+    std::cerr << "usage: hf_make_assets --out DIR [--height PX]   (PX >= 32)\n";
+    return 2;
+  }
+  try {
+    return run(out, height);
+  } catch (const std::exception& e) {
+    std::cerr << "hf_make_assets: " << e.what() << "\n";
+    return 1;
+  }
+}
