@@ -1,0 +1,312 @@
+// The ar_renderer stage: places a planned hazard in each frame from the ego motion and composites its picture.
+#include "ar_renderer.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "box_geometry.hpp"
+#include "hazardforge/error.hpp"
+
+namespace hf::render {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+cv::Vec3d transform(const cv::Matx44d& T, const cv::Vec3d& p) {
+  return {T(0, 0) * p[0] + T(0, 1) * p[1] + T(0, 2) * p[2] + T(0, 3),
+          T(1, 0) * p[0] + T(1, 1) * p[1] + T(1, 2) * p[2] + T(1, 3),
+          T(2, 0) * p[0] + T(2, 1) * p[1] + T(2, 2) * p[2] + T(2, 3)};
+}
+
+cv::Vec3d rotate(const cv::Matx44d& T, const cv::Vec3d& v) {
+  return {T(0, 0) * v[0] + T(0, 1) * v[1] + T(0, 2) * v[2], T(1, 0) * v[0] + T(1, 1) * v[1] + T(1, 2) * v[2],
+          T(2, 0) * v[0] + T(2, 1) * v[1] + T(2, 2) * v[2]};
+}
+
+std::string frame_name(const Frame& f) {
+  return "frame " + std::to_string(f.index) + " (t=" + std::to_string(f.timestamp) + " s)";
+}
+
+}  // namespace
+
+HazardRenderer::HazardRenderer(RendererOptions o, std::shared_ptr<const AssetLibrary> assets)
+    : opt_(o), assets_(std::move(assets)), ego_(o.ego) {}
+
+std::vector<std::string> HazardRenderer::take_warnings() {
+  std::vector<std::string> w;
+  w.swap(warnings_);
+  for (auto& e : ego_.take_warnings()) w.push_back(std::move(e));
+  return w;
+}
+
+void HazardRenderer::start_hazard(const HazardTrajectory& t) {
+  const std::string what = "trajectory '" + t.kind + "' (" + t.object_class + ")";
+  if (t.points.empty()) throw Error(what + ": no points");
+  if (t.object_class.empty()) throw Error("trajectory '" + t.kind + "': object_class is empty");
+  for (int k = 0; k < 3; ++k)
+    if (!(t.size_lwh[k] > 0) || !std::isfinite(t.size_lwh[k]))
+      throw Error(what + ": size_lwh must be three positive sizes");
+  for (size_t i = 0; i < t.points.size(); ++i) {
+    const auto& p = t.points[i];
+    if (!std::isfinite(p.t) || !std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.heading))
+      throw Error(what + ": point " + std::to_string(i) + " has a non-finite value");
+    if (i > 0 && p.t <= t.points[i - 1].t)
+      throw Error(what + ": point " + std::to_string(i) + " does not increase in time");
+  }
+  identity_.clear();
+  exposure_ = ExposureState{};
+  prev_center_px_.reset();
+  warned_future_anchor_ = false;
+}
+
+HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_ptr<const HazardTrajectory>& traj,
+                                              const std::vector<OccluderCandidate>& occluders) {
+  if (f.image.empty() || f.image.type() != CV_8UC3)
+    throw Error(frame_name(f) + ": expected a BGR 8-bit image");
+  if (!f.camera.valid()) throw Error(frame_name(f) + ": the frame has no valid camera model (width/height/fx/fy)");
+  if (f.camera.width != f.image.cols || f.camera.height != f.image.rows)
+    throw Error(frame_name(f) + ": camera model is " + std::to_string(f.camera.width) + "x" +
+                std::to_string(f.camera.height) + " but the image is " + std::to_string(f.image.cols) + "x" +
+                std::to_string(f.image.rows));
+  Result res;
+  res.frame = f;
+  res.hazard.frame_index = f.index;
+
+  auto t0 = std::chrono::steady_clock::now();
+  std::vector<cv::Rect2f> exclude;
+  for (const auto& o : occluders) exclude.push_back(o.box);
+  ego_.update(f, exclude);
+  res.ego_seconds = seconds_since(t0);
+
+  if (traj != traj_) {
+    if (traj) start_hazard(*traj);
+    traj_ = traj;
+  }
+  if (!traj_) return res;
+  const HazardTrajectory& T = *traj_;
+  res.hazard.kind = T.kind;
+  res.hazard.object_class = T.object_class;
+  const auto pt = T.at(f.timestamp);
+  if (!pt) {
+    prev_center_px_.reset();
+    return res;  // before the hazard starts or after it ends: the frame passes through
+  }
+  t0 = std::chrono::steady_clock::now();
+  const auto anchor = ego_.pose_at(T.anchor_time);
+  if (!anchor) {
+    if (T.anchor_time < ego_.first_time() - 1e-6)
+      throw Error("trajectory '" + T.kind + "': anchor_time " + std::to_string(T.anchor_time) +
+                  " s is before the first frame (" + std::to_string(ego_.first_time()) +
+                  " s), so the anchor frame's pose is unknown");
+    if (!warned_future_anchor_) {
+      warnings_.push_back(frame_name(f) + ": trajectory '" + T.kind + "' is anchored at t=" +
+                          std::to_string(T.anchor_time) + " s, a frame not seen yet; it is drawn from there on");
+      warned_future_anchor_ = true;
+    }
+    return res;
+  }
+  // Anchor frame -> current ego frame.
+  const cv::Matx44d cur_from_anchor = invert_rigid(ego_.current()) * *anchor;
+  const cv::Vec3d size = T.size_lwh;
+  BoxCorners corners = box_corners(pt->x, pt->y, pt->heading, size);
+  for (auto& c : corners) c = transform(cur_from_anchor, c);
+  const cv::Vec3d centre = transform(cur_from_anchor, cv::Vec3d(pt->x, pt->y, 0.0));
+  const double heading = pt->heading + yaw_of(cur_from_anchor);
+  res.hazard.distance_m = centre[0];
+  res.hazard.lateral_m = centre[1];
+
+  // Intended TTC by the GUIDE protocol: gap to the front bumper over the closing speed, when in the path.
+  const cv::Vec3d v_obj =
+      rotate(cur_from_anchor, cv::Vec3d(pt->speed * std::cos(pt->heading), pt->speed * std::sin(pt->heading), 0));
+  const cv::Vec3d v_rel = v_obj - ego_.velocity_ego();
+  const double closing = -v_rel[0];
+  const double gap = centre[0] - opt_.ego_front_m - size[0] / 2;
+  if (opt_.corridor.contains(centre[0], centre[1], size[1]) && closing > 0.1)
+    res.hazard.intended_ttc_s = std::max(gap, 0.0) / closing;
+
+  const auto proj = project_box(f.camera, corners, 0.3);
+  if (!proj) {
+    prev_center_px_.reset();
+    res.composite_seconds = seconds_since(t0);
+    return res;  // (part of) the object is behind the camera
+  }
+  const cv::Rect2d img(0, 0, f.image.cols, f.image.rows);
+  const cv::Rect2d clipped = proj->bounds & img;
+  if (clipped.area() <= 0) {
+    prev_center_px_.reset();
+    res.composite_seconds = seconds_since(t0);
+    return res;
+  }
+  res.hazard.box = cv::Rect2f(clipped);
+
+  const double az = camera_azimuth_deg(f.camera.t_ego_cam, centre[0], centre[1], heading);
+  const LoadedAsset& asset = assets_->select(T.object_class, az, identity_, opt_.max_view_error_deg);
+  if (identity_.empty()) identity_ = asset.spec.instance;
+  res.asset_file = (asset.dir / asset.spec.file).string();
+
+  Placement pl;
+  pl.asset = &asset;
+  pl.corners_px = proj->px;
+  const cv::Point2d cen_px((proj->bounds.x + proj->bounds.width / 2), (proj->bounds.y + proj->bounds.height / 2));
+  if (prev_center_px_ && f.timestamp > prev_t_) pl.velocity_px_s = (cen_px - *prev_center_px_) / (f.timestamp - prev_t_);
+  prev_center_px_ = cen_px;
+  prev_t_ = f.timestamp;
+
+  if (opt_.occlusion) {
+    double near_depth = 1e18;
+    for (double d : proj->depth) near_depth = std::min(near_depth, d);
+    for (const auto& o : occluders) {
+      if (o.score < opt_.occluder_min_score) continue;
+      if ((cv::Rect2d(o.box) & proj->bounds).area() <= 0) continue;
+      // Depth of the occluder where it stands on the road (bottom centre of its box); an estimator's distance
+      // when the bottom is above the horizon.
+      std::optional<double> depth;
+      if (auto g = f.camera.pixel_to_ground({o.box.x + o.box.width / 2.0, o.box.y + o.box.height}))
+        depth = f.camera.ego_to_cam(*g)[2];
+      else if (o.distance_m)
+        depth = *o.distance_m - f.camera.t_ego_cam[0];
+      if (depth && *depth < near_depth) pl.occluders.push_back(o.box);
+    }
+  }
+
+  cv::Mat out = f.image.clone();
+  res.composite = composite(out, pl, opt_.composite, exposure_);
+  if (res.composite.drawn) res.frame.image = out;
+  res.hazard.occluded_fraction = std::clamp(res.composite.occluded_fraction(), 0.0, 1.0);
+  res.hazard.visible = res.composite.drawn && res.hazard.occluded_fraction < 0.999;
+  res.composite_seconds = seconds_since(t0);
+  return res;
+}
+
+// ---- stage -------------------------------------------------------------------------------------------------------
+
+ComponentInfo ArRenderer::describe() {
+  ComponentInfo i;
+  i.name = "ar_renderer";
+  i.kind = kind::kRenderer;
+  i.summary = "composites a planned hazard into the video, anchored in the world, with occlusion and shadow";
+  i.doc =
+      "Places the hazard's 3D box (HazardTrajectory, anchor frame = ego frame at anchor_time) in each frame from "
+      "the ego motion (dataset poses, road-plane optical flow, or a constant speed), projects it with the frame's "
+      "camera, picks the asset whose view matches the object's heading relative to the camera, warps it with a "
+      "homography onto the projected box faces and blends it with harmonised colour, feathered edges, motion "
+      "blur, a contact shadow and occlusion by nearer detected objects. Outputs are stamped with the frame's "
+      "time; frames outside the trajectory pass through unchanged.";
+  i.inputs = {port<Frame>("frames", "original frames"),
+              sticky(port<HazardTrajectory>("trajectory", "the planned hazard; the latest one is used")),
+              optional(port<Tracks>("tracks", "tracked objects (occluders, kept out of the flow)")),
+              optional(port<ObjectStates>("states", "objects with distances (occluders, kept out of the flow)")),
+              optional(port<Detections>("detections", "detected objects (occluders, kept out of the flow)"))};
+  i.outputs = {port<Frame>("frames", "augmented frames: same index, time, camera, ego and meta; new image"),
+               port<HazardInstance>("hazard", "where the hazard is in each frame (box, distance, intended TTC)")};
+  i.params = {
+      ParamSpec::path("assets_dir", "")
+          .describe("folder with assets.yaml and the pictures; empty = the default set (share/assets)"),
+      ParamSpec::boolean("fallback_assets", true)
+          .describe("use the default set for classes/views assets_dir lacks"),
+      ParamSpec::string("ego_motion", "auto")
+          .one_of({"auto", "poses", "flow", "constant_speed"})
+          .describe("how the hazard is kept fixed in the world: auto = poses when frames carry them, else flow"),
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .range(-1.0, 80.0)
+          .describe("ego speed for constant_speed and when flow is degenerate (frame speed first); -1 = unknown"),
+      ParamSpec::number("motion_smoothing", 0.5).range(0.0, 0.95).describe("smoothing of flow ego velocities"),
+      ParamSpec::number("flow_scale", 0.5).range(0.25, 1.0).describe("image scale for feature tracking"),
+      ParamSpec::integer("flow_max_features", 250).range(50, 5000).describe("road features tracked per frame"),
+      ParamSpec::integer("flow_min_inliers", 25).range(6, 1000).describe("fewer road-plane inliers = degenerate"),
+      ParamSpec::number("flow_min_range_m", 3.0).range(0.5, 50.0).describe("nearest road point used by the flow"),
+      ParamSpec::number("flow_max_range_m", 35.0).range(2.0, 200.0).describe("farthest road point used"),
+      ParamSpec::number("max_view_error_deg", 30.0)
+          .range(0.0, 180.0)
+          .describe("an asset of the kept instance / assets_dir is used when its view is this close"),
+      ParamSpec::boolean("shadow", true).describe("draw a soft contact shadow"),
+      ParamSpec::number("shadow_strength", 0.5).range(0.0, 1.0).describe("darkening at the shadow's core"),
+      ParamSpec::number("harmonize_luma", 0.6)
+          .range(0.0, 1.0)
+          .describe("how far the asset's lightness mean/std move to the surroundings' (Lab)"),
+      ParamSpec::number("harmonize_chroma", 0.2).range(0.0, 1.0).describe("same for the colour channels"),
+      ParamSpec::number("exposure_smoothing", 0.7)
+          .range(0.0, 0.99)
+          .describe("temporal smoothing of the surroundings' statistics (no flicker)"),
+      ParamSpec::number("feather_px", 0.8).range(0.0, 5.0).describe("Gaussian sigma of the alpha edge, px"),
+      ParamSpec::number("exposure_s", 0.01)
+          .range(0.0, 0.1)
+          .describe("camera exposure time: motion blur = image-plane speed x exposure; 0 = none"),
+      ParamSpec::boolean("occlusion", true).describe("keep nearer detected objects in front of the hazard"),
+      ParamSpec::number("occluder_min_score", 0.3).range(0.0, 1.0).describe("weakest detection that occludes"),
+      ParamSpec::number("ego_front_m", 3.4)
+          .range(0.0, 10.0)
+          .describe("ego origin (rear axle) to front bumper, for the intended TTC"),
+  };
+  for (auto& p : Corridor::params()) i.params.push_back(p);
+  return i;
+}
+
+RendererOptions renderer_options(const Params& p) {
+  RendererOptions o;
+  o.composite.shadow = p.get_bool("shadow");
+  o.composite.shadow_strength = p.get_double("shadow_strength");
+  o.composite.harmonize_luma = p.get_double("harmonize_luma");
+  o.composite.harmonize_chroma = p.get_double("harmonize_chroma");
+  o.composite.exposure_smoothing = p.get_double("exposure_smoothing");
+  o.composite.feather_px = p.get_double("feather_px");
+  o.composite.exposure_s = p.get_double("exposure_s");
+  o.ego.mode = parse_ego_motion_mode(p.get_string("ego_motion"));
+  o.ego.speed_mps = p.get_double("ego_speed_mps");
+  o.ego.smoothing = p.get_double("motion_smoothing");
+  o.ego.flow.scale = p.get_double("flow_scale");
+  o.ego.flow.max_corners = static_cast<int>(p.get_int("flow_max_features"));
+  o.ego.flow.min_inliers = static_cast<int>(p.get_int("flow_min_inliers"));
+  o.ego.flow.min_range_m = p.get_double("flow_min_range_m");
+  o.ego.flow.max_range_m = p.get_double("flow_max_range_m");
+  if (o.ego.flow.max_range_m <= o.ego.flow.min_range_m)
+    throw Error("flow_max_range_m (" + std::to_string(o.ego.flow.max_range_m) + ") must exceed flow_min_range_m (" +
+                std::to_string(o.ego.flow.min_range_m) + ")");
+  o.max_view_error_deg = p.get_double("max_view_error_deg");
+  o.occlusion = p.get_bool("occlusion");
+  o.occluder_min_score = p.get_double("occluder_min_score");
+  o.ego_front_m = p.get_double("ego_front_m");
+  o.corridor = Corridor::from(p);
+  return o;
+}
+
+std::shared_ptr<const AssetLibrary> load_assets(const Params& p) {
+  const fs::path defaults = fs::path(share_dir()) / "assets";
+  fs::path dir = p.get_path("assets_dir");
+  if (dir.empty()) dir = defaults;
+  if (!fs::is_directory(dir)) throw Error("assets_dir '" + dir.string() + "' is not a folder");
+  const fs::path fallback = p.get_bool("fallback_assets") ? defaults : fs::path();
+  return std::make_shared<const AssetLibrary>(AssetLibrary::load(dir, fallback));
+}
+
+void ArRenderer::open(StageContext& ctx) {
+  renderer_ = std::make_unique<HazardRenderer>(renderer_options(ctx.params()), load_assets(ctx.params()));
+}
+
+void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
+  const Frame& f = in.require<Frame>("frames");
+  std::shared_ptr<const HazardTrajectory> traj;
+  if (const Packet* p = in.packet("trajectory"); p && !p->empty()) traj = p->share<HazardTrajectory>();
+  // One source of occluders, the richest available: states carry distances, tracks and detections boxes only.
+  std::vector<OccluderCandidate> occ;
+  if (const auto* s = in.get<ObjectStates>("states")) {
+    for (const auto& o : s->objects) occ.push_back({o.box, o.score, o.distance_m});
+  } else if (const auto* t = in.get<Tracks>("tracks")) {
+    for (const auto& o : t->items) occ.push_back({o.box, o.score, std::nullopt});
+  } else if (const auto* d = in.get<Detections>("detections")) {
+    for (const auto& o : d->items) occ.push_back({o.box, o.score, std::nullopt});
+  }
+  HazardRenderer::Result r = renderer_->render(f, traj, occ);
+  for (const auto& w : renderer_->take_warnings()) ctx.log(LogLevel::kWarning, w);
+  ctx.record_timing("ego_motion", r.ego_seconds);
+  if (r.hazard.visible || r.composite_seconds > 0) ctx.record_timing("composite", r.composite_seconds);
+  out.emit("frames", std::move(r.frame));
+  out.emit("hazard", std::move(r.hazard));
+}
+
+}  // namespace hf::render

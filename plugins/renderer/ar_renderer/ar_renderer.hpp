@@ -1,0 +1,96 @@
+// The ar_renderer stage: composites a planned hazard (HazardTrajectory) into the original video so that it
+// stays fixed in the world while the ego moves, with perspective, occlusion, shadow and harmonised colour.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "asset_library.hpp"
+#include "compositor.hpp"
+#include "ego_motion.hpp"
+#include "hazardforge/geometry.hpp"
+#include "hazardforge/stage.hpp"
+
+namespace hf::render {
+
+// A detected object that may stand in front of the hazard.
+struct OccluderCandidate {
+  cv::Rect2f box;
+  float score = 1.f;
+  std::optional<double> distance_m;  // longitudinal distance if an estimator gave one
+};
+
+struct RendererOptions {
+  CompositeOptions composite;
+  EgoTrajectory::Options ego;
+  double max_view_error_deg = 30.0;
+  bool occlusion = true;
+  double occluder_min_score = 0.3;
+  double ego_front_m = 3.4;  // ego origin to front bumper, for the intended TTC (GUIDE protocol)
+  Corridor corridor;
+};
+
+// Everything the stage does for one frame, without the graph plumbing (used by the stage and the benchmark).
+class HazardRenderer {
+ public:
+  HazardRenderer(RendererOptions o, std::shared_ptr<const AssetLibrary> assets);
+
+  struct Result {
+    Frame frame;             // the augmented frame (the input's image when nothing was drawn)
+    HazardInstance hazard;   // where the hazard is in this frame
+    CompositeResult composite;
+    std::string asset_file;  // the picture used, empty when nothing was drawn
+    double ego_seconds = 0;        // time spent on ego motion
+    double composite_seconds = 0;  // time spent placing and drawing
+  };
+  // Call once per frame, in order. `trajectory` may be null (no hazard yet).
+  Result render(const Frame& frame, const std::shared_ptr<const HazardTrajectory>& trajectory,
+                const std::vector<OccluderCandidate>& occluders);
+
+  const EgoTrajectory& ego() const { return ego_; }
+  std::vector<std::string> take_warnings();
+
+ private:
+  void start_hazard(const HazardTrajectory& t);
+
+  RendererOptions opt_;
+  std::shared_ptr<const AssetLibrary> assets_;
+  EgoTrajectory ego_;
+  std::shared_ptr<const HazardTrajectory> traj_;
+  std::string identity_;  // asset instance kept through one hazard
+  ExposureState exposure_;
+  std::optional<cv::Point2d> prev_center_px_;
+  double prev_t_ = 0;
+  bool warned_future_anchor_ = false;
+  std::vector<std::string> warnings_;
+};
+
+// Stage "ar_renderer" (kind renderer).
+//  inputs:  frames (Frame); trajectory (HazardTrajectory, sticky: the latest plan is used until a new one comes);
+//           tracks (Tracks), states (ObjectStates), detections (Detections) — optional, for occlusion by nearer
+//           objects and to keep moving objects out of the flow-based ego motion.
+//  outputs: frames (Frame: same index, timestamp, camera, ego and meta; new image), hazard (HazardInstance),
+//           one of each per input frame, stamped with the frame's time. Frames outside the trajectory's time span
+//           pass through unchanged (hazard.visible = false).
+//  params:  assets_dir, fallback_assets, ego_motion (auto|poses|flow|constant_speed), ego_speed_mps,
+//           motion_smoothing, flow_*, max_view_error_deg, shadow, shadow_strength, harmonize_luma,
+//           harmonize_chroma, exposure_smoothing, feather_px, exposure_s, occlusion, occluder_min_score,
+//           ego_front_m, corridor_half_width, corridor_margin (see describe()).
+class ArRenderer : public Stage {
+ public:
+  static ComponentInfo describe();
+  void open(StageContext& ctx) override;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+
+ private:
+  std::unique_ptr<HazardRenderer> renderer_;
+};
+
+// Reads the renderer's options from validated params (shared by the stage and the benchmark).
+RendererOptions renderer_options(const Params& p);
+// assets_dir resolved (empty = share_dir()/assets) and the library loaded with the default set as fallback.
+std::shared_ptr<const AssetLibrary> load_assets(const Params& p);
+
+}  // namespace hf::render

@@ -1,0 +1,57 @@
+// Pastes one object picture into a frame: perspective warp onto the projected box, colour harmonisation,
+// feathered edges, motion blur, occlusion by nearer objects and a soft contact shadow — on the ROI only.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "asset_library.hpp"
+
+namespace hf::render {
+
+struct CompositeOptions {
+  bool shadow = true;
+  double shadow_strength = 0.5;   // darkening at the shadow's core, 0..1
+  double harmonize_luma = 0.6;    // 0 = keep the asset's lightness statistics, 1 = match the surroundings'
+  double harmonize_chroma = 0.2;  // same for the a/b colour channels
+  double feather_px = 0.8;        // Gaussian sigma of the alpha edge
+  double exposure_s = 0.01;       // camera exposure time for motion blur (0 = none)
+  double exposure_smoothing = 0.7;  // exponential smoothing of the surroundings' statistics across frames
+};
+
+// Where and how one object is drawn in this frame.
+struct Placement {
+  const LoadedAsset* asset = nullptr;
+  std::array<cv::Point2d, 8> corners_px;  // the object's projected 3D box (order of box_geometry.hpp)
+  cv::Point2d velocity_px_s{0, 0};        // image-plane velocity of the object, px/s
+  std::vector<cv::Rect2f> occluders;      // boxes of nearer objects, drawn in front of the hazard
+};
+
+// Colour statistics of the surroundings, smoothed across frames (no exposure flicker).
+struct ExposureState {
+  cv::Scalar mean, stddev;
+  bool valid = false;
+};
+
+struct CompositeResult {
+  bool drawn = false;
+  cv::Rect roi;                // the part of the image that was modified
+  double coverage_before = 0;  // sum of alpha before occlusion
+  double coverage_after = 0;   // after occlusion
+  cv::Mat alpha;               // final alpha over `roi` (CV_32F), for tests and debugging
+  int level = 0;               // pyramid level of the asset used
+  double occluded_fraction() const {
+    return coverage_before > 1e-9 ? 1.0 - coverage_after / coverage_before : 0.0;
+  }
+};
+
+// The homography from an asset's level-0 pixels to image pixels, fitted on the box corners of the faces the
+// asset's view shows (4 corners: exact; 6: least squares).
+cv::Matx33d asset_homography(const LoadedAsset& asset, const std::array<cv::Point2d, 8>& corners_px);
+
+// Draws the object into `image` (BGR 8-bit, modified in place).
+CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, ExposureState& exposure);
+
+}  // namespace hf::render

@@ -1,0 +1,116 @@
+// Flow-based ego motion on synthetic road images with a known ego motion, and anchoring with it.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "ar_renderer.hpp"
+#include "ego_motion.hpp"
+#include "render_fixtures.hpp"
+
+namespace hf::render {
+namespace {
+
+using hf::test::noise_texture;
+using hf::test::road_image;
+using hf::test::test_camera;
+
+// A 120 m x 40 m road texture at 4 cm per texel with blobs of 10 cm to 1 m, starting 5 m behind the ego.
+struct Road {
+  cv::Mat tex = noise_texture({3000, 1000}, 11, 70.0);
+  double res = 0.04, x0 = -5.0;
+  cv::Mat at(const CameraModel& cam, double x, double y, double yaw) const {
+    return road_image(cam, tex, res, x0, x, y, yaw);
+  }
+};
+
+const Road& road() {
+  static const Road r;
+  return r;
+}
+
+// The ego's motion between two frames from the points' apparent motion (p_cur = R p_prev + t).
+cv::Vec3d ego_step(const PlanarMotion& m) {
+  const double c = std::cos(m.dyaw), s = std::sin(m.dyaw);
+  return {-(c * m.dx + s * m.dy), -(-s * m.dx + c * m.dy), -m.dyaw};
+}
+
+// Tolerances. A road point at X m ahead moves dX/dv = X^2 / (f h) metres per pixel of image row: 5 mm at 10 m,
+// 12 mm at 15 m, 47 mm at 30 m (f = 1266 px, h = 1.5 m). LK at half resolution localises a textured feature to
+// about 0.1 full-resolution px, and the rigid fit averages a few hundred inliers, so noise contributes well under
+// 1 cm; what remains is systematic (resampling of the synthetic texture, pixel-centre conventions), bounded here
+// at 2 % of a 1 m step (2 cm) and 0.05 degrees of yaw: at 10 Hz that is a speed error of 0.2 m/s.
+constexpr double kTransTol = 0.02;
+constexpr double kYawTolDeg = 0.05;
+
+TEST(FlowEgoMotion, RecoversAKnownForwardTranslation) {
+  const CameraModel cam = test_camera();
+  const cv::Mat a = road().at(cam, 0.0, 0.0, 0.0), b = road().at(cam, 1.0, 0.0, 0.0);
+  FlowEgoMotion flow;
+  const PlanarMotion m = flow.estimate(a, b, cam, {});
+  ASSERT_TRUE(m.ok) << m.why;
+  EXPECT_GT(m.inliers, 100);
+  const cv::Vec3d step = ego_step(m);
+  EXPECT_NEAR(step[0], 1.0, kTransTol);
+  EXPECT_NEAR(step[1], 0.0, kTransTol);
+  EXPECT_NEAR(step[2] * 180 / CV_PI, 0.0, kYawTolDeg);
+}
+
+TEST(FlowEgoMotion, RecoversTranslationWithYawOnAPitchedCamera) {
+  const CameraModel cam = test_camera(0.03);
+  const double yaw = 1.5 * CV_PI / 180;
+  const cv::Mat a = road().at(cam, 2.0, 0.5, 0.0), b = road().at(cam, 2.8, 0.55, yaw);
+  FlowEgoMotion flow;
+  const PlanarMotion m = flow.estimate(a, b, cam, {});
+  ASSERT_TRUE(m.ok) << m.why;
+  const cv::Vec3d step = ego_step(m);
+  // Expected: the displacement (0.8, 0.05) expressed in the previous ego frame (yaw 0 there), and the turn.
+  EXPECT_NEAR(step[0], 0.8, kTransTol);
+  EXPECT_NEAR(step[1], 0.05, kTransTol);
+  EXPECT_NEAR(step[2] * 180 / CV_PI, 1.5, kYawTolDeg);
+}
+
+TEST(FlowEgoMotion, DegenerateWithoutTextureAndFallsBackToSpeed) {
+  const CameraModel cam = test_camera();
+  const cv::Mat flat(900, 1600, CV_8UC3, cv::Scalar(100, 100, 100));
+  FlowEgoMotion flow;
+  const PlanarMotion m = flow.estimate(flat, flat, cam, {});
+  EXPECT_FALSE(m.ok);
+  EXPECT_FALSE(m.why.empty());
+  // The trajectory then integrates the frame's speed: 12 m/s for 0.1 s.
+  EgoTrajectory::Options o;
+  o.mode = EgoMotionMode::kFlow;
+  EgoTrajectory ego(o);
+  Frame f = hf::test::make_frame(0, 0.0, flat, cam);
+  f.ego.speed_mps = 12.0;
+  ego.update(f, {});
+  f.index = 1;
+  f.timestamp = 0.1;
+  ego.update(f, {});
+  EXPECT_EQ(ego.last_source(), "constant_speed");
+  EXPECT_NEAR(ego.current()(0, 3), 1.2, 1e-9);
+}
+
+TEST(FlowEgoMotion, AnchorsAHazardWithoutPoses) {
+  // Ego drives 1 m per frame (10 m/s at 10 Hz) over the textured road; frames carry no poses, so the renderer
+  // anchors with flow (ego_motion: auto). A parked car 30 m ahead must come 1 m closer each frame.
+  const CameraModel cam = test_camera();
+  RendererOptions o;
+  o.ego.mode = EgoMotionMode::kAuto;
+  o.ego.smoothing = 0.0;
+  auto assets = std::make_shared<const AssetLibrary>(AssetLibrary::load(std::filesystem::path(share_dir()) / "assets"));
+  HazardRenderer r(o, assets);
+  auto traj = std::make_shared<const HazardTrajectory>(
+      hf::test::static_object("car", 30.0, 2.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  constexpr int kFrames = 6;
+  for (int k = 0; k < kFrames; ++k) {
+    auto res = r.render(hf::test::make_frame(k, k * 0.1, road().at(cam, k * 1.0, 0.0, 0.0), cam), traj, {});
+    EXPECT_EQ(r.ego().last_source(), "flow") << "frame " << k;
+    ASSERT_TRUE(res.hazard.visible);
+    // Errors accumulate like a random walk of the per-frame tolerance.
+    EXPECT_NEAR(res.hazard.distance_m, 30.0 - k, kTransTol * std::max(1, k)) << "frame " << k;
+    EXPECT_NEAR(res.hazard.lateral_m, 2.0, kTransTol * std::max(1, k)) << "frame " << k;
+  }
+}
+
+}  // namespace
+}  // namespace hf::render
