@@ -54,6 +54,11 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector
     reasons.push_back("the start point y=" + num(y0) + " m is off the road (the road edge on the " + side_name +
                       " is at " + num(edge) + " m with lanes_" + side_name + "=" +
                       std::to_string(side > 0 ? req.road.lanes_left : req.road.lanes_right) + ")");
+  const double x0 = spec.initial_distance_m;
+  const hazard::BoxView start = hazard::view_of(req.scene.camera, x0, y0, 0.0, req.size_lwh);
+  if (start.in_front && start.inside_fraction > 0.999)
+    reasons.push_back("the vehicle starts fully in view (x=" + num(x0) + " m, y=" + num(y0) +
+                      " m): a cut-in starts beside or behind the ego, out of view or at the image edge");
   const double ve = req.ego_speed, v0 = spec.speed_mps;
   if (v0 <= ve)
     reasons.push_back("speed_mps " + num(v0) + " does not exceed the ego speed " + num(ve) +
@@ -84,12 +89,11 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector
 
   // Solve the overtaking time t_b so the braking ends exactly gap_end ahead of the ego.
   const hazard::SpeedProfile slow = hazard::SpeedProfile(v0).change_speed(v1, decel, jerk_long);
-  const double x0 = spec.initial_distance_m;
   const double t_brake =
       (gap_end + req.ttc.ego_front + len / 2 + ve * slow.duration() - x0 - slow.end_distance()) / (v0 - ve);
   if (t_brake < 0)
-    reasons.push_back("the vehicle starts too far ahead (x=" + num(x0) + " m) to overtake and still end " +
-                      num(gap_end) + " m in front: it would have to start braking " + num(-t_brake) +
+    reasons.push_back("the vehicle cannot end " + num(gap_end) + " m in front of the ego: from x=" + num(x0) +
+                      " m at " + num(v0) + " m/s it would have to start braking " + num(-t_brake) +
                       " s before the hazard starts");
   if (!reasons.empty()) return {};
   const hazard::SpeedProfile profile = hazard::SpeedProfile(v0).hold(t_brake).change_speed(v1, decel, jerk_long);
@@ -148,10 +152,6 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector
   if (gap_enter <= 0)
     reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num(gap_enter) + " m at " +
                       num(t_enter) + " s): it has not passed yet");
-  const hazard::BoxView start = hazard::view_of(req.scene.camera, x0, y0, 0.0, req.size_lwh);
-  if (start.in_front && start.inside_fraction > 0.999)
-    reasons.push_back("the vehicle starts fully in view (x=" + num(x0) + " m, y=" + num(y0) +
-                      " m): a cut-in starts beside or behind the ego, out of view or at the image edge");
   const hazard::ObjectMotion end = motion(t_end);
   if (!hazard::view_of(req.scene.camera, end.x, end.y, 0.0, req.size_lwh).centre_inside)
     reasons.push_back("the cut-in point (x=" + num(end.x) + " m at " + num(t_end) + " s) is out of the camera's view");
