@@ -68,8 +68,8 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (std::find(names.begin(), names.end(), spec->kind) == names.end()) {
     std::string list;
     for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-    throw Error("hazard kind '" + spec->kind + "' (spec at " + where +
-                ") has no registered hazard_template; registered: " + (list.empty() ? "none" : list));
+    throw Error("hazard kind '" + spec->kind + "' in the spec at " + where +
+                " has no registered hazard_template; registered: " + (list.empty() ? "none" : list));
   }
 
   SceneContext scene;
