@@ -139,7 +139,7 @@ TEST(HazardPlanner, TakesTheEgoSpeedFromTheStatesAndTrackedObjects) {
   const auto out = r.collect<HazardTrajectory>("trajectory");
   ASSERT_EQ(out.size(), 1u);
   EXPECT_DOUBLE_EQ(out[0].ego.front().speed, 10.0);
-  EXPECT_DOUBLE_EQ(out[0].points.front().x, 25.0);
+  EXPECT_DOUBLE_EQ(out[0].points.front().x, 26.5);  // 25 m from the camera, 1.5 m ahead of the rear axle
   EXPECT_DOUBLE_EQ(out[0].points.front().speed, 10.0);
 }
 

@@ -194,7 +194,7 @@ TEST(SuddenStop, RejectsADecelerationAboveTheCarLimit) {
 }
 
 TEST(SuddenStop, UsesATrackedObject) {
-  auto tpl = make_template("sudden_stop");
+  auto tpl = make_template("sudden_stop", {{"track_distance_origin", "ego_origin"}});
   SceneContext scene = test_scene(12.0);
   ObjectState st;
   st.track_id = 7;
@@ -215,6 +215,10 @@ TEST(SuddenStop, UsesATrackedObject) {
   EXPECT_DOUBLE_EQ(o.trajectory.points.front().speed, 11.0);
   EXPECT_DOUBLE_EQ(o.trajectory.size_lwh[0], 4.6);
   EXPECT_EQ(o.notes["track_id"].get<int64_t>(), 7);
+
+  // Measured from the camera (the estimators' default), the same distance is 1.5 m further from the rear axle.
+  auto from_camera = make_template("sudden_stop");
+  EXPECT_DOUBLE_EQ(from_camera->plan(s, scene).points.front().x, 21.5);
 
   s.extra = {{"track_id", 9}};
   EXPECT_EQ(tpl->check(s, scene),

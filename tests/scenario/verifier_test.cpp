@@ -79,7 +79,7 @@ HazardTrajectory trajectory(double min_ttc) {
 }
 
 TEST(Verifier, PassesWhenReDetectedMeasuredAndUnsafe) {
-  auto r = testing::StageRunner::create<ClosedLoopVerifier>();
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>("{state_distance_origin: ego_origin, intended_distance_at: centre}");
   const double intended[] = {3.0, 2.5, 2.0, 1.5, 1.2};
   const double achieved[] = {3.2, 2.6, 2.1, 1.4, 1.3};
   r.push("trajectory", trajectory(0.9), 0.0);
@@ -123,6 +123,38 @@ TEST(Verifier, PassesWhenReDetectedMeasuredAndUnsafe) {
   EXPECT_DOUBLE_EQ(s["distance"]["median_rel_error"].get<double>(), 0.05);
   EXPECT_DOUBLE_EQ(s["distance"]["max_abs_error_m"].get<double>(), 2.0);
   EXPECT_EQ(s["hazard_critical_frames"], 5);
+}
+
+TEST(Verifier, DistancesAreComparedFromTheRearAxleAtTheNearFace) {
+  // Defaults: the states measure from the camera (1.5 m ahead of the rear axle); the intended distance is the
+  // object's centre (20 m) minus half its 4.5 m length: 17.75 m from the rear axle, so a camera reading of 16 m
+  // (17.5 m from the rear axle) is 0.25 m short.
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>();
+  HazardTrajectory tr = trajectory(1.0);
+  tr.size_lwh = cv::Vec3d(4.5, 1.8, 1.5);
+  r.push("trajectory", tr, 0.0);
+  Frame f;
+  f.camera = test::test_camera();
+  r.push("frames", f, 0.0);
+  r.push("hazard", instance(0, true, 1.0), 0.0);
+  r.push("detections", detections(0, {near_box()}), 0.0);
+  r.push("states", states(0, 16.0), 0.0);
+  r.run();
+  const auto recs = r.collect<Record>("records");
+  EXPECT_EQ(recs[0].data["distance_compared_m"], Json::array({17.5, 17.75}));
+  EXPECT_DOUBLE_EQ(recs[0].data["distance_abs_error_m"].get<double>(), 0.25);
+
+  auto no_frames = testing::StageRunner::create<ClosedLoopVerifier>();
+  no_frames.push("hazard", instance(0, true, 1.0), 0.0);
+  no_frames.push("detections", detections(0, {}), 0.0);
+  no_frames.push("states", states(0, 16.0), 0.0);
+  try {
+    no_frames.run();
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "node 'verifier': state_distance_origin 'camera' needs the frames input (the "
+                                     "camera position) at frame 0");
+  }
 }
 
 TEST(Verifier, FailsWithExactReasonsWhenMissedAndNeverUnsafe) {

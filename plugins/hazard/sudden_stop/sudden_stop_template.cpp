@@ -16,6 +16,10 @@ ComponentInfo SuddenStopTemplate::describe() {
   i.params.push_back(hf::ParamSpec::number("brake_delay_s", 1.0)
                          .range(0, 60)
                          .describe("cruising time before braking, unless extra.brake_delay_s is given"));
+  i.params.push_back(hf::ParamSpec::string("track_distance_origin", "camera")
+                         .one_of({"camera", "bumper", "ego_origin"})
+                         .describe("where a tracked object's distance_m is measured from (the estimator's "
+                                   "distance_origin)"));
   return i;
 }
 
@@ -61,8 +65,12 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req, std::v
       reasons.push_back("tracked object " + std::to_string(found->track_id) + " has no distance estimate");
       return {};
     }
-    // The pinhole estimate is measured from the camera; the plan works from the rear axle.
-    x0 = found->distance_m + (found->distance_method == "pinhole" ? req.scene.camera.t_ego_cam[0] : 0.0);
+    // Estimators measure from the camera, the bumper or the rear axle (their distance_origin); the plan works from
+    // the rear axle.
+    const std::string origin = req.params.get_string("track_distance_origin");
+    x0 = found->distance_m + (origin == "camera"   ? req.scene.camera.t_ego_cam[0]
+                              : origin == "bumper" ? req.ttc.ego_front
+                                                   : 0.0);
     y0 = found->lateral_m;
     if (found->length_m > 0) size[0] = found->length_m;
     if (found->width_m > 0) size[1] = found->width_m;

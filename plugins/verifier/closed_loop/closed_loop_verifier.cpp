@@ -59,7 +59,8 @@ ComponentInfo ClosedLoopVerifier::describe() {
               port<Detections>("detections", "detections on the augmented frames"),
               optional(multi(port<RiskAssessment>("risk", "re-assessed risk metrics"))),
               optional(port<ObjectStates>("states", "re-estimated object states")),
-              sticky(port<HazardTrajectory>("trajectory", "the planned hazard"))};
+              sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
+              optional(port<Frame>("frames", "the augmented frames: camera position for state_distance_origin"))};
   i.outputs = {port<Record>("records", "per-frame verification records and the final summary")};
   i.params = {
       ParamSpec::number("min_iou", 0.5).range(0.01, 1).describe("IoU with the inserted box that counts as re-detected"),
@@ -75,6 +76,14 @@ ComponentInfo ClosedLoopVerifier::describe() {
       ParamSpec::number("max_ttc_error_s", -1.0)
           .range(-1, 100)
           .describe("pass: |achieved - intended minimum TTC| at most this (-1 = not checked)"),
+      ParamSpec::string("state_distance_origin", "camera")
+          .one_of({"camera", "bumper", "ego_origin"})
+          .describe("where the states' distance_m is measured from (the estimator's distance_origin)"),
+      ParamSpec::number("ego_front_m", 3.4).range(0, 20).describe("rear axle to front bumper (m), for 'bumper'"),
+      ParamSpec::string("intended_distance_at", "near_face")
+          .one_of({"near_face", "centre"})
+          .describe("compare with the inserted object's near face (centre - length/2: what a camera measures) or "
+                    "its centre"),
       ParamSpec::string("file", "verification.json").describe("summary written below the run's output folder"),
   };
   return i;
@@ -89,13 +98,27 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
   ttc_metric_ = p.get_string("ttc_metric");
   unsafe_metrics_ = p.get_strings("unsafe_metrics");
   max_ttc_error_ = p.get_double("max_ttc_error_s");
+  state_origin_ = p.get_string("state_distance_origin");
+  ego_front_ = p.get_double("ego_front_m");
+  near_face_ = p.get_string("intended_distance_at") == "near_face";
   file_ = p.get_string("file");
   if (file_.empty()) throw Error("node '" + ctx.node_id() + "': parameter 'file' is empty");
+}
+
+double ClosedLoopVerifier::origin_offset(StageContext& ctx, const Inputs& in) const {
+  if (state_origin_ == "ego_origin") return 0.0;
+  if (state_origin_ == "bumper") return ego_front_;
+  const Frame* f = in.get<Frame>("frames");
+  if (!f || !f->camera.valid())
+    throw Error("node '" + ctx.node_id() + "': state_distance_origin 'camera' needs the frames input (the camera "
+                "position) at frame " + std::to_string(ctx.frame_index()));
+  return f->camera.t_ego_cam[0];
 }
 
 void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (const HazardTrajectory* tr = in.get<HazardTrajectory>("trajectory")) {
     intended_traj_min_ = tr->intended_min_ttc_s;
+    length_ = tr->size_lwh[0];
     kind_ = tr->kind;
     object_class_ = tr->object_class;
   }
@@ -181,11 +204,15 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
       scores_.push_back(hit->score);
     }
     if (match && std::isfinite(match->distance_m) && std::isfinite(inst->distance_m)) {
-      const double err = std::abs(match->distance_m - inst->distance_m);
+      // Both in rear-axle terms; the intended one at the face a camera sees unless the centre is asked for.
+      const double estimated = match->distance_m + origin_offset(ctx, in);
+      const double intended = inst->distance_m - (near_face_ ? length_.value_or(0.0) / 2 : 0.0);
+      const double err = std::abs(estimated - intended);
       dist_abs_.push_back(err);
-      if (inst->distance_m > 0) dist_rel_.push_back(err / inst->distance_m);
+      if (intended > 0) dist_rel_.push_back(err / intended);
+      rec["distance_compared_m"] = {estimated, intended};
       rec["distance_abs_error_m"] = err;
-      rec["distance_rel_error"] = inst->distance_m > 0 ? Json(err / inst->distance_m) : Json();
+      rec["distance_rel_error"] = intended > 0 ? Json(err / intended) : Json();
     }
     if (ttc && ttc->scene_value < achieved_min_ttc_) {
       achieved_min_ttc_ = ttc->scene_value;
@@ -251,7 +278,9 @@ Json ClosedLoopVerifier::summary() const {
                       {"mean_iou", maybe(mean(ious_))},
                       {"median_iou", maybe(median(ious_))},
                       {"mean_confidence", maybe(mean(scores_))}};
-  j["distance"] = {{"matched_frames", dist_abs_.size()},
+  j["distance"] = {{"state_origin", state_origin_},
+                   {"intended_at", near_face_ ? "near_face" : "centre"},
+                   {"matched_frames", dist_abs_.size()},
                    {"median_abs_error_m", maybe(median(dist_abs_))},
                    {"median_rel_error", maybe(median(dist_rel_))},
                    {"max_abs_error_m", dist_abs_.empty() ? Json() : Json(*std::max_element(dist_abs_.begin(), dist_abs_.end()))}};
@@ -261,6 +290,8 @@ Json ClosedLoopVerifier::summary() const {
                    {"require_unsafe", require_unsafe_},
                    {"require_class_match", require_class_match_},
                    {"max_ttc_error_s", max_ttc_error_}};
+  if (near_face_ && !length_ && !dist_abs_.empty())
+    j["distance"]["note"] = "no trajectory arrived: the object's length is unknown, its centre was used";
   return j;
 }
 

@@ -13,12 +13,13 @@ namespace hf {
 // the augmented frames; this stage compares that re-assessment with what the renderer inserted.
 // Inputs: `hazard` (HazardInstance: where the object was drawn, per frame), `detections` (re-detections on the
 // augmented frames), `risk` (RiskAssessment, multi: the re-assessed metrics), `states` (ObjectStates, optional:
-// for the distance check), `trajectory` (HazardTrajectory, sticky: the intended minimum TTC).
+// for the distance check), `trajectory` (HazardTrajectory, sticky: the intended minimum TTC and the object's
+// length), `frames` (Frame, optional: the camera position when the states measure from the camera).
 // Output: `records` (Record "verification" per frame with a hazard packet, stamped with that frame; and one
 // "verification_summary" at finish, stamped with the last frame). Writes <output>/verification.json at finish
 // (atomic). A scenario counts as generated only when `passed` is true; `reasons` says why not.
 // Params: min_iou, min_redetection_rate, require_unsafe, require_class_match, ttc_metric, unsafe_metrics,
-// max_ttc_error_s, file.
+// max_ttc_error_s, state_distance_origin, ego_front_m, intended_distance_at, file.
 class ClosedLoopVerifier : public Stage {
  public:
   static ComponentInfo describe();
@@ -30,18 +31,22 @@ class ClosedLoopVerifier : public Stage {
   Json summary() const;
 
  private:
+  // Metres to add to a state's distance_m to measure it from the rear axle, like HazardInstance::distance_m.
+  double origin_offset(StageContext& ctx, const Inputs& in) const;
   // Params
   double min_iou_ = 0.5, min_rate_ = 0.5, max_ttc_error_ = -1;
   bool require_unsafe_ = true, require_class_match_ = true;
   std::string ttc_metric_;
   std::vector<std::string> unsafe_metrics_;
-  std::string file_;
+  std::string file_, state_origin_;
+  double ego_front_ = 3.4;
+  bool near_face_ = true;
   // Accumulated over the run
   int frames_ = 0, visible_ = 0, redetected_ = 0, unsafe_frames_ = 0, critical_frames_ = 0;
   std::vector<double> ious_, scores_, dist_abs_, dist_rel_;
   double achieved_min_ttc_ = kInf, intended_visible_min_ = kInf;
   std::optional<int64_t> achieved_at_frame_, first_unsafe_frame_;
-  std::optional<double> intended_traj_min_;
+  std::optional<double> intended_traj_min_, length_;
   std::string kind_, object_class_, chosen_ttc_metric_;
   bool saw_risk_ = false;
   std::vector<std::string> unsafe_by_;
