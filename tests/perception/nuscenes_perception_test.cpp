@@ -129,38 +129,37 @@ TEST_F(NuScenesPerception, AnnotationsProjectIntoEveryFrame) {
   EXPECT_GT(total, 300);
 }
 
-// Why these thresholds: the rectangle around a projected 3D box is systematically larger than the tight box a
-// detector draws (it encloses the far corners of cars seen at an angle), and nuScenes' visibility table is not
-// available to drop occluded objects, so even a perfect detector stays well below IoU 1. Measured on this
-// scene over the untruncated cars with >= 10 lidar+radar points (92 objects): mean best IoU 0.633 (YOLOv8n)
-// and 0.635 (YOLOX-Nano), about 3/4 of them above 0.5. A projection off by a few pixels of rotation or a
-// decoding error in a detector drops the mean far below 0.55.
-TEST_F(NuScenesPerception, DetectedCarsOverlapProjectedAnnotations) {
+// One test for cars, pedestrians and the shifted-box control, so the 41 frames go through each network once
+// per process (ctest runs every test in its own process).
+//
+// Cars. The rectangle around a projected 3D box is systematically larger than the tight box a detector draws
+// (it encloses the far corners of cars seen at an angle), and nuScenes' visibility table is not available to
+// drop occluded objects, so even a perfect detector stays well below IoU 1. Measured on this scene over the
+// untruncated cars with >= 10 lidar+radar points (92 objects): mean best IoU 0.633 (YOLOv8n) and 0.635
+// (YOLOX-Nano), 78-79 % of them above 0.5. The thresholds sit 0.08 / 0.13 below that.
+//
+// Pedestrians are harder: most of scene-0916's stand in a crowd at a bus shelter, partly hidden behind each
+// other. Measured over the untruncated ones with >= 5 points (77): mean best IoU 0.363 (YOLOv8n), 0.531
+// (YOLOX-Nano).
+//
+// Control: the same comparison with every annotated car box moved sideways by its own width must collapse,
+// so the agreement above is not an artefact of large boxes overlapping everything.
+TEST_F(NuScenesPerception, DetectionsOverlapProjectedAnnotations) {
   for (const char* model : {"yolov8n", "yolox_nano"}) {
-    const Overlap o = overlap(model, "car", 10);
-    std::cout << "[ measured ] " << model << " cars (>=10 pts, untruncated): n=" << o.n << " mean best IoU=" << o.mean
-              << " share IoU>0.5=" << o.matched_half << "\n";
-    EXPECT_GE(o.n, 80) << model;
-    EXPECT_GT(o.mean, 0.55) << model;
-    EXPECT_GT(o.matched_half, 0.65) << model;
-  }
-}
+    const Overlap cars = overlap(model, "car", 10);
+    std::cout << "[ measured ] " << model << " cars (>=10 pts, untruncated): n=" << cars.n
+              << " mean best IoU=" << cars.mean << " share IoU>0.5=" << cars.matched_half << "\n";
+    EXPECT_GE(cars.n, 80) << model;
+    EXPECT_GT(cars.mean, 0.55) << model;
+    EXPECT_GT(cars.matched_half, 0.65) << model;
 
-// Pedestrians are harder: most of scene-0916's are a crowd in a bus shelter, partly hidden behind each other.
-// Measured over the untruncated ones with >= 5 points (77): mean best IoU 0.363 (YOLOv8n), 0.531 (YOLOX-Nano).
-TEST_F(NuScenesPerception, DetectedPedestriansOverlapProjectedAnnotations) {
-  for (const char* model : {"yolov8n", "yolox_nano"}) {
-    const Overlap o = overlap(model, "person", 5);
-    std::cout << "[ measured ] " << model << " pedestrians (>=5 pts, untruncated): n=" << o.n
-              << " mean best IoU=" << o.mean << " share IoU>0.5=" << o.matched_half << "\n";
-    EXPECT_GE(o.n, 60) << model;
-    EXPECT_GT(o.mean, 0.30) << model;
+    const Overlap peds = overlap(model, "person", 5);
+    std::cout << "[ measured ] " << model << " pedestrians (>=5 pts, untruncated): n=" << peds.n
+              << " mean best IoU=" << peds.mean << " share IoU>0.5=" << peds.matched_half << "\n";
+    EXPECT_GE(peds.n, 60) << model;
+    EXPECT_GT(peds.mean, 0.30) << model;
   }
-}
 
-// Shifting the annotations' boxes sideways by their own width must destroy the agreement: guards against the
-// comparison above passing by accident (e.g. huge boxes overlapping everything).
-TEST_F(NuScenesPerception, ShiftedAnnotationsDoNotOverlap) {
   const auto& dets = yolo_on_scene("yolov8n");
   std::vector<double> best;
   for (size_t f = 0; f < scene_frames().size(); ++f)
@@ -174,7 +173,9 @@ TEST_F(NuScenesPerception, ShiftedAnnotationsDoNotOverlap) {
       best.push_back(b);
     }
   ASSERT_FALSE(best.empty());
-  EXPECT_LT(std::accumulate(best.begin(), best.end(), 0.0) / best.size(), 0.3);
+  const double shifted = std::accumulate(best.begin(), best.end(), 0.0) / best.size();
+  std::cout << "[ measured ] yolov8n vs car boxes shifted by their width: mean best IoU=" << shifted << "\n";
+  EXPECT_LT(shifted, 0.3);
 }
 
 // With perfect detections (projected annotations) a tracker's ids should follow annotation instances. An id
