@@ -15,6 +15,12 @@ void print_load_errors(const std::vector<std::string>& errors) {
   for (const auto& e : errors) std::cerr << "error: " << e << "\n";
 }
 
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
 std::string param_line(const ParamSpec& p) {
   std::ostringstream os;
   os << p.name << " (" << param_type_name(p.type);
@@ -22,8 +28,7 @@ std::string param_line(const ParamSpec& p) {
   else os << ", default " << p.default_value.dump();
   if (p.min || p.max) {
     os << ", range ";
-    os << (p.min ? std::to_string(*p.min) : std::string("-inf")) << ".."
-       << (p.max ? std::to_string(*p.max) : std::string("inf"));
+    os << (p.min ? num(*p.min) : std::string("-inf")) << ".." << (p.max ? num(*p.max) : std::string("inf"));
   }
   if (!p.choices.empty()) {
     os << ", one of";
@@ -64,7 +69,7 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
         std::string range;
         if (p.min || p.max) {
           std::ostringstream r;
-          r << (p.min ? std::to_string(*p.min) : "") << " .. " << (p.max ? std::to_string(*p.max) : "");
+          r << (p.min ? num(*p.min) : "") << " .. " << (p.max ? num(*p.max) : "");
           range = r.str();
         }
         for (const auto& ch : p.choices) range += (range.empty() ? "" : ", ") + ch;
