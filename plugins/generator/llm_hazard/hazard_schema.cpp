@@ -97,10 +97,12 @@ std::string join_values(const Json& list, const std::string& sep = ", ") {
   return out;
 }
 
-std::string quoted_between(const std::string& text) {
-  size_t b = text.find('\'');
+// The property name valijson quotes at the end of its message: "...: 'name'." or "... 'name'.".
+std::string last_quoted(const std::string& text) {
   size_t e = text.rfind('\'');
-  return (b != std::string::npos && e > b) ? text.substr(b + 1, e - b - 1) : std::string();
+  if (e == std::string::npos || e == 0) return {};
+  size_t b = text.rfind('\'', e - 1);
+  return b == std::string::npos ? std::string() : text.substr(b + 1, e - b - 1);
 }
 
 bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
@@ -199,11 +201,11 @@ std::vector<std::string> SchemaValidator::validate(const Json& document) const {
 
     std::string msg;
     if (starts_with(d, "Missing required property")) {
-      std::string name = quoted_between(d);
+      std::string name = last_quoted(d);
       tokens.push_back(name);
       msg = pointer_of(tokens) + " is missing (required)";
     } else if (starts_with(d, "Object contains a property that could not be validated")) {
-      std::string name = quoted_between(d);
+      std::string name = last_quoted(d);
       tokens.push_back(name);
       std::string allowed;
       if (sch && sch->contains("properties"))

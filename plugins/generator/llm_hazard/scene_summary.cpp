@@ -110,7 +110,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
     objects.push_back(std::move(j));
     object_lines += "- track " + std::to_string(o.track_id) + ": " + o.label + ", x " + num(o.distance_m) + " m, y " +
                     num(o.lateral_m) + " m, speed " + fmt_opt(o.speed_mps, " m/s") +
-                    (o.in_path ? ", in the ego path" : "") + (ttc ? ", TTC " + fmt_opt(ttc, " s") : "") + "\n";
+                    (o.in_path ? ", in the ego path" : "") + (ttc && std::isfinite(*ttc) ? ", TTC " + num(*ttc) + " s" : "") +
+                    "\n";
   }
   if (object_lines.empty()) object_lines = "- none\n";
   if (!object_lines.empty()) object_lines.pop_back();

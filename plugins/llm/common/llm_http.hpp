@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include <hazardforge/error.hpp>
 #include <hazardforge/types.hpp>
 
 namespace hf::llm {

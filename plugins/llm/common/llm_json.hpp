@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include <hazardforge/error.hpp>
 #include <hazardforge/types.hpp>
 
 namespace hf::llm {

@@ -1,0 +1,164 @@
+// Feasibility checks: class limits, scene rules, road position, camera view, overlap and the TTC replay.
+#include <gtest/gtest.h>
+
+#include <hazardforge/geometry.hpp>
+
+#include "feasibility.hpp"
+#include "hazard_schema.hpp"
+#include "llm_test_support.hpp"
+
+namespace hf::llm_hazard {
+namespace {
+
+class Feasibility : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    limits_ = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
+    cfg_.limits = &limits_;
+    cfg_.sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
+    cfg_.sidewalks = true;
+    cfg_.intersection = false;
+    cfg_.multi_lane = true;
+    cfg_.ego_speed_mps = 10.0;
+    cfg_.threshold_s = 1.5;
+    scene_.camera = test::test_camera();
+    scene_.ego_speed_mps = 10.0;
+    scene_.objects = test::make_states(0, 0.0).objects;
+  }
+  // A car 30 m ahead in the ego lane at ego speed that brakes at 8 m/s^2: TTC falls to 0.
+  HazardSpec stop() const {
+    HazardSpec s;
+    s.kind = "sudden_stop";
+    s.object_class = "car";
+    s.initial_distance_m = 30;
+    s.lateral_offset_m = 0;
+    s.side = "center";
+    s.speed_mps = 10;
+    s.deceleration_mps2 = 8;
+    s.target_ttc_s = 1.0;
+    return s;
+  }
+  std::vector<std::string> check(const HazardSpec& s) const { return check_feasibility(s, scene_, cfg_, nullptr); }
+
+  hazard::LimitsTable limits_;
+  FeasibilityConfig cfg_;
+  SceneContext scene_;
+};
+
+TEST_F(Feasibility, PlausibleSuddenStopPasses) { EXPECT_EQ(check(stop()), std::vector<std::string>{}); }
+
+TEST_F(Feasibility, ClassLimitsFromTheSharedTable) {
+  HazardSpec s = stop();
+  s.speed_mps = 70;
+  s.deceleration_mps2 = 14;
+  std::vector<std::string> e = check(s);
+  ASSERT_GE(e.size(), 2u);
+  EXPECT_EQ(e[0], "/speed_mps = 70 is more than a car can do (at most 60 m/s)");
+  EXPECT_EQ(e[1], "/deceleration_mps2 = 14 is more than a car can brake (at most 10 m/s^2)");
+}
+
+TEST_F(Feasibility, SceneRulesFromThePrompt) {
+  cfg_.sidewalks = false;
+  cfg_.multi_lane = false;
+  HazardSpec p = stop();
+  p.kind = "pedestrian_crossing";
+  p.object_class = "person";
+  p.speed_mps = 2;
+  p.deceleration_mps2.reset();
+  p.heading_deg = 90;
+  p.side = "right";
+  p.lateral_offset_m = -5.5;
+  std::vector<std::string> e = check(p);
+  ASSERT_FALSE(e.empty());
+  EXPECT_EQ(e[0], "/object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = no)");
+
+  HazardSpec c = stop();
+  c.kind = "cut_in";
+  c.heading_deg = 90;
+  e = check(c);
+  ASSERT_GE(e.size(), 2u);
+  EXPECT_EQ(e[0], "/heading_deg = 90 makes a vehicle cross the ego path, which needs an intersection (intersection = no)");
+  EXPECT_EQ(e[1], "/kind = \"cut_in\" needs a lane beside the ego lane; this road has one (multi_lane = no)");
+}
+
+TEST_F(Feasibility, SideRoadAndOverlap) {
+  HazardSpec s = stop();
+  s.side = "left";
+  s.lateral_offset_m = -3.5;
+  s.initial_distance_m = 40;
+  std::vector<std::string> e = check(s);
+  ASSERT_GE(e.size(), 2u);
+  EXPECT_EQ(e[0], "/side = \"left\" contradicts /lateral_offset_m = -3.5 (left of the ego means y > 0)");
+  EXPECT_EQ(e[1], "start point (x 40 m, y -3.5 m) overlaps the detected car (track 7) at x 40 m, y -3.5 m");
+
+  s = stop();
+  s.side = "right";
+  s.lateral_offset_m = -9;
+  e = check(s);
+  ASSERT_FALSE(e.empty());
+  EXPECT_EQ(e[0], "/lateral_offset_m = -9 puts the car off the road (|y| <= 5.25 m on the right)");
+}
+
+TEST_F(Feasibility, StartPointMustBeInTheCameraView) {
+  HazardSpec s = stop();
+  s.initial_distance_m = 6;
+  s.lateral_offset_m = 4.5;
+  s.side = "left";
+  std::vector<std::string> e = check(s);
+  ASSERT_FALSE(e.empty());
+  EXPECT_EQ(e[0], "start point (x 6 m, y 4.5 m) is outside the camera view: it projects to pixel (-466, 872) in a "
+                  "1600x900 image");
+}
+
+TEST_F(Feasibility, TargetTtcMustBeReachedAndBelowThreshold) {
+  HazardSpec s = stop();
+  // Barely brakes: closing 0.5 t, gap 54.35 - 0.25 t^2, so after 6 s TTC = (54.35 - 9) / 3 = 15.1 s.
+  s.deceleration_mps2 = 0.5;
+  s.initial_distance_m = 60;
+  std::vector<std::string> e = check(s);
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0], "/target_ttc_s = 1 is never reached: with the ego at 10 m/s the lowest TTC within 6 s is 15.13 s");
+
+  s = stop();
+  s.target_ttc_s = 2.0;
+  e = check(s);
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0], "/target_ttc_s = 2 is not below the risk threshold 1.5 s, so the scene would stay Safe");
+
+  s = stop();
+  s.speed_mps = 0;
+  s.deceleration_mps2.reset();
+  s.initial_distance_m = 8;
+  e = check(s);
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0], "the car would appear with TTC 0.23 s, already below /target_ttc_s = 1: a hazard must develop, not "
+                  "appear on a collision course (increase /initial_distance_m)");
+}
+
+TEST_F(Feasibility, KinematicChecksLeftToTheTemplate) {
+  HazardSpec s = stop();
+  s.speed_mps = 70;
+  cfg_.kinematics = false;
+  EXPECT_EQ(check(s), std::vector<std::string>{});
+}
+
+TEST(TtcReplay, CrossingPedestrianEntersThePath) {
+  HazardSpec s;
+  s.object_class = "person";
+  s.initial_distance_m = 30;
+  s.lateral_offset_m = 5;
+  s.speed_mps = 2;
+  s.heading_deg = -90;
+  // ClassSize is {height, width, length}.
+  TtcSimulation sim = simulate_ttc(s, ClassSize{1.7, 0.6, 0.5}, 10.0, hazard::TtcConventions{}, 6.0);
+  EXPECT_FALSE(sim.starts_in_collision);
+  EXPECT_EQ(sim.ttc_at_start, kInf);
+  // In the path once |y| < 1.5 + 0.25, i.e. from t = 1.625 s (gap 30 - 16.25 - 3.4 - 0.3 = 10.05 m, TTC 1.005 s);
+  // the constant-speed ego then reaches it at t = 2.63 s, before it leaves the path (3.375 s): TTC falls to 0.
+  EXPECT_TRUE(sim.enters_path);
+  EXPECT_DOUBLE_EQ(sim.min_ttc, 0.0);
+  EXPECT_NEAR(sim.t_min_ttc, 2.63, 0.03);
+}
+
+}  // namespace
+}  // namespace hf::llm_hazard

@@ -1,0 +1,297 @@
+// The llm_hazard stage end to end: trigger rules, the retry loop against loopback model servers, transport
+// failures, the run records, third-party templates and the offline planner with the built-in templates.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "llm_hash.hpp"
+#include "llm_test_support.hpp"
+
+namespace hf {
+namespace {
+
+using test::ScriptedServer;
+
+const char* kDescription = "Busy city street, peds on the sidewalk, two lanes each way";
+
+std::string ollama_yaml(const std::string& url, const std::string& extra = "") {
+  return "provider: {name: ollama, host: '" + url + "', read_timeout_s: 2}\nseed: 7\ntemperature: 0\n" + extra;
+}
+
+std::string run_error(testing::StageRunner& r) {
+  try {
+    r.run();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+// A small third-party template: cargo lying on the road, which must not move.
+class FallenCargoTemplate : public HazardTemplate {
+ public:
+  static ComponentInfo describe() {
+    ComponentInfo i;
+    i.name = "fallen_cargo";
+    i.kind = kind::kHazardTemplate;
+    i.summary = "test template";
+    return i;
+  }
+  void open(const Params&) override {}
+  std::string hazard_kind() const override { return "fallen_cargo"; }
+  std::vector<std::string> check(const HazardSpec& spec, const SceneContext&) const override {
+    if (spec.speed_mps != 0) return {"cargo lies still (speed_mps must be 0, got " + std::to_string(int(spec.speed_mps)) + ")"};
+    return {};
+  }
+  HazardTrajectory plan(const HazardSpec&, const SceneContext&) const override { return {}; }
+};
+
+TEST(LlmHazard, OfflineSpecAtFirstSafeFrameAfterWarmup) {
+  auto r = test::make_runner("seed: 3\n");
+  test::push_scene(r, 8, kDescription);
+  r.run();
+  auto out = r.collect<HazardSpec>("hazard");
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_DOUBLE_EQ(r.outputs("hazard")[0].timestamp(), 2.5);  // frame 5 = the first after 5 warm-up frames
+  const HazardSpec& s = out[0];
+  EXPECT_DOUBLE_EQ(s.start_time_s, 2.5);
+  EXPECT_EQ(s.schema_version, "1.0");
+  EXPECT_EQ(s.provenance["provider"], "offline");
+  EXPECT_EQ(s.provenance["model"], "offline-planner-1");
+  EXPECT_EQ(s.provenance["attempts"], 1);
+  EXPECT_EQ(s.provenance["frame_index"], 5);
+
+  Json file = test::read_json(r.output_dir() / "hazard_spec.json");
+  EXPECT_EQ(file, Json(s));
+  auto calls = test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl");
+  ASSERT_EQ(calls.size(), 1u);
+  EXPECT_EQ(calls[0]["accepted"], true);
+  EXPECT_EQ(calls[0]["backend"], "offline planner");
+  EXPECT_EQ(calls[0]["seed"], 3);
+  EXPECT_EQ(calls[0]["errors"], Json::array());
+  const std::string prompt = calls[0]["messages"][0]["content"];
+  EXPECT_EQ(calls[0]["prompt_sha256"], llm::sha256_hex(prompt));
+  EXPECT_EQ(s.provenance["prompt_sha256"], calls[0]["prompt_sha256"]);
+  EXPECT_NE(prompt.find("- Environment: Busy city street"), std::string::npos);
+  EXPECT_EQ(Json::parse(calls[0]["reply"].get<std::string>())["kind"], s.kind);
+}
+
+// Every offline plan must survive the generic checks and the built-in templates' own check() first time.
+TEST(LlmHazard, OfflinePlansPassTheTemplatesForManySeeds) {
+  std::map<std::string, int> kinds;
+  for (int seed = 0; seed < 16; ++seed) {
+    auto r = test::make_runner("seed: " + std::to_string(seed) + "\nmax_retries: 0\n");
+    test::push_scene(r, 6, kDescription);
+    ASSERT_EQ(run_error(r), "(no error)") << "seed " << seed;
+    auto out = r.collect<HazardSpec>("hazard");
+    ASSERT_EQ(out.size(), 1u);
+    kinds[out[0].kind]++;
+  }
+  EXPECT_EQ(kinds.size(), 3u);
+}
+
+TEST(LlmHazard, UnsafeTriggerFrameGeneratesNothing) {
+  auto r = test::make_runner("trigger: frame\ntrigger_frame: 3\n");
+  test::push_scene(r, 6, kDescription, {3});
+  r.run();
+  EXPECT_TRUE(r.outputs("hazard").empty());
+  EXPECT_FALSE(std::filesystem::exists(r.output_dir() / "hazard_spec.json"));
+  const auto& log = r.log();
+  EXPECT_NE(std::find(log.begin(), log.end(),
+                      "warning: frame 3 is Unsafe (ttc = 0.9 s (threshold 1.5)): it is already critical, no hazard "
+                      "generated"),
+            log.end());
+}
+
+TEST(LlmHazard, FirstSafeSkipsUnsafeFrames) {
+  auto r = test::make_runner("warmup_frames: 2\n");
+  test::push_scene(r, 6, kDescription, {2, 3});
+  r.run();
+  ASSERT_EQ(r.outputs("hazard").size(), 1u);
+  EXPECT_DOUBLE_EQ(r.outputs("hazard")[0].timestamp(), 2.0);  // frame 4
+}
+
+TEST(LlmHazard, NoSafeFrameIsLoggedAtTheEnd) {
+  auto r = test::make_runner("");
+  test::push_scene(r, 6, kDescription, {5});
+  r.run();
+  EXPECT_TRUE(r.outputs("hazard").empty());
+  EXPECT_EQ(r.log().back(), "warning: no hazard generated: no frame after the 5 warm-up frames was Safe (6 frames seen)");
+}
+
+TEST(LlmHazard, OllamaRetriesWithTheErrorsUntilValid) {
+  ScriptedServer srv("/api/chat");
+  Json bad_schema = test::valid_reply();
+  bad_schema["speed_mps"] = "fast";
+  Json impossible = test::valid_reply();
+  impossible["speed_mps"] = 9;
+  srv.then_ollama("Here is a realistic hazard:\n" + bad_schema.dump() + "\nLet me know!");
+  srv.then_ollama(impossible.dump());
+  srv.then_ollama("```json\n" + test::valid_reply().dump(2) + "\n```");
+  auto r = test::make_runner(ollama_yaml(srv.url()));
+  test::push_scene(r, 6, kDescription);
+  r.run();
+
+  auto out = r.collect<HazardSpec>("hazard");
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].kind, "pedestrian_crossing");
+  EXPECT_DOUBLE_EQ(out[0].speed_mps, 2.0);
+  EXPECT_EQ(out[0].provenance["attempts"], 3);
+  EXPECT_EQ(out[0].provenance["retries"], 2);
+  EXPECT_EQ(out[0].provenance["model"], "llama3:8b");
+  EXPECT_EQ(out[0].provenance["backend"], "ollama llama3 @ " + srv.url());
+
+  auto got = srv.requests();
+  ASSERT_EQ(got.size(), 3u);
+  for (const Json& g : got) {
+    EXPECT_EQ(g["model"], "llama3");
+    EXPECT_EQ(g["options"]["seed"], 7);
+    EXPECT_EQ(g["options"]["temperature"], 0.0);
+    EXPECT_EQ(g["format"]["properties"]["kind"]["enum"],
+              Json::array({"pedestrian_crossing", "cut_in", "sudden_stop"}));
+    EXPECT_EQ(g["format"]["required"].size(), 13u);
+  }
+  ASSERT_EQ(got[1]["messages"].size(), 3u);
+  EXPECT_EQ(got[1]["messages"][1]["role"], "assistant");
+  EXPECT_EQ(got[1]["messages"][1]["content"], "Here is a realistic hazard:\n" + bad_schema.dump() + "\nLet me know!");
+  EXPECT_EQ(got[1]["messages"][2]["content"],
+            "Your answer was rejected:\n- /speed_mps = \"fast\" has type string, expected number\n\nReply again with "
+            "ONLY the corrected JSON object that follows the schema and fixes every point above.\n");
+  ASSERT_EQ(got[2]["messages"].size(), 5u);
+  EXPECT_NE(got[2]["messages"][4]["content"].get<std::string>().find(
+                "- hazard template 'pedestrian_crossing': speed_mps 9 exceeds the person limit of 7 m/s"),
+            std::string::npos);
+
+  auto calls = test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl");
+  ASSERT_EQ(calls.size(), 3u);
+  EXPECT_EQ(calls[0]["attempt"], 1);
+  EXPECT_EQ(calls[0]["errors"], Json::array({"/speed_mps = \"fast\" has type string, expected number"}));
+  EXPECT_EQ(calls[1]["accepted"], false);
+  EXPECT_EQ(calls[2]["accepted"], true);
+  EXPECT_EQ(calls[2]["model"], "llama3:8b");
+  EXPECT_EQ(calls[0]["prompt_sha256"], calls[2]["prompt_sha256"]);
+  EXPECT_EQ(calls[2]["response"]["done"], true);
+}
+
+TEST(LlmHazard, GivesUpWithTheLastErrors) {
+  ScriptedServer srv("/api/chat");
+  srv.then_ollama("I think a pedestrian would be nice.");
+  srv.then_ollama("{\"kind\": \"pedestrian_crossing\"");
+  auto r = test::make_runner(ollama_yaml(srv.url(), "max_retries: 1\n"));
+  test::push_scene(r, 6, kDescription);
+  EXPECT_EQ(run_error(r), "node 'llm_hazard': no valid hazard spec after 2 attempt(s) from ollama llama3 @ " +
+                              srv.url() + "; last errors: reply JSON object is cut off: the '{' at character 0 is "
+                                          "never closed");
+  EXPECT_TRUE(r.outputs("hazard").empty());
+  EXPECT_FALSE(std::filesystem::exists(r.output_dir() / "hazard_spec.json"));
+  EXPECT_EQ(test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl").size(), 2u);
+}
+
+TEST(LlmHazard, Http500FailsAtOnceWithTheServersWords) {
+  ScriptedServer srv("/api/chat");
+  srv.then([](const httplib::Request&, httplib::Response& res) {
+    res.status = 500;
+    res.set_content(R"({"error":"model \"llama3\" not found, try pulling it first"})", "application/json");
+  });
+  auto r = test::make_runner(ollama_yaml(srv.url()));
+  test::push_scene(r, 6, kDescription);
+  EXPECT_EQ(run_error(r), "node 'llm_hazard': ollama: POST " + srv.url() +
+                              "/api/chat returned HTTP 500: model \"llama3\" not found, try pulling it first");
+  EXPECT_EQ(srv.requests().size(), 1u);
+  auto calls = test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl");
+  ASSERT_EQ(calls.size(), 1u);
+  EXPECT_EQ(calls[0]["transport_error"],
+            "ollama: POST " + srv.url() + "/api/chat returned HTTP 500: model \"llama3\" not found, try pulling it first");
+}
+
+TEST(LlmHazard, ReadTimeout) {
+  ScriptedServer srv("/api/chat");
+  srv.then([](const httplib::Request&, httplib::Response& res) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    res.set_content("{}", "application/json");
+  });
+  auto r = test::make_runner("provider: {name: ollama, host: '" + srv.url() + "', read_timeout_s: 0.3}\n");
+  test::push_scene(r, 6, kDescription);
+  EXPECT_EQ(run_error(r), "node 'llm_hazard': ollama: POST " + srv.url() + "/api/chat failed: Timeout was reached");
+}
+
+TEST(LlmHazard, ConnectionRefused) {
+  const std::string url = "http://127.0.0.1:" + std::to_string(test::unused_port());
+  auto r = test::make_runner(ollama_yaml(url));
+  test::push_scene(r, 6, kDescription);
+  EXPECT_EQ(run_error(r), "node 'llm_hazard': ollama: POST " + url + "/api/chat failed: Couldn't connect to server");
+}
+
+TEST(LlmHazard, TruncatedBody) {
+  ScriptedServer srv("/api/chat");
+  srv.then([](const httplib::Request&, httplib::Response& res) {
+    res.set_content_provider(4096, "application/json", [](size_t, size_t, httplib::DataSink& sink) {
+      const std::string part = R"({"model":"llama3","message":{"role":"assistant","content":"{\"kind)";
+      sink.write(part.data(), part.size());
+      return false;  // the connection drops mid-body
+    });
+  });
+  auto r = test::make_runner(ollama_yaml(srv.url()));
+  test::push_scene(r, 6, kDescription);
+  EXPECT_EQ(run_error(r), "node 'llm_hazard': ollama: POST " + srv.url() + "/api/chat failed: Transferred a partial file");
+}
+
+TEST(LlmHazard, OpenAiCompatibleServer) {
+  ScriptedServer srv("/v1/chat/completions");
+  srv.then_openai("Sure.\n```\n" + test::valid_reply().dump() + "\n```");
+  auto r = test::make_runner("provider: {name: openai, base_url: '" + srv.url() + "/v1', model: llama3}\nseed: 11\n"
+                             "force_kind: pedestrian_crossing\n");
+  test::push_scene(r, 6, kDescription);
+  r.run();
+  ASSERT_EQ(r.outputs("hazard").size(), 1u);
+  Json got = srv.requests().at(0);
+  EXPECT_EQ(got["seed"], 11);
+  EXPECT_EQ(got["response_format"]["json_schema"]["strict"], true);
+  EXPECT_EQ(got["response_format"]["json_schema"]["schema"]["properties"]["kind"]["enum"],
+            Json::array({"pedestrian_crossing"}));
+}
+
+TEST(LlmHazard, ThirdPartyKindsComeFromRegisteredTemplates) {
+  ScriptedServer srv("/api/chat");
+  Json cargo = test::valid_reply();
+  cargo["kind"] = "fallen_cargo";
+  cargo["object_class"] = "car";
+  cargo["initial_distance_m"] = 30;
+  cargo["lateral_offset_m"] = 0;
+  cargo["side"] = "center";
+  cargo["heading_deg"] = 0;
+  cargo["speed_mps"] = 3;
+  cargo["extra"]["crossing_from"] = nullptr;
+  srv.then_ollama(cargo.dump());
+  cargo["speed_mps"] = 0;
+  srv.then_ollama(cargo.dump());
+  auto r = test::make_runner(ollama_yaml(srv.url()), /*with_templates=*/false,
+                             [](Registrar& reg) { reg.add<FallenCargoTemplate>(); });
+  test::push_scene(r, 6, kDescription);
+  r.run();
+  ASSERT_EQ(r.outputs("hazard").size(), 1u);
+  auto got = srv.requests();
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0]["format"]["properties"]["kind"]["enum"], Json::array({"fallen_cargo"}));
+  EXPECT_NE(got[1]["messages"][2]["content"].get<std::string>().find(
+                "- hazard template 'fallen_cargo': cargo lies still (speed_mps must be 0, got 3)"),
+            std::string::npos);
+}
+
+TEST(LlmHazard, ConfigurationErrors) {
+  auto none = test::make_runner("", /*with_templates=*/false);
+  test::push_scene(none, 1, kDescription);
+  EXPECT_EQ(run_error(none), "node 'llm_hazard': no hazard kinds to choose from: no hazard_template component is "
+                             "registered and param 'kinds' is empty");
+  auto forced = test::make_runner("kinds: [cut_in, sudden_stop]\nforce_kind: pedestrian_crossing\n");
+  test::push_scene(forced, 1, kDescription);
+  EXPECT_EQ(run_error(forced),
+            "node 'llm_hazard': force_kind 'pedestrian_crossing' is not among the allowed kinds (cut_in, sudden_stop)");
+  auto unknown = test::make_runner("provider: {name: olama}\n");
+  test::push_scene(unknown, 1, kDescription);
+  EXPECT_EQ(run_error(unknown), "unknown llm_provider 'olama'; did you mean 'ollama'?");
+}
+
+}  // namespace
+}  // namespace hf

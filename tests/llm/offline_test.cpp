@@ -1,0 +1,123 @@
+// The offline planner: seeded determinism, variety across seeds, the prompt's rules, clear refusals.
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "llm_test_support.hpp"
+
+namespace hf::llm {
+namespace {
+
+// The scene context the generator would send (built from the same synthetic scene as the stage tests).
+Json scene_context(bool sidewalks, bool multi_lane, double ego_speed, std::vector<std::string> kinds) {
+  llm_hazard::SceneSettings s;
+  s.environment = "test street";
+  s.road_type = "test";
+  s.sidewalks = {sidewalks, "test"};
+  s.intersection = {false, "test"};
+  s.multi_lane = {multi_lane, "test"};
+  s.allowed_kinds = std::move(kinds);
+  s.ego_speed_mps = ego_speed;
+  Frame f = test::make_frame(5, 2.5, "test");
+  ObjectStates st = test::make_states(5, 2.5);
+  RiskAssessment r = test::make_risk(5, true);
+  hazard::LimitsTable limits = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
+  ClassPriors sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
+  return llm_hazard::summarize_scene(f, st, {&r}, s, limits, sizes).scene;
+}
+
+LlmRequest request(Json scene, int64_t seed) {
+  LlmRequest r;
+  r.messages = {{"user", "prompt"}};
+  r.scene = std::move(scene);
+  r.seed = seed;
+  return r;
+}
+
+OfflinePlanner planner() {
+  OfflinePlanner p;
+  p.open(Params(Json{{"aim", 0.85}, {"candidates_per_kind", 12}}));
+  return p;
+}
+
+const std::vector<std::string> kAll = {"pedestrian_crossing", "cut_in", "sudden_stop"};
+
+TEST(OfflinePlanner, SameSeedSameReply) {
+  OfflinePlanner p = planner();
+  Json scene = scene_context(true, true, 10.0, kAll);
+  LlmReply a = p.complete(request(scene, 42));
+  LlmReply b = p.complete(request(scene, 42));
+  EXPECT_EQ(a.content, b.content);
+  EXPECT_EQ(a.model, "offline-planner-1");
+  Json j = Json::parse(a.content);
+  EXPECT_TRUE(j.contains("rationale"));
+  EXPECT_EQ(j["target_ttc_s"], 1.0);
+}
+
+TEST(OfflinePlanner, SeedsVaryKindAndParameters) {
+  OfflinePlanner p = planner();
+  Json scene = scene_context(true, true, 10.0, kAll);
+  std::set<std::string> kinds, contents;
+  for (int64_t seed = 0; seed < 12; ++seed) {
+    Json j = Json::parse(p.complete(request(scene, seed)).content);
+    kinds.insert(j["kind"].get<std::string>());
+    contents.insert(j.dump());
+  }
+  EXPECT_EQ(kinds, (std::set<std::string>{"pedestrian_crossing", "cut_in", "sudden_stop"}));
+  EXPECT_GE(contents.size(), 10u);
+}
+
+TEST(OfflinePlanner, FollowsTheRules) {
+  OfflinePlanner p = planner();
+  // No sidewalks, one lane: only a sudden stop is left.
+  Json scene = scene_context(false, false, 10.0, kAll);
+  for (int64_t seed = 0; seed < 8; ++seed)
+    EXPECT_EQ(Json::parse(p.complete(request(scene, seed)).content)["kind"], "sudden_stop") << "seed " << seed;
+  // Sidewalks, pedestrian crossings only: the person starts beyond the road edge, crossing towards the road.
+  scene = scene_context(true, false, 10.0, {"pedestrian_crossing"});
+  for (int64_t seed = 0; seed < 8; ++seed) {
+    Json j = Json::parse(p.complete(request(scene, seed)).content);
+    EXPECT_EQ(j["object_class"], "person");
+    const double y = j["lateral_offset_m"].get<double>();
+    EXPECT_GE(std::abs(y), 5.25 + 0.5);
+    EXPECT_EQ(j["extra"]["crossing_from"], y > 0 ? "left" : "right");
+    EXPECT_EQ(j["heading_deg"].get<double>(), y > 0 ? -90.0 : 90.0);
+    EXPECT_LE(j["speed_mps"].get<double>(), 2.5);
+  }
+}
+
+TEST(OfflinePlanner, RetryDrawsANewPlan) {
+  OfflinePlanner p = planner();
+  LlmRequest r = request(scene_context(true, true, 10.0, kAll), 3);
+  LlmReply first = p.complete(r);
+  r.messages.push_back({"assistant", first.content});
+  r.messages.push_back({"user", "rejected"});
+  EXPECT_NE(p.complete(r).content, first.content);
+}
+
+TEST(OfflinePlanner, RefusesClearlyWhenNothingFits) {
+  OfflinePlanner p = planner();
+  try {
+    p.complete(request(scene_context(true, true, 0.0, kAll), 1));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "offline: no hazard fits this scene (allowed kinds: pedestrian_crossing, cut_in, "
+                           "sudden_stop): the ego speed 0.0 m/s is below 1.0 m/s, so no inserted object closes in on it");
+  }
+  try {
+    p.complete(request(scene_context(false, false, 10.0, {"pedestrian_crossing"}), 1));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "offline: no hazard fits this scene (allowed kinds: pedestrian_crossing): "
+                           "pedestrian_crossing: the scene has no sidewalks");
+  }
+  try {
+    p.complete(request(Json::object(), 1));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "offline: the request carries no scene context (the offline planner reads LlmRequest::scene)");
+  }
+}
+
+}  // namespace
+}  // namespace hf::llm

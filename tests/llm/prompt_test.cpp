@@ -1,0 +1,84 @@
+// Prompt templates: placeholder substitution, comment stripping, unknown-name errors, the shipped template.
+#include <gtest/gtest.h>
+
+#include <hazardforge/geometry.hpp>
+
+#include "llm_test_support.hpp"
+#include "prompt.hpp"
+#include "scene_summary.hpp"
+
+namespace hf::llm_hazard {
+namespace {
+
+TEST(PromptTemplate, SubstitutesAndStripsComments) {
+  auto t = PromptTemplate::from_text("<!-- for editors: {{not_a_placeholder}} -->\nSpeed {{v}} m/s, {{v}} again.\n", "p.md");
+  EXPECT_EQ(t.render({{"v", "8.5"}}), "Speed 8.5 m/s, 8.5 again.\n");
+  EXPECT_EQ(t.placeholders(), std::set<std::string>{"v"});
+}
+
+TEST(PromptTemplate, UnknownPlaceholderNamesFileAndLine) {
+  auto t = PromptTemplate::from_text("line one\n<!-- two\nthree -->\nego {{ego_sped}}\n", "prompts/x.md");
+  try {
+    t.render({{"ego_speed", "1"}, {"objects", "-"}});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "prompts/x.md:4: unknown placeholder {{ego_sped}} (known: ego_speed, objects)");
+  }
+}
+
+TEST(PromptTemplate, ValuesAreNotRescanned) {
+  auto t = PromptTemplate::from_text("{{a}}|{{b}}", "p");
+  EXPECT_EQ(t.render({{"a", "{{b}}"}, {"b", "x"}}), "{{b}}|x");
+}
+
+TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
+  auto t = PromptTemplate::load(share_dir() + "/prompts/hazard_generation.md");
+  SceneSettings s;
+  s.description = "Rainy city street, peds on sidewalk";
+  s.environment = s.description;
+  s.road_type = "urban two-lane street";
+  s.sidewalks = resolve_sidewalks("auto", s.environment);
+  s.intersection = resolve_intersection("no", "");
+  s.multi_lane = resolve_multi_lane("auto", s.road_type);
+  s.allowed_kinds = {"pedestrian_crossing", "sudden_stop"};
+  s.ego_speed_mps = 10.0;
+  Frame f = test::make_frame(6, 3.0, s.description);
+  ObjectStates st = test::make_states(6, 3.0);
+  RiskAssessment r = test::make_risk(6, true);
+  hazard::LimitsTable limits = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
+  ClassPriors sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
+  SceneSummary sum = summarize_scene(f, st, {&r}, s, limits, sizes);
+  auto values = sum.placeholders;
+  values["schema"] = "{}";
+  std::string prompt = t.render(values);
+  EXPECT_EQ(prompt.find("<!--"), std::string::npos);
+  EXPECT_NE(prompt.find("# Role"), std::string::npos);
+  EXPECT_NE(prompt.find("- Environment: Rainy city street, peds on sidewalk\n"), std::string::npos);
+  EXPECT_NE(prompt.find("- Sidewalks: yes\n"), std::string::npos);
+  EXPECT_NE(prompt.find("- Intersection: no\n"), std::string::npos);
+  EXPECT_NE(prompt.find("- Ego speed: 10 m/s\n"), std::string::npos);
+  EXPECT_NE(prompt.find("- track 7: car, x 40 m, y -3.5 m, speed 0 m/s\n"), std::string::npos);
+  EXPECT_NE(prompt.find("Allowed hazard kinds: pedestrian_crossing, sudden_stop\n"), std::string::npos);
+  EXPECT_NE(prompt.find("- Scene TTC: inf s (Unsafe below 1.5 s)"), std::string::npos);
+  EXPECT_NE(prompt.find("- person: speed <= 7 m/s"), std::string::npos);
+  EXPECT_EQ(sum.scene["sidewalks"], true);
+  // A two-lane street has one lane per direction: no lane to cut in from.
+  EXPECT_EQ(sum.scene["multi_lane"], false);
+  EXPECT_EQ(sum.scene["objects"][0]["track_id"], 7);
+  EXPECT_EQ(sum.scene["road"]["edge_left_m"], 5.25);
+}
+
+TEST(SceneRules, AutoResolutionFromText) {
+  EXPECT_TRUE(resolve_sidewalks("auto", "Parking lot, bicycle rack, many peds").value);
+  EXPECT_EQ(resolve_sidewalks("auto", "Parking lot, bicycle rack, many peds").why, "auto: the scene text mentions 'parking'");
+  EXPECT_FALSE(resolve_sidewalks("auto", "Highway at night, peds unlikely").value);
+  EXPECT_FALSE(resolve_sidewalks("auto", "empty test track").value);
+  EXPECT_TRUE(resolve_sidewalks("yes", "highway").value);
+  EXPECT_TRUE(resolve_intersection("auto", "Wait at intersection, turn right").value);
+  EXPECT_FALSE(resolve_intersection("auto", "Parking lot").value);
+  EXPECT_TRUE(resolve_multi_lane("auto", "three lanes, highway").value);
+  EXPECT_FALSE(resolve_multi_lane("auto", "narrow residential street").value);
+}
+
+}  // namespace
+}  // namespace hf::llm_hazard
