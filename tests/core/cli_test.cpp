@@ -1,6 +1,9 @@
 // The hazardforge executable end to end: plugins, inspect, validate, run on the real video, manifest.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
 
 #include <array>
 #include <cstdio>
@@ -91,6 +94,52 @@ TEST(Cli, GraphDot) {
   Cmd c = run("graph configs/examples/video_to_jsonl.yaml --dot");
   EXPECT_EQ(c.code, 0) << c.out;
   EXPECT_EQ(c.out.rfind("digraph", 0), 0u) << c.out;
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Cli, CtrlCKeepsWhatWasWrittenAndMarksTheManifest) {
+  HF_REQUIRE_SHARED(hf::test::shared_data("udacity-highway/test_video.mp4"));
+  std::filesystem::current_path(hf::test::source_dir());
+  const auto out = std::filesystem::temp_directory_path() / "hf_cli_interrupt";
+  std::filesystem::remove_all(out);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const std::string o = out.string();
+    execl(HF_EXE, HF_EXE, "run", "configs/assess_video.yaml", "-o", o.c_str(), "-q", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Wait until a few frames are on disk, then press Ctrl-C.
+  for (int i = 0; i < 600; ++i) {
+    std::ifstream jl(out / "frames.jsonl");
+    int lines = 0;
+    for (std::string l; std::getline(jl, l);) ++lines;
+    if (lines >= 3) break;
+    usleep(100 * 1000);
+  }
+  kill(pid, SIGINT);
+  int st = 0;
+  waitpid(pid, &st, 0);
+  ASSERT_TRUE(WIFEXITED(st));
+  EXPECT_EQ(WEXITSTATUS(st), 130);
+  std::ifstream mf(out / "manifest.json");
+  hf::Json m = hf::Json::parse(mf);
+  EXPECT_EQ(m["status"], "interrupted");
+  const int frames = m["frames"].get<int>();
+  EXPECT_GE(frames, 3);
+  EXPECT_LT(frames, 38);
+  std::ifstream jl(out / "frames.jsonl");
+  int lines = 0;
+  for (std::string l; std::getline(jl, l);) {
+    EXPECT_TRUE(hf::Json::accept(l)) << "a truncated line was left behind: " << l;
+    ++lines;
+  }
+  EXPECT_EQ(lines, frames);
+  // The annotated video was finalised: it opens and holds every processed frame.
+  EXPECT_TRUE(std::filesystem::exists(out / "assessed.mp4"));
 }
 
 }  // namespace
