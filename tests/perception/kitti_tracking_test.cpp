@@ -119,8 +119,8 @@ TEST_F(KittiTracking, CentroidWithPredictionKeepsIdentities) {
   const IdStats s = run_sequences<CentroidTracker>(CentroidTracker::Config{});
   print("centroid (greedy, predict)", s);
   EXPECT_EQ(s.detections, 17786);
-  EXPECT_LE(s.switches, 40);  // measured 28
-  EXPECT_LE(s.extra_ids, 30);  // measured 20
+  EXPECT_LE(s.switches, 40);  // measured 29
+  EXPECT_LE(s.extra_ids, 30);  // measured 21
 }
 
 TEST_F(KittiTracking, PredictionIsWhatMakesCentroidTrackingWork) {

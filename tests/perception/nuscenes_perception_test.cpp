@@ -218,7 +218,7 @@ IdStats track_annotations(const std::string& params) {
 // The keyframes are 0.5 s apart: parked cars along the road move 200-300 px between keyframes, more than
 // the spacing between neighbouring cars, and a crowd at a bus stop swaps places, so identities are largely
 // lost even with perfect boxes (KITTI at 10 Hz, kitti_tracking_test, shows the same trackers keeping them).
-// Measured over all 492 projected boxes (60 instances): centroid 297 ids / 220 switches, SORT (min_hits 1,
+// Measured over all 492 projected boxes (60 instances): centroid 311 ids / 236 switches, SORT (min_hits 1,
 // max_age 2) 355 ids / 194 switches. The bounds below are those numbers plus about a fifth, as a regression
 // guard; use a 10 Hz+ stream (nuScenes sweeps) to track.
 TEST_F(NuScenesPerception, TrackersOnTwoHertzKeyframes) {
@@ -229,7 +229,7 @@ TEST_F(NuScenesPerception, TrackersOnTwoHertzKeyframes) {
   std::cout << "[ measured ] sort on projected annotations: instances=" << s.instances << " ids=" << s.ids
             << " switches=" << s.switches << "\n";
   EXPECT_EQ(c.instances, 60);
-  EXPECT_LE(c.switches, 265);
+  EXPECT_LE(c.switches, 285);
   EXPECT_LE(s.switches, 235);
 }
 

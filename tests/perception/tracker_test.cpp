@@ -172,6 +172,29 @@ TEST(CentroidTracker, ClassGateSeparatesCarAndPersonAtTheSamePlace) {
   EXPECT_EQ(find_near(swapped[1], 300, 300)->id, car);
 }
 
+TEST(CentroidTracker, ClassGroupsKeepACarThatFlickersToTruck) {
+  std::vector<std::vector<Obj>> frames = {{{box_at(300, 300), "car"}},
+                                          {{box_at(310, 300), "truck"}},
+                                          {{box_at(320, 300), "car"}}};
+  auto out = run_tracker<CentroidTracker>("", frames, regular_times(3));
+  ASSERT_EQ(out[2].items.size(), 1u);
+  EXPECT_EQ(out[2].items[0].id, 1);
+  EXPECT_EQ(out[2].items[0].label, "car");
+  // Without groups the truck detection starts a second track and the first one misses.
+  out = run_tracker<CentroidTracker>("class_groups: []", frames, regular_times(3));
+  ASSERT_EQ(out[1].items.size(), 2u);
+  EXPECT_EQ(out[1].items[0].misses, 1);
+  EXPECT_EQ(out[1].items[1].id, 2);
+}
+
+TEST(ClassGroups, ParsesCommaSeparatedGroups) {
+  const tracking::ClassGroups g({"car, truck,bus", "bicycle,motorcycle"});
+  EXPECT_TRUE(g.same("truck", "bus"));
+  EXPECT_TRUE(g.same("person", "person"));
+  EXPECT_FALSE(g.same("car", "bicycle"));
+  EXPECT_FALSE(g.same("person", "car"));
+}
+
 // One object moving at 5 px/frame, absent in frames [10, 10 + gap).
 std::vector<std::vector<Obj>> occluded(int gap, int n = 30) {
   std::vector<std::vector<Obj>> frames;

@@ -24,7 +24,10 @@ ComponentInfo CentroidTracker::describe() {
       ParamSpec::integer("max_disappeared", 10)
           .range(0, 100000)
           .describe("frames a track survives unmatched (box held, misses counting) before it is dropped"),
-      ParamSpec::boolean("match_class", true).describe("only match detections whose label equals the track's"),
+      ParamSpec::boolean("match_class", true)
+          .describe("only match detections whose label equals the track's (or shares a class group with it)"),
+      ParamSpec::string_list("class_groups", tracking::default_class_groups())
+          .describe("comma-separated labels that match_class treats as one class (detectors flicker between them)"),
       ParamSpec::string("association", "greedy")
           .one_of({"greedy", "hungarian"})
           .describe("greedy: smallest distances first (the original method); hungarian: minimum total distance"),
@@ -43,6 +46,7 @@ void CentroidTracker::open(StageContext& ctx) {
   c.max_distance = p.get_double("max_distance");
   c.max_disappeared = static_cast<int>(p.get_int("max_disappeared"));
   c.match_class = p.get_bool("match_class");
+  c.class_groups = p.get_strings("class_groups");
   c.hungarian = p.get_string("association") == "hungarian";
   c.predict = p.get_bool("predict");
   c.velocity_smoothing = p.get_double("velocity_smoothing");
@@ -89,7 +93,7 @@ Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
     const std::string label = e.vote.label();
     for (size_t j = 0; j < nd; ++j) {
       const Detection& d = dets.items[j];
-      if (cfg_.match_class && d.label != label) continue;
+      if (cfg_.match_class && !groups_.same(d.label, label)) continue;
       const cv::Point2f c = tracking::centre(d.box);
       const double dist = std::hypot(double(c.x - ref.x), double(c.y - ref.y));
       if (dist <= gate) cost[i][j] = dist;

@@ -16,8 +16,8 @@ namespace hf {
 //   frame's timestamp; every live track is emitted, including those currently unmatched (misses > 0, box held).
 // Association: the distance between each track's reference centre (its last centre, or with `predict` that
 //   centre moved on by the track's velocity to this frame's time) and each detection's centre; pairs farther
-//   than `max_distance` px (0 = 0.1 x the image diagonal) or, with `match_class`, of different labels are never
-//   matched. `association` = greedy (globally sorted distances, smallest first, as the original) or
+//   than `max_distance` px (0 = 0.1 x the image diagonal) or, with `match_class`, of different labels (labels in
+//   one of `class_groups`, default car/truck/bus and bicycle/motorcycle, count as equal) are never matched. `association` = greedy (globally sorted distances, smallest first, as the original) or
 //   hungarian (minimum total distance).
 // A track unmatched for more than `max_disappeared` consecutive frames is dropped; ids are never reused.
 // velocity_px: smoothed centre displacement between matched observations over their timestamp difference
@@ -31,13 +31,17 @@ class CentroidTracker : public Tracker {
   struct Config {
     double max_distance = 0.0;  // px; 0 = kAutoGateFraction x image diagonal
     int max_disappeared = 10;
+    std::vector<std::string> class_groups = tracking::default_class_groups();
     bool match_class = true;
     bool hungarian = false;
     bool predict = true;
     double velocity_smoothing = 0.5;
   };
   static constexpr double kAutoGateFraction = 0.1;
-  void configure(const Config& c) { cfg_ = c; }
+  void configure(const Config& c) {
+    cfg_ = c;
+    groups_ = tracking::ClassGroups(c.class_groups);
+  }
   // The tracker without a stage context (tests, tools): timestamps come from the frame.
   Tracks step(const Detections& dets, const Frame& frame);
 
@@ -52,6 +56,7 @@ class CentroidTracker : public Tracker {
     int detection_index = -1, annotation_index = -1;
   };
   Config cfg_;
+  tracking::ClassGroups groups_{tracking::default_class_groups()};
   std::vector<Entry> tracks_;
   int64_t next_id_ = 1;
   bool have_time_ = false;

@@ -21,7 +21,10 @@ ComponentInfo SortTracker::describe() {
           .range(0, 1000)
           .describe("consecutive matches before a track is emitted (waived during the first min_hits frames)"),
       ParamSpec::integer("max_age", 1).range(1, 100000).describe("frames a track survives unmatched"),
-      ParamSpec::boolean("match_class", false).describe("only match detections whose label equals the track's"),
+      ParamSpec::boolean("match_class", false)
+          .describe("only match detections whose label equals the track's (or shares a class group with it)"),
+      ParamSpec::string_list("class_groups", tracking::default_class_groups())
+          .describe("comma-separated labels that match_class treats as one class (detectors flicker between them)"),
       ParamSpec::boolean("emit_unmatched", false)
           .describe("also emit confirmed tracks missed this frame, with their predicted box (SORT itself does not)"),
       ParamSpec::number("velocity_smoothing", 0.5)
@@ -38,6 +41,7 @@ void SortTracker::open(StageContext& ctx) {
   c.min_hits = static_cast<int>(p.get_int("min_hits"));
   c.max_age = static_cast<int>(p.get_int("max_age"));
   c.match_class = p.get_bool("match_class");
+  c.class_groups = p.get_strings("class_groups");
   c.emit_unmatched = p.get_bool("emit_unmatched");
   c.velocity_smoothing = p.get_double("velocity_smoothing");
   configure(c);
@@ -124,7 +128,7 @@ Tracks SortTracker::step(const Detections& dets, const Frame& frame) {
     const cv::Rect2f pb = tracks_[i].box();
     const std::string label = tracks_[i].vote.label();
     for (size_t j = 0; j < nd; ++j) {
-      if (cfg_.match_class && dets.items[j].label != label) continue;
+      if (cfg_.match_class && !groups_.same(dets.items[j].label, label)) continue;
       const double o = tracking::iou(pb, dets.items[j].box);
       if (o >= cfg_.iou_threshold && o > 0.0) cost[i][j] = -o;
     }

@@ -18,7 +18,8 @@ namespace hf {
 //   frame's timestamp.
 // Each track is a constant-velocity Kalman filter on [cx, cy, s = area, r = aspect] (r constant), stepped once
 //   per frame. Detections are assigned to the predicted boxes by the Hungarian algorithm on IoU; pairs below
-//   `iou_threshold` (or of different labels with `match_class`) are never matched. A track is emitted when it
+//   `iou_threshold` (or of different labels with `match_class`, `class_groups` as in the centroid tracker) are
+//   never matched. A track is emitted when it
 //   was matched this frame and has `min_hits` consecutive hits (every matched track during the first `min_hits`
 //   frames); after a miss it must rebuild that streak. With `emit_unmatched`, a track once confirmed is
 //   emitted every frame until it is dropped, with its predicted box and misses > 0 while unmatched. A track unmatched for more than `max_age` frames is dropped; ids never reused.
@@ -34,11 +35,15 @@ class SortTracker : public Tracker {
     double iou_threshold = 0.3;
     int min_hits = 3;
     int max_age = 1;
+    std::vector<std::string> class_groups = tracking::default_class_groups();
     bool match_class = false;
     bool emit_unmatched = false;
     double velocity_smoothing = 0.5;
   };
-  void configure(const Config& c) { cfg_ = c; }
+  void configure(const Config& c) {
+    cfg_ = c;
+    groups_ = tracking::ClassGroups(c.class_groups);
+  }
   Tracks step(const Detections& dets, const Frame& frame);
 
  private:
@@ -56,6 +61,7 @@ class SortTracker : public Tracker {
   Entry make_entry(const Detection& d, int index, double t);
   static void predict(Entry& e);
   Config cfg_;
+  tracking::ClassGroups groups_{tracking::default_class_groups()};
   std::vector<Entry> tracks_;
   int64_t next_id_ = 1;
   int64_t frame_count_ = 0;
