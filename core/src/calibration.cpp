@@ -9,10 +9,10 @@
 #include <ostream>
 #include <sstream>
 
+#include <yaml-cpp/yaml.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <yaml-cpp/yaml.h>
 
 #include "hazardforge/error.hpp"
 
@@ -28,7 +28,9 @@ bool is_image(const fs::path& p) {
   return ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".bmp";
 }
 
-std::string size_str(cv::Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
+std::string size_str(cv::Size s) {
+  return std::to_string(s.width) + "x" + std::to_string(s.height);
+}
 
 }  // namespace
 
@@ -76,8 +78,8 @@ CalibrationResult calibrate_chessboard(const fs::path& folder, cv::Size inner_co
       continue;
     }
     std::vector<cv::Point2f> corners;
-    const bool found = cv::findChessboardCorners(
-        gray, inner_corners, corners, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
+    const bool found = cv::findChessboardCorners(gray, inner_corners, corners,
+                                                 cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
     if (!found) {
       reject("no " + size_str(inner_corners) + " chessboard found");
       continue;
@@ -113,7 +115,8 @@ CalibrationResult calibrate_chessboard(const fs::path& folder, cv::Size inner_co
 void write_calibration(const CalibrationResult& r, const fs::path& yaml) {
   YAML::Emitter e;
   e.SetDoublePrecision(12);
-  e << YAML::Comment("HazardForge camera calibration: pinhole intrinsics + OpenCV distortion (k1 k2 p1 p2 k3)");
+  e << YAML::Comment(
+      "HazardForge camera calibration: pinhole intrinsics + OpenCV distortion (k1 k2 p1 p2 k3)");
   e << YAML::BeginMap;
   e << YAML::Key << "image_width" << YAML::Value << r.image_width;
   e << YAML::Key << "image_height" << YAML::Value << r.image_height;
@@ -123,16 +126,16 @@ void write_calibration(const CalibrationResult& r, const fs::path& yaml) {
   e << YAML::Key << "cy" << YAML::Value << r.cy;
   e << YAML::Key << "distortion" << YAML::Value << YAML::Flow << r.distortion;
   e << YAML::Key << "rms_px" << YAML::Value << r.rms_px;
-  e << YAML::Key << "board" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "cols" << YAML::Value
-    << r.board_cols << YAML::Key << "rows" << YAML::Value << r.board_rows << YAML::Key << "square_size"
-    << YAML::Value << r.square_size << YAML::EndMap;
+  e << YAML::Key << "board" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "cols"
+    << YAML::Value << r.board_cols << YAML::Key << "rows" << YAML::Value << r.board_rows << YAML::Key
+    << "square_size" << YAML::Value << r.square_size << YAML::EndMap;
   e << YAML::Key << "images_used" << YAML::Value << YAML::BeginSeq;
   for (const auto& n : r.images_used) e << n;
   e << YAML::EndSeq;
   e << YAML::Key << "images_rejected" << YAML::Value << YAML::BeginSeq;
   for (const auto& rej : r.images_rejected)
-    e << YAML::Flow << YAML::BeginMap << YAML::Key << "file" << YAML::Value << rej.file << YAML::Key << "reason"
-      << YAML::Value << rej.reason << YAML::EndMap;
+    e << YAML::Flow << YAML::BeginMap << YAML::Key << "file" << YAML::Value << rej.file << YAML::Key
+      << "reason" << YAML::Value << rej.reason << YAML::EndMap;
   e << YAML::EndSeq;
   e << YAML::EndMap;
   if (!e.good()) throw Error("cannot format calibration for '" + yaml.string() + "': " + e.GetLastError());
@@ -141,7 +144,8 @@ void write_calibration(const CalibrationResult& r, const fs::path& yaml) {
   const fs::path dir = yaml.has_parent_path() ? yaml.parent_path() : fs::path(".");
   std::string tmpl = (dir / ("." + yaml.filename().string() + ".XXXXXX")).string();
   const int fd = mkstemp(tmpl.data());
-  if (fd < 0) throw Error("cannot write calibration '" + yaml.string() + "': cannot create a file in " + dir.string());
+  if (fd < 0)
+    throw Error("cannot write calibration '" + yaml.string() + "': cannot create a file in " + dir.string());
   const std::string text = std::string(e.c_str()) + "\n";
   bool ok = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
   ok = (::fsync(fd) == 0) && ok;
@@ -205,7 +209,8 @@ CalibrationResult read_calibration(const fs::path& yaml) {
   if (YAML::Node u = root["images_used"]; u && u.IsSequence())
     for (const auto& n : u) r.images_used.push_back(n.as<std::string>());
   if (YAML::Node u = root["images_rejected"]; u && u.IsSequence())
-    for (const auto& n : u) r.images_rejected.push_back({n["file"].as<std::string>(""), n["reason"].as<std::string>("")});
+    for (const auto& n : u)
+      r.images_rejected.push_back({n["file"].as<std::string>(""), n["reason"].as<std::string>("")});
   return r;
 }
 

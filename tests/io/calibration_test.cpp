@@ -1,4 +1,5 @@
-// Chessboard calibration on the Udacity camera_cal photos, the YAML round trip, and the committed calibration.
+// Chessboard calibration on the Udacity camera_cal photos, the YAML round trip, and the committed
+// calibration.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -47,10 +48,12 @@ TEST(Calibration, UdacityHighwayChessboards) {
   // The two 1281x721 photos cannot join a 1280x720 calibration.
   std::vector<std::string> rejected;
   for (const auto& x : r.images_rejected) rejected.push_back(x.file + ": " + x.reason);
-  EXPECT_NE(std::find(rejected.begin(), rejected.end(), "calibration15.jpg: size 1281x721 differs from 1280x720"),
-            rejected.end());
-  EXPECT_NE(std::find(rejected.begin(), rejected.end(), "calibration7.jpg: size 1281x721 differs from 1280x720"),
-            rejected.end());
+  EXPECT_NE(
+      std::find(rejected.begin(), rejected.end(), "calibration15.jpg: size 1281x721 differs from 1280x720"),
+      rejected.end());
+  EXPECT_NE(
+      std::find(rejected.begin(), rejected.end(), "calibration7.jpg: size 1281x721 differs from 1280x720"),
+      rejected.end());
 }
 
 TEST(Calibration, CommittedFileMatchesAFreshCalibration) {
@@ -68,7 +71,8 @@ TEST(Calibration, CommittedFileMatchesAFreshCalibration) {
 }
 
 TEST(Calibration, SyntheticBoardRecoversKnownIntrinsics) {
-  // Render a 7x5-inner-corner board with a known camera from several poses; calibration must find that camera.
+  // Render a 7x5-inner-corner board with a known camera from several poses; calibration must find that
+  // camera.
   TempDir dir;
   const cv::Size inner(7, 5), img(800, 600);
   const double sq = 30;  // px per square on the flat board image
@@ -77,8 +81,10 @@ TEST(Calibration, SyntheticBoardRecoversKnownIntrinsics) {
   for (int y = 0; y < inner.height + 1; ++y)
     for (int x = 0; x < inner.width + 1; ++x)
       if ((x + y) % 2 == 0)
-        cv::rectangle(board, cv::Rect(static_cast<int>((x + 1) * sq), static_cast<int>((y + 1) * sq),
-                                      static_cast<int>(sq), static_cast<int>(sq)), cv::Scalar(0), cv::FILLED);
+        cv::rectangle(board,
+                      cv::Rect(static_cast<int>((x + 1) * sq), static_cast<int>((y + 1) * sq),
+                               static_cast<int>(sq), static_cast<int>(sq)),
+                      cv::Scalar(0), cv::FILLED);
   const cv::Matx33d K(700, 0, 400, 0, 700, 300, 0, 0, 1);
   int n = 0;
   for (double ax : {-0.35, 0.0, 0.35})
@@ -89,10 +95,11 @@ TEST(Calibration, SyntheticBoardRecoversKnownIntrinsics) {
       const double s = 0.002;  // m per board pixel
       // Board centre on the optical axis 1.2 m away, board rotated about its centre.
       const cv::Vec3d tt = R * cv::Vec3d(-board.cols * s / 2, -board.rows * s / 2, 0) + cv::Vec3d(0, 0, 1.2);
-      cv::Matx33d H = K * cv::Matx33d(R(0, 0) * s, R(0, 1) * s, tt[0], R(1, 0) * s, R(1, 1) * s, tt[1], R(2, 0) * s,
-                                      R(2, 1) * s, tt[2]);
+      cv::Matx33d H = K * cv::Matx33d(R(0, 0) * s, R(0, 1) * s, tt[0], R(1, 0) * s, R(1, 1) * s, tt[1],
+                                      R(2, 0) * s, R(2, 1) * s, tt[2]);
       cv::Mat view;
-      cv::warpPerspective(board, view, cv::Mat(H), img, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+      cv::warpPerspective(board, view, cv::Mat(H), img, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                          cv::Scalar(255));
       cv::imwrite((dir / ("view" + std::to_string(n++) + ".png")).string(), view);
     }
   cv::imwrite((dir / "blank.png").string(), cv::Mat(img, CV_8UC1, cv::Scalar(128)));
@@ -151,10 +158,15 @@ TEST(Calibration, YamlRoundTripAndSourceReader) {
   std::ofstream(dir / "short.yaml") << "image_width: 1280\nimage_height: 720\nfx: 1\n";
   EXPECT_EQ(error_of([&] { read_calibration(dir / "short.yaml"); }),
             (dir / "short.yaml").string() + ": error: calibration field 'fy' is missing");
-  EXPECT_EQ(error_of([&] { calibrate_chessboard(dir / "nothing", {9, 6}); }),
+  EXPECT_EQ(error_of([&] {
+              calibrate_chessboard(dir / "nothing", {9, 6});
+            }),
             "calibration folder '" + (dir / "nothing").string() + "' does not exist");
-  EXPECT_EQ(error_of([&] { calibrate_chessboard(dir.path(), {9, 6}); }),
-            "calibration folder '" + dir.path().string() + "': only 0 of 0 images show a 9x6 chessboard; at least 3 are needed");
+  EXPECT_EQ(error_of([&] {
+              calibrate_chessboard(dir.path(), {9, 6});
+            }),
+            "calibration folder '" + dir.path().string() +
+                "': only 0 of 0 images show a 9x6 chessboard; at least 3 are needed");
 }
 
 }  // namespace

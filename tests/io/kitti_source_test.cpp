@@ -46,7 +46,8 @@ TEST(KittiSource, RawFolder78FramesWithP2) {
 
 TEST(KittiSource, TrackingLabelsWithoutImages) {
   HF_REQUIRE_SHARED(kTracking);
-  auto frames = run_source<KittiSource>("{root: '" + kTracking.string() + "', sequence: '0000', images_required: false}");
+  auto frames = run_source<KittiSource>("{root: '" + kTracking.string() +
+                                        "', sequence: '0000', images_required: false}");
   // label_02/0000.txt runs over frames 0..153; no image_02/0000 images exist here.
   ASSERT_EQ(frames.size(), 154u);
   EXPECT_EQ(frames[0].image.size(), cv::Size(1242, 375));
@@ -101,8 +102,9 @@ TEST(KittiSource, TrackingLabelsWithoutImages) {
 
 TEST(KittiSource, EgoSpeedParamShiftsAbsoluteVelocitiesOnly) {
   HF_REQUIRE_SHARED(kTracking);
-  auto frames = run_source<KittiSource>("{root: '" + kTracking.string() +
-                                        "', sequence: '0000', images_required: false, ego_speed_mps: 5, max_frames: 3}");
+  auto frames = run_source<KittiSource>(
+      "{root: '" + kTracking.string() +
+      "', sequence: '0000', images_required: false, ego_speed_mps: 5, max_frames: 3}");
   ASSERT_EQ(frames.size(), 3u);
   ASSERT_TRUE(frames[1].ego.speed_mps);
   EXPECT_DOUBLE_EQ(*frames[1].ego.speed_mps, 5.0);
@@ -126,8 +128,10 @@ TEST(KittiSource, TrackingSequenceWithSparseImages) {
   EXPECT_EQ(frames[0].image.cols, frames[0].camera.width);
   // No images for sequence 0000: a clear message that points at images_required.
   const fs::path img0 = kTracking / "training/image_02/0000";
-  EXPECT_EQ(error_of([&] { run_source<KittiSource>("{root: '" + kTracking.string() + "', sequence: '0000'}"); }),
-            "KITTI image folder '" + img0.string() + "' does not exist (images_required: false iterates over the label frames)");
+  EXPECT_EQ(
+      error_of([&] { run_source<KittiSource>("{root: '" + kTracking.string() + "', sequence: '0000'}"); }),
+      "KITTI image folder '" + img0.string() +
+          "' does not exist (images_required: false iterates over the label frames)");
 }
 
 TEST(KittiSource, BadFilesNameFileAndLine) {
@@ -138,8 +142,9 @@ TEST(KittiSource, BadFilesNameFileAndLine) {
             (dir / "calib.txt").string() + ":2: error: P2 needs 12 numbers");
   std::ofstream(dir / "nop2.txt") << "P0: 1 0 0 0 0 1 0 0 0 0 1 0\n";
   EXPECT_EQ(error_of([&] {
-              run_source<KittiSource>("{layout: raw, images: '" + (kRaw / "2011_09_26/image_02/data").string() +
-                                      "', calib: '" + (dir / "nop2.txt").string() + "'}");
+              run_source<KittiSource>("{layout: raw, images: '" +
+                                      (kRaw / "2011_09_26/image_02/data").string() + "', calib: '" +
+                                      (dir / "nop2.txt").string() + "'}");
             }),
             "KITTI calibration '" + (dir / "nop2.txt").string() + "' has no P2 (or P_rect_02) line");
   std::ofstream(dir / "labels.txt")
@@ -149,12 +154,16 @@ TEST(KittiSource, BadFilesNameFileAndLine) {
             (dir / "labels.txt").string() + ":2: error: field 'z' is not a number: 'x13.4'");
   std::ofstream(dir / "short.txt") << "0 0 Car 0 0\n";
   EXPECT_EQ(error_of([&] {
-              run_source<KittiSource>("{layout: raw, images: '" + (kRaw / "2011_09_26/image_02/data").string() +
-                                      "', calib: '" + (kRaw / "calib_2011_09_26_kitti_tracking_format.txt").string() +
+              run_source<KittiSource>("{layout: raw, images: '" +
+                                      (kRaw / "2011_09_26/image_02/data").string() + "', calib: '" +
+                                      (kRaw / "calib_2011_09_26_kitti_tracking_format.txt").string() +
                                       "', labels: '" + (dir / "short.txt").string() + "'}");
             }),
-            (dir / "short.txt").string() + ":1: error: expected 17 fields (frame track_id type ... rotation_y), got 5");
-  EXPECT_EQ(error_of([&] { run_source<KittiSource>("{layout: raw, calib: '" + (dir / "calib.txt").string() + "'}"); }),
+            (dir / "short.txt").string() +
+                ":1: error: expected 17 fields (frame track_id type ... rotation_y), got 5");
+  EXPECT_EQ(error_of([&] {
+              run_source<KittiSource>("{layout: raw, calib: '" + (dir / "calib.txt").string() + "'}");
+            }),
             "kitti source: layout 'raw' needs the 'images' folder");
 }
 

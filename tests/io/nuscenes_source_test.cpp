@@ -20,7 +20,9 @@ using test::error_of;
 using test::run_source;
 using test::TempDir;
 
-fs::path dataroot() { return test::shared_data("nuscenes"); }
+fs::path dataroot() {
+  return test::shared_data("nuscenes");
+}
 
 Json load(const std::string& table) {
   std::ifstream in(dataroot() / "v1.0-mini" / (table + ".json"));
@@ -38,9 +40,13 @@ cv::Vec3d rotate(const Json& q, const cv::Vec3d& v, bool inverse) {
   const cv::Vec3d u(s * q[1].get<double>(), s * q[2].get<double>(), s * q[3].get<double>());
   return 2.0 * u.dot(v) * u + (w * w - u.dot(u)) * v + 2.0 * w * u.cross(v);
 }
-cv::Vec3d vec(const Json& j) { return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()}; }
+cv::Vec3d vec(const Json& j) {
+  return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+}
 
-std::string params() { return "{dataroot: '" + dataroot().string() + "'}"; }
+std::string params() {
+  return "{dataroot: '" + dataroot().string() + "'}";
+}
 
 TEST(NuScenesSource, Scene0916KeyframesIntrinsicsAndEgoMotion) {
   HF_REQUIRE_SHARED(dataroot() / "v1.0-mini/scene.json");
@@ -61,7 +67,8 @@ TEST(NuScenesSource, Scene0916KeyframesIntrinsicsAndEgoMotion) {
   EXPECT_EQ(f0.camera.width, 1600);
   EXPECT_EQ(f0.image.size(), cv::Size(1600, 900));
   // CAM_FRONT looks forward: its optical axis is ego +x, its image x axis is ego -y; 1.51 m above the ground.
-  const cv::Vec3d axis = f0.camera.R_ego_cam * cv::Vec3d(0, 0, 1), right = f0.camera.R_ego_cam * cv::Vec3d(1, 0, 0);
+  const cv::Vec3d axis = f0.camera.R_ego_cam * cv::Vec3d(0, 0, 1),
+                  right = f0.camera.R_ego_cam * cv::Vec3d(1, 0, 0);
   EXPECT_GT(axis[0], 0.999);
   EXPECT_LT(right[1], -0.999);
   EXPECT_NEAR(f0.camera.t_ego_cam[2], 1.51095763913, 1e-9);
@@ -79,10 +86,13 @@ TEST(NuScenesSource, Scene0916KeyframesIntrinsicsAndEgoMotion) {
 
   // Ego speed at frame 20 by hand: central difference of the poses of keyframes 19 and 21.
   auto pose_of = [&](const Frame& f) -> const Json& {
-    return by_token(poses, by_token(sd, f.meta["sample_data_token"].get<std::string>())["ego_pose_token"].get<std::string>());
+    return by_token(
+        poses,
+        by_token(sd, f.meta["sample_data_token"].get<std::string>())["ego_pose_token"].get<std::string>());
   };
   const Json &pa = pose_of(frames[19]), &pb = pose_of(frames[21]);
-  const double dt = static_cast<double>(pb["timestamp"].get<int64_t>() - pa["timestamp"].get<int64_t>()) * 1e-6;
+  const double dt =
+      static_cast<double>(pb["timestamp"].get<int64_t>() - pa["timestamp"].get<int64_t>()) * 1e-6;
   const cv::Vec3d v = (vec(pb["translation"]) - vec(pa["translation"])) * (1.0 / dt);
   ASSERT_TRUE(frames[20].ego.speed_mps);
   EXPECT_NEAR(*frames[20].ego.speed_mps, cv::norm(v), 1e-9);
@@ -91,8 +101,10 @@ TEST(NuScenesSource, Scene0916KeyframesIntrinsicsAndEgoMotion) {
   EXPECT_LT(*frames[20].ego.speed_mps, 10.0);
   // One-sided at the ends.
   const Json &p0 = pose_of(frames[0]), &p1 = pose_of(frames[1]);
-  const double dt0 = static_cast<double>(p1["timestamp"].get<int64_t>() - p0["timestamp"].get<int64_t>()) * 1e-6;
-  EXPECT_NEAR(*frames[0].ego.speed_mps, cv::norm((vec(p1["translation"]) - vec(p0["translation"])) * (1.0 / dt0)), 1e-9);
+  const double dt0 =
+      static_cast<double>(p1["timestamp"].get<int64_t>() - p0["timestamp"].get<int64_t>()) * 1e-6;
+  EXPECT_NEAR(*frames[0].ego.speed_mps,
+              cv::norm((vec(p1["translation"]) - vec(p0["translation"])) * (1.0 / dt0)), 1e-9);
   // Ego velocity in its own axes points forward when driving forward.
   ASSERT_TRUE(frames[20].annotations && frames[20].annotations->ego_velocity_ego);
   const cv::Vec3d ve = *frames[20].annotations->ego_velocity_ego;
@@ -115,7 +127,9 @@ TEST(NuScenesSource, AnnotationInEgoFrameByHand) {
              samples = load("sample"), inst = load("instance");
   const Json& a = by_token(anns, "831eebb6ef574c68b1fbc6c034367ee1");
   ASSERT_EQ(a["sample_token"], f.meta["sample_token"]);
-  const Json& pose = by_token(poses, by_token(sd, f.meta["sample_data_token"].get<std::string>())["ego_pose_token"].get<std::string>());
+  const Json& pose = by_token(
+      poses,
+      by_token(sd, f.meta["sample_data_token"].get<std::string>())["ego_pose_token"].get<std::string>());
   const cv::Vec3d expect = rotate(pose["rotation"], vec(a["translation"]) - vec(pose["translation"]), true);
 
   const AnnotatedObject* o = nullptr;
@@ -137,10 +151,13 @@ TEST(NuScenesSource, AnnotationInEgoFrameByHand) {
   const cv::Vec3d hx = rotate(pose["rotation"], rotate(a["rotation"], {1, 0, 0}, false), true);
   EXPECT_NEAR(o->yaw_ego, std::atan2(hx[1], hx[0]), 1e-9);
   // Velocity like the devkit's box_velocity: centred difference of prev/next annotations.
-  const Json &prev = by_token(anns, a["prev"].get<std::string>()), &next = by_token(anns, a["next"].get<std::string>());
-  const double dt = static_cast<double>(by_token(samples, next["sample_token"].get<std::string>())["timestamp"].get<int64_t>() -
-                                        by_token(samples, prev["sample_token"].get<std::string>())["timestamp"].get<int64_t>()) *
-                    1e-6;
+  const Json &prev = by_token(anns, a["prev"].get<std::string>()),
+             &next = by_token(anns, a["next"].get<std::string>());
+  const double dt =
+      static_cast<double>(
+          by_token(samples, next["sample_token"].get<std::string>())["timestamp"].get<int64_t>() -
+          by_token(samples, prev["sample_token"].get<std::string>())["timestamp"].get<int64_t>()) *
+      1e-6;
   const cv::Vec3d vw = (vec(next["translation"]) - vec(prev["translation"])) * (1.0 / dt);
   ASSERT_TRUE(o->velocity_ego);
   EXPECT_NEAR(cv::norm(*o->velocity_ego - rotate(pose["rotation"], vw, true)), 0.0, 1e-9);
@@ -161,20 +178,33 @@ TEST(NuScenesSource, AnnotationInEgoFrameByHand) {
 
 TEST(NuScenesSource, ParamsScenesResizeAndNoAnnotations) {
   HF_REQUIRE_SHARED(dataroot() / "v1.0-mini/scene.json");
-  auto frames = run_source<NuScenesSource>("{dataroot: '" + dataroot().string() +
-                                           "', scenes: [scene-0916], annotations: false, resize_width: 1280, max_frames: 2}");
+  auto frames = run_source<NuScenesSource>(
+      "{dataroot: '" + dataroot().string() +
+      "', scenes: [scene-0916], annotations: false, resize_width: 1280, max_frames: 2}");
   ASSERT_EQ(frames.size(), 2u);
   EXPECT_FALSE(frames[0].annotations);
   EXPECT_EQ(frames[0].image.size(), cv::Size(1280, 720));
   EXPECT_NEAR(frames[0].camera.fx, 1266.417203046554 * 0.8, 1e-9);
-  EXPECT_EQ(error_of([] { run_source<NuScenesSource>("{dataroot: '" + dataroot().string() + "', scenes: [scene-0001]}"); }),
+  EXPECT_EQ(error_of([] {
+              run_source<NuScenesSource>("{dataroot: '" + dataroot().string() + "', scenes: [scene-0001]}");
+            }),
             "nuScenes table '" + (dataroot() / "v1.0-mini/scene.json").string() +
                 "': no scene named 'scene-0001' (has: scene-0916)");
-  EXPECT_EQ(source::map_label("vehicle.emergency.police", NuScenesSource::describe().param("label_map")->default_value), "car");
-  EXPECT_EQ(source::map_label("vehicle.emergency.ambulance", NuScenesSource::describe().param("label_map")->default_value), "truck");
-  EXPECT_EQ(source::map_label("vehicle.construction", NuScenesSource::describe().param("label_map")->default_value), "truck");
-  EXPECT_EQ(source::map_label("vehicle.carriage", NuScenesSource::describe().param("label_map")->default_value), "");
-  EXPECT_EQ(source::map_label("movable_object.barrier", NuScenesSource::describe().param("label_map")->default_value), "");
+  EXPECT_EQ(source::map_label("vehicle.emergency.police",
+                              NuScenesSource::describe().param("label_map")->default_value),
+            "car");
+  EXPECT_EQ(source::map_label("vehicle.emergency.ambulance",
+                              NuScenesSource::describe().param("label_map")->default_value),
+            "truck");
+  EXPECT_EQ(
+      source::map_label("vehicle.construction", NuScenesSource::describe().param("label_map")->default_value),
+      "truck");
+  EXPECT_EQ(
+      source::map_label("vehicle.carriage", NuScenesSource::describe().param("label_map")->default_value),
+      "");
+  EXPECT_EQ(source::map_label("movable_object.barrier",
+                              NuScenesSource::describe().param("label_map")->default_value),
+            "");
 }
 
 // A copy of the tables (images linked) to break on purpose.
@@ -206,7 +236,9 @@ TEST(NuScenesSource, BrokenTablesNameTheFile) {
     BrokenCopy c;
     fs::remove(c.table("sample_annotation"));
     // Without annotations the annotation tables are not needed.
-    EXPECT_EQ(run_source<NuScenesSource>("{dataroot: '" + c.root().string() + "', annotations: false}").size(), 41u);
+    EXPECT_EQ(
+        run_source<NuScenesSource>("{dataroot: '" + c.root().string() + "', annotations: false}").size(),
+        41u);
     EXPECT_EQ(error_of([&] { run_source<NuScenesSource>(c.params()); }),
               "nuScenes table '" + c.table("sample_annotation").string() + "' does not exist");
   }
@@ -215,7 +247,8 @@ TEST(NuScenesSource, BrokenTablesNameTheFile) {
     std::ofstream(c.table("sample")) << "[{\"token\": \"a\",\n \"timestamp\": }]";
     EXPECT_EQ(error_of([&] { run_source<NuScenesSource>(c.params()); }),
               "nuScenes table '" + c.table("sample").string() +
-                  "': invalid JSON: parse error at line 2, column 15: syntax error while parsing value - unexpected "
+                  "': invalid JSON: parse error at line 2, column 15: syntax error while parsing value - "
+                  "unexpected "
                   "'}'; expected '[', '{', or a literal");
   }
   {
@@ -238,7 +271,8 @@ TEST(NuScenesSource, BrokenTablesNameTheFile) {
     Json ca = load("calibrated_sensor");
     std::string cam_token;
     for (const Json& r : load("sample_data"))
-      if (r["filename"].get<std::string>().find("CAM_FRONT/") != std::string::npos) cam_token = r["calibrated_sensor_token"];
+      if (r["filename"].get<std::string>().find("CAM_FRONT/") != std::string::npos)
+        cam_token = r["calibrated_sensor_token"];
     for (Json& r : ca)
       if (r["token"] == cam_token) r["camera_intrinsic"] = Json::array();
     std::ofstream(c.table("calibrated_sensor")) << ca.dump();
@@ -264,10 +298,11 @@ TEST(NuScenesSource, MissingImageNamesTheFile) {
   for (const Json& r : sd)
     if (r["filename"] == "samples/CAM_FRONT/" + images[7].filename().string()) token = r["token"];
   EXPECT_EQ(error_of([&] { run_source<NuScenesSource>(yaml); }),
-            "nuScenes image '" + (dir / "samples/CAM_FRONT" / images[7].filename()).string() + "' (sample_data '" +
-                token + "') does not exist");
+            "nuScenes image '" + (dir / "samples/CAM_FRONT" / images[7].filename()).string() +
+                "' (sample_data '" + token + "') does not exist");
   // Without images required, the missing one becomes a black frame of the recorded size.
-  auto frames = run_source<NuScenesSource>("{dataroot: '" + dir.path().string() + "', images_required: false}");
+  auto frames =
+      run_source<NuScenesSource>("{dataroot: '" + dir.path().string() + "', images_required: false}");
   ASSERT_EQ(frames.size(), 41u);
   EXPECT_EQ(frames[7].image.size(), cv::Size(1600, 900));
   EXPECT_EQ(cv::countNonZero(frames[7].image.reshape(1)), 0);

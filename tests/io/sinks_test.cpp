@@ -114,7 +114,8 @@ TEST(JsonlSink, LinesKeyedByProducerAndCsvTables) {
   // Metric columns in order of appearance; drac appeared at frame 2, so the table was rewritten with the
   // wider header and its earlier cells left empty.
   EXPECT_EQ(obj[0],
-            "frame,timestamp,states,track_id,label,score,box_x,box_y,box_w,box_h,distance_m,lateral_m,vx_mps,vy_mps,"
+            "frame,timestamp,states,track_id,label,score,box_x,box_y,box_w,box_h,distance_m,lateral_m,vx_mps,"
+            "vy_mps,"
             "speed_mps,heading_rad,in_path,ttc,drac");
   auto c = cells(obj[1]);
   ASSERT_EQ(c.size(), 19u);
@@ -147,7 +148,8 @@ TEST(JsonlSink, LinesKeyedByProducerAndCsvTables) {
   EXPECT_EQ(sc[2], "1,0.04,,Safe,,,,");
   EXPECT_EQ(sc[3], "2,0.08,3,Safe,7,3.5,Unsafe,7");
   // Nothing temporary is left behind.
-  for (const auto& e : fs::directory_iterator(out)) EXPECT_EQ(e.path().extension() == ".tmp", false) << e.path();
+  for (const auto& e : fs::directory_iterator(out))
+    EXPECT_EQ(e.path().extension() == ".tmp", false) << e.path();
 }
 
 TEST(JsonlSink, LinesAreOnDiskBeforeFinish) {
@@ -174,7 +176,8 @@ TEST(JsonlSink, SameProducerTwiceKeepsBothPackets) {
   EXPECT_EQ(j["ttc#2"]["label"], "Unsafe");
 }
 
-// ---- annotated video ------------------------------------------------------------------------------------------
+// ---- annotated video
+// ------------------------------------------------------------------------------------------
 
 Frame grey_frame(int64_t i, double t, cv::Size size) {
   Frame f;
@@ -256,9 +259,10 @@ TEST(AnnotatedVideoSink, WritesPlayableMp4WithBanners) {
 
   // An independent decoder agrees (Debian's ffprobe, when installed).
   if (run_cmd("command -v ffprobe").empty()) GTEST_SKIP() << "ffprobe not installed";
-  const std::string probe = run_cmd("ffprobe -v error -select_streams v:0 -count_frames -show_entries "
-                                    "stream=codec_name,width,height,nb_read_frames -of default=nw=1 '" +
-                                    file.string() + "'");
+  const std::string probe = run_cmd(
+      "ffprobe -v error -select_streams v:0 -count_frames -show_entries "
+      "stream=codec_name,width,height,nb_read_frames -of default=nw=1 '" +
+      file.string() + "'");
   EXPECT_NE(probe.find("width=640"), std::string::npos) << probe;
   EXPECT_NE(probe.find("height=360"), std::string::npos) << probe;
   EXPECT_NE(probe.find("nb_read_frames=20"), std::string::npos) << probe;

@@ -71,9 +71,10 @@ TEST(VideoSource, ReadsEveryFrameWithTimestampsAndContent) {
 TEST(VideoSource, StartMaxFramesResizeAndFpsOverride) {
   TempDir dir;
   const auto file = write_video(dir, 12, {320, 240}, 25.0);
-  auto frames = run_source<VideoSource>("{path: '" + file.string() +
-                                        "', start_frame: 3, max_frames: 4, fps: 10, resize_width: 160, fx: 400, "
-                                        "camera_height: 1.2, camera_pitch_deg: 2, ego_speed_mps: 13.5}");
+  auto frames =
+      run_source<VideoSource>("{path: '" + file.string() +
+                              "', start_frame: 3, max_frames: 4, fps: 10, resize_width: 160, fx: 400, "
+                              "camera_height: 1.2, camera_pitch_deg: 2, ego_speed_mps: 13.5}");
   ASSERT_EQ(frames.size(), 4u);
   for (int k = 0; k < 4; ++k) {
     const Frame& f = frames[static_cast<size_t>(k)];
@@ -105,7 +106,8 @@ TEST(VideoSource, AssumedFovIsWarnedAndUsed) {
   EXPECT_NEAR(frames[0].camera.fx, 160 / std::tan(30 * CV_PI / 180), 1e-9);
   bool warned = false;
   for (const auto& l : r.log())
-    warned |= l.rfind("warning: ", 0) == 0 && l.find("assuming a 60 deg horizontal field of view") != std::string::npos;
+    warned |= l.rfind("warning: ", 0) == 0 &&
+              l.find("assuming a 60 deg horizontal field of view") != std::string::npos;
   EXPECT_TRUE(warned);
   // An explicit FOV is used without a warning.
   testing::StageRunner r2;
@@ -127,7 +129,8 @@ TEST(VideoSource, CalibrationUndistortsAndScales) {
   cal.distortion = {0.3, 0.1, 0.0, 0.0, 0.0};
   write_calibration(cal, dir / "cal.yaml");
   const auto file = write_video(dir, 3, {320, 240}, 25.0);
-  auto frames = run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" + (dir / "cal.yaml").string() + "'}");
+  auto frames = run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" +
+                                        (dir / "cal.yaml").string() + "'}");
   ASSERT_EQ(frames.size(), 3u);
   const CameraModel& c = frames[0].camera;
   EXPECT_DOUBLE_EQ(c.fx, 300);
@@ -153,10 +156,11 @@ TEST(VideoSource, CalibrationUndistortsAndScales) {
   cal.image_width = 1280;
   write_calibration(cal, dir / "wide.yaml");
   EXPECT_EQ(error_of([&] {
-              run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" + (dir / "wide.yaml").string() + "'}");
+              run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" +
+                                      (dir / "wide.yaml").string() + "'}");
             }),
-            "calibration '" + (dir / "wide.yaml").string() + "' is for 1280x480 images but video file '" + file.string() +
-                "' is 320x240 (different aspect ratio)");
+            "calibration '" + (dir / "wide.yaml").string() + "' is for 1280x480 images but video file '" +
+                file.string() + "' is 320x240 (different aspect ratio)");
 }
 
 TEST(VideoSource, BadFilesGiveOneClearMessage) {
@@ -171,7 +175,10 @@ TEST(VideoSource, BadFilesGiveOneClearMessage) {
   const auto file = write_video(dir, 3, {320, 240}, 25.0);
   EXPECT_EQ(error_of([&] { run_source<VideoSource>("{path: '" + file.string() + "', start_frame: 5}"); }),
             "video file '" + file.string() + "' ends at frame 3, before start_frame 5");
-  EXPECT_EQ(error_of([&] { run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" + (dir / "none.yaml").string() + "'}"); }),
+  EXPECT_EQ(error_of([&] {
+              run_source<VideoSource>("{path: '" + file.string() + "', calibration: '" +
+                                      (dir / "none.yaml").string() + "'}");
+            }),
             "calibration file '" + (dir / "none.yaml").string() + "' does not exist");
 }
 
@@ -183,7 +190,8 @@ TEST(VideoSource, TruncatedFileEndsOrNamesTheFrame) {
   const auto size = std::filesystem::file_size(file);
   std::filesystem::resize_file(file, size / 2);
   std::vector<Frame> frames;
-  const std::string err = error_of([&] { frames = run_source<VideoSource>("{path: '" + file.string() + "'}"); });
+  const std::string err =
+      error_of([&] { frames = run_source<VideoSource>("{path: '" + file.string() + "'}"); });
   if (err.empty()) {
     EXPECT_LT(frames.size(), 30u);
   } else {
@@ -202,7 +210,8 @@ TEST(ImageSequenceSource, SortedMatchingFilesExactContent) {
   std::ofstream(dir / "notes.txt") << "x";
   cv::imwrite((dir / "other.jpg").string(), synthetic(9, {200, 100}));
   testing::StageRunner r;
-  auto frames = run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fps: 5, fx: 150, cy: 40}", &r);
+  auto frames =
+      run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fps: 5, fx: 150, cy: 40}", &r);
   ASSERT_EQ(frames.size(), 5u);
   EXPECT_EQ(*dynamic_cast<SourceStage&>(r.stage()).frame_count(), 5);
   for (int k = 0; k < 5; ++k) {
@@ -224,16 +233,20 @@ TEST(ImageSequenceSource, SortedMatchingFilesExactContent) {
   EXPECT_NEAR(frames[0].camera.fx, 50, 1e-9);
   EXPECT_EQ(frames[0].camera.width, 100);
 
-  EXPECT_EQ(error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', pattern: '*.bmp'}"); }),
+  EXPECT_EQ(error_of([&] {
+              run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', pattern: '*.bmp'}");
+            }),
             "image folder '" + dir.path().string() + "' has no file matching '*.bmp'");
   // An image of another size mid-stream names the file.
   cv::imwrite((dir / "img_005.png").string(), synthetic(5, {100, 100}));
-  EXPECT_EQ(error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fx: 100}"); }),
-            "image '" + (dir / "img_005.png").string() + "' is 100x100 but the stream started at 200x100");
+  EXPECT_EQ(
+      error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fx: 100}"); }),
+      "image '" + (dir / "img_005.png").string() + "' is 100x100 but the stream started at 200x100");
   std::ofstream(dir / "img_006.png") << "broken";
   std::filesystem::remove(dir / "img_005.png");
-  EXPECT_EQ(error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fx: 100}"); }),
-            "image '" + (dir / "img_006.png").string() + "' (frame 5) cannot be read");
+  EXPECT_EQ(
+      error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fx: 100}"); }),
+      "image '" + (dir / "img_006.png").string() + "' (frame 5) cannot be read");
 }
 
 TEST(ImageSequenceSource, KittiRawFolder) {
@@ -241,7 +254,9 @@ TEST(ImageSequenceSource, KittiRawFolder) {
   HF_REQUIRE_SHARED(folder);
   testing::StageRunner r;
   auto frames = run_source<ImageSequenceSource>(
-      "{path: '" + folder.string() + "', fx: 721.5377, cx: 609.5593, cy: 172.854, camera_height: 1.65, max_frames: 3}", &r);
+      "{path: '" + folder.string() +
+          "', fx: 721.5377, cx: 609.5593, cy: 172.854, camera_height: 1.65, max_frames: 3}",
+      &r);
   EXPECT_EQ(*dynamic_cast<SourceStage&>(r.stage()).frame_count(), 3);
   ASSERT_EQ(frames.size(), 3u);
   EXPECT_EQ(frames[2].image.size(), cv::Size(1242, 375));
@@ -252,8 +267,9 @@ TEST(ImageSequenceSource, KittiRawFolder) {
 TEST(CameraSource, NonexistentDeviceOrUrlFails) {
   EXPECT_EQ(error_of([] { run_source<CameraSource>("{device: '57'}"); }),
             "cannot open camera device '57': no such device or the stream is unreachable");
-  EXPECT_EQ(error_of([] { run_source<CameraSource>("{url: 'file:///nonexistent/hf/stream.ts'}"); }),
-            "cannot open stream 'file:///nonexistent/hf/stream.ts': no such device or the stream is unreachable");
+  EXPECT_EQ(
+      error_of([] { run_source<CameraSource>("{url: 'file:///nonexistent/hf/stream.ts'}"); }),
+      "cannot open stream 'file:///nonexistent/hf/stream.ts': no such device or the stream is unreachable");
   EXPECT_EQ(error_of([] { run_source<CameraSource>("{}"); }),
             "camera source: give exactly one of 'device' and 'url'");
 }

@@ -25,8 +25,10 @@ ComponentInfo AnnotatedVideoSink::describe() {
   i.kind = kind::kSink;
   i.summary = "MP4 of the frames with boxes, track ids, distances, metric values and Safe/Unsafe banners";
   i.doc =
-      "Draws detections (thin), tracks or object states (class-coloured boxes with id, distance and each metric's "
-      "per-object value), one banner per risk metric (red when Unsafe) and the frame index/time. The frame rate is "
+      "Draws detections (thin), tracks or object states (class-coloured boxes with id, distance and each "
+      "metric's "
+      "per-object value), one banner per risk metric (red when Unsafe) and the frame index/time. The frame "
+      "rate is "
       "`fps` or the median timestamp spacing of the first frames. Tries H.264 (avc1), falls back to mp4v.";
   i.inputs = {port<Frame>("frames", "the frames to draw on"),
               optional(port<Tracks>("tracks", "tracked boxes")),
@@ -36,10 +38,14 @@ ComponentInfo AnnotatedVideoSink::describe() {
   i.params = {
       ParamSpec::string("file", "annotated.mp4").describe("video file, relative to the run folder"),
       ParamSpec::number("fps", 0.0).range(0, 1000).describe("frame rate (0 = from the frame timestamps)"),
-      ParamSpec::string("codec", "auto").one_of({"auto", "avc1", "mp4v", "MJPG"})
+      ParamSpec::string("codec", "auto")
+          .one_of({"auto", "avc1", "mp4v", "MJPG"})
           .describe("fourcc; auto = avc1 (H.264), falling back to mp4v"),
-      ParamSpec::integer("png_every", 0).range(0, std::nullopt).describe("also save every Nth frame as PNG (0 = off)"),
-      ParamSpec::string("png_dir", "annotated_frames").describe("folder for the PNGs, relative to the run folder"),
+      ParamSpec::integer("png_every", 0)
+          .range(0, std::nullopt)
+          .describe("also save every Nth frame as PNG (0 = off)"),
+      ParamSpec::string("png_dir", "annotated_frames")
+          .describe("folder for the PNGs, relative to the run folder"),
       ParamSpec::integer("thickness", 2).range(1, 20).describe("box line thickness, px"),
   };
   return i;
@@ -90,8 +96,8 @@ void AnnotatedVideoSink::start_writer(StageContext& ctx) {
                 (codec_param_ == "auto" ? std::string("avc1 or mp4v") : codec_param_));
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.3f", fps);
-  ctx.log(LogLevel::kInfo, "annotated video: " + codec_ + " at " + buf + " fps, " + std::to_string(size_.width) + "x" +
-                               std::to_string(size_.height));
+  ctx.log(LogLevel::kInfo, "annotated video: " + codec_ + " at " + buf + " fps, " +
+                               std::to_string(size_.width) + "x" + std::to_string(size_.height));
 }
 
 void AnnotatedVideoSink::write(const cv::Mat& img) {
@@ -101,14 +107,15 @@ void AnnotatedVideoSink::write(const cv::Mat& img) {
 
 void AnnotatedVideoSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
   const Frame& frame = in.require<Frame>("frames");
-  if (frame.image.empty()) throw Error("annotated video: frame " + std::to_string(frame.index) + " has no image");
+  if (frame.image.empty())
+    throw Error("annotated video: frame " + std::to_string(frame.index) + " has no image");
   if (frame.image.type() != CV_8UC3)
     throw Error("annotated video: frame " + std::to_string(frame.index) + " is not BGR 8-bit");
   cv::Mat img = frame.image.clone();  // packets are shared and immutable; draw on a copy
   if (size_.empty()) size_ = img.size();
   if (img.size() != size_)
-    throw Error("annotated video: frame " + std::to_string(frame.index) + " is " + std::to_string(img.cols) + "x" +
-                std::to_string(img.rows) + " but the video is " + std::to_string(size_.width) + "x" +
+    throw Error("annotated video: frame " + std::to_string(frame.index) + " is " + std::to_string(img.cols) +
+                "x" + std::to_string(img.rows) + " but the video is " + std::to_string(size_.width) + "x" +
                 std::to_string(size_.height));
 
   OverlayInputs ov;
@@ -120,7 +127,8 @@ void AnnotatedVideoSink::process(StageContext& ctx, const Inputs& in, Outputs& /
   for (size_t i = 0; i < risks.size(); ++i)
     if (risks[i] && !risks[i]->empty()) {
       const RiskAssessment& r = risks[i]->get<RiskAssessment>();
-      ov.risks.emplace_back(!r.metric.empty() ? r.metric : (i < producers.size() ? producers[i] : "risk"), &r);
+      ov.risks.emplace_back(!r.metric.empty() ? r.metric : (i < producers.size() ? producers[i] : "risk"),
+                            &r);
     }
   draw_overlay(img, frame.index, frame.timestamp, ov, thickness_);
 
@@ -156,7 +164,8 @@ void AnnotatedVideoSink::finish(StageContext& ctx, Outputs& /*out*/) {
   writer_.release();
   std::error_code ec;
   fs::rename(partial_, file_, ec);
-  if (ec) throw Error("cannot rename '" + partial_.string() + "' to '" + file_.string() + "': " + ec.message());
+  if (ec)
+    throw Error("cannot rename '" + partial_.string() + "' to '" + file_.string() + "': " + ec.message());
   ctx.log(LogLevel::kInfo, "wrote " + std::to_string(written_) + " frames to " + file_.string());
 }
 

@@ -11,8 +11,8 @@ namespace hf::sink {
 
 cv::Scalar class_color(const std::string& label) {
   static const std::map<std::string, cv::Scalar> kColors = {
-      {"car", {255, 140, 0}},       {"truck", {0, 165, 255}},  {"bus", {0, 220, 220}},
-      {"person", {255, 0, 255}},    {"bicycle", {0, 255, 0}},  {"motorcycle", {255, 255, 0}},
+      {"car", {255, 140, 0}},    {"truck", {0, 165, 255}}, {"bus", {0, 220, 220}},
+      {"person", {255, 0, 255}}, {"bicycle", {0, 255, 0}}, {"motorcycle", {255, 255, 0}},
   };
   auto it = kColors.find(label);
   return it == kColors.end() ? cv::Scalar(200, 200, 200) : it->second;
@@ -42,7 +42,8 @@ void label_box(cv::Mat& img, const std::string& text, cv::Point org, double scal
 
 }  // namespace
 
-void draw_overlay(cv::Mat& img, int64_t frame_index, double timestamp, const OverlayInputs& in, int thickness) {
+void draw_overlay(cv::Mat& img, int64_t frame_index, double timestamp, const OverlayInputs& in,
+                  int thickness) {
   const double scale = std::max(0.35, img.rows / 720.0 * 0.55);
   const int line_h = static_cast<int>(std::lround(28 * scale / 0.55));
 
@@ -64,14 +65,15 @@ void draw_overlay(cv::Mat& img, int64_t frame_index, double timestamp, const Ove
     }
     for (const auto& [name, r] : in.risks)
       for (const ObjectRisk& o : r->objects)
-        if (o.track_id == id && (std::isfinite(o.value) || o.in_path)) t += " " + name + " " + format_value(o.value, r->unit);
+        if (o.track_id == id && (std::isfinite(o.value) || o.in_path))
+          t += " " + name + " " + format_value(o.value, r->unit);
     return t;
   };
   auto draw_object = [&](const cv::Rect2f& box, int64_t id, const std::string& label, bool predicted) {
     const cv::Scalar c = class_color(label);
     cv::rectangle(img, cv::Rect(box), c, predicted ? 1 : thickness, cv::LINE_AA);
-    label_box(img, object_text(id, label), cv::Point(static_cast<int>(box.x), static_cast<int>(box.y)), scale * 0.8, c,
-              cv::Scalar(0, 0, 0));
+    label_box(img, object_text(id, label), cv::Point(static_cast<int>(box.x), static_cast<int>(box.y)),
+              scale * 0.8, c, cv::Scalar(0, 0, 0));
   };
   if (in.tracks) {
     for (const Track& t : in.tracks->items) draw_object(t.box, t.id, t.label, t.misses > 0);

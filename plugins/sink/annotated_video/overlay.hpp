@@ -25,7 +25,8 @@ struct OverlayInputs {
 };
 
 // Draws on `img` (BGR 8-bit) in place.
-void draw_overlay(cv::Mat& img, int64_t frame_index, double timestamp, const OverlayInputs& in, int thickness);
+void draw_overlay(cv::Mat& img, int64_t frame_index, double timestamp, const OverlayInputs& in,
+                  int thickness);
 
 // Text of a metric value: "1.23 s", "inf" when not finite.
 std::string format_value(double v, const std::string& unit);

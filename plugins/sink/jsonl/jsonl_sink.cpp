@@ -28,7 +28,9 @@ std::string csv_number(double v) {
 }
 
 namespace {
-std::string opt_number(const std::optional<double>& v) { return v ? csv_number(*v) : ""; }
+std::string opt_number(const std::optional<double>& v) {
+  return v ? csv_number(*v) : "";
+}
 
 std::ofstream open_out(const fs::path& file) {
   if (file.has_parent_path()) fs::create_directories(file.parent_path());
@@ -38,7 +40,8 @@ std::ofstream open_out(const fs::path& file) {
 }
 }  // namespace
 
-// ---- CsvTable ----------------------------------------------------------------------------------------------------
+// ---- CsvTable
+// ----------------------------------------------------------------------------------------------------
 
 void JsonlSink::CsvTable::open(const fs::path& file, std::vector<std::string> fixed_columns,
                                std::vector<std::string> metric_suffixes) {
@@ -63,7 +66,8 @@ void JsonlSink::CsvTable::write_row(size_t i) {
   std::string line;
   for (size_t k = 0; k < fixed.size(); ++k) line += (k ? "," : "") + csv_escape(fixed[k]);
   for (const auto& m : metrics_) {
-    auto it = std::find_if(metric_values.begin(), metric_values.end(), [&](const auto& mv) { return mv.first == m; });
+    auto it = std::find_if(metric_values.begin(), metric_values.end(),
+                           [&](const auto& mv) { return mv.first == m; });
     for (size_t s = 0; s < suffixes_.size(); ++s)
       line += "," + (it == metric_values.end() ? std::string() : csv_escape(it->second[s]));
   }
@@ -108,7 +112,8 @@ void JsonlSink::CsvTable::close() {
   }
 }
 
-// ---- JsonlSink ---------------------------------------------------------------------------------------------------
+// ---- JsonlSink
+// ---------------------------------------------------------------------------------------------------
 
 ComponentInfo JsonlSink::describe() {
   ComponentInfo i;
@@ -116,16 +121,20 @@ ComponentInfo JsonlSink::describe() {
   i.kind = kind::kSink;
   i.summary = "one JSON line per frame (keyed by producer) plus objects.csv and scenes.csv";
   i.doc =
-      "Writes {\"frame\", \"timestamp\", <producer>: <packet JSON>...} per frame, flushed line by line. With csv, "
-      "objects.csv has one row per object of every ObjectStates stream and a column per RiskAssessment stream "
-      "(the object's value); scenes.csv has one row per frame with <metric> (scene value), <metric>_label and "
+      "Writes {\"frame\", \"timestamp\", <producer>: <packet JSON>...} per frame, flushed line by line. With "
+      "csv, "
+      "objects.csv has one row per object of every ObjectStates stream and a column per RiskAssessment "
+      "stream "
+      "(the object's value); scenes.csv has one row per frame with <metric> (scene value), <metric>_label "
+      "and "
       "<metric>_critical_track. Non-finite numbers are JSON null / empty cells.";
   i.inputs = {multi(any_port("records", "any streams to record; keys are the producing node ids"))};
   i.params = {
       ParamSpec::string("file", "frames.jsonl").describe("JSON lines file, relative to the run folder"),
       ParamSpec::boolean("csv", true).describe("also write the per-object and per-scene CSV tables"),
       ParamSpec::string("objects_file", "objects.csv").describe("per-object CSV, relative to the run folder"),
-      ParamSpec::string("scenes_file", "scenes.csv").describe("per-frame metric CSV, relative to the run folder"),
+      ParamSpec::string("scenes_file", "scenes.csv")
+          .describe("per-frame metric CSV, relative to the run folder"),
   };
   return i;
 }
@@ -136,10 +145,11 @@ void JsonlSink::open(StageContext& ctx) {
   out_ = open_out(file_);
   csv_ = p.get_bool("csv");
   if (csv_) {
-    objects_.open(ctx.output_dir() / p.get_string("objects_file"),
-                  {"frame", "timestamp", "states", "track_id", "label", "score", "box_x", "box_y", "box_w", "box_h",
-                   "distance_m", "lateral_m", "vx_mps", "vy_mps", "speed_mps", "heading_rad", "in_path"},
-                  {""});
+    objects_.open(
+        ctx.output_dir() / p.get_string("objects_file"),
+        {"frame", "timestamp", "states", "track_id", "label", "score", "box_x", "box_y", "box_w", "box_h",
+         "distance_m", "lateral_m", "vx_mps", "vy_mps", "speed_mps", "heading_rad", "in_path"},
+        {""});
     scenes_.open(ctx.output_dir() / p.get_string("scenes_file"), {"frame", "timestamp"},
                  {"", "_label", "_critical_track"});
   }
@@ -156,21 +166,25 @@ void JsonlSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
     if (!p || p->empty()) continue;
     std::string key = i < producers.size() ? producers[i] : "stream" + std::to_string(i);
     // Two streams of one producer (different ports) must not overwrite each other.
-    for (int n = 2; line.contains(key); ++n) key = (i < producers.size() ? producers[i] : "stream") + "#" + std::to_string(n);
-    line[key] = p->serializable() ? p->as_json()
-                                  : Json{{"type", p->type_name()}, {"version", p->type_version()}, {"serializable", false}};
+    for (int n = 2; line.contains(key); ++n)
+      key = (i < producers.size() ? producers[i] : "stream") + "#" + std::to_string(n);
+    line[key] = p->serializable()
+                    ? p->as_json()
+                    : Json{{"type", p->type_name()}, {"version", p->type_version()}, {"serializable", false}};
     if (p->is<ObjectStates>()) states.emplace_back(key, &p->get<ObjectStates>());
     if (p->is<RiskAssessment>()) {
       // CSV columns use the metric's node id ("ttc") when it has one; the stream key otherwise.
       const RiskAssessment& r = p->get<RiskAssessment>();
-      const bool taken = std::any_of(risks.begin(), risks.end(), [&](const auto& x) { return x.first == r.metric; });
+      const bool taken =
+          std::any_of(risks.begin(), risks.end(), [&](const auto& x) { return x.first == r.metric; });
       risks.emplace_back(r.metric.empty() || taken ? key : r.metric, &r);
     }
   }
   // Invalid UTF-8 in free text (dataset descriptions) must not cost the line.
   out_ << line.dump(-1, ' ', false, Json::error_handler_t::replace) << '\n';
   out_.flush();
-  if (!out_) throw Error("cannot write '" + file_.string() + "' (frame " + std::to_string(ctx.frame_index()) + ")");
+  if (!out_)
+    throw Error("cannot write '" + file_.string() + "' (frame " + std::to_string(ctx.frame_index()) + ")");
   ++lines_;
   if (!csv_) return;
 
@@ -184,19 +198,21 @@ void JsonlSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
           if (orisk.track_id == o.track_id) v = csv_number(orisk.value);
         values.emplace_back(metric, std::vector<std::string>{v});
       }
-      objects_.add({frame, ts, name, std::to_string(o.track_id), o.label, csv_number(o.score), csv_number(o.box.x),
-                    csv_number(o.box.y), csv_number(o.box.width), csv_number(o.box.height), csv_number(o.distance_m),
-                    csv_number(o.lateral_m), o.velocity_rel ? csv_number((*o.velocity_rel)[0]) : "",
-                    o.velocity_rel ? csv_number((*o.velocity_rel)[1]) : "", opt_number(o.speed_mps),
-                    opt_number(o.heading_rad), o.in_path ? "1" : "0"},
-                   std::move(values));
+      objects_.add(
+          {frame, ts, name, std::to_string(o.track_id), o.label, csv_number(o.score), csv_number(o.box.x),
+           csv_number(o.box.y), csv_number(o.box.width), csv_number(o.box.height), csv_number(o.distance_m),
+           csv_number(o.lateral_m), o.velocity_rel ? csv_number((*o.velocity_rel)[0]) : "",
+           o.velocity_rel ? csv_number((*o.velocity_rel)[1]) : "", opt_number(o.speed_mps),
+           opt_number(o.heading_rad), o.in_path ? "1" : "0"},
+          std::move(values));
     }
   }
   // One row per frame, also when no metric reported (its cells stay empty).
   CsvTable::MetricValues values;
   for (const auto& [metric, r] : risks)
-    values.emplace_back(metric, std::vector<std::string>{csv_number(r->scene_value), to_string(r->label),
-                                                         r->critical_track >= 0 ? std::to_string(r->critical_track) : ""});
+    values.emplace_back(
+        metric, std::vector<std::string>{csv_number(r->scene_value), to_string(r->label),
+                                         r->critical_track >= 0 ? std::to_string(r->critical_track) : ""});
   scenes_.add({frame, ts}, std::move(values));
 }
 

@@ -11,14 +11,13 @@
 namespace hf::sink {
 
 // Ports: in `records` (multi, any type). No outputs.
-// Each frame becomes one line {"frame": i, "timestamp": t, "<producer>": <packet JSON>, ...} keyed by the producer
-// the host reports for each packet (the stream, e.g. "ttc.risk"), flushed at once, so an interrupted run keeps
-// every line written. With `csv`, objects.csv gets one row per ObjectStates object and one column per
-// RiskAssessment stream (named by the assessment's metric, i.e. its node id; that object's value); scenes.csv one
-// row per frame with each metric's scene value, label and critical track. Non-finite numbers: JSON null / empty
-// CSV cell.
-// Timestamps: the frame's stream time as the host reports it.
-// Params: file, csv, objects_file, scenes_file.
+// Each frame becomes one line {"frame": i, "timestamp": t, "<producer>": <packet JSON>, ...} keyed by the
+// producer the host reports for each packet (the stream, e.g. "ttc.risk"), flushed at once, so an interrupted
+// run keeps every line written. With `csv`, objects.csv gets one row per ObjectStates object and one column
+// per RiskAssessment stream (named by the assessment's metric, i.e. its node id; that object's value);
+// scenes.csv one row per frame with each metric's scene value, label and critical track. Non-finite numbers:
+// JSON null / empty CSV cell. Timestamps: the frame's stream time as the host reports it. Params: file, csv,
+// objects_file, scenes_file.
 class JsonlSink : public Stage {
  public:
   static ComponentInfo describe();

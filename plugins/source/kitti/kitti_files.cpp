@@ -37,7 +37,8 @@ Calibration read_calibration(const fs::path& file) {
     Calibration c;
     for (int i = 0; i < 12; ++i) c.P2(i / 4, i % 4) = v[static_cast<size_t>(i)];
     if (!(c.fx() > 0) || !(c.fy() > 0))
-      throw Error(file.string() + ":" + std::to_string(n) + ": error: " + key + " has a non-positive focal length");
+      throw Error(file.string() + ":" + std::to_string(n) + ": error: " + key +
+                  " has a non-positive focal length");
     return c;
   }
   throw Error("KITTI calibration '" + file.string() + "' has no P2 (or P_rect_02) line");
@@ -47,9 +48,9 @@ std::map<int, std::vector<Label>> read_labels(const fs::path& file) {
   if (!fs::exists(file)) throw Error("KITTI label file '" + file.string() + "' does not exist");
   std::ifstream in(file);
   if (!in) throw Error("KITTI label file '" + file.string() + "' cannot be read");
-  static const char* kFields[] = {"frame", "track_id", "type",   "truncated", "occluded", "alpha",
-                                  "x1",    "y1",       "x2",     "y2",        "h",        "w",
-                                  "l",     "x",        "y",      "z",         "rotation_y"};
+  static const char* kFields[] = {"frame", "track_id", "type", "truncated", "occluded",  "alpha",
+                                  "x1",    "y1",       "x2",   "y2",        "h",         "w",
+                                  "l",     "x",        "y",    "z",         "rotation_y"};
   std::map<int, std::vector<Label>> out;
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
@@ -59,8 +60,9 @@ std::map<int, std::vector<Label>> read_labels(const fs::path& file) {
     for (std::string t; ss >> t;) tok.push_back(t);
     // 17 fields, or 18 with a detection score (result files).
     if (tok.size() != 17 && tok.size() != 18)
-      throw Error(file.string() + ":" + std::to_string(n) + ": error: expected 17 fields (frame track_id type ... " +
-                  "rotation_y), got " + std::to_string(tok.size()));
+      throw Error(file.string() + ":" + std::to_string(n) +
+                  ": error: expected 17 fields (frame track_id type ... " + "rotation_y), got " +
+                  std::to_string(tok.size()));
     auto num = [&](size_t i) {
       size_t used = 0;
       double v = 0;
@@ -70,8 +72,8 @@ std::map<int, std::vector<Label>> read_labels(const fs::path& file) {
         used = 0;
       }
       if (used != tok[i].size())
-        throw Error(file.string() + ":" + std::to_string(n) + ": error: field '" + kFields[i] + "' is not a number: '" +
-                    tok[i] + "'");
+        throw Error(file.string() + ":" + std::to_string(n) + ": error: field '" + kFields[i] +
+                    "' is not a number: '" + tok[i] + "'");
       return v;
     };
     Label l;

@@ -17,8 +17,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const Json kDefaultLabelMap = {{"Car", "car"},         {"Van", "car"},          {"Truck", "truck"},
-                               {"Pedestrian", "person"}, {"Person_sitting", "person"}, {"Cyclist", "bicycle"},
+const Json kDefaultLabelMap = {{"Car", "car"},
+                               {"Van", "car"},
+                               {"Truck", "truck"},
+                               {"Pedestrian", "person"},
+                               {"Person_sitting", "person"},
+                               {"Cyclist", "bicycle"},
                                {"Tram", "bus"}};
 
 // Frame number from a KITTI image name ("000010.png", "0000000042.png"); nullopt when not numeric.
@@ -40,12 +44,15 @@ std::vector<fs::path> list_images(const fs::path& folder, const std::string& pat
 }  // namespace
 
 ComponentInfo KittiSource::describe() {
-  ComponentInfo i = base_info("kitti", "KITTI tracking sequences or raw image folders with P2 intrinsics and labels");
+  ComponentInfo i =
+      base_info("kitti", "KITTI tracking sequences or raw image folders with P2 intrinsics and labels");
   i.doc =
-      "layout tracking: <root>/<split>/image_02/<sequence>/*.png, calib/<sequence>.txt, label_02/<sequence>.txt "
+      "layout tracking: <root>/<split>/image_02/<sequence>/*.png, calib/<sequence>.txt, "
+      "label_02/<sequence>.txt "
       "(when present). layout raw: `images` folder and a `calib` file in KITTI tracking format. With "
       "images_required false, frames run over every frame number up to the last label or image, and frames "
-      "without an image carry a black image. Labels (DontCare dropped) become ego-frame annotations; velocities "
+      "without an image carry a black image. Labels (DontCare dropped) become ego-frame annotations; "
+      "velocities "
       "are camera-relative central differences of the same track id.";
   i.params = {
       ParamSpec::string("layout", "tracking").one_of({"tracking", "raw"}).describe("dataset layout"),
@@ -53,24 +60,40 @@ ComponentInfo KittiSource::describe() {
       ParamSpec::string("split", "training").one_of({"training", "testing"}).describe("tracking: split"),
       ParamSpec::string("sequence", "0000").describe("tracking: sequence number, 4 digits"),
       ParamSpec::path("images", "").describe("image folder (raw: required; tracking: overrides the default)"),
-      ParamSpec::path("calib", "").describe("calibration file (raw: required; tracking: overrides the default)"),
-      ParamSpec::path("labels", "").describe("label file in tracking format (tracking: overrides the default)"),
+      ParamSpec::path("calib", "")
+          .describe("calibration file (raw: required; tracking: overrides the default)"),
+      ParamSpec::path("labels", "")
+          .describe("label file in tracking format (tracking: overrides the default)"),
       ParamSpec::boolean("images_required", true)
-          .describe("false: iterate over all frame numbers up to the last label/image, black frames where no image"),
+          .describe("false: iterate over all frame numbers up to the last label/image, black frames where no "
+                    "image"),
       ParamSpec::string("pattern", "*.png").describe("image file glob"),
       ParamSpec::number("fps", 10.0).range(0.001, 1000).describe("frame rate (KITTI: 10 Hz)"),
-      ParamSpec::integer("image_width", 1242).range(1, 16384).describe("size of black frames when no image exists"),
-      ParamSpec::integer("image_height", 375).range(1, 16384).describe("size of black frames when no image exists"),
+      ParamSpec::integer("image_width", 1242)
+          .range(1, 16384)
+          .describe("size of black frames when no image exists"),
+      ParamSpec::integer("image_height", 375)
+          .range(1, 16384)
+          .describe("size of black frames when no image exists"),
       ParamSpec::number("camera_height", 1.65).range(0.1, 10).describe("camera height above the ground, m"),
-      ParamSpec::number("camera_pitch_deg", 0.0).range(-45, 45).describe("downward pitch, deg (KITTI rectified: level)"),
-      ParamSpec::number("camera_forward", 0.0).range(-10, 10).describe("camera position ahead of the ego origin, m"),
-      ParamSpec::number("ego_speed_mps", -1.0).range(-1, 100).describe("constant ego speed, m/s (-1 = unknown)"),
+      ParamSpec::number("camera_pitch_deg", 0.0)
+          .range(-45, 45)
+          .describe("downward pitch, deg (KITTI rectified: level)"),
+      ParamSpec::number("camera_forward", 0.0)
+          .range(-10, 10)
+          .describe("camera position ahead of the ego origin, m"),
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .range(-1, 100)
+          .describe("constant ego speed, m/s (-1 = unknown)"),
       ParamSpec::number("max_velocity_dt", 0.2)
           .range(0.01, 100)
           .describe("max time to a neighbouring label of the same track for a velocity, s"),
-      ParamSpec::object("label_map", kDefaultLabelMap).describe("KITTI type -> project class; unmapped = empty label"),
+      ParamSpec::object("label_map", kDefaultLabelMap)
+          .describe("KITTI type -> project class; unmapped = empty label"),
       ParamSpec::boolean("annotations", true).describe("attach labels as annotations"),
-      ParamSpec::integer("start_frame", 0).range(0, std::nullopt).describe("skip this many frames of the stream"),
+      ParamSpec::integer("start_frame", 0)
+          .range(0, std::nullopt)
+          .describe("skip this many frames of the stream"),
       ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = all)"),
   };
   return i;
@@ -87,7 +110,8 @@ void KittiSource::open(StageContext& ctx) {
     const fs::path base = p.get_path("root") / p.get_string("split");
     if (images.empty()) images = base / "image_02" / seq;
     if (calib.empty()) calib = base / "calib" / (seq + ".txt");
-    if (labels.empty() && fs::exists(base / "label_02" / (seq + ".txt"))) labels = base / "label_02" / (seq + ".txt");
+    if (labels.empty() && fs::exists(base / "label_02" / (seq + ".txt")))
+      labels = base / "label_02" / (seq + ".txt");
   } else {
     if (images.empty()) throw Error("kitti source: layout 'raw' needs the 'images' folder");
     if (calib.empty()) throw Error("kitti source: layout 'raw' needs a 'calib' file");
@@ -108,7 +132,8 @@ void KittiSource::open(StageContext& ctx) {
   }
   if (images_required && image_of.empty())
     throw Error("KITTI image folder '" + images.string() + "' " +
-                (fs::is_directory(images) ? "has no file matching '" + p.get_string("pattern") + "'" : "does not exist") +
+                (fs::is_directory(images) ? "has no file matching '" + p.get_string("pattern") + "'"
+                                          : "does not exist") +
                 (labels.empty() ? "" : " (images_required: false iterates over the label frames)"));
 
   std::map<int, std::vector<kitti::Label>> by_frame;
@@ -126,8 +151,9 @@ void KittiSource::open(StageContext& ctx) {
     w = probe.cols;
     h = probe.rows;
   }
-  camera_ = CameraModel::pinhole(w, h, cal.fx(), cal.fy(), cal.cx(), cal.cy(), p.get_double("camera_height"),
-                                 p.get_double("camera_pitch_deg") * CV_PI / 180.0, p.get_double("camera_forward"));
+  camera_ =
+      CameraModel::pinhole(w, h, cal.fx(), cal.fy(), cal.cx(), cal.cy(), p.get_double("camera_height"),
+                           p.get_double("camera_pitch_deg") * CV_PI / 180.0, p.get_double("camera_forward"));
   const double ego_speed = p.get_double("ego_speed_mps");
   if (ego_speed >= 0) ego_.speed_mps = ego_speed;
   const cv::Vec3d ego_velocity(std::max(ego_speed, 0.0), 0, 0);
@@ -156,7 +182,8 @@ void KittiSource::open(StageContext& ctx) {
   for (const auto& [n, ls] : by_frame)
     for (const auto& l : ls)
       if (l.type != "DontCare" && l.track_id >= 0) track_pos[l.track_id][n] = to_ego(l);
-  const int max_gap = std::max(1, static_cast<int>(std::floor(p.get_double("max_velocity_dt") * fps_ + 1e-9)));
+  const int max_gap =
+      std::max(1, static_cast<int>(std::floor(p.get_double("max_velocity_dt") * fps_ + 1e-9)));
   const Json label_map = p.raw("label_map");
   for (auto it = label_map.begin(); it != label_map.end(); ++it)
     if (!it->is_string()) throw Error("parameter 'label_map': value of '" + it.key() + "' is not a string");
@@ -178,7 +205,8 @@ void KittiSource::open(StageContext& ctx) {
           o.center_ego = to_ego(l);
           o.size_lwh = cv::Vec3d(l.l, l.w, l.h);
           // Heading rotation_y = 0 points along camera x; direction (cos ry, 0, -sin ry) in camera axes.
-          const cv::Vec3d dir = camera_.R_ego_cam * cv::Vec3d(std::cos(l.rotation_y), 0, -std::sin(l.rotation_y));
+          const cv::Vec3d dir =
+              camera_.R_ego_cam * cv::Vec3d(std::cos(l.rotation_y), 0, -std::sin(l.rotation_y));
           o.yaw_ego = std::atan2(dir[1], dir[0]);
           o.box2d = l.box2d;
           o.occlusion = l.occluded;
@@ -221,11 +249,12 @@ bool KittiSource::next(StageContext& /*ctx*/, Outputs& out) {
   if (!it.image.empty()) {
     f.image = cv::imread(it.image.string(), cv::IMREAD_COLOR);
     if (f.image.empty())
-      throw Error("KITTI image '" + it.image.string() + "' (frame " + std::to_string(it.kitti_frame) + ") cannot be read");
+      throw Error("KITTI image '" + it.image.string() + "' (frame " + std::to_string(it.kitti_frame) +
+                  ") cannot be read");
     if (f.image.cols != camera_.width || f.image.rows != camera_.height)
       throw Error("KITTI image '" + it.image.string() + "' is " + std::to_string(f.image.cols) + "x" +
-                  std::to_string(f.image.rows) + " but the sequence started at " + std::to_string(camera_.width) + "x" +
-                  std::to_string(camera_.height));
+                  std::to_string(f.image.rows) + " but the sequence started at " +
+                  std::to_string(camera_.width) + "x" + std::to_string(camera_.height));
     f.source_id = it.image.filename().string();
   } else {
     f.image = cv::Mat(camera_.height, camera_.width, CV_8UC3, cv::Scalar::all(0));
@@ -234,7 +263,9 @@ bool KittiSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.camera = camera_;
   f.ego = ego_;
   f.annotations = it.annotations;
-  f.meta = {{"kitti_frame", it.kitti_frame}, {"layout", layout_}, {"has_image", !it.image.empty()},
+  f.meta = {{"kitti_frame", it.kitti_frame},
+            {"layout", layout_},
+            {"has_image", !it.image.empty()},
             {"velocity_reference", ego_.speed_mps ? "ego_speed_param" : "camera"}};
   const double ts = f.timestamp;
   out.emit_packet("frames", Packet::make<Frame>(std::move(f), ts));

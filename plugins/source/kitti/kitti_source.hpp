@@ -1,4 +1,5 @@
-// KITTI source: tracking sequences (images, calib, labels) and raw image folders with a tracking-format calib.
+// KITTI source: tracking sequences (images, calib, labels) and raw image folders with a tracking-format
+// calib.
 #pragma once
 
 #include <filesystem>
@@ -12,10 +13,10 @@
 
 namespace hf::source {
 
-// Emits KITTI image_02 frames with the P2 camera and, when labels exist, the tracking labels in the ego frame.
-// Ports: out `frames` (Frame; annotations when labelled).
-// Timestamps: (KITTI frame number - first emitted frame number) / fps (10 Hz); meta.kitti_frame holds the number.
-// Ego frame: origin on the ground below camera 2 (camera_forward = 0 by default), x forward, level camera
+// Emits KITTI image_02 frames with the P2 camera and, when labels exist, the tracking labels in the ego
+// frame. Ports: out `frames` (Frame; annotations when labelled). Timestamps: (KITTI frame number - first
+// emitted frame number) / fps (10 Hz); meta.kitti_frame holds the number. Ego frame: origin on the ground
+// below camera 2 (camera_forward = 0 by default), x forward, level camera
 //   `camera_height` m up. Velocities are relative to the camera (KITTI tracking has no ego motion): see
 //   docs/sources-and-sinks.md.
 // Params: layout, root, split, sequence, images, calib, labels, images_required, pattern, fps, image_width,

@@ -14,9 +14,9 @@
 namespace hf::source {
 
 namespace fs = std::filesystem;
+using nuscenes::quaternion_to_matrix;
 using nuscenes::Table;
 using nuscenes::Tables;
-using nuscenes::quaternion_to_matrix;
 
 namespace {
 
@@ -33,9 +33,13 @@ const Json kDefaultLabelMap = {
     {"vehicle.emergency.police", "car"},
 };
 
-cv::Vec3d vec3(const std::vector<double>& v) { return {v[0], v[1], v[2]}; }
+cv::Vec3d vec3(const std::vector<double>& v) {
+  return {v[0], v[1], v[2]};
+}
 
-double yaw_of(const cv::Matx33d& R) { return std::atan2(R(1, 0), R(0, 0)); }
+double yaw_of(const cv::Matx33d& R) {
+  return std::atan2(R(1, 0), R(0, 0));
+}
 
 // Central difference over neighbours (one-sided at the ends) of a per-keyframe quantity.
 template <class T, class Diff>
@@ -53,8 +57,8 @@ std::string map_label(const std::string& category, const Json& label_map) {
   std::string best_key, best;
   for (auto it = label_map.begin(); it != label_map.end(); ++it) {
     const std::string& k = it.key();
-    const bool match = category == k || (category.size() > k.size() && category.compare(0, k.size(), k) == 0 &&
-                                         category[k.size()] == '.');
+    const bool match = category == k || (category.size() > k.size() &&
+                                         category.compare(0, k.size(), k) == 0 && category[k.size()] == '.');
     if (match && k.size() > best_key.size()) {
       best_key = k;
       best = it->is_string() ? it->get<std::string>() : "";
@@ -64,30 +68,40 @@ std::string map_label(const std::string& category, const Json& label_map) {
 }
 
 ComponentInfo NuScenesSource::describe() {
-  ComponentInfo i = base_info("nuscenes", "nuScenes camera keyframes with calibration, ego poses and 3D annotations");
+  ComponentInfo i =
+      base_info("nuscenes", "nuScenes camera keyframes with calibration, ego poses and 3D annotations");
   i.doc =
       "Reads scene, sample, sample_data, ego_pose, calibrated_sensor, sensor (and, for annotations, "
       "sample_annotation, instance, category) of <dataroot>/<version>; log/attribute/visibility/map are not "
-      "needed. Emits the keyframes of `channel`. Ego velocity: central difference of neighbouring keyframe poses. "
+      "needed. Emits the keyframes of `channel`. Ego velocity: central difference of neighbouring keyframe "
+      "poses. "
       "Object velocity: the devkit's box_velocity (neighbouring annotations of the instance, at most "
-      "max_velocity_dt apart, twice that for a centred difference). Annotations are expressed in the ego frame "
+      "max_velocity_dt apart, twice that for a centred difference). Annotations are expressed in the ego "
+      "frame "
       "of the camera sample_data's ego pose.";
   i.params = {
-      ParamSpec::path("dataroot", "${HAZARDFORGE_SHARED}/data/nuscenes").describe("nuScenes root (holds samples/)"),
+      ParamSpec::path("dataroot", "${HAZARDFORGE_SHARED}/data/nuscenes")
+          .describe("nuScenes root (holds samples/)"),
       ParamSpec::string("version", "v1.0-mini").describe("table folder below dataroot"),
       ParamSpec::string_list("scenes", {}).describe("scene names (empty = every scene whose images exist)"),
       ParamSpec::string("channel", "CAM_FRONT").describe("camera channel"),
       ParamSpec::boolean("annotations", true).describe("attach sample annotations (ego frame) to each frame"),
       ParamSpec::number("max_velocity_dt", 1.5)
           .range(0.01, 100)
-          .describe("max time between neighbouring annotations for an object velocity, s (doubled when centred)"),
+          .describe(
+              "max time between neighbouring annotations for an object velocity, s (doubled when centred)"),
       ParamSpec::object("label_map", kDefaultLabelMap)
-          .describe("category prefix -> project class; the longest matching prefix wins, no match = empty label"),
+          .describe(
+              "category prefix -> project class; the longest matching prefix wins, no match = empty label"),
       ParamSpec::boolean("images_required", true)
           .describe("fail on a missing image (false: a black frame of the recorded size is emitted instead)"),
-      ParamSpec::integer("resize_width", 0).range(0, 16384).describe("output width (0 = keep; aspect kept if only one is set)"),
+      ParamSpec::integer("resize_width", 0)
+          .range(0, 16384)
+          .describe("output width (0 = keep; aspect kept if only one is set)"),
       ParamSpec::integer("resize_height", 0).range(0, 16384).describe("output height (0 = keep)"),
-      ParamSpec::number("scene_gap_s", 1.0).range(0, 1e6).describe("time inserted between consecutive scenes, s"),
+      ParamSpec::number("scene_gap_s", 1.0)
+          .range(0, 1e6)
+          .describe("time inserted between consecutive scenes, s"),
       ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = all)"),
   };
   return i;
@@ -113,10 +127,13 @@ void NuScenesSource::open(StageContext& ctx) {
   std::set<std::string> sensors;
   for (const Json& s : T.sensor.records())
     if (T.sensor.str(s, "channel") == channel) sensors.insert(T.sensor.str(s, "token"));
-  if (sensors.empty()) throw Error("nuScenes table '" + T.sensor.file().string() + "': no sensor with channel '" + channel + "'");
+  if (sensors.empty())
+    throw Error("nuScenes table '" + T.sensor.file().string() + "': no sensor with channel '" + channel +
+                "'");
   std::set<std::string> calibs;
   for (const Json& c : T.calibrated_sensor.records())
-    if (sensors.count(T.calibrated_sensor.str(c, "sensor_token"))) calibs.insert(T.calibrated_sensor.str(c, "token"));
+    if (sensors.count(T.calibrated_sensor.str(c, "sensor_token")))
+      calibs.insert(T.calibrated_sensor.str(c, "token"));
   std::unordered_map<std::string, const Json*> keyframe_of_sample;
   for (const Json& sd : T.sample_data.records()) {
     if (!calibs.count(T.sample_data.str(sd, "calibrated_sensor_token"))) continue;
@@ -137,7 +154,8 @@ void NuScenesSource::open(StageContext& ctx) {
     if (std::find(names.begin(), names.end(), w) == names.end()) {
       std::string list;
       for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-      throw Error("nuScenes table '" + T.scene.file().string() + "': no scene named '" + w + "' (has: " + list + ")");
+      throw Error("nuScenes table '" + T.scene.file().string() + "': no scene named '" + w +
+                  "' (has: " + list + ")");
     }
 
   for (const Json& scene : T.scene.records()) {
@@ -148,12 +166,13 @@ void NuScenesSource::open(StageContext& ctx) {
     std::string tok = T.scene.str(scene, "first_sample_token");
     for (size_t guard = 0; !tok.empty(); ++guard) {
       if (guard > T.sample.records().size())
-        throw Error("nuScenes table '" + T.sample.file().string() + "': the 'next' chain of scene " + name + " loops");
+        throw Error("nuScenes table '" + T.sample.file().string() + "': the 'next' chain of scene " + name +
+                    " loops");
       const Json& sample = T.sample.at(tok, "scene " + name);
       auto kf_it = keyframe_of_sample.find(tok);
       if (kf_it == keyframe_of_sample.end())
-        throw Error("nuScenes table '" + T.sample_data.file().string() + "': sample '" + tok + "' of scene " + name +
-                    " has no " + channel + " keyframe");
+        throw Error("nuScenes table '" + T.sample_data.file().string() + "': sample '" + tok + "' of scene " +
+                    name + " has no " + channel + " keyframe");
       const Json& sd = *kf_it->second;
       KeyFrame k;
       k.scene = name;
@@ -174,7 +193,8 @@ void NuScenesSource::open(StageContext& ctx) {
                 if (x.is_number()) v.push_back(x.get<double>());
         if (v.size() != 9)
           throw Error("nuScenes table '" + T.calibrated_sensor.file().string() + "': record '" +
-                      T.calibrated_sensor.str(cs, "token") + "': field 'camera_intrinsic' is not a 3x3 matrix");
+                      T.calibrated_sensor.str(cs, "token") +
+                      "': field 'camera_intrinsic' is not a 3x3 matrix");
         return v;
       }();
       k.camera.width = static_cast<int>(T.sample_data.i64(sd, "width"));
@@ -223,12 +243,14 @@ void NuScenesSource::open(StageContext& ctx) {
         T_we(r, 3) = k.t_world_ego[r];
       }
       k.ego.T_world_ego = T_we;
-      auto v = central(pos, pose_ts, i, [](const cv::Vec3d& b, const cv::Vec3d& a) { return cv::Vec3d(b - a); });
+      auto v =
+          central(pos, pose_ts, i, [](const cv::Vec3d& b, const cv::Vec3d& a) { return cv::Vec3d(b - a); });
       if (v) {
         k.ego.velocity_world = *v;
         k.ego.speed_mps = cv::norm(*v);
       }
-      if (auto w = central(yaw, pose_ts, i, [](double b, double a) { return std::remainder(b - a, 2 * CV_PI); }))
+      if (auto w =
+              central(yaw, pose_ts, i, [](double b, double a) { return std::remainder(b - a, 2 * CV_PI); }))
         k.ego.yaw_rate = *w;
 
       if (!with_ann) continue;
@@ -237,8 +259,8 @@ void NuScenesSource::open(StageContext& ctx) {
       const cv::Matx33d R_ew = k.R_world_ego.t();
       auto sample_time_us = [&](const Json& a) {
         const std::string st = T.sample_annotation.str(a, "sample_token");
-        return T.sample.i64(T.sample.at(st, "sample_annotation '" + T.sample_annotation.str(a, "token") + "'"),
-                            "timestamp");
+        return T.sample.i64(
+            T.sample.at(st, "sample_annotation '" + T.sample_annotation.str(a, "token") + "'"), "timestamp");
       };
       auto it = anns_of_sample.find(k.sample_token);
       if (it != anns_of_sample.end()) {
@@ -249,7 +271,9 @@ void NuScenesSource::open(StageContext& ctx) {
           AnnotatedObject o;
           o.instance_id = T.sample_annotation.str(a, "instance_token");
           const Json& inst = T.instance.at(o.instance_id, ref);
-          o.category = T.category.str(T.category.at(T.instance.str(inst, "category_token"), "instance '" + o.instance_id + "'"), "name");
+          o.category = T.category.str(
+              T.category.at(T.instance.str(inst, "category_token"), "instance '" + o.instance_id + "'"),
+              "name");
           o.label = map_label(o.category, label_map);
           const cv::Vec3d c_world = vec3(T.sample_annotation.nums(a, "translation", 3));
           o.center_ego = R_ew * (c_world - k.t_world_ego);
@@ -259,7 +283,8 @@ void NuScenesSource::open(StageContext& ctx) {
           o.num_points = static_cast<int>(T.sample_annotation.i64(a, "num_lidar_pts") +
                                           T.sample_annotation.i64(a, "num_radar_pts"));
           // The devkit's box_velocity: neighbouring annotations of the instance, centred when both exist.
-          const std::string prev = T.sample_annotation.str(a, "prev"), next = T.sample_annotation.str(a, "next");
+          const std::string prev = T.sample_annotation.str(a, "prev"),
+                            next = T.sample_annotation.str(a, "next");
           if (!prev.empty() || !next.empty()) {
             const Json& first = prev.empty() ? a : T.sample_annotation.at(prev, ref + " (prev)");
             const Json& last = next.empty() ? a : T.sample_annotation.at(next, ref + " (next)");
@@ -286,9 +311,10 @@ void NuScenesSource::open(StageContext& ctx) {
   if (images_required_)
     for (const KeyFrame& k : frames_)
       if (!fs::exists(dataroot_ / k.filename))
-        throw Error("nuScenes image '" + (dataroot_ / k.filename).string() + "' (sample_data '" + k.sample_data_token +
-                    "') does not exist");
-  ctx.log(LogLevel::kInfo, "nuScenes " + version + ": " + std::to_string(frames_.size()) + " " + channel + " keyframes");
+        throw Error("nuScenes image '" + (dataroot_ / k.filename).string() + "' (sample_data '" +
+                    k.sample_data_token + "') does not exist");
+  ctx.log(LogLevel::kInfo,
+          "nuScenes " + version + ": " + std::to_string(frames_.size()) + " " + channel + " keyframes");
 }
 
 bool NuScenesSource::next(StageContext& /*ctx*/, Outputs& out) {
@@ -298,16 +324,18 @@ bool NuScenesSource::next(StageContext& /*ctx*/, Outputs& out) {
   cv::Mat img;
   if (fs::exists(file)) {
     img = cv::imread(file.string(), cv::IMREAD_COLOR);
-    if (img.empty()) throw Error("nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) + ") cannot be decoded");
+    if (img.empty())
+      throw Error("nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) +
+                  ") cannot be decoded");
   } else if (images_required_) {
     throw Error("nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) + ") does not exist");
   } else {
     img = cv::Mat(k.camera.height, k.camera.width, CV_8UC3, cv::Scalar::all(0));
   }
   if (img.cols != k.camera.width || img.rows != k.camera.height)
-    throw Error("nuScenes image '" + file.string() + "' is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                " but sample_data '" + k.sample_data_token + "' records " + std::to_string(k.camera.width) + "x" +
-                std::to_string(k.camera.height));
+    throw Error("nuScenes image '" + file.string() + "' is " + std::to_string(img.cols) + "x" +
+                std::to_string(img.rows) + " but sample_data '" + k.sample_data_token + "' records " +
+                std::to_string(k.camera.width) + "x" + std::to_string(k.camera.height));
   Frame f;
   f.index = static_cast<int64_t>(pos_);
   f.timestamp = k.t;

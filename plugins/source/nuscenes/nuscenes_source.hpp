@@ -1,4 +1,5 @@
-// nuScenes keyframe source: camera images with intrinsics, mounting, ego poses and 3D annotations in the ego frame.
+// nuScenes keyframe source: camera images with intrinsics, mounting, ego poses and 3D annotations in the ego
+// frame.
 #pragma once
 
 #include <filesystem>

@@ -24,11 +24,13 @@ Table Table::load(const fs::path& file) {
     if (auto p = what.find(tag); p != std::string::npos) what = what.substr(p + tag.size());
     throw Error("nuScenes table '" + file.string() + "': invalid JSON: " + what);
   }
-  if (!t.records_.is_array()) throw Error("nuScenes table '" + file.string() + "': expected a JSON list of records");
+  if (!t.records_.is_array())
+    throw Error("nuScenes table '" + file.string() + "': expected a JSON list of records");
   for (size_t i = 0; i < t.records_.size(); ++i) {
     const Json& r = t.records_[i];
     if (!r.is_object() || !r.contains("token") || !r["token"].is_string())
-      throw Error("nuScenes table '" + file.string() + "': record " + std::to_string(i) + " has no string 'token'");
+      throw Error("nuScenes table '" + file.string() + "': record " + std::to_string(i) +
+                  " has no string 'token'");
     t.index_.emplace(r["token"].get<std::string>(), i);
   }
   return t;
@@ -37,13 +39,14 @@ Table Table::load(const fs::path& file) {
 const Json& Table::at(const std::string& token, const std::string& referenced_by) const {
   auto it = index_.find(token);
   if (it == index_.end())
-    throw Error("nuScenes table '" + file_.string() + "': no record with token '" + token + "' (referenced by " +
-                referenced_by + ")");
+    throw Error("nuScenes table '" + file_.string() + "': no record with token '" + token +
+                "' (referenced by " + referenced_by + ")");
   return records_[it->second];
 }
 
 void Table::bad_field(const Json& rec, const char* name, const char* type) const {
-  const std::string token = rec.contains("token") && rec["token"].is_string() ? rec["token"].get<std::string>() : "?";
+  const std::string token =
+      rec.contains("token") && rec["token"].is_string() ? rec["token"].get<std::string>() : "?";
   throw Error("nuScenes table '" + file_.string() + "': record '" + token + "': field '" + name +
               "' is missing or not " + type);
 }
@@ -70,8 +73,10 @@ bool Table::boolean(const Json& rec, const char* name) const {
 }
 std::vector<double> Table::nums(const Json& rec, const char* name, size_t expected) const {
   auto it = rec.find(name);
-  const std::string type = expected ? "a list of " + std::to_string(expected) + " numbers" : "a list of numbers";
-  if (it == rec.end() || !it->is_array() || (expected && it->size() != expected)) bad_field(rec, name, type.c_str());
+  const std::string type =
+      expected ? "a list of " + std::to_string(expected) + " numbers" : "a list of numbers";
+  if (it == rec.end() || !it->is_array() || (expected && it->size() != expected))
+    bad_field(rec, name, type.c_str());
   std::vector<double> v;
   for (const Json& x : *it) {
     if (!x.is_number()) bad_field(rec, name, type.c_str());

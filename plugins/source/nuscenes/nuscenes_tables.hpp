@@ -44,8 +44,10 @@ cv::Matx33d quaternion_to_matrix(const std::vector<double>& wxyz);
 
 // The tables this source needs. log, attribute, visibility and map are not read.
 struct Tables {
-  Table scene, sample, sample_data, sample_annotation, ego_pose, calibrated_sensor, sensor, instance, category;
-  // Loads <dataroot>/<version>/<name>.json; `with_annotations` = false skips sample_annotation/instance/category.
+  Table scene, sample, sample_data, sample_annotation, ego_pose, calibrated_sensor, sensor, instance,
+      category;
+  // Loads <dataroot>/<version>/<name>.json; `with_annotations` = false skips
+  // sample_annotation/instance/category.
   static Tables load(const std::filesystem::path& table_dir, bool with_annotations);
 };
 

@@ -4,16 +4,18 @@
 #include <algorithm>
 #include <cmath>
 
+#include <yaml-cpp/yaml.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
-#include <yaml-cpp/yaml.h>
 
 namespace hf::source {
 
 namespace fs = std::filesystem;
 
 namespace {
-std::string size_str(cv::Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
+std::string size_str(cv::Size s) {
+  return std::to_string(s.width) + "x" + std::to_string(s.height);
+}
 }  // namespace
 
 CalibrationFile load_calibration_file(const fs::path& yaml) {
@@ -65,7 +67,8 @@ std::vector<ParamSpec> CameraSetup::params() {
   return {
       ParamSpec::path("calibration", "")
           .describe("calibration YAML (from `hazardforge calibrate`); overrides fx/fy/cx/cy/hfov_deg"),
-      ParamSpec::number("fx", 0.0).range(0, 1e6).describe("focal length x in px at the native size (0 = unset)"),
+      ParamSpec::number("fx", 0.0).range(0, 1e6).describe(
+          "focal length x in px at the native size (0 = unset)"),
       ParamSpec::number("fy", 0.0).range(0, 1e6).describe("focal length y in px (0 = fx)"),
       ParamSpec::number("cx", 0.0).range(0, 1e6).describe("principal point x in px (0 = image centre)"),
       ParamSpec::number("cy", 0.0).range(0, 1e6).describe("principal point y in px (0 = image centre)"),
@@ -74,12 +77,18 @@ std::vector<ParamSpec> CameraSetup::params() {
           .describe("horizontal field of view when no calibration/fx is given (0 = assume 60 deg, warned)"),
       ParamSpec::number("camera_height", 1.5).range(0.1, 10).describe("camera height above the ground, m"),
       ParamSpec::number("camera_pitch_deg", 0.0).range(-45, 45).describe("downward pitch of the camera, deg"),
-      ParamSpec::number("camera_forward", 1.5).range(-10, 10).describe("camera position ahead of the rear axle, m"),
+      ParamSpec::number("camera_forward", 1.5)
+          .range(-10, 10)
+          .describe("camera position ahead of the rear axle, m"),
       ParamSpec::boolean("undistort", true)
           .describe("undistort frames with the calibrated K when the calibration has distortion"),
-      ParamSpec::integer("resize_width", 0).range(0, 16384).describe("output width (0 = keep; aspect kept if only one is set)"),
+      ParamSpec::integer("resize_width", 0)
+          .range(0, 16384)
+          .describe("output width (0 = keep; aspect kept if only one is set)"),
       ParamSpec::integer("resize_height", 0).range(0, 16384).describe("output height (0 = keep)"),
-      ParamSpec::number("ego_speed_mps", -1.0).range(-1, 100).describe("constant ego speed, m/s (-1 = unknown)"),
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .range(-1, 100)
+          .describe("constant ego speed, m/s (-1 = unknown)"),
   };
 }
 
@@ -129,7 +138,8 @@ void CameraSetup::init(cv::Size native, const std::string& what, StageContext& c
       if (std::abs(ra / rb - 1.0) > 0.01)
         throw Error("calibration '" + calib_path_.string() + "' is for " + size_str({c.width, c.height}) +
                     " images but " + what + " is " + size_str(native) + " (different aspect ratio)");
-      ctx.log(LogLevel::kInfo, "scaling calibration " + size_str({c.width, c.height}) + " to " + size_str(native));
+      ctx.log(LogLevel::kInfo,
+              "scaling calibration " + size_str({c.width, c.height}) + " to " + size_str(native));
       c = c.scaled_to(w, h);
     }
     fx = c.fx, fy = c.fy, cx = c.cx, cy = c.cy;
@@ -147,9 +157,10 @@ void CameraSetup::init(cv::Size native, const std::string& what, StageContext& c
     if (hfov <= 0) {
       hfov = kAssumedHfovDeg;
       intrinsics_source_ = "assumed_hfov";
-      ctx.log(LogLevel::kWarning, "no calibration, fx or hfov_deg given for " + what + ": assuming a " +
-                                      std::to_string(static_cast<int>(kAssumedHfovDeg)) +
-                                      " deg horizontal field of view; metric distances rest on that assumption");
+      ctx.log(LogLevel::kWarning,
+              "no calibration, fx or hfov_deg given for " + what + ": assuming a " +
+                  std::to_string(static_cast<int>(kAssumedHfovDeg)) +
+                  " deg horizontal field of view; metric distances rest on that assumption");
     }
     fx = fy = (w / 2.0) / std::tan(hfov * CV_PI / 360.0);
     cx = w / 2.0;
@@ -200,7 +211,8 @@ cv::Mat CameraSetup::prepare(const cv::Mat& native, const std::string& what) con
   if (img.cols != camera_.width || img.rows != camera_.height) {
     cv::Mat r;
     const bool shrink = camera_.width < img.cols;
-    cv::resize(img, r, cv::Size(camera_.width, camera_.height), 0, 0, shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
+    cv::resize(img, r, cv::Size(camera_.width, camera_.height), 0, 0,
+               shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
     img = r;
   }
   // Sources hand out frames that nobody else writes to; a clone detaches decoder-owned buffers.

@@ -17,8 +17,9 @@ std::vector<fs::path> list_matching(const fs::path& folder, const std::string& p
   for (const auto& e : fs::directory_iterator(folder))
     if (e.is_regular_file() && fnmatch(pattern.c_str(), e.path().filename().c_str(), 0) == 0)
       files.push_back(e.path());
-  std::sort(files.begin(), files.end(),
-            [](const fs::path& a, const fs::path& b) { return a.filename().string() < b.filename().string(); });
+  std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
+    return a.filename().string() < b.filename().string();
+  });
   return files;
 }
 
@@ -31,7 +32,9 @@ ComponentInfo ImageSequenceSource::describe() {
       ParamSpec::path("path", std::nullopt).describe("folder of images"),
       ParamSpec::string("pattern", "*.png").describe("file name glob (fnmatch), e.g. *.jpg"),
       ParamSpec::number("fps", 10.0).range(0.001, 1000).describe("frame rate for timestamps"),
-      ParamSpec::integer("start_frame", 0).range(0, std::nullopt).describe("index of the first image to emit"),
+      ParamSpec::integer("start_frame", 0)
+          .range(0, std::nullopt)
+          .describe("index of the first image to emit"),
       ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("images to emit (-1 = all)"),
   };
   for (ParamSpec& p : CameraSetup::params()) i.params.push_back(std::move(p));
@@ -43,7 +46,8 @@ void ImageSequenceSource::open(StageContext& ctx) {
   const fs::path folder = p.get_path("path");
   const std::string pattern = p.get_string("pattern");
   files_ = list_matching(folder, pattern);
-  if (files_.empty()) throw Error("image folder '" + folder.string() + "' has no file matching '" + pattern + "'");
+  if (files_.empty())
+    throw Error("image folder '" + folder.string() + "' has no file matching '" + pattern + "'");
   const auto start = static_cast<size_t>(p.get_int("start_frame"));
   if (start >= files_.size())
     throw Error("image folder '" + folder.string() + "' has " + std::to_string(files_.size()) +
@@ -59,7 +63,8 @@ bool ImageSequenceSource::next(StageContext& ctx, Outputs& out) {
   if (pos_ >= files_.size()) return false;
   const fs::path& file = files_[pos_];
   cv::Mat raw = cv::imread(file.string(), cv::IMREAD_COLOR);
-  if (raw.empty()) throw Error("image '" + file.string() + "' (frame " + std::to_string(pos_) + ") cannot be read");
+  if (raw.empty())
+    throw Error("image '" + file.string() + "' (frame " + std::to_string(pos_) + ") cannot be read");
   if (!setup_.initialised()) setup_.init(raw.size(), "image '" + file.string() + "'", ctx);
   Frame f;
   f.index = static_cast<int64_t>(pos_);

@@ -28,6 +28,7 @@ class ImageSequenceSource : public SourceStage {
 };
 
 // Files of `folder` whose names match the glob `pattern` (fnmatch), sorted by name.
-std::vector<std::filesystem::path> list_matching(const std::filesystem::path& folder, const std::string& pattern);
+std::vector<std::filesystem::path> list_matching(const std::filesystem::path& folder,
+                                                 const std::string& pattern);
 
 }  // namespace hf::source

@@ -11,8 +11,10 @@ namespace fs = std::filesystem;
 ComponentInfo VideoSource::describe() {
   ComponentInfo i = base_info("video", "frames of a video file (OpenCV/FFmpeg) with a pinhole camera model");
   i.doc =
-      "Decodes a video file. Timestamps are emitted index / fps (fps from the file unless set). The camera model "
-      "comes from a calibration file, fx/fy/cx/cy, or a horizontal FOV (60 deg assumed, with a warning). With "
+      "Decodes a video file. Timestamps are emitted index / fps (fps from the file unless set). The camera "
+      "model "
+      "comes from a calibration file, fx/fy/cx/cy, or a horizontal FOV (60 deg assumed, with a warning). "
+      "With "
       "a calibration that has distortion, frames are undistorted with the calibrated K and the model's "
       "distortion is cleared. Resizing scales the model.";
   i.params = {
@@ -48,7 +50,8 @@ void VideoSource::open(StageContext& ctx) {
     if (!cap_.grab())
       throw Error("video file '" + path_ + "' ends at frame " + std::to_string(k) + ", before start_frame " +
                   std::to_string(start_));
-  if (!cap_.grab()) throw Error("video file '" + path_ + "' has no decodable frame at frame " + std::to_string(start_));
+  if (!cap_.grab())
+    throw Error("video file '" + path_ + "' has no decodable frame at frame " + std::to_string(start_));
   if (!cap_.retrieve(pending_) || pending_.empty())
     throw Error("video file '" + path_ + "': frame " + std::to_string(start_) + " cannot be decoded");
   setup_.init(pending_.size(), "video file '" + path_ + "'", ctx);
@@ -77,8 +80,9 @@ bool VideoSource::next(StageContext& ctx, Outputs& out) {
     // grab() false = end of stream; grab() true but retrieve() false = a frame that is there but broken.
     if (!cap_.grab()) {
       if (file_frames_ > 0 && file_frame < file_frames_ - 1)
-        ctx.log(LogLevel::kWarning, "video file '" + path_ + "' ended at frame " + std::to_string(file_frame) +
-                                        " although it reports " + std::to_string(file_frames_) + " frames");
+        ctx.log(LogLevel::kWarning, "video file '" + path_ + "' ended at frame " +
+                                        std::to_string(file_frame) + " although it reports " +
+                                        std::to_string(file_frames_) + " frames");
       return false;
     }
     if (!cap_.retrieve(raw) || raw.empty())
@@ -98,7 +102,8 @@ bool VideoSource::next(StageContext& ctx, Outputs& out) {
   return true;
 }
 
-// ---- CameraSource -------------------------------------------------------------------------------------------
+// ---- CameraSource
+// -------------------------------------------------------------------------------------------
 
 ComponentInfo CameraSource::describe() {
   ComponentInfo i = base_info("camera", "frames of a live camera device or stream URL");
@@ -108,7 +113,9 @@ ComponentInfo CameraSource::describe() {
   i.params = {
       ParamSpec::string("device", "").describe("device index (\"0\") or path (/dev/video0)"),
       ParamSpec::string("url", "").describe("stream URL, e.g. rtsp://host/stream"),
-      ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = until stopped)"),
+      ParamSpec::integer("max_frames", -1)
+          .range(-1, std::nullopt)
+          .describe("frames to emit (-1 = until stopped)"),
   };
   for (ParamSpec& p : CameraSetup::params()) i.params.push_back(std::move(p));
   return i;
@@ -129,7 +136,8 @@ void CameraSource::open(StageContext& ctx) {
     what_ = "stream '" + url + "'";
     ok = cap_.open(url, cv::CAP_FFMPEG);
   }
-  if (!ok || !cap_.isOpened()) throw Error("cannot open " + what_ + ": no such device or the stream is unreachable");
+  if (!ok || !cap_.isOpened())
+    throw Error("cannot open " + what_ + ": no such device or the stream is unreachable");
 }
 
 bool CameraSource::next(StageContext& ctx, Outputs& out) {
@@ -138,7 +146,8 @@ bool CameraSource::next(StageContext& ctx, Outputs& out) {
   cv::Mat raw;
   if (!cap_.read(raw) || raw.empty()) {
     // A live stream that stops is the end of the run, not corrupt input; say so and end cleanly.
-    ctx.log(LogLevel::kWarning, what_ + " delivered no frame after " + std::to_string(emitted_) + " frames; stopping");
+    ctx.log(LogLevel::kWarning,
+            what_ + " delivered no frame after " + std::to_string(emitted_) + " frames; stopping");
     return false;
   }
   const auto now = std::chrono::steady_clock::now();
