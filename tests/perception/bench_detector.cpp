@@ -55,8 +55,8 @@ int main(int argc, char** argv) {
     std::cerr << "bench_detector: cannot read image '" << image_path << "'\n";
     return 1;
   }
-  benchmark::AddCustomContext("image", image_path + " (" + std::to_string(image.cols) + "x" +
-                                           std::to_string(image.rows) + ")");
+  benchmark::AddCustomContext(
+      "image", image_path + " (" + std::to_string(image.cols) + "x" + std::to_string(image.rows) + ")");
   benchmark::AddCustomContext("cv_threads", std::to_string(threads));
 
   std::vector<std::shared_ptr<hf::YoloDetector>> detectors;

@@ -22,7 +22,8 @@ Frame frame_with(std::vector<AnnotatedObject> objs) {
   return f;
 }
 
-AnnotatedObject car(cv::Vec3d centre, cv::Vec3d lwh = {4, 2, 1.5}, double yaw = 0.0, std::string label = "car") {
+AnnotatedObject car(cv::Vec3d centre, cv::Vec3d lwh = {4, 2, 1.5}, double yaw = 0.0,
+                    std::string label = "car") {
   AnnotatedObject o;
   o.label = std::move(label);
   o.category = "vehicle.car";
@@ -142,9 +143,10 @@ TEST(GroundTruthDetector, FrameWithoutAnnotationsIsAnError) {
     det.detect_frame(f);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "ground_truth detector: frame 3 (synthetic) carries no annotations; this detector needs a source "
-              "that provides them (or set require_annotations: false)");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "ground_truth detector: frame 3 (synthetic) carries no annotations; this detector needs a source "
+        "that provides them (or set require_annotations: false)");
   }
   GroundTruthDetector::Config c;
   c.require_annotations = false;

@@ -119,7 +119,7 @@ TEST_F(KittiTracking, CentroidWithPredictionKeepsIdentities) {
   const IdStats s = run_sequences<CentroidTracker>(CentroidTracker::Config{});
   print("centroid (greedy, predict)", s);
   EXPECT_EQ(s.detections, 17786);
-  EXPECT_LE(s.switches, 40);  // measured 29
+  EXPECT_LE(s.switches, 40);   // measured 29
   EXPECT_LE(s.extra_ids, 30);  // measured 21
 }
 
@@ -143,7 +143,7 @@ TEST_F(KittiTracking, SortKeepsIdentitiesButFragments) {
   print("sort (iou 0.3, max_age 1)", s);
   EXPECT_LE(s.switches, 135);  // measured 102
   // SORT restarts a track whenever predicted and detected boxes overlap by less than iou_threshold: 459 of
-  // the 17341 consecutive label pairs do, even with exact boxes (fast near objects, truncation at the border).
+  // the 17341 consecutive label pairs do, even with exact boxes (fast near objects, truncation at the edge).
   EXPECT_LE(s.extra_ids, 650);  // measured 505
 }
 

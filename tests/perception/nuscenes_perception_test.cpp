@@ -65,7 +65,9 @@ double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
   return inter / (double(a.area()) + double(b.area()) - inter);
 }
 
-bool vehicle(const std::string& l) { return l == "car" || l == "truck" || l == "bus"; }
+bool vehicle(const std::string& l) {
+  return l == "car" || l == "truck" || l == "bus";
+}
 
 struct Overlap {
   int n = 0;
@@ -98,7 +100,8 @@ Overlap overlap(const std::string& model, const std::string& label, int min_poin
   o.n = static_cast<int>(best.size());
   if (o.n == 0) return o;
   o.mean = std::accumulate(best.begin(), best.end(), 0.0) / o.n;
-  o.matched_half = static_cast<double>(std::count_if(best.begin(), best.end(), [](double x) { return x > 0.5; })) / o.n;
+  o.matched_half =
+      static_cast<double>(std::count_if(best.begin(), best.end(), [](double x) { return x > 0.5; })) / o.n;
   return o;
 }
 
@@ -164,7 +167,8 @@ TEST_F(NuScenesPerception, DetectionsOverlapProjectedAnnotations) {
   std::vector<double> best;
   for (size_t f = 0; f < scene_frames().size(); ++f)
     for (const Detection& g : projected()[f].items) {
-      if (g.label != "car" || scene_frames()[f].annotations->objects[g.annotation_index].num_points < 10) continue;
+      if (g.label != "car" || scene_frames()[f].annotations->objects[g.annotation_index].num_points < 10)
+        continue;
       cv::Rect2f moved = g.box;
       moved.x += moved.width;
       double b = 0.0;

@@ -22,7 +22,7 @@ struct Obj {
   int annotation = -1;
 };
 
-// Feeds `frames` (list of per-frame objects, timestamps `times`) through a tracker stage and returns its tracks.
+// Feeds `frames` (per-frame objects at timestamps `times`) through a tracker stage; returns its tracks.
 template <class T>
 std::vector<Tracks> run_tracker(const std::string& params, const std::vector<std::vector<Obj>>& frames,
                                 const std::vector<double>& times) {
@@ -74,7 +74,8 @@ const Track* find_id(const Tracks& t, int64_t id) {
   return nullptr;
 }
 
-// ---- Hungarian ------------------------------------------------------------------------------------------------
+// ---- Hungarian
+// ---------------------------------------------------------------------------------------------
 
 TEST(Hungarian, SquareOptimum) {
   // Greedy on the cheapest entry takes (0,0) = 1 and ends at 1 + 9 + 2 = 12; the optimum is
@@ -112,7 +113,8 @@ TEST(Hungarian, ForbiddenPairsAreNeverReturned) {
   EXPECT_TRUE(tracking::hungarian({}).empty());
 }
 
-// ---- Centroid tracker -----------------------------------------------------------------------------------------
+// ---- Centroid tracker
+// --------------------------------------------------------------------------------------
 
 // Two cars on the same line driving head-on through each other: their centres coincide at frame 10.
 std::vector<std::vector<Obj>> head_on_crossing(int n = 21, double y_a = 300, double y_b = 300) {
@@ -144,7 +146,8 @@ TEST(CentroidTracker, HeadOnCrossingKeepsIdsWithPrediction) {
   const auto frames = head_on_crossing();
   for (const char* assoc : {"greedy", "hungarian"}) {
     SCOPED_TRACE(assoc);
-    const auto out = run_tracker<CentroidTracker>(std::string("association: ") + assoc, frames, regular_times(21));
+    const auto out =
+        run_tracker<CentroidTracker>(std::string("association: ") + assoc, frames, regular_times(21));
     expect_no_swap(out, 21, 300, 300);
     EXPECT_EQ(out.back().items.size(), 2u);
   }
@@ -152,7 +155,8 @@ TEST(CentroidTracker, HeadOnCrossingKeepsIdsWithPrediction) {
 
 TEST(CentroidTracker, PassingInAdjacentLanesKeepsIdsWithoutPrediction) {
   // The original method (last centre, no prediction) separates objects that pass 40 px apart.
-  const auto out = run_tracker<CentroidTracker>("predict: false", head_on_crossing(21, 300, 340), regular_times(21));
+  const auto out =
+      run_tracker<CentroidTracker>("predict: false", head_on_crossing(21, 300, 340), regular_times(21));
   expect_no_swap(out, 21, 300, 340);
 }
 
@@ -168,14 +172,14 @@ TEST(CentroidTracker, ClassGateSeparatesCarAndPersonAtTheSamePlace) {
   EXPECT_EQ(find_near(out[1], 330, 300)->id, car);
   EXPECT_EQ(find_near(out[1], 330, 300)->label, "car");
   // Without the class gate the person's detection (now at the car's old place) takes the car's id.
-  const auto swapped = run_tracker<CentroidTracker>("predict: false\nmatch_class: false", frames, regular_times(2));
+  const auto swapped =
+      run_tracker<CentroidTracker>("predict: false\nmatch_class: false", frames, regular_times(2));
   EXPECT_EQ(find_near(swapped[1], 300, 300)->id, car);
 }
 
 TEST(CentroidTracker, ClassGroupsKeepACarThatFlickersToTruck) {
-  std::vector<std::vector<Obj>> frames = {{{box_at(300, 300), "car"}},
-                                          {{box_at(310, 300), "truck"}},
-                                          {{box_at(320, 300), "car"}}};
+  std::vector<std::vector<Obj>> frames = {
+      {{box_at(300, 300), "car"}}, {{box_at(310, 300), "truck"}}, {{box_at(320, 300), "car"}}};
   auto out = run_tracker<CentroidTracker>("", frames, regular_times(3));
   ASSERT_EQ(out[2].items.size(), 1u);
   EXPECT_EQ(out[2].items[0].id, 1);
@@ -268,7 +272,8 @@ TEST(CentroidTracker, GateRefusesFarJumpsAndLabelIsTheMajority) {
                                           {{box_at(240, 100), "truck"}},
                                           {{box_at(240, 100), "car"}},
                                           {{box_at(390, 100), "car"}}};
-  const auto out = run_tracker<CentroidTracker>("predict: false\nmatch_class: false", frames, regular_times(4));
+  const auto out =
+      run_tracker<CentroidTracker>("predict: false\nmatch_class: false", frames, regular_times(4));
   EXPECT_EQ(out[1].items.size(), 1u);
   EXPECT_EQ(out[1].items[0].id, 1);
   EXPECT_EQ(out[2].items[0].label, "car");  // car 2 : truck 1
@@ -296,11 +301,12 @@ TEST(CentroidTracker, NonIncreasingTimestampIsAnError) {
   }
 }
 
-// ---- SORT -----------------------------------------------------------------------------------------------------
+// ---- SORT
+// --------------------------------------------------------------------------------------------------
 
 TEST(SortTracker, KalmanPredictionCarriesTheTrackThroughAGap) {
-  // 40 px wide box moving 15 px/frame; absent for 4 frames. After the gap it has moved 75 px: the last seen box
-  // no longer overlaps it at all, so only the constant-velocity prediction can re-associate it.
+  // 40 px wide box moving 15 px/frame; absent for 4 frames. After the gap it has moved 75 px: the last seen
+  // box no longer overlaps it at all, so only the constant-velocity prediction can re-associate it.
   const int n = 24, gap_start = 12, gap = 4;
   std::vector<std::vector<Obj>> frames;
   for (int f = 0; f < n; ++f) {
@@ -337,7 +343,8 @@ TEST(SortTracker, WithoutPredictionTheSameGapWouldBreakTheTrack) {
   const int n = 24;
   std::vector<std::vector<Obj>> frames;
   for (int f = 0; f < n; ++f)
-    frames.push_back(f >= 12 && f < 16 ? std::vector<Obj>{} : std::vector<Obj>{{box_at(100 + 15.0 * f, 300, 40, 80)}});
+    frames.push_back(f >= 12 && f < 16 ? std::vector<Obj>{}
+                                       : std::vector<Obj>{{box_at(100 + 15.0 * f, 300, 40, 80)}});
   const auto out = run_tracker<SortTracker>("max_age: 2", frames, regular_times(n));
   EXPECT_TRUE(out[12].items.empty());  // SORT emits only tracks matched this frame
   // Reborn at frame 16; confirmed after min_hits = 3 consecutive hits (frame 18).

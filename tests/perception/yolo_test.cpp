@@ -16,15 +16,21 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path v8_model() { return test::shared_model("yolov8n/yolov8n_deq_640x384.onnx"); }
-fs::path yolox_model() { return test::shared_model("yolox_nano/yolox_nano.onnx"); }
+fs::path v8_model() {
+  return test::shared_model("yolov8n/yolov8n_deq_640x384.onnx");
+}
+fs::path yolox_model() {
+  return test::shared_model("yolox_nano/yolox_nano.onnx");
+}
 
 double iou(const cv::Rect2d& a, const cv::Rect2d& b) {
   const double inter = (a & b).area();
   return inter / (a.area() + b.area() - inter);
 }
 
-cv::Rect2d corners(double x0, double y0, double x1, double y1) { return {x0, y0, x1 - x0, y1 - y0}; }
+cv::Rect2d corners(double x0, double y0, double x1, double y1) {
+  return {x0, y0, x1 - x0, y1 - y0};
+}
 
 // Best IoU of any detection with this label against a hand-read box.
 double best_iou(const std::vector<Detection>& dets, const cv::Rect2d& truth, const std::string& label) {
@@ -54,7 +60,8 @@ YoloDetector load(const ModelCase& m) {
   return d;
 }
 
-// ---- loading and configuration --------------------------------------------------------------------------------
+// ---- loading and configuration
+// -----------------------------------------------------------------------------
 
 TEST(YoloDetector, SizeFromFileName) {
   EXPECT_EQ(YoloDetector::size_from_file_name("/m/yolov8n_deq_640x384.onnx"), cv::Size(640, 384));
@@ -87,7 +94,8 @@ TEST(YoloDetector, MissingModelNamesThePath) {
     r.run();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("yolo: model '/nonexistent/dir/model.onnx' does not exist or is not a file"),
+    EXPECT_NE(std::string(e.what()).find(
+                  "yolo: model '/nonexistent/dir/model.onnx' does not exist or is not a file"),
               std::string::npos)
         << e.what();
   }
@@ -124,8 +132,9 @@ TEST(YoloDetector, WrongInputSizeOrLayoutIsRefused) {
     d.load(c);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("output shape [1,84,5040] read as yolox [1,N,5+C] gives 5035 classes"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("output shape [1,84,5040] read as yolox [1,N,5+C] gives 5035 classes"),
+        std::string::npos)
         << e.what();
   }
   c.type = YoloDetector::ModelType::kAuto;
@@ -141,7 +150,8 @@ TEST(YoloDetector, WrongInputSizeOrLayoutIsRefused) {
     d.load(c);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), "yolo: parameter 'classes': 'cars' is not a COCO class name; did you mean 'car'?");
+    EXPECT_EQ(std::string(e.what()),
+              "yolo: parameter 'classes': 'cars' is not a COCO class name; did you mean 'car'?");
   }
 }
 
@@ -173,7 +183,8 @@ TEST(YoloDetector, PreprocessingFollowsEachFamily) {
   EXPECT_FLOAT_EQ(px(0, 370, 100), 114.f);
 }
 
-// ---- real frames ----------------------------------------------------------------------------------------------
+// ---- real frames
+// -------------------------------------------------------------------------------------------
 
 // Udacity highway test1.jpg (1280x720): the black saloon ahead-right and the white saloon in the right lane,
 // boxes read off the image at 2x zoom.
@@ -254,7 +265,8 @@ TEST(YoloDetector, KittiRawLeadCarInEveryFifthFrame) {
     // and whose bottom is in the lower half.
     bool lead = false;
     for (const Detection& d : det.detect_image(img))
-      lead |= d.label == "car" && std::abs(d.box.x + d.box.width / 2 - 621) < 120 && d.box.y + d.box.height > 280;
+      lead |=
+          d.label == "car" && std::abs(d.box.x + d.box.width / 2 - 621) < 120 && d.box.y + d.box.height > 280;
     EXPECT_TRUE(lead) << name;
     ++frames;
   }
@@ -296,7 +308,8 @@ TEST(YoloDetector, FrameWithoutImageIsAnError) {
     r.run();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("yolo: frame 7 (clip.mp4) has no image"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("yolo: frame 7 (clip.mp4) has no image"), std::string::npos)
+        << e.what();
   }
 }
 

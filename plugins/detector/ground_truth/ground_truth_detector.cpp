@@ -26,8 +26,8 @@ ComponentInfo GroundTruthDetector::describe() {
   ComponentInfo i = Detector::base_info("ground_truth", "dataset 3D annotations projected into image boxes");
   i.doc =
       "Projects Frame::annotations (3D boxes in the ego frame) with the frame's camera into 2D boxes, so a "
-      "pipeline can run with perfect detections and its estimation and metric errors can be measured apart from "
-      "perception errors. One Detections packet per frame, stamped with the frame's timestamp.";
+      "pipeline can run with perfect detections and its estimation and metric errors can be measured apart "
+      "from perception errors. One Detections packet per frame, stamped with the frame's timestamp.";
   i.params = {
       ParamSpec::string_list("classes", {"car", "truck", "bus", "person", "bicycle", "motorcycle"})
           .describe("project labels (AnnotatedObject::label) to keep"),
@@ -36,10 +36,12 @@ ComponentInfo GroundTruthDetector::describe() {
           .describe("drop boxes whose area inside the image is below this (px^2); zero-area boxes always go"),
       ParamSpec::integer("min_points", 1)
           .range(-1, 1000000)
-          .describe("drop objects with fewer lidar+radar points (nuScenes); unknown counts pass; -1 = ignore"),
+          .describe(
+              "drop objects with fewer lidar+radar points (nuScenes); unknown counts pass; -1 = ignore"),
       ParamSpec::number("max_distance", 0.0)
           .range(0, 100000)
-          .describe("drop objects whose centre is farther from the camera on the ground plane (m); 0 = no limit"),
+          .describe(
+              "drop objects whose centre is farther from the camera on the ground plane (m); 0 = no limit"),
       ParamSpec::boolean("prefer_dataset_boxes", true)
           .describe("use the dataset's own image box when it has one (KITTI) instead of projecting"),
       ParamSpec::boolean("require_annotations", true)
@@ -60,9 +62,12 @@ void GroundTruthDetector::open(StageContext& ctx) {
   configure(c);
 }
 
-Detections GroundTruthDetector::detect(StageContext& /*ctx*/, const Frame& frame) { return detect_frame(frame); }
+Detections GroundTruthDetector::detect(StageContext& /*ctx*/, const Frame& frame) {
+  return detect_frame(frame);
+}
 
-std::optional<cv::Rect2d> GroundTruthDetector::project_box(const CameraModel& cam, const AnnotatedObject& obj) {
+std::optional<cv::Rect2d> GroundTruthDetector::project_box(const CameraModel& cam,
+                                                           const AnnotatedObject& obj) {
   const double c = std::cos(obj.yaw_ego), s = std::sin(obj.yaw_ego);
   const double hl = obj.size_lwh[0] / 2, hw = obj.size_lwh[1] / 2, hh = obj.size_lwh[2] / 2;
   // Corner k has signs (bit0: length, bit1: width, bit2: height); edges join corners one bit apart.
@@ -110,12 +115,14 @@ Detections GroundTruthDetector::detect_frame(const Frame& frame) const {
   out.detector = "ground_truth";
   const std::string what = "ground_truth detector: frame " + std::to_string(frame.index) +
                            (frame.source_id.empty() ? "" : " (" + frame.source_id + ")");
-  cv::Size size = frame.image.empty() ? cv::Size(frame.camera.width, frame.camera.height) : frame.image.size();
+  cv::Size size =
+      frame.image.empty() ? cv::Size(frame.camera.width, frame.camera.height) : frame.image.size();
   out.image_size = size;
   if (!frame.annotations) {
     if (cfg_.require_annotations)
-      throw Error(what + " carries no annotations; this detector needs a source that provides them "
-                         "(or set require_annotations: false)");
+      throw Error(what +
+                  " carries no annotations; this detector needs a source that provides them "
+                  "(or set require_annotations: false)");
     return out;
   }
   if (!frame.camera.valid()) throw Error(what + " has no valid camera model to project annotations with");

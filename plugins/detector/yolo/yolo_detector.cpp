@@ -36,6 +36,7 @@ std::string shape_str(const cv::Mat& m) {
 }  // namespace
 
 const std::vector<std::string>& coco_class_names() {
+  // clang-format off
   static const std::vector<std::string> names = {
       "person",        "bicycle",      "car",           "motorcycle",    "airplane",     "bus",
       "train",         "truck",        "boat",          "traffic light", "fire hydrant", "stop sign",
@@ -51,6 +52,7 @@ const std::vector<std::string>& coco_class_names() {
       "keyboard",      "cell phone",   "microwave",     "oven",          "toaster",      "sink",
       "refrigerator",  "book",         "clock",         "vase",          "scissors",     "teddy bear",
       "hair drier",    "toothbrush"};
+  // clang-format on
   return names;
 }
 
@@ -58,9 +60,9 @@ ComponentInfo YoloDetector::describe() {
   ComponentInfo i = Detector::base_info("yolo", "YOLOv8 / YOLOX ONNX detector on OpenCV DNN");
   i.doc =
       "Runs a COCO-80 YOLOv8 (Ultralytics layout [1,84,N]) or YOLOX (Megvii layout [1,N,85]) ONNX model with "
-      "OpenCV DNN on the CPU. Emits one Detections packet per frame, stamped with the frame's timestamp, with "
-      "boxes in the frame's pixels. Reports the inner timings preprocess, forward (net.forward() alone) and "
-      "postprocess, and records the model file in the run manifest.";
+      "OpenCV DNN on the CPU. Emits one Detections packet per frame, stamped with the frame's timestamp, "
+      "with boxes in the frame's pixels. Reports the inner timings preprocess, forward (net.forward() alone) "
+      "and postprocess, and records the model file in the run manifest.";
   i.params = {
       ParamSpec::path("model", "${HAZARDFORGE_SHARED}/models/yolov8n/yolov8n_deq_640x384.onnx")
           .describe("ONNX model file"),
@@ -74,13 +76,16 @@ ComponentInfo YoloDetector::describe() {
           .range(0, 8192)
           .describe("network input height, multiple of 32; 0 = `_WxH` in the model file name, else 640"),
       ParamSpec::number("conf_threshold", 0.25).range(0, 1).describe("minimum detection score"),
-      ParamSpec::number("nms_threshold", 0.45).range(0, 1).describe("IoU above which NMS suppresses a box (per class)"),
+      ParamSpec::number("nms_threshold", 0.45)
+          .range(0, 1)
+          .describe("IoU above which NMS suppresses a box (per class)"),
       ParamSpec::string_list("classes", {"person", "bicycle", "car", "motorcycle", "bus", "truck"})
           .describe("COCO class names to keep; empty = all 80"),
       ParamSpec::number("min_box_height", 0.0).range(0, 100000).describe("drop boxes shorter than this (px)"),
       ParamSpec::integer("threads", 0)
           .range(0, 1024)
-          .describe("cv::setNumThreads for the process (OpenCV's setting is global); 0 = leave OpenCV's default"),
+          .describe(
+              "cv::setNumThreads for the process (OpenCV's setting is global); 0 = leave OpenCV's default"),
   };
   return i;
 }
@@ -101,9 +106,13 @@ std::optional<cv::Size> YoloDetector::size_from_file_name(const std::filesystem:
   return found;
 }
 
-std::string YoloDetector::where() const { return "yolo: model '" + cfg_.model.string() + "'"; }
+std::string YoloDetector::where() const {
+  return "yolo: model '" + cfg_.model.string() + "'";
+}
 
-std::string YoloDetector::model_name() const { return cfg_.model.filename().string(); }
+std::string YoloDetector::model_name() const {
+  return cfg_.model.filename().string();
+}
 
 void YoloDetector::open(StageContext& ctx) {
   const Params& p = ctx.params();
@@ -119,14 +128,16 @@ void YoloDetector::open(StageContext& ctx) {
   c.threads = static_cast<int>(p.get_int("threads"));
   load(c);
   ctx.record_resource(cfg_.model);
-  ctx.log(LogLevel::kInfo, "yolo: " + model_name() + " as " + (type_ == ModelType::kYolov8 ? "yolov8" : "yolox") +
-                               " at " + std::to_string(input_.width) + "x" + std::to_string(input_.height));
+  ctx.log(LogLevel::kInfo, "yolo: " + model_name() + " as " +
+                               (type_ == ModelType::kYolov8 ? "yolov8" : "yolox") + " at " +
+                               std::to_string(input_.width) + "x" + std::to_string(input_.height));
 }
 
 void YoloDetector::load(const Config& cfg) {
   cfg_ = cfg;
   if (cfg_.model.empty()) throw Error("yolo: parameter 'model' is empty");
-  if (!std::filesystem::is_regular_file(cfg_.model)) throw Error(where() + " does not exist or is not a file");
+  if (!std::filesystem::is_regular_file(cfg_.model))
+    throw Error(where() + " does not exist or is not a file");
 
   // Classes to keep, validated against COCO so a typo is reported instead of silently detecting nothing.
   const auto& names = coco_class_names();
@@ -142,15 +153,15 @@ void YoloDetector::load(const Config& cfg) {
   }
 
   if ((cfg_.input_width == 0) != (cfg_.input_height == 0))
-    throw Error("yolo: set both input_width and input_height, or neither (got " + std::to_string(cfg_.input_width) +
-                "x" + std::to_string(cfg_.input_height) + ")");
+    throw Error("yolo: set both input_width and input_height, or neither (got " +
+                std::to_string(cfg_.input_width) + "x" + std::to_string(cfg_.input_height) + ")");
   if (cfg_.input_width > 0)
     input_ = cv::Size(cfg_.input_width, cfg_.input_height);
   else
     input_ = size_from_file_name(cfg_.model).value_or(cv::Size(kDefaultInput, kDefaultInput));
   if (input_.width <= 0 || input_.height <= 0 || input_.width % 32 || input_.height % 32)
-    throw Error(where() + ": input size " + std::to_string(input_.width) + "x" + std::to_string(input_.height) +
-                " is not a positive multiple of 32");
+    throw Error(where() + ": input size " + std::to_string(input_.width) + "x" +
+                std::to_string(input_.height) + " is not a positive multiple of 32");
 
   if (cfg_.threads > 0) cv::setNumThreads(cfg_.threads);
   try {
@@ -173,7 +184,8 @@ void YoloDetector::load(const Config& cfg) {
                 std::to_string(input_.height) + ": " + e.what());
   }
   if (out.dims != 3 || out.size[0] != 1)
-    throw Error(where() + ": output shape " + shape_str(out) + " is neither [1,4+C,N] (yolov8) nor [1,N,5+C] (yolox)");
+    throw Error(where() + ": output shape " + shape_str(out) +
+                " is neither [1,4+C,N] (yolov8) nor [1,N,5+C] (yolox)");
   const int d1 = out.size[1], d2 = out.size[2];
   type_ = cfg_.type;
   if (type_ == ModelType::kAuto) type_ = d1 < d2 ? ModelType::kYolov8 : ModelType::kYolox;
@@ -270,8 +282,8 @@ void YoloDetector::decode_yolox(const cv::Mat& out, const Letterbox& lb, std::ve
         if (score < cfg_.conf_threshold || !keep_class_[id]) continue;
         const double cx = (r[0] + gx) * s, cy = (r[1] + gy) * s;
         const double w = std::exp(r[2]) * s, h = std::exp(r[3]) * s;
-        boxes.emplace_back((cx - w / 2 - lb.pad_x) / lb.scale, (cy - h / 2 - lb.pad_y) / lb.scale, w / lb.scale,
-                           h / lb.scale);
+        boxes.emplace_back((cx - w / 2 - lb.pad_x) / lb.scale, (cy - h / 2 - lb.pad_y) / lb.scale,
+                           w / lb.scale, h / lb.scale);
         scores.push_back(score);
         ids.push_back(id);
       }
@@ -314,7 +326,8 @@ std::vector<Detection> YoloDetector::postprocess(const cv::Mat& output, const Le
       dets.push_back(std::move(d));
     }
   }
-  std::sort(dets.begin(), dets.end(), [](const Detection& a, const Detection& b) { return a.score > b.score; });
+  std::sort(dets.begin(), dets.end(),
+            [](const Detection& a, const Detection& b) { return a.score > b.score; });
   return dets;
 }
 

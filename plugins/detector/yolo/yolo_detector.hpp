@@ -17,8 +17,9 @@ const std::vector<std::string>& coco_class_names();
 
 // Stage "yolo" (detector).
 // Ports: frames (Frame) -> detections (Detections), one packet per frame, stamped with the frame's timestamp.
-// Params: model (path), model_type (auto|yolov8|yolox), input_width/input_height (0 = `_WxH` in the file name,
-//   else 640x640), conf_threshold, nms_threshold, classes (COCO names kept), min_box_height (px), threads.
+// Params: model (path), model_type (auto|yolov8|yolox), input_width/input_height (0 = `_WxH` in the
+//   file name, else 640x640), conf_threshold, nms_threshold, classes (COCO names kept), min_box_height (px),
+//   threads.
 // Pre/post-processing per family:
 //   yolov8: letterbox centred, pad 114, RGB, /255; output [1, 4+C, N] transposed to N rows of cx,cy,w,h + C
 //     class scores (no objectness).
@@ -58,8 +59,8 @@ class YoloDetector : public Detector {
   void open(StageContext& ctx) override;
   Detections detect(StageContext& ctx, const Frame& frame) override;
 
-  // Loads the model and checks its output layout with one forward pass on a grey image. Throws hf::Error naming
-  // the model path and OpenCV's message when the file is missing, unreadable or has an unexpected layout.
+  // Loads the model and checks its output layout with one forward pass on a grey image. Throws hf::Error
+  // naming the model path and OpenCV's message when the file is missing, unreadable or of another layout.
   void load(const Config& cfg);
 
   // The pieces of detect(), public so tools and benchmarks can time them separately.

@@ -14,25 +14,29 @@ ComponentInfo CentroidTracker::describe() {
   ComponentInfo i = Tracker::base_info("centroid", "nearest-centroid tracker with disappearance handling");
   i.doc =
       "Matches each detection to the track whose centre is nearest (optionally the centre predicted from the "
-      "track's velocity), within a pixel gate and optionally the same class. Unmatched tracks are kept with their "
-      "last box for max_disappeared frames (misses counts up), then dropped; ids are never reused. Emits one "
-      "Tracks packet per frame with every live track, stamped with the frame's timestamp.";
+      "track's velocity), within a pixel gate and optionally the same class. Unmatched tracks are kept with "
+      "their last box for max_disappeared frames (misses counts up), then dropped; ids are never reused. "
+      "Emits one Tracks packet per frame with every live track, stamped with the frame's timestamp.";
   i.params = {
       ParamSpec::number("max_distance", 0.0)
           .range(0, 100000)
-          .describe("association gate in px between a track's centre and a detection's; 0 = 0.1 x image diagonal"),
+          .describe(
+              "association gate in px between a track's centre and a detection's; 0 = 0.1 x image diagonal"),
       ParamSpec::integer("max_disappeared", 10)
           .range(0, 100000)
           .describe("frames a track survives unmatched (box held, misses counting) before it is dropped"),
       ParamSpec::boolean("match_class", true)
           .describe("only match detections whose label equals the track's (or shares a class group with it)"),
       ParamSpec::string_list("class_groups", tracking::default_class_groups())
-          .describe("comma-separated labels that match_class treats as one class (detectors flicker between them)"),
+          .describe(
+              "comma-separated labels that match_class treats as one class (detectors flicker between them)"),
       ParamSpec::string("association", "greedy")
           .one_of({"greedy", "hungarian"})
-          .describe("greedy: smallest distances first (the original method); hungarian: minimum total distance"),
+          .describe(
+              "greedy: smallest distances first (the original method); hungarian: minimum total distance"),
       ParamSpec::boolean("predict", true)
-          .describe("compare detections with the centre extrapolated by the track's velocity, not its last one"),
+          .describe(
+              "compare detections with the centre extrapolated by the track's velocity, not its last one"),
       ParamSpec::number("velocity_smoothing", 0.5)
           .range(0.01, 1)
           .describe("weight of the newest displacement in the exponentially smoothed velocity_px (1 = none)"),
@@ -69,8 +73,9 @@ cv::Size image_size_of(const Detections& dets, const Frame& frame) {
 Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
   const double t = frame.timestamp;
   if (have_time_ && !(t > last_time_))
-    throw Error("centroid tracker: frame " + std::to_string(frame.index) + " has timestamp " + std::to_string(t) +
-                " s, not after frame " + std::to_string(last_frame_) + " at " + std::to_string(last_time_) + " s");
+    throw Error("centroid tracker: frame " + std::to_string(frame.index) + " has timestamp " +
+                std::to_string(t) + " s, not after frame " + std::to_string(last_frame_) + " at " +
+                std::to_string(last_time_) + " s");
   have_time_ = true;
   last_time_ = t;
   last_frame_ = frame.index;
@@ -79,8 +84,9 @@ Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
   if (gate <= 0.0) {
     const cv::Size sz = image_size_of(dets, frame);
     if (sz.area() <= 0)
-      throw Error("centroid tracker: frame " + std::to_string(frame.index) +
-                  " has no image size (empty image, no camera, no detections size) to derive max_distance from");
+      throw Error(
+          "centroid tracker: frame " + std::to_string(frame.index) +
+          " has no image size (empty image, no camera, no detections size) to derive max_distance from");
     gate = kAutoGateFraction * std::hypot(double(sz.width), double(sz.height));
   }
 

@@ -13,12 +13,13 @@ namespace hf {
 
 // Stage "centroid" (tracker).
 // Ports: detections (Detections) + frames (Frame) -> tracks (Tracks), one packet per frame, stamped with the
-//   frame's timestamp; every live track is emitted, including those currently unmatched (misses > 0, box held).
+//   frame's timestamp; every live track is emitted, also those unmatched now (misses > 0, box held).
 // Association: the distance between each track's reference centre (its last centre, or with `predict` that
 //   centre moved on by the track's velocity to this frame's time) and each detection's centre; pairs farther
-//   than `max_distance` px (0 = 0.1 x the image diagonal) or, with `match_class`, of different labels (labels in
-//   one of `class_groups`, default car/truck/bus and bicycle/motorcycle, count as equal) are never matched. `association` = greedy (globally sorted distances, smallest first, as the original) or
-//   hungarian (minimum total distance).
+//   than `max_distance` px (0 = 0.1 x the image diagonal) or, with `match_class`, of different labels (labels
+//   in one of `class_groups`, default car/truck/bus and bicycle/motorcycle, count as equal) are never
+//   matched. `association` = greedy (globally sorted distances, smallest first, as the original) or hungarian
+//   (minimum total distance).
 // A track unmatched for more than `max_disappeared` consecutive frames is dropped; ids are never reused.
 // velocity_px: smoothed centre displacement between matched observations over their timestamp difference
 //   (`velocity_smoothing` = weight of the newest step).

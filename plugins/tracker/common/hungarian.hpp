@@ -1,4 +1,4 @@
-// Optimal assignment (Kuhn-Munkres with potentials, O(n^2 m)) for rectangular cost matrices, shared by trackers.
+// Optimal assignment for rectangular cost matrices (Kuhn-Munkres with potentials), shared by the trackers.
 #pragma once
 
 #include <algorithm>

@@ -11,7 +11,9 @@
 
 namespace hf::tracking {
 
-inline cv::Point2f centre(const cv::Rect2f& b) { return {b.x + 0.5f * b.width, b.y + 0.5f * b.height}; }
+inline cv::Point2f centre(const cv::Rect2f& b) {
+  return {b.x + 0.5f * b.width, b.y + 0.5f * b.height};
+}
 
 inline double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
   const double ix = std::max(0.f, std::min(a.x + a.width, b.x + b.width) - std::max(a.x, b.x));

@@ -1,4 +1,4 @@
-// SORT tracker: per-track Kalman filter (cv::KalmanFilter) and IoU assignment with the shared Hungarian solver.
+// SORT tracker: per-track cv::KalmanFilter and IoU assignment with the shared Hungarian solver.
 #include "sort_tracker.hpp"
 
 #include <algorithm>
@@ -12,21 +12,26 @@ namespace hf {
 ComponentInfo SortTracker::describe() {
   ComponentInfo i = Tracker::base_info("sort", "SORT: Kalman box filter with IoU Hungarian assignment");
   i.doc =
-      "Bewley et al. 2016. State [cx, cy, s, r, vcx, vcy, vs] with the reference implementation's noise settings "
-      "(R = diag(1,1,10,10), P0 = 10 / 1e4 for velocities, Q = 1 / 0.01 / 1e-4). Emits one Tracks packet per frame "
-      "with the confirmed tracks, stamped with the frame's timestamp.";
+      "Bewley et al. 2016. State [cx, cy, s, r, vcx, vcy, vs] with the reference implementation's noise "
+      "settings (R = diag(1,1,10,10), P0 = 10 / 1e4 for velocities, Q = 1 / 0.01 / 1e-4). Emits one Tracks "
+      "packet per frame with the confirmed tracks, stamped with the frame's timestamp.";
   i.params = {
-      ParamSpec::number("iou_threshold", 0.3).range(0, 1).describe("minimum IoU between prediction and detection"),
+      ParamSpec::number("iou_threshold", 0.3)
+          .range(0, 1)
+          .describe("minimum IoU between prediction and detection"),
       ParamSpec::integer("min_hits", 3)
           .range(0, 1000)
-          .describe("consecutive matches before a track is emitted (waived during the first min_hits frames)"),
+          .describe(
+              "consecutive matches before a track is emitted (waived during the first min_hits frames)"),
       ParamSpec::integer("max_age", 1).range(1, 100000).describe("frames a track survives unmatched"),
       ParamSpec::boolean("match_class", false)
           .describe("only match detections whose label equals the track's (or shares a class group with it)"),
       ParamSpec::string_list("class_groups", tracking::default_class_groups())
-          .describe("comma-separated labels that match_class treats as one class (detectors flicker between them)"),
+          .describe(
+              "comma-separated labels that match_class treats as one class (detectors flicker between them)"),
       ParamSpec::boolean("emit_unmatched", false)
-          .describe("also emit confirmed tracks missed this frame, with their predicted box (SORT itself does not)"),
+          .describe("also emit confirmed tracks missed this frame, with their predicted box (SORT itself "
+                    "does not)"),
       ParamSpec::number("velocity_smoothing", 0.5)
           .range(0.01, 1)
           .describe("weight of the newest displacement in the exponentially smoothed velocity_px (1 = none)"),
@@ -104,7 +109,8 @@ Tracks SortTracker::step(const Detections& dets, const Frame& frame) {
   const double t = frame.timestamp;
   if (have_time_ && !(t > last_time_))
     throw Error("sort tracker: frame " + std::to_string(frame.index) + " has timestamp " + std::to_string(t) +
-                " s, not after frame " + std::to_string(last_frame_) + " at " + std::to_string(last_time_) + " s");
+                " s, not after frame " + std::to_string(last_frame_) + " at " + std::to_string(last_time_) +
+                " s");
   have_time_ = true;
   last_time_ = t;
   last_frame_ = frame.index;

@@ -1,4 +1,4 @@
-// SORT: Kalman-filtered boxes with IoU Hungarian assignment (Bewley et al., "Simple Online and Realtime Tracking", 2016).
+// SORT tracker (Bewley et al., "Simple Online and Realtime Tracking", 2016): Kalman boxes, IoU assignment.
 #pragma once
 
 #include <memory>
@@ -16,15 +16,16 @@ namespace hf {
 // Stage "sort" (tracker).
 // Ports: detections (Detections) + frames (Frame) -> tracks (Tracks), one packet per frame, stamped with the
 //   frame's timestamp.
-// Each track is a constant-velocity Kalman filter on [cx, cy, s = area, r = aspect] (r constant), stepped once
-//   per frame. Detections are assigned to the predicted boxes by the Hungarian algorithm on IoU; pairs below
-//   `iou_threshold` (or of different labels with `match_class`, `class_groups` as in the centroid tracker) are
-//   never matched. A track is emitted when it
-//   was matched this frame and has `min_hits` consecutive hits (every matched track during the first `min_hits`
-//   frames); after a miss it must rebuild that streak. With `emit_unmatched`, a track once confirmed is
-//   emitted every frame until it is dropped, with its predicted box and misses > 0 while unmatched. A track unmatched for more than `max_age` frames is dropped; ids never reused.
-// Emitted boxes are the filter's estimate (after the update when matched). velocity_px: smoothed displacement of
-//   the matched detections' centres over their timestamp difference.
+// Each track is a constant-velocity Kalman filter on [cx, cy, s = area, r = aspect] (r constant), stepped
+//   once per frame. Detections are assigned to the predicted boxes by the Hungarian algorithm on IoU; pairs
+//   below `iou_threshold` (or of different labels with `match_class`, `class_groups` as in the centroid
+//   tracker) are never matched. A track is emitted when it was matched this frame and has `min_hits`
+//   consecutive hits (every matched track during the first `min_hits` frames); after a miss it must rebuild
+//   that streak. With `emit_unmatched`, a track once confirmed is emitted every frame until it is dropped,
+//   with its predicted box and misses > 0 while unmatched. A track unmatched for more than `max_age` frames
+//   is dropped; ids are never reused.
+// Emitted boxes are the filter's estimate (after the update when matched). velocity_px: smoothed
+//   displacement of the matched detections' centres over their timestamp difference.
 class SortTracker : public Tracker {
  public:
   static ComponentInfo describe();
