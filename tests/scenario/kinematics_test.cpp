@@ -91,8 +91,10 @@ TEST(LimitsTable, ShippedTableHasEveryClassTheTemplatesUse) {
     t.at("tram");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("object_class 'tram' has no kinematic limits in "), std::string::npos);
-    EXPECT_NE(std::string(e.what()).find("(known: bicycle, bus, car, motorcycle, person, truck)"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("object_class 'tram' has no kinematic limits in "),
+              std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("(known: bicycle, bus, car, motorcycle, person, truck)"),
+              std::string::npos);
   }
 }
 

@@ -75,7 +75,8 @@ TEST(HazardPlanner, UnknownKindNamesTheRegisteredTemplates) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()),
-              "hazard kind 'jaywalker' in the spec at frame 0 (t=0 s) has no registered hazard_template; registered: "
+              "hazard kind 'jaywalker' in the spec at frame 0 (t=0 s) has no registered hazard_template; "
+              "registered: "
               "cut_in, pedestrian_crossing, sudden_stop");
   }
 }
@@ -90,9 +91,10 @@ TEST(HazardPlanner, InfeasibleSpecStopsTheRunWithTheReasons) {
     r.run();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "hazard spec 'sudden_stop' at frame 0 (t=0 s) is infeasible: deceleration_mps2 15 exceeds the car "
-              "limit of 10 m/s^2");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "hazard spec 'sudden_stop' at frame 0 (t=0 s) is infeasible: deceleration_mps2 15 exceeds the car "
+        "limit of 10 m/s^2");
   }
   const Json j = Json::parse(test::read_text((r.output_dir() / "trajectory.json").string()));
   EXPECT_EQ(j["planner"]["feasible"], false);
@@ -114,9 +116,10 @@ TEST(HazardPlanner, InfeasibleSpecIsRecordedAndSkippedWhenAsked) {
   const Json j = Json::parse(test::read_text((r.output_dir() / "trajectory.json").string()));
   EXPECT_EQ(j["planner"]["reasons"], Json::array({"speed_mps 12 exceeds the person limit of 7 m/s"}));
   ASSERT_FALSE(r.log().empty());
-  EXPECT_EQ(r.log().back(),
-            "warning: hazard spec 'pedestrian_crossing' at frame 0 (t=0 s) is infeasible: speed_mps 12 exceeds the "
-            "person limit of 7 m/s (skipped)");
+  EXPECT_EQ(
+      r.log().back(),
+      "warning: hazard spec 'pedestrian_crossing' at frame 0 (t=0 s) is infeasible: speed_mps 12 exceeds the "
+      "person limit of 7 m/s (skipped)");
 }
 
 TEST(HazardPlanner, TakesTheEgoSpeedFromTheStatesAndTrackedObjects) {
@@ -151,9 +154,10 @@ TEST(HazardPlanner, MissingEgoSpeedIsOneClearError) {
     r.run();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "hazard spec at frame 4 (t=0.4 s): the ego speed is unknown (neither the frame nor the object states "
-              "carry it); set the planner's ego_speed_mps");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "hazard spec at frame 4 (t=0.4 s): the ego speed is unknown (neither the frame nor the object states "
+        "carry it); set the planner's ego_speed_mps");
   }
 }
 
@@ -164,9 +168,10 @@ TEST(HazardPlanner, TemplatesParamNamingAnUnknownKindIsRefusedAtOpen) {
     r.run();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "node 'hazard_planner': parameter 'templates' names 'cutin', which is no registered hazard_template; "
-              "registered: cut_in, pedestrian_crossing, sudden_stop");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "node 'hazard_planner': parameter 'templates' names 'cutin', which is no registered hazard_template; "
+        "registered: cut_in, pedestrian_crossing, sudden_stop");
   }
 }
 

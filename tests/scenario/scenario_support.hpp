@@ -1,5 +1,5 @@
-// Test helpers for the scenario tests: a known camera and scene, templates from a registry, and peak kinematics
-// computed here independently of the library under test.
+// Test helpers for the scenario tests: a known camera and scene, templates from a registry, and peak
+// kinematics computed here independently of the library under test.
 #pragma once
 
 #include <algorithm>
@@ -19,7 +19,9 @@
 namespace hf::test {
 
 // nuScenes-like front camera: 1600x900, f = 1266 px, level, 1.5 m high and 1.5 m ahead of the rear axle.
-inline CameraModel test_camera() { return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.0, 1.5); }
+inline CameraModel test_camera() {
+  return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.0, 1.5);
+}
 
 inline SceneContext test_scene(double ego_speed, double t = 2.0) {
   SceneContext s;
@@ -41,7 +43,8 @@ inline ComponentRegistry& template_registry() {
   return reg;
 }
 
-inline std::unique_ptr<hazard::TemplateBase> make_template(const std::string& kind, const Json& params = Json::object()) {
+inline std::unique_ptr<hazard::TemplateBase> make_template(const std::string& kind,
+                                                           const Json& params = Json::object()) {
   auto t = template_registry().create<hazard::TemplateBase>(kind::kHazardTemplate, kind, params);
   return t;
 }

@@ -61,7 +61,8 @@ bool projects_into_image(const CameraModel& cam, const TrajectoryPoint& p, const
   return px && px->x >= 0 && px->x < cam.width && px->y >= 0 && px->y < cam.height;
 }
 
-// ---- pedestrian_crossing --------------------------------------------------------------------------------------------
+// ---- pedestrian_crossing
+// --------------------------------------------------------------------------------------------
 
 TEST(PedestrianCrossing, EntersThePathAtTheTargetTtcAndIsInTheLaneWhenTheEgoArrives) {
   auto tpl = make_template("pedestrian_crossing");
@@ -79,9 +80,10 @@ TEST(PedestrianCrossing, EntersThePathAtTheTargetTtcAndIsInTheLaneWhenTheEgoArri
   EXPECT_TRUE(projects_into_image(scene.camera, tr.points.front(), tr.size_lwh));
   expect_within_limits(tr, tpl->limits().at("person"));
 
-  // Hand computation: gap 50 - 3.4 - 0.25 = 46.35 m, ego arrives after 4.635 s; the person must enter the path
-  // (|y| < 1.0 + 0.5 + 0.3 = 1.8) 1.5 s earlier, at 3.135 s. Walking: 0.8 s S-curve to 1.5 m/s covering 0.6 m,
-  // then (3.95 - 0.6) / 1.5 s, so 3.0333 s from the kerb: it waits 0.1017 s.
+  // Hand computation: gap 50 - 3.4 - 0.25 = 46.35 m, ego arrives after 4.635 s; the person must enter the
+  // path
+  // (|y| < 1.0 + 0.5 + 0.3 = 1.8) 1.5 s earlier, at 3.135 s. Walking: 0.8 s S-curve to 1.5 m/s covering 0.6
+  // m, then (3.95 - 0.6) / 1.5 s, so 3.0333 s from the kerb: it waits 0.1017 s.
   EXPECT_NEAR(o.notes["wait_s"].get<double>(), 3.135 - (0.8 + 3.35 / 1.5), 1e-6);
   size_t first_in = 0;
   while (first_in < o.ttc.size() && !o.ttc[first_in].in_path) ++first_in;
@@ -100,7 +102,8 @@ TEST(PedestrianCrossing, WithoutTargetThePersonIsOnTheLaneCentreWhenTheEgoArrive
   const hazard::PlanOutcome o = tpl->evaluate(pedestrian(60, 2.0, std::nullopt), test_scene(10.0));
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
   // The ego's front reaches the crossing line after (60 - 3.4 - 0.25) / 10 = 5.635 s; the plan ends at that
-  // contact (first sample at or after it), with the person on the lane centre to within one sample of walking.
+  // contact (first sample at or after it), with the person on the lane centre to within one sample of
+  // walking.
   const TrajectoryPoint& last = o.trajectory.points.back();
   EXPECT_NEAR(last.t, 2.0 + 5.6, 1e-9);
   EXPECT_NEAR(last.y, 0.0, 2.0 * 0.05 + 1e-9);
@@ -116,9 +119,10 @@ TEST(PedestrianCrossing, RejectsARunnerFasterThanThePersonLimit) {
 TEST(PedestrianCrossing, RejectsATargetTtcLongerThanTheCrossing) {
   auto tpl = make_template("pedestrian_crossing");
   // The path is 3.6 m wide; at 1.5 m/s the person is in it for 2.4 s.
-  EXPECT_EQ(tpl->check(pedestrian(50, 1.5, 3.0), test_scene(10.0)),
-            std::vector<std::string>{"target_ttc_s 3 is unreachable: at 1.5 m/s the person crosses the ego path in "
-                                     "2.4 s, so it leaves the path before the ego arrives"});
+  EXPECT_EQ(
+      tpl->check(pedestrian(50, 1.5, 3.0), test_scene(10.0)),
+      std::vector<std::string>{"target_ttc_s 3 is unreachable: at 1.5 m/s the person crosses the ego path in "
+                               "2.4 s, so it leaves the path before the ego arrives"});
 }
 
 TEST(PedestrianCrossing, RejectsAStartOutOfView) {
@@ -135,8 +139,9 @@ TEST(PedestrianCrossing, RejectsAStartOnTheRoadAndAMissingSide) {
   HazardSpec s = pedestrian(50, 1.5, 1.5);
   s.lateral_offset_m = 3.0;
   EXPECT_EQ(tpl->check(s, test_scene(10.0)),
-            std::vector<std::string>{"the start point y=3 m is on the road (the road edge on the left is at 5.25 m): a "
-                                     "crossing pedestrian starts on the kerb"});
+            std::vector<std::string>{
+                "the start point y=3 m is on the road (the road edge on the left is at 5.25 m): a "
+                "crossing pedestrian starts on the kerb"});
   s.lateral_offset_m = 0;
   s.side = "center";
   EXPECT_EQ(tpl->check(s, test_scene(10.0)),
@@ -144,25 +149,28 @@ TEST(PedestrianCrossing, RejectsAStartOnTheRoadAndAMissingSide) {
                                      "pedestrian_crossing, got 'center'"});
 }
 
-// ---- sudden_stop ------------------------------------------------------------------------------------------------
+// ---- sudden_stop
+// ------------------------------------------------------------------------------------------------
 
 std::filesystem::path limits_with_car_jerk(double jerk) {
   const auto path = std::filesystem::temp_directory_path() / "hf_scenario_limits.yaml";
-  std::ofstream(path) << "car: {max_speed_mps: 60, max_accel_mps2: 5, max_decel_mps2: 10, max_jerk_mps3: " << jerk
+  std::ofstream(path) << "car: {max_speed_mps: 60, max_accel_mps2: 5, max_decel_mps2: 10, max_jerk_mps3: "
+                      << jerk
                       << ", max_lateral_accel_mps2: 4, max_lateral_speed_mps: 2, max_yaw_rate_dps: 45}\n";
   return path;
 }
 
 TEST(SuddenStop, IntendedMinTtcMatchesTheClosedForm) {
-  auto tpl = make_template("sudden_stop", {{"limits", limits_with_car_jerk(12.0).string()},
-                                           {"duration_s", 1.5},
-                                           {"brake_delay_s", 0.5}});
+  auto tpl = make_template(
+      "sudden_stop",
+      {{"limits", limits_with_car_jerk(12.0).string()}, {"duration_s", 1.5}, {"brake_delay_s", 0.5}});
   const hazard::PlanOutcome o = tpl->evaluate(lead_stop(30, 15, 6), test_scene(15.0));
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
   // Lead and ego at 15 m/s, gap 30 - 3.4 - 4.5/2 = 24.35 m. Braking starts at 0.5 s: jerk 12 for 0.5 s
   // (a -> -6, v -> 15 - 12 * 0.5^2 / 2 = 13.5, s = 15 * 0.5 - 12 * 0.5^3 / 6 = 7.25), then -6 for 0.5 s
-  // (v -> 10.5, s = 13.5 * 0.5 - 6 * 0.5^2 / 2 = 6.0). At 1.5 s the lead has gone 7.5 + 7.25 + 6.0 = 20.75 m and the
-  // ego 22.5 m: gap 22.6 m, closing 15 - 10.5 = 4.5 m/s. TTC falls monotonically, so its minimum is at the end.
+  // (v -> 10.5, s = 13.5 * 0.5 - 6 * 0.5^2 / 2 = 6.0). At 1.5 s the lead has gone 7.5 + 7.25 + 6.0 = 20.75 m
+  // and the ego 22.5 m: gap 22.6 m, closing 15 - 10.5 = 4.5 m/s. TTC falls monotonically, so its minimum is
+  // at the end.
   const double expected = (24.35 + 20.75 - 22.5) / (15.0 - 10.5);
   EXPECT_NEAR(o.trajectory.intended_min_ttc_s, expected, 1e-9);
   EXPECT_EQ(o.trajectory.points.size(), 31u);
@@ -216,7 +224,8 @@ TEST(SuddenStop, UsesATrackedObject) {
   EXPECT_DOUBLE_EQ(o.trajectory.size_lwh[0], 4.6);
   EXPECT_EQ(o.notes["track_id"].get<int64_t>(), 7);
 
-  // Measured from the camera (the estimators' default), the same distance is 1.5 m further from the rear axle.
+  // Measured from the camera (the estimators' default), the same distance is 1.5 m further from the rear
+  // axle.
   auto from_camera = make_template("sudden_stop");
   EXPECT_DOUBLE_EQ(from_camera->plan(s, scene).points.front().x, 21.5);
 
@@ -230,10 +239,12 @@ TEST(SuddenStop, RejectsALeadOutsideTheEgoPath) {
   HazardSpec s = lead_stop(30, 15, 6);
   s.lateral_offset_m = 3.5;
   EXPECT_EQ(tpl->check(s, test_scene(15.0)),
-            std::vector<std::string>{"the lead vehicle at y=3.5 m is not in the ego path (|y| must be below 2.42 m)"});
+            std::vector<std::string>{
+                "the lead vehicle at y=3.5 m is not in the ego path (|y| must be below 2.42 m)"});
 }
 
-// ---- cut_in -----------------------------------------------------------------------------------------------------
+// ---- cut_in
+// -----------------------------------------------------------------------------------------------------
 
 TEST(CutIn, OvertakesAndCutsInAtTheTargetTtcInsideTheStoppingDistance) {
   auto tpl = make_template("cut_in");
@@ -274,34 +285,39 @@ TEST(CutIn, OvertakesAndCutsInAtTheTargetTtcInsideTheStoppingDistance) {
 TEST(CutIn, RejectsAStartFullyInViewAndASlowerVehicle) {
   auto tpl = make_template("cut_in");
   EXPECT_EQ(tpl->check(cut_in(60, 26, 1.2), test_scene(20.0)),
-            std::vector<std::string>{"the vehicle starts fully in view (x=60 m, y=3.5 m): a cut-in starts beside or "
-                                     "behind the ego, out of view or at the image edge"});
-  EXPECT_EQ(tpl->check(cut_in(-3, 18, 1.2), test_scene(20.0)),
-            std::vector<std::string>{"speed_mps 18 does not exceed the ego speed 20 m/s: a cut-in vehicle must "
-                                     "overtake"});
+            std::vector<std::string>{
+                "the vehicle starts fully in view (x=60 m, y=3.5 m): a cut-in starts beside or "
+                "behind the ego, out of view or at the image edge"});
+  EXPECT_EQ(
+      tpl->check(cut_in(-3, 18, 1.2), test_scene(20.0)),
+      std::vector<std::string>{"speed_mps 18 does not exceed the ego speed 20 m/s: a cut-in vehicle must "
+                               "overtake"});
 }
 
 TEST(CutIn, RejectsAnOvertakerTooFastToBrakeInTime) {
   auto tpl = make_template("cut_in");
-  // From 40 m/s down to 17 m/s at 3 m/s^2 takes 7.85 s and 223.8 m while the ego covers 157.1 m: starting 4 m ahead
-  // it would have to brake before the hazard even starts.
+  // From 40 m/s down to 17 m/s at 3 m/s^2 takes 7.85 s and 223.8 m while the ego covers 157.1 m: starting 4 m
+  // ahead it would have to brake before the hazard even starts.
   const auto r = tpl->check(cut_in(4, 40, 1.2), test_scene(20.0));
   ASSERT_EQ(r.size(), 1u) << r.front();
-  EXPECT_EQ(r[0], "the vehicle cannot end 3.6 m in front of the ego: from x=4 m at 40 m/s it would have to start "
-                  "braking 3.08 s before the hazard starts");
+  EXPECT_EQ(r[0],
+            "the vehicle cannot end 3.6 m in front of the ego: from x=4 m at 40 m/s it would have to start "
+            "braking 3.08 s before the hazard starts");
 }
 
 TEST(CutIn, RejectsAGapBeyondTheStoppingDistanceAndAPedestrian) {
   auto tpl = make_template("cut_in", {{"closing_speed_mps", 15.0}});
   // Gap 4 s x 15 m/s = 60 m > 20 + 28.57 m.
-  EXPECT_EQ(tpl->check(cut_in(-3, 26, 4.0), test_scene(20.0)),
-            std::vector<std::string>{"the cut-in would end 60 m ahead, beyond the ego's stopping distance 48.57 m "
-                                     "(reaction 1 s, braking 7 m/s^2)"});
+  EXPECT_EQ(
+      tpl->check(cut_in(-3, 26, 4.0), test_scene(20.0)),
+      std::vector<std::string>{"the cut-in would end 60 m ahead, beyond the ego's stopping distance 48.57 m "
+                               "(reaction 1 s, braking 7 m/s^2)"});
   HazardSpec p = cut_in(-3, 26, 1.2);
   p.object_class = "person";
   EXPECT_EQ(tpl->check(p, test_scene(20.0)),
-            std::vector<std::string>{"object_class 'person' is not supported by cut_in (supported: car, truck, bus, "
-                                     "motorcycle)"});
+            std::vector<std::string>{
+                "object_class 'person' is not supported by cut_in (supported: car, truck, bus, "
+                "motorcycle)"});
 }
 
 }  // namespace

@@ -79,7 +79,8 @@ HazardTrajectory trajectory(double min_ttc) {
 }
 
 TEST(Verifier, PassesWhenReDetectedMeasuredAndUnsafe) {
-  auto r = testing::StageRunner::create<ClosedLoopVerifier>("{state_distance_origin: ego_origin, intended_distance_at: centre}");
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>(
+      "{state_distance_origin: ego_origin, intended_distance_at: centre}");
   const double intended[] = {3.0, 2.5, 2.0, 1.5, 1.2};
   const double achieved[] = {3.2, 2.6, 2.1, 1.4, 1.3};
   r.push("trajectory", trajectory(0.9), 0.0);
@@ -127,8 +128,8 @@ TEST(Verifier, PassesWhenReDetectedMeasuredAndUnsafe) {
 
 TEST(Verifier, DistancesAreComparedFromTheRearAxleAtTheNearFace) {
   // Defaults: the states measure from the camera (1.5 m ahead of the rear axle); the intended distance is the
-  // object's centre (20 m) minus half its 4.5 m length: 17.75 m from the rear axle, so a camera reading of 16 m
-  // (17.5 m from the rear axle) is 0.25 m short.
+  // object's centre (20 m) minus half its 4.5 m length: 17.75 m from the rear axle, so a camera reading of 16
+  // m (17.5 m from the rear axle) is 0.25 m short.
   auto r = testing::StageRunner::create<ClosedLoopVerifier>();
   HazardTrajectory tr = trajectory(1.0);
   tr.size_lwh = cv::Vec3d(4.5, 1.8, 1.5);
@@ -152,8 +153,9 @@ TEST(Verifier, DistancesAreComparedFromTheRearAxleAtTheNearFace) {
     no_frames.run();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), "node 'verifier': state_distance_origin 'camera' needs the frames input (the "
-                                     "camera position) at frame 0");
+    EXPECT_EQ(std::string(e.what()),
+              "node 'verifier': state_distance_origin 'camera' needs the frames input (the "
+              "camera position) at frame 0");
   }
 }
 
@@ -163,9 +165,10 @@ TEST(Verifier, FailsWithExactReasonsWhenMissedAndNeverUnsafe) {
     const double t = 0.1 * i;
     r.push("hazard", instance(i, true, 1.0), t);
     // Only frame 0 re-detects it; frame 1 finds a car on it, which does not count for a person.
-    r.push("detections", detections(i, i == 0 ? std::vector<Detection>{near_box()}
-                                          : i == 1 ? std::vector<Detection>{near_box("car", 0.9f)}
-                                                   : std::vector<Detection>{}),
+    r.push("detections",
+           detections(i, i == 0   ? std::vector<Detection>{near_box()}
+                         : i == 1 ? std::vector<Detection>{near_box("car", 0.9f)}
+                                  : std::vector<Detection>{}),
            t);
     r.push("risk", risk(i, 2.0 + 0.1 * i), t, "ttc");
     r.push("risk", drac(i), t, "drac");  // not a TTC; unsafe_metrics limits what counts below
@@ -174,26 +177,29 @@ TEST(Verifier, FailsWithExactReasonsWhenMissedAndNeverUnsafe) {
   const Json s = r.collect<Record>("records").back().data;
   EXPECT_EQ(s["passed"], false);
   // The DRAC stream says Unsafe on every frame: with all metrics counting, the scene is Unsafe.
-  EXPECT_EQ(s["reasons"], Json::array({"re-detection rate 0.2 is below min_redetection_rate 0.5 (1 of 5 visible "
-                                       "frames with IoU >= 0.5)",
-                                       "achieved minimum TTC 2 s is 1 s away from the intended 1 s (max_ttc_error_s "
-                                       "0.5)"}));
+  EXPECT_EQ(s["reasons"],
+            Json::array({"re-detection rate 0.2 is below min_redetection_rate 0.5 (1 of 5 visible "
+                         "frames with IoU >= 0.5)",
+                         "achieved minimum TTC 2 s is 1 s away from the intended 1 s (max_ttc_error_s "
+                         "0.5)"}));
   EXPECT_EQ(s["unsafe"]["metrics"], Json::array({"drac"}));
 
   auto only_ttc = testing::StageRunner::create<ClosedLoopVerifier>("unsafe_metrics: [ttc]");
   for (int i = 0; i < 5; ++i) {
     const double t = 0.1 * i;
     only_ttc.push("hazard", instance(i, true, 1.0), t);
-    only_ttc.push("detections", detections(i, i == 0 ? std::vector<Detection>{near_box()} : std::vector<Detection>{}), t);
+    only_ttc.push("detections",
+                  detections(i, i == 0 ? std::vector<Detection>{near_box()} : std::vector<Detection>{}), t);
     only_ttc.push("risk", risk(i, 2.0 + 0.1 * i), t, "ttc");
     only_ttc.push("risk", drac(i), t, "drac");
   }
   only_ttc.run();
   const Json s2 = only_ttc.collect<Record>("records").back().data;
-  EXPECT_EQ(s2["reasons"], Json::array({"re-detection rate 0.2 is below min_redetection_rate 0.5 (1 of 5 visible "
-                                        "frames with IoU >= 0.5)",
-                                        "the scene never becomes Unsafe while the hazard is visible (minimum scene "
-                                        "TTC 2 s)"}));
+  EXPECT_EQ(s2["reasons"],
+            Json::array({"re-detection rate 0.2 is below min_redetection_rate 0.5 (1 of 5 visible "
+                         "frames with IoU >= 0.5)",
+                         "the scene never becomes Unsafe while the hazard is visible (minimum scene "
+                         "TTC 2 s)"}));
 }
 
 TEST(Verifier, NeverVisibleHazardFails) {
@@ -218,8 +224,9 @@ TEST(Verifier, UnsafeOnlyCountsWhileTheHazardIsVisible) {
   r.push("risk", risk(1, 3.0), 0.1, "ttc");
   r.run();
   const Json s = r.collect<Record>("records").back().data;
-  EXPECT_EQ(s["reasons"], Json::array({"the scene never becomes Unsafe while the hazard is visible (minimum scene "
-                                       "TTC 3 s)"}));
+  EXPECT_EQ(s["reasons"],
+            Json::array({"the scene never becomes Unsafe while the hazard is visible (minimum scene "
+                         "TTC 3 s)"}));
 }
 
 TEST(Verifier, NamedTtcMetricMustExist) {
@@ -231,7 +238,8 @@ TEST(Verifier, NamedTtcMetricMustExist) {
     r.run();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), "node 'verifier': ttc_metric 'ttc_scale' is none of the risk streams at frame 0 (ttc)");
+    EXPECT_EQ(std::string(e.what()),
+              "node 'verifier': ttc_metric 'ttc_scale' is none of the risk streams at frame 0 (ttc)");
   }
 }
 

@@ -70,7 +70,8 @@ int count(const std::string& text, const std::string& what) {
   return n;
 }
 
-fs::path write_through_sink(testing::StageRunner& r, const HazardTrajectory& tr, std::optional<Frame> frame = {}) {
+fs::path write_through_sink(testing::StageRunner& r, const HazardTrajectory& tr,
+                            std::optional<Frame> frame = {}) {
   r.push("trajectory", tr, tr.anchor_time);
   if (frame) r.push("frames", *frame, tr.anchor_time);
   r.run();
@@ -95,11 +96,13 @@ TEST(Xosc, CutInScenarioValidatesAgainstTheSchema) {
   EXPECT_NE(x.find("<Axles>"), std::string::npos);
   EXPECT_NE(x.find("maxDeceleration=\"10\""), std::string::npos);  // from share/hazard_limits.yaml
   // The rationale lands in the header, escaped.
-  EXPECT_NE(x.find("overtakes &amp; cuts in &lt;close&gt; &quot;ahead&quot; of the ego&apos;s lane"), std::string::npos);
+  EXPECT_NE(x.find("overtakes &amp; cuts in &lt;close&gt; &quot;ahead&quot; of the ego&apos;s lane"),
+            std::string::npos);
   EXPECT_NE(x.find("<ParameterDeclaration name=\"EgoSpeed\" parameterType=\"double\" value=\"20\"/>"),
             std::string::npos);
   // The hazard's first vertex is its rear axle: centre -3 m minus half the 0.6 x 4.5 m wheelbase.
-  EXPECT_NE(x.find("<WorldPosition x=\"-4.35\" y=\"3.5\" z=\"0\" h=\"0\" p=\"0\" r=\"0\"/>"), std::string::npos);
+  EXPECT_NE(x.find("<WorldPosition x=\"-4.35\" y=\"3.5\" z=\"0\" h=\"0\" p=\"0\" r=\"0\"/>"),
+            std::string::npos);
 }
 
 TEST(Xosc, PedestrianScenarioValidatesAgainstTheSchema) {
@@ -110,7 +113,8 @@ TEST(Xosc, PedestrianScenarioValidatesAgainstTheSchema) {
   const Validation v = validate(file);
   EXPECT_EQ(v.status, 0) << v.output;
   const std::string x = test::read_text(file.string());
-  EXPECT_NE(x.find("<Pedestrian name=\"person\" mass=\"75\" pedestrianCategory=\"pedestrian\">"), std::string::npos);
+  EXPECT_NE(x.find("<Pedestrian name=\"person\" mass=\"75\" pedestrianCategory=\"pedestrian\">"),
+            std::string::npos);
   EXPECT_NE(x.find("author=\"Test &amp; Co\""), std::string::npos);
 }
 
@@ -133,7 +137,8 @@ TEST(Xosc, WorldCoordinatesFromTheAnchorPose) {
   const Validation v = validate(file);
   EXPECT_EQ(v.status, 0) << v.output;
   const std::string x = test::read_text(file.string());
-  EXPECT_NE(x.find("<WorldPosition x=\"100\" y=\"200\" z=\"1\" h=\"1.570796\" p=\"0\" r=\"0\"/>"), std::string::npos);
+  EXPECT_NE(x.find("<WorldPosition x=\"100\" y=\"200\" z=\"1\" h=\"1.570796\" p=\"0\" r=\"0\"/>"),
+            std::string::npos);
   // Truck centre 30 m ahead, rear axle 0.3 x 8 m behind it: 27.6 m north of the ego.
   EXPECT_NE(x.find("<WorldPosition x=\"100\" y=\"227.6\" z=\"1\" h=\"1.570796\" p=\"0\" r=\"0\"/>"),
             std::string::npos);
@@ -145,8 +150,9 @@ TEST(Xosc, WorldCoordinatesFromTheAnchorPose) {
     write_through_sink(no_pose, tr, bare);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), "xosc: coordinates 'world' needs the ego pose of the anchor frame (t=2 s); frame 12 "
-                                     "carries none");
+    EXPECT_EQ(std::string(e.what()),
+              "xosc: coordinates 'world' needs the ego pose of the anchor frame (t=2 s); frame 12 "
+              "carries none");
   }
 }
 

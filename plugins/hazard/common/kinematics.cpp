@@ -1,4 +1,5 @@
-// Shared hazard kinematics: limits table, S-curve speed profiles, min-jerk shifts, TTC series, peak measurement.
+// Shared hazard kinematics: limits table, S-curve speed profiles, min-jerk shifts, TTC series, peak
+// measurement.
 #include "hazardforge/hazard/kinematics.hpp"
 
 #include <unistd.h>
@@ -13,7 +14,8 @@
 
 namespace hf::hazard {
 
-// ---- Limits ------------------------------------------------------------------------------------------------------
+// ---- Limits
+// ------------------------------------------------------------------------------------------------------
 
 namespace {
 struct LimitField {
@@ -50,14 +52,18 @@ LimitsTable LimitsTable::load(const std::string& path) {
     for (auto k = it->begin(); k != it->end(); ++k) {
       bool known = false;
       for (const LimitField& f : kLimitFields) known = known || k.key() == f.name;
-      if (!known) throw Error(doc.at(ptr + "/" + k.key() + "#key"), "class '" + it.key() + "': unknown limit '" + k.key() + "'");
+      if (!known)
+        throw Error(doc.at(ptr + "/" + k.key() + "#key"),
+                    "class '" + it.key() + "': unknown limit '" + k.key() + "'");
     }
     table.limits_[l.object_class] = l;
   }
   return table;
 }
 
-std::string LimitsTable::default_path() { return share_dir() + "/hazard_limits.yaml"; }
+std::string LimitsTable::default_path() {
+  return share_dir() + "/hazard_limits.yaml";
+}
 
 const KinematicLimits& LimitsTable::at(const std::string& object_class) const {
   auto it = limits_.find(object_class);
@@ -76,7 +82,8 @@ std::vector<std::string> LimitsTable::classes() const {
   return v;
 }
 
-// ---- Speed profiles ----------------------------------------------------------------------------------------------
+// ---- Speed profiles
+// ----------------------------------------------------------------------------------------------
 
 void SpeedProfile::push(double dur, double j) {
   if (dur <= 0) return;
@@ -100,7 +107,8 @@ double SpeedProfile::change_duration(double v0, double v1, double max_accel, dou
 }
 
 SpeedProfile& SpeedProfile::change_speed(double v1, double max_accel, double max_jerk) {
-  if (max_accel <= 0 || max_jerk <= 0) throw Error("SpeedProfile: acceleration and jerk limits must be positive");
+  if (max_accel <= 0 || max_jerk <= 0)
+    throw Error("SpeedProfile: acceleration and jerk limits must be positive");
   const double v0 = v_end_;
   const double dv = std::abs(v1 - v0);
   if (dv < 1e-12) return *this;
@@ -124,7 +132,8 @@ SpeedProfile::State SpeedProfile::at(double t) const {
   const double v_start = pieces_.empty() ? v_end_ : pieces_.front().v0;
   if (t <= 0) return {v_start * t, v_start, 0, 0};
   if (t >= t_end_) return {s_end_ + v_end_ * (t - t_end_), v_end_, 0, 0};
-  auto it = std::upper_bound(pieces_.begin(), pieces_.end(), t, [](double tt, const Piece& p) { return tt < p.t0; });
+  auto it = std::upper_bound(pieces_.begin(), pieces_.end(), t,
+                             [](double tt, const Piece& p) { return tt < p.t0; });
   const Piece& p = *(it - 1);
   const double u = t - p.t0;
   State st;
@@ -149,7 +158,8 @@ std::optional<double> SpeedProfile::time_at_distance(double s) const {
   return hi;
 }
 
-// ---- Min-jerk shift ----------------------------------------------------------------------------------------------
+// ---- Min-jerk shift
+// ----------------------------------------------------------------------------------------------
 
 Shift min_jerk_shift(double distance, double duration, double t) {
   if (duration <= 0) return {t > 0 ? distance : 0.0, 0, 0, 0};
@@ -168,13 +178,17 @@ Shift min_jerk_shift(double distance, double duration, double t) {
 double min_jerk_duration(double distance, double max_rate, double max_accel, double max_jerk) {
   const double d = std::abs(distance);
   if (d < 1e-12) return 0.0;
-  return std::max({1.875 * d / max_rate, std::sqrt(5.773502691896258 * d / max_accel), std::cbrt(60.0 * d / max_jerk)});
+  return std::max(
+      {1.875 * d / max_rate, std::sqrt(5.773502691896258 * d / max_accel), std::cbrt(60.0 * d / max_jerk)});
 }
 
-// ---- TTC ---------------------------------------------------------------------------------------------------------
+// ---- TTC
+// ---------------------------------------------------------------------------------------------------------
 
 std::vector<ParamSpec> TtcConventions::params() {
-  return {ParamSpec::number("ego_half_width_m", 1.0).range(0, 5).describe("ego half-width for the in-path test (m)"),
+  return {ParamSpec::number("ego_half_width_m", 1.0)
+              .range(0, 5)
+              .describe("ego half-width for the in-path test (m)"),
           ParamSpec::number("corridor_margin_m", 0.5)
               .range(0, 5)
               .describe("lateral margin (m): in path when x > 0 and |y| < half-width + margin + w/2"),
@@ -212,11 +226,12 @@ TtcSample ttc_at(const TrajectoryPoint& ego, const TrajectoryPoint& obj, const c
   return r;
 }
 
-std::vector<TtcSample> ttc_series(const std::vector<TrajectoryPoint>& ego, const std::vector<TrajectoryPoint>& obj,
-                                  const cv::Vec3d& size_lwh, const TtcConventions& conv) {
+std::vector<TtcSample> ttc_series(const std::vector<TrajectoryPoint>& ego,
+                                  const std::vector<TrajectoryPoint>& obj, const cv::Vec3d& size_lwh,
+                                  const TtcConventions& conv) {
   if (ego.size() != obj.size())
-    throw Error("TTC of two trajectories: the ego has " + std::to_string(ego.size()) + " samples, the object " +
-                std::to_string(obj.size()));
+    throw Error("TTC of two trajectories: the ego has " + std::to_string(ego.size()) +
+                " samples, the object " + std::to_string(obj.size()));
   std::vector<TtcSample> out;
   out.reserve(obj.size());
   for (size_t i = 0; i < obj.size(); ++i) {
@@ -234,7 +249,8 @@ double min_ttc(const std::vector<TtcSample>& series) {
   return m;
 }
 
-// ---- Measurement -------------------------------------------------------------------------------------------------
+// ---- Measurement
+// -------------------------------------------------------------------------------------------------
 
 MotionStats measure(const std::vector<TrajectoryPoint>& p) {
   MotionStats st;
@@ -266,7 +282,8 @@ MotionStats measure(const std::vector<TrajectoryPoint>& p) {
     st.max_jerk = std::max(st.max_jerk, cv::norm(j) / (dt * dt * dt));
   }
   for (size_t k = 0; k + 1 < n; ++k)
-    st.max_yaw_rate = std::max(st.max_yaw_rate, std::abs(std::remainder(p[k + 1].heading - p[k].heading, 2 * CV_PI)) / dt);
+    st.max_yaw_rate =
+        std::max(st.max_yaw_rate, std::abs(std::remainder(p[k + 1].heading - p[k].heading, 2 * CV_PI)) / dt);
   return st;
 }
 
@@ -275,7 +292,8 @@ std::vector<std::string> exceeded_limits(const MotionStats& s, const KinematicLi
   const std::string& c = l.object_class;
   auto over = [&](double v, double lim) { return v > lim * (1 + tol) + 1e-6; };
   if (over(s.max_speed, l.max_speed_mps))
-    r.push_back("peak speed " + num(s.max_speed) + " m/s exceeds the " + c + " limit of " + num(l.max_speed_mps) + " m/s");
+    r.push_back("peak speed " + num(s.max_speed) + " m/s exceeds the " + c + " limit of " +
+                num(l.max_speed_mps) + " m/s");
   if (over(s.max_long_accel, l.max_accel_mps2))
     r.push_back("peak acceleration " + num(s.max_long_accel) + " m/s^2 exceeds the " + c + " limit of " +
                 num(l.max_accel_mps2) + " m/s^2");
@@ -283,11 +301,11 @@ std::vector<std::string> exceeded_limits(const MotionStats& s, const KinematicLi
     r.push_back("peak deceleration " + num(s.max_long_decel) + " m/s^2 exceeds the " + c + " limit of " +
                 num(l.max_decel_mps2) + " m/s^2");
   if (over(s.max_lat_accel, l.max_lateral_accel_mps2))
-    r.push_back("peak lateral acceleration " + num(s.max_lat_accel) + " m/s^2 exceeds the " + c + " limit of " +
-                num(l.max_lateral_accel_mps2) + " m/s^2");
+    r.push_back("peak lateral acceleration " + num(s.max_lat_accel) + " m/s^2 exceeds the " + c +
+                " limit of " + num(l.max_lateral_accel_mps2) + " m/s^2");
   if (over(s.max_jerk, l.max_jerk_mps3))
-    r.push_back("peak jerk " + num(s.max_jerk) + " m/s^3 exceeds the " + c + " limit of " + num(l.max_jerk_mps3) +
-                " m/s^3");
+    r.push_back("peak jerk " + num(s.max_jerk) + " m/s^3 exceeds the " + c + " limit of " +
+                num(l.max_jerk_mps3) + " m/s^3");
   const double yaw_dps = s.max_yaw_rate * 180.0 / CV_PI;
   if (over(yaw_dps, l.max_yaw_rate_dps))
     r.push_back("peak turn rate " + num(yaw_dps, 1) + " deg/s exceeds the " + c + " limit of " +
@@ -295,7 +313,8 @@ std::vector<std::string> exceeded_limits(const MotionStats& s, const KinematicLi
   return r;
 }
 
-// ---- Small utilities ---------------------------------------------------------------------------------------------
+// ---- Small utilities
+// ---------------------------------------------------------------------------------------------
 
 std::string num(double v, int decimals) {
   if (std::isnan(v)) return "nan";

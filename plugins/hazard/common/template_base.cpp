@@ -1,4 +1,5 @@
-// Shared hazard-template pipeline: spec checks, sampling, constant-speed ego plan, contact cut-off, TTC, limits.
+// Shared hazard-template pipeline: spec checks, sampling, constant-speed ego plan, contact cut-off, TTC,
+// limits.
 #include "hazardforge/hazard/template_base.hpp"
 
 #include <algorithm>
@@ -7,9 +8,15 @@
 namespace hf::hazard {
 
 std::vector<ParamSpec> RoadModel::params() {
-  return {ParamSpec::number("lane_width_m", 3.5).range(2, 6).describe("lane width (m); the ego lane is centred on y = 0"),
-          ParamSpec::integer("lanes_left", 1).range(0, 10).describe("lanes left of the ego lane (road edge position)"),
-          ParamSpec::integer("lanes_right", 1).range(0, 10).describe("lanes right of the ego lane (road edge position)"),
+  return {ParamSpec::number("lane_width_m", 3.5)
+              .range(2, 6)
+              .describe("lane width (m); the ego lane is centred on y = 0"),
+          ParamSpec::integer("lanes_left", 1)
+              .range(0, 10)
+              .describe("lanes left of the ego lane (road edge position)"),
+          ParamSpec::integer("lanes_right", 1)
+              .range(0, 10)
+              .describe("lanes right of the ego lane (road edge position)"),
           ParamSpec::number("kerb_offset_m", 0.5)
               .range(0, 5)
               .describe("how far beyond the road edge a pedestrian waits (m)")};
@@ -63,7 +70,8 @@ ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
   i.kind = kind::kHazardTemplate;
   i.summary = std::move(summary);
   i.params = {
-      ParamSpec::path("limits", "").describe("kinematic limits per class (default: share/hazard_limits.yaml)"),
+      ParamSpec::path("limits", "")
+          .describe("kinematic limits per class (default: share/hazard_limits.yaml)"),
       ParamSpec::path("class_sizes", "").describe("object sizes per class (default: share/class_sizes.yaml)"),
       ParamSpec::number("sample_rate_hz", 20.0).range(1, 1000).describe("trajectory sampling rate (Hz)"),
       ParamSpec::number("duration_s", 6.0)
@@ -107,18 +115,23 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   const std::string& cls = spec.object_class;
 
   // Spec-level checks first: a motion is only designed for a spec that is physically possible at all.
-  if (!scene.camera.valid()) reasons.push_back("the scene has no valid camera model (needed for the view check)");
-  if (!scene.ego_speed_mps) reasons.push_back("the scene has no ego speed");
-  else if (*scene.ego_speed_mps < 0) reasons.push_back("ego speed " + num(*scene.ego_speed_mps) + " m/s is negative");
+  if (!scene.camera.valid())
+    reasons.push_back("the scene has no valid camera model (needed for the view check)");
+  if (!scene.ego_speed_mps)
+    reasons.push_back("the scene has no ego speed");
+  else if (*scene.ego_speed_mps < 0)
+    reasons.push_back("ego speed " + num(*scene.ego_speed_mps) + " m/s is negative");
   const auto allowed = allowed_classes();
   if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), cls) == allowed.end()) {
     std::string list;
     for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-    reasons.push_back("object_class '" + cls + "' is not supported by " + hazard_kind() + " (supported: " + list + ")");
+    reasons.push_back("object_class '" + cls + "' is not supported by " + hazard_kind() +
+                      " (supported: " + list + ")");
   } else if (!limits_.has(cls)) {
     std::string list;
     for (const auto& a : limits_.classes()) list += (list.empty() ? "" : ", ") + a;
-    reasons.push_back("object_class '" + cls + "' has no kinematic limits in hazard_limits.yaml (known: " + list + ")");
+    reasons.push_back("object_class '" + cls +
+                      "' has no kinematic limits in hazard_limits.yaml (known: " + list + ")");
   } else if (!sizes_.has(cls)) {
     reasons.push_back("object_class '" + cls + "' has no size in class_sizes.yaml");
   }
@@ -133,16 +146,23 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
     if (*spec.deceleration_mps2 <= 0)
       reasons.push_back("deceleration_mps2 " + num(*spec.deceleration_mps2) + " must be positive");
     else if (*spec.deceleration_mps2 > lim.max_decel_mps2)
-      reasons.push_back("deceleration_mps2 " + num(*spec.deceleration_mps2) + " exceeds the " + cls + " limit of " +
-                        num(lim.max_decel_mps2) + " m/s^2");
+      reasons.push_back("deceleration_mps2 " + num(*spec.deceleration_mps2) + " exceeds the " + cls +
+                        " limit of " + num(lim.max_decel_mps2) + " m/s^2");
   }
   if (spec.target_ttc_s && *spec.target_ttc_s <= 0)
     reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " must be positive");
   if (!reasons.empty()) return out;
 
   const ClassSize& prior = sizes_.at(cls);
-  PlanRequest req{spec,  scene, lim,       cv::Vec3d(prior.length, prior.width, prior.height), *scene.ego_speed_mps,
-                  road_, ttc_,  duration_s_, params_};
+  PlanRequest req{spec,
+                  scene,
+                  lim,
+                  cv::Vec3d(prior.length, prior.width, prior.height),
+                  *scene.ego_speed_mps,
+                  road_,
+                  ttc_,
+                  duration_s_,
+                  params_};
   Design d = design(req, reasons);
   if (!reasons.empty()) return out;
   if (!d.motion) throw Error("hazard template '" + hazard_kind() + "' designed no motion and gave no reason");
@@ -165,8 +185,9 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
     p.y = m.y;
     p.speed = std::hypot(m.vx, m.vy);
     p.accel = m.accel;
-    headings.push_back(m.heading ? m.heading : (p.speed > 0.05 ? std::optional<double>(std::atan2(m.vy, m.vx))
-                                                                : std::nullopt));
+    headings.push_back(m.heading
+                           ? m.heading
+                           : (p.speed > 0.05 ? std::optional<double>(std::atan2(m.vy, m.vx)) : std::nullopt));
     tr.points.push_back(p);
     TrajectoryPoint e;
     e.t = p.t;
@@ -177,13 +198,17 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   // Standing objects keep the heading they will move off with (or last moved with).
   std::optional<double> last;
   for (auto& h : headings) {
-    if (h) last = h;
-    else h = last;
+    if (h)
+      last = h;
+    else
+      h = last;
   }
   last.reset();
   for (auto it = headings.rbegin(); it != headings.rend(); ++it) {
-    if (*it) last = *it;
-    else *it = last;
+    if (*it)
+      last = *it;
+    else
+      *it = last;
   }
   for (size_t k = 0; k < headings.size(); ++k) tr.points[k].heading = headings[k].value_or(0.0);
 
@@ -210,15 +235,17 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   if (start_must_be_visible()) {
     const TrajectoryPoint& p0 = tr.points.front();
     if (!view_of(scene.camera, p0.x, p0.y, p0.heading, tr.size_lwh).centre_inside)
-      reasons.push_back("the start point (x=" + num(p0.x) + " m, y=" + num(p0.y) + " m) is out of the camera's view");
+      reasons.push_back("the start point (x=" + num(p0.x) + " m, y=" + num(p0.y) +
+                        " m) is out of the camera's view");
   }
   if (spec.target_ttc_s && tr.intended_min_ttc_s > *spec.target_ttc_s + 0.05) {
     const double window = tr.points.back().t - tr.points.front().t;
-    reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " is not reached within the " + num(window) +
-                      " s plan (planned minimum TTC " +
-                      (std::isfinite(tr.intended_min_ttc_s) ? num(tr.intended_min_ttc_s) + " s)"
-                                                            : std::string("infinite: the object never closes in "
-                                                                          "on the ego path)")));
+    reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " is not reached within the " +
+                      num(window) + " s plan (planned minimum TTC " +
+                      (std::isfinite(tr.intended_min_ttc_s)
+                           ? num(tr.intended_min_ttc_s) + " s)"
+                           : std::string("infinite: the object never closes in "
+                                         "on the ego path)")));
   }
   return out;
 }

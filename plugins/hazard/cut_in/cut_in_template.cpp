@@ -1,4 +1,5 @@
-// cut_in: overtaking phase, braking S-curve and min-jerk lane change, solved for the gap that gives the target TTC.
+// cut_in: overtaking phase, braking S-curve and min-jerk lane change, solved for the gap that gives the
+// target TTC.
 #include "cut_in_template.hpp"
 
 #include <cmath>
@@ -11,48 +12,56 @@ using hazard::num;
 ComponentInfo CutInTemplate::describe() {
   ComponentInfo i = base_info("cut_in", "a vehicle overtakes in the adjacent lane and cuts in close ahead");
   i.doc =
-      "Starts beside or behind the ego in the adjacent lane, passes, then changes into the ego lane (minimum-jerk "
-      "lateral shift within the class's lateral speed/acceleration/jerk and turn-rate limits) while braking to a "
+      "Starts beside or behind the ego in the adjacent lane, passes, then changes into the ego lane "
+      "(minimum-jerk "
+      "lateral shift within the class's lateral speed/acceleration/jerk and turn-rate limits) while braking "
+      "to a "
       "final speed below the ego's. At the end of the lane change the TTC equals target_ttc_s and the gap is "
       "inside the ego's stopping distance.";
-  i.params.push_back(hf::ParamSpec::number("closing_speed_mps", 3.0)
-                         .range(0.2, 30)
-                         .describe("final speed = ego speed minus this, unless extra.final_speed_mps is given"));
+  i.params.push_back(
+      hf::ParamSpec::number("closing_speed_mps", 3.0)
+          .range(0.2, 30)
+          .describe("final speed = ego speed minus this, unless extra.final_speed_mps is given"));
   i.params.push_back(hf::ParamSpec::number("cut_in_decel_mps2", 3.0)
                          .range(0.1, 15)
                          .describe("braking during the cut-in, unless the spec gives deceleration_mps2"));
   i.params.push_back(hf::ParamSpec::number("default_target_ttc_s", 1.2)
                          .range(0.1, 10)
                          .describe("TTC at the end of the lane change when the spec gives no target_ttc_s"));
-  i.params.push_back(hf::ParamSpec::number("ego_reaction_s", 1.0).range(0, 5).describe("ego reaction time (s)"));
   i.params.push_back(
-      hf::ParamSpec::number("ego_max_decel_mps2", 7.0).range(1, 15).describe("ego braking for its stopping distance"));
+      hf::ParamSpec::number("ego_reaction_s", 1.0).range(0, 5).describe("ego reaction time (s)"));
+  i.params.push_back(hf::ParamSpec::number("ego_max_decel_mps2", 7.0)
+                         .range(1, 15)
+                         .describe("ego braking for its stopping distance"));
   i.params.push_back(hf::ParamSpec::number("lane_change_s", 0.0)
                          .range(0, 20)
                          .describe("lane-change duration (s); 0 = the shortest the class limits allow"));
   return i;
 }
 
-hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const {
+hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
+                                     std::vector<std::string>& reasons) const {
   const HazardSpec& spec = req.spec;
   const Params& p = req.params;
   const hazard::KinematicLimits& lim = req.limits;
   const double len = req.size_lwh[0], wid = req.size_lwh[1];
   const int side = req.side_sign();
   if (side == 0) {
-    reasons.push_back("side must be 'left' or 'right' (or lateral_offset_m non-zero) for cut_in, got '" + spec.side +
-                      "'");
+    reasons.push_back("side must be 'left' or 'right' (or lateral_offset_m non-zero) for cut_in, got '" +
+                      spec.side + "'");
     return {};
   }
   const std::string side_name = side > 0 ? "left" : "right";
-  const double y0 = std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * req.road.lane_width;
+  const double y0 =
+      std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * req.road.lane_width;
   const double half = req.path_half_width(wid);
   if (std::abs(y0) < half)
-    reasons.push_back("the start point y=" + num(y0) + " m is already in the ego path (|y| < " + num(half) + " m)");
+    reasons.push_back("the start point y=" + num(y0) + " m is already in the ego path (|y| < " + num(half) +
+                      " m)");
   const double edge = req.road.edge(side);
   if (std::abs(y0) + wid / 2 > edge)
-    reasons.push_back("the start point y=" + num(y0) + " m is off the road (the road edge on the " + side_name +
-                      " is at " + num(edge) + " m with lanes_" + side_name + "=" +
+    reasons.push_back("the start point y=" + num(y0) + " m is off the road (the road edge on the " +
+                      side_name + " is at " + num(edge) + " m with lanes_" + side_name + "=" +
                       std::to_string(side > 0 ? req.road.lanes_left : req.road.lanes_right) + ")");
   const double x0 = spec.initial_distance_m;
   const hazard::BoxView start = hazard::view_of(req.scene.camera, x0, y0, 0.0, req.size_lwh);
@@ -84,8 +93,9 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector
   const double reaction = p.get_double("ego_reaction_s"), ego_decel = p.get_double("ego_max_decel_mps2");
   const double stopping = ve * reaction + ve * ve / (2 * ego_decel);
   if (gap_end >= stopping)
-    reasons.push_back("the cut-in would end " + num(gap_end) + " m ahead, beyond the ego's stopping distance " +
-                      num(stopping) + " m (reaction " + num(reaction) + " s, braking " + num(ego_decel) + " m/s^2)");
+    reasons.push_back("the cut-in would end " + num(gap_end) +
+                      " m ahead, beyond the ego's stopping distance " + num(stopping) + " m (reaction " +
+                      num(reaction) + " s, braking " + num(ego_decel) + " m/s^2)");
 
   // Solve the overtaking time t_b so the braking ends exactly gap_end ahead of the ego.
   const hazard::SpeedProfile slow = hazard::SpeedProfile(v0).change_speed(v1, decel, jerk_long);
@@ -96,7 +106,8 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector
                       " m at " + num(v0) + " m/s it would have to start braking " + num(-t_brake) +
                       " s before the hazard starts");
   if (!reasons.empty()) return {};
-  const hazard::SpeedProfile profile = hazard::SpeedProfile(v0).hold(t_brake).change_speed(v1, decel, jerk_long);
+  const hazard::SpeedProfile profile =
+      hazard::SpeedProfile(v0).hold(t_brake).change_speed(v1, decel, jerk_long);
   const double t_end = profile.duration();
 
   auto motion_with = [profile, x0, y0](double lane_start, double lane_dur) {
@@ -136,8 +147,9 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector
   }
   const double lane_start = t_end - lane_dur;
   if (lane_start < 0)
-    reasons.push_back("the lane change needs " + num(lane_dur) + " s but the vehicle reaches its cut-in point " +
-                      num(t_end) + " s after the hazard starts: start it further behind");
+    reasons.push_back("the lane change needs " + num(lane_dur) +
+                      " s but the vehicle reaches its cut-in point " + num(t_end) +
+                      " s after the hazard starts: start it further behind");
   if (!reasons.empty()) return {};
   const hazard::MotionFn motion = motion_with(lane_start, lane_dur);
 
@@ -150,18 +162,21 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req, std::vector
   const double t_enter = hi;
   const double gap_enter = req.gap(motion(t_enter).x, len, t_enter);
   if (gap_enter <= 0)
-    reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num(gap_enter) + " m at " +
-                      num(t_enter) + " s): it has not passed yet");
+    reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num(gap_enter) +
+                      " m at " + num(t_enter) + " s): it has not passed yet");
   const hazard::ObjectMotion end = motion(t_end);
   if (!hazard::view_of(req.scene.camera, end.x, end.y, 0.0, req.size_lwh).centre_inside)
-    reasons.push_back("the cut-in point (x=" + num(end.x) + " m at " + num(t_end) + " s) is out of the camera's view");
+    reasons.push_back("the cut-in point (x=" + num(end.x) + " m at " + num(t_end) +
+                      " s) is out of the camera's view");
   if (!reasons.empty()) return {};
 
   hazard::Design d;
   d.motion = motion;
-  d.notes = {{"brake_start_s", t_brake},       {"lane_change_start_s", lane_start}, {"lane_change_s", lane_dur},
-             {"enters_path_s", t_enter},       {"cut_in_end_s", t_end},             {"gap_at_end_m", gap_end},
-             {"final_speed_mps", v1},          {"ego_stopping_distance_m", stopping}, {"target_ttc_s", target}};
+  d.notes = {{"brake_start_s", t_brake},  {"lane_change_start_s", lane_start},
+             {"lane_change_s", lane_dur}, {"enters_path_s", t_enter},
+             {"cut_in_end_s", t_end},     {"gap_at_end_m", gap_end},
+             {"final_speed_mps", v1},     {"ego_stopping_distance_m", stopping},
+             {"target_ttc_s", target}};
   return d;
 }
 

@@ -5,13 +5,13 @@
 
 namespace hf {
 
-// Kind hazard_template, name cut_in. The vehicle starts beside or behind the ego in the adjacent lane on `side`
-// (or at lateral_offset_m), x = initial_distance_m, at speed_mps (faster than the ego). It passes, then changes
-// into the ego lane with a minimum-jerk lateral shift while braking (jerk-limited) to its final speed
-// (extra.final_speed_mps, else ego speed - closing_speed_mps). Timed so that at the end of the lane change the
-// gap to the ego is target_ttc_s x closing speed, i.e. the TTC equals target_ttc_s, and that gap is inside the
-// ego's stopping distance. Params: the shared template params plus closing_speed_mps, cut_in_decel_mps2,
-// default_target_ttc_s, ego_reaction_s, ego_max_decel_mps2, lane_change_s.
+// Kind hazard_template, name cut_in. The vehicle starts beside or behind the ego in the adjacent lane on
+// `side` (or at lateral_offset_m), x = initial_distance_m, at speed_mps (faster than the ego). It passes,
+// then changes into the ego lane with a minimum-jerk lateral shift while braking (jerk-limited) to its final
+// speed (extra.final_speed_mps, else ego speed - closing_speed_mps). Timed so that at the end of the lane
+// change the gap to the ego is target_ttc_s x closing speed, i.e. the TTC equals target_ttc_s, and that gap
+// is inside the ego's stopping distance. Params: the shared template params plus closing_speed_mps,
+// cut_in_decel_mps2, default_target_ttc_s, ego_reaction_s, ego_max_decel_mps2, lane_change_s.
 class CutInTemplate : public hazard::TemplateBase {
  public:
   static ComponentInfo describe();

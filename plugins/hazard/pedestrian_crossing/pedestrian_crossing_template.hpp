@@ -6,10 +6,10 @@
 namespace hf {
 
 // Kind hazard_template, name pedestrian_crossing. The person waits at the kerb on `side` (or at
-// lateral_offset_m) at x = initial_distance_m, then accelerates (jerk-limited) to speed_mps and walks straight
-// across. The wait is timed so the ego (constant speed) reaches the crossing point while the person is in its
-// path: with target_ttc_s the person enters the path when the TTC equals it; without, the person is on the lane
-// centre when the ego arrives. Params: the shared template params (see TemplateBase::base_info).
+// lateral_offset_m) at x = initial_distance_m, then accelerates (jerk-limited) to speed_mps and walks
+// straight across. The wait is timed so the ego (constant speed) reaches the crossing point while the person
+// is in its path: with target_ttc_s the person enters the path when the TTC equals it; without, the person is
+// on the lane centre when the ego arrives. Params: the shared template params (see TemplateBase::base_info).
 class PedestrianCrossingTemplate : public hazard::TemplateBase {
  public:
   static ComponentInfo describe();

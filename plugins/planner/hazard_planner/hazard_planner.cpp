@@ -13,7 +13,8 @@ ComponentInfo HazardPlanner::describe() {
   i.kind = kind::kPlanner;
   i.summary = "plans the hazard's trajectory with the hazard template registered for spec.kind";
   i.doc =
-      "Emits one HazardTrajectory per distinct spec, at the first frame with timestamp >= spec.start_time_s (the "
+      "Emits one HazardTrajectory per distinct spec, at the first frame with timestamp >= spec.start_time_s "
+      "(the "
       "anchor frame), using ctx.components() to create the hazard_template named by spec.kind with "
       "templates[kind] as its params. An infeasible spec stops the run with the template's reasons "
       "(on_infeasible: error) or is recorded and skipped (on_infeasible: skip).";
@@ -22,11 +23,14 @@ ComponentInfo HazardPlanner::describe() {
               optional(port<ObjectStates>("states", "tracked objects the hazard may build on"))};
   i.outputs = {port<HazardTrajectory>("trajectory", "object and ego motion in the anchor frame")};
   i.params = {
-      ParamSpec::object("templates").describe("per hazard kind, the params of its template, e.g. {cut_in: {duration_s: 4}}"),
+      ParamSpec::object("templates")
+          .describe("per hazard kind, the params of its template, e.g. {cut_in: {duration_s: 4}}"),
       ParamSpec::number("ego_speed_mps", -1.0)
           .range(-1, 100)
           .describe("ego speed when neither the frame nor the object states carry one (-1 = none)"),
-      ParamSpec::string("on_infeasible", "error").one_of({"error", "skip"}).describe("infeasible spec: stop or skip"),
+      ParamSpec::string("on_infeasible", "error")
+          .one_of({"error", "skip"})
+          .describe("infeasible spec: stop or skip"),
       ParamSpec::string("file", "trajectory.json").describe("file written below the run's output folder"),
   };
   return i;
@@ -78,13 +82,17 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   scene.meta = frame.meta;
   const ObjectStates* states = in.get<ObjectStates>("states");
   if (states) scene.objects = states->objects;
-  if (frame.ego.speed_mps) scene.ego_speed_mps = frame.ego.speed_mps;
-  else if (states && states->ego_speed_mps) scene.ego_speed_mps = states->ego_speed_mps;
-  else if (ego_speed_param_ >= 0) scene.ego_speed_mps = ego_speed_param_;
+  if (frame.ego.speed_mps)
+    scene.ego_speed_mps = frame.ego.speed_mps;
+  else if (states && states->ego_speed_mps)
+    scene.ego_speed_mps = states->ego_speed_mps;
+  else if (ego_speed_param_ >= 0)
+    scene.ego_speed_mps = ego_speed_param_;
   else
-    throw Error("hazard spec at " + where +
-                ": the ego speed is unknown (neither the frame nor the object states carry it); set the planner's "
-                "ego_speed_mps");
+    throw Error(
+        "hazard spec at " + where +
+        ": the ego speed is unknown (neither the frame nor the object states carry it); set the planner's "
+        "ego_speed_mps");
   if (!frame.camera.valid()) throw Error("hazard spec at " + where + ": the frame has no valid camera model");
 
   const Json tpl_params = templates_.contains(spec->kind) ? templates_[spec->kind] : Json::object();
@@ -95,14 +103,17 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   std::string name = file_;
   if (planned_ > 1) {
     const std::filesystem::path f(file_);
-    name = (f.parent_path() / (f.stem().string() + "_" + std::to_string(planned_) + f.extension().string())).string();
+    name = (f.parent_path() / (f.stem().string() + "_" + std::to_string(planned_) + f.extension().string()))
+               .string();
   }
-  Json planner = {{"frame", frame.index},   {"timestamp", frame.timestamp}, {"template", spec->kind},
-                  {"feasible", reasons.empty()}, {"reasons", reasons},     {"ego_speed_mps", *scene.ego_speed_mps}};
+  Json planner = {{"frame", frame.index},   {"timestamp", frame.timestamp},
+                  {"template", spec->kind}, {"feasible", reasons.empty()},
+                  {"reasons", reasons},     {"ego_speed_mps", *scene.ego_speed_mps}};
   if (!reasons.empty()) {
     std::string msg = "hazard spec '" + spec->kind + "' at " + where + " is infeasible: ";
     for (size_t k = 0; k < reasons.size(); ++k) msg += (k ? "; " : "") + reasons[k];
-    hazard::write_file_atomic(ctx.output_dir() / name, Json{{"planner", planner}, {"spec", *spec}}.dump(2) + "\n");
+    hazard::write_file_atomic(ctx.output_dir() / name,
+                              Json{{"planner", planner}, {"spec", *spec}}.dump(2) + "\n");
     if (!skip_infeasible_) throw Error(msg);
     ctx.log(LogLevel::kWarning, msg + " (skipped)");
     return;
@@ -111,8 +122,9 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   Json j = traj;
   j["planner"] = planner;
   hazard::write_file_atomic(ctx.output_dir() / name, j.dump(2) + "\n");
-  ctx.log(LogLevel::kInfo, "planned '" + spec->kind + "' at " + where + ": " + std::to_string(traj.points.size()) +
-                               " samples, intended minimum TTC " + hazard::num(traj.intended_min_ttc_s) + " s");
+  ctx.log(LogLevel::kInfo, "planned '" + spec->kind + "' at " + where + ": " +
+                               std::to_string(traj.points.size()) + " samples, intended minimum TTC " +
+                               hazard::num(traj.intended_min_ttc_s) + " s");
   out.emit("trajectory", std::move(traj));
 }
 

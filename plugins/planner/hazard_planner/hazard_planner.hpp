@@ -8,13 +8,13 @@
 namespace hf {
 
 // Stage hazard_planner (kind planner).
-// Inputs: `hazard` (HazardSpec, sticky), `frames` (Frame), `states` (ObjectStates, optional: tracked objects a
-// template may build on, e.g. sudden_stop with extra.track_id).
-// Output: `trajectory` (HazardTrajectory), emitted once per distinct spec at the first frame whose timestamp is
+// Inputs: `hazard` (HazardSpec, sticky), `frames` (Frame), `states` (ObjectStates, optional: tracked objects
+// a template may build on, e.g. sudden_stop with extra.track_id). Output: `trajectory` (HazardTrajectory),
+// emitted once per distinct spec at the first frame whose timestamp is
 // >= spec.start_time_s; that frame is the anchor (the trajectory's frame of reference) and stamps the packet.
 // Also writes <output>/trajectory.json atomically (trajectory_<n>.json for the n-th spec of a run).
-// Params: templates (kind -> that template's params), ego_speed_mps (used when neither the frame nor the states
-// carry the ego speed; -1 = none), on_infeasible (error | skip), file.
+// Params: templates (kind -> that template's params), ego_speed_mps (used when neither the frame nor the
+// states carry the ego speed; -1 = none), on_infeasible (error | skip), file.
 class HazardPlanner : public Stage {
  public:
   static ComponentInfo describe();

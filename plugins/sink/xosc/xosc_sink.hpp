@@ -9,11 +9,11 @@
 namespace hf {
 
 // Stage xosc (kind sink).
-// Inputs: `trajectory` (HazardTrajectory, sticky), `frames` (Frame, optional: the anchor frame's ego pose places
-// the scenario in the dataset's world frame). Outputs: none. Writes <output>/<file> (atomic) when a trajectory
-// arrives (<stem>_<n>.xosc for the n-th of a run), so an interrupted run keeps it.
-// Params: file, author, description, coordinates (auto | anchor | world), ego_name, hazard_name, ego_front_m,
-// limits, class_sizes.
+// Inputs: `trajectory` (HazardTrajectory, sticky), `frames` (Frame, optional: the anchor frame's ego pose
+// places the scenario in the dataset's world frame). Outputs: none. Writes <output>/<file> (atomic) when a
+// trajectory arrives (<stem>_<n>.xosc for the n-th of a run), so an interrupted run keeps it. Params: file,
+// author, description, coordinates (auto | anchor | world), ego_name, hazard_name, ego_front_m, limits,
+// class_sizes.
 class XoscSink : public Stage {
  public:
   static ComponentInfo describe();

@@ -1,4 +1,5 @@
-// OpenSCENARIO 1.2 text for a hazard trajectory: header, parameters, entities, Init teleports, timed polylines.
+// OpenSCENARIO 1.2 text for a hazard trajectory: header, parameters, entities, Init teleports, timed
+// polylines.
 #include "xosc_writer.hpp"
 
 #include <cmath>
@@ -14,11 +15,21 @@ std::string xml_escape(const std::string& text) {
   out.reserve(text.size());
   for (unsigned char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
       default:
         // XML 1.0 allows no control characters but tab, newline and carriage return.
         if (c < 0x20 && c != '\t' && c != '\n' && c != '\r') break;
@@ -92,18 +103,19 @@ EntityShape shape_for(const std::string& object_class, const cv::Vec3d& size) {
     return s;
   }
   static const std::pair<const char*, const char*> kVehicles[] = {
-      {"car", "car"}, {"truck", "truck"}, {"bus", "bus"}, {"van", "van"}, {"motorcycle", "motorbike"},
-      {"bicycle", "bicycle"}};
+      {"car", "car"}, {"truck", "truck"},          {"bus", "bus"},
+      {"van", "van"}, {"motorcycle", "motorbike"}, {"bicycle", "bicycle"}};
   for (const auto& [cls, cat] : kVehicles)
     if (object_class == cls) s.category = cat;
-  if (s.category.empty()) throw Error("xosc: object_class '" + object_class + "' has no OpenSCENARIO entity type");
+  if (s.category.empty())
+    throw Error("xosc: object_class '" + object_class + "' has no OpenSCENARIO entity type");
   s.wheelbase = 0.6 * size[0];
   return s;
 }
 
 void vehicle(Xml& x, const std::string& name, const std::string& category, const cv::Vec3d& size,
-             double bbox_center_x, double wheelbase, const hazard::KinematicLimits& lim, const std::string& role,
-             const std::string& spec_json = {}) {
+             double bbox_center_x, double wheelbase, const hazard::KinematicLimits& lim,
+             const std::string& role, const std::string& spec_json = {}) {
   x.open("Vehicle", {{"name", name}, {"vehicleCategory", category}});
   x.open("BoundingBox");
   x.empty("Center", {{"x", d(bbox_center_x)}, {"y", "0"}, {"z", d(size[2] / 2)}});
@@ -117,10 +129,16 @@ void vehicle(Xml& x, const std::string& name, const std::string& category, const
   const double wheel = category == "truck" || category == "bus" ? 1.0 : category == "bicycle" ? 0.7 : 0.65;
   const double track = std::max(0.1, size[1] - 0.25);
   x.open("Axles");
-  x.empty("FrontAxle", {{"maxSteering", "0.5"}, {"wheelDiameter", d(wheel)}, {"trackWidth", d(track)},
-                        {"positionX", d(wheelbase)}, {"positionZ", d(wheel / 2)}});
-  x.empty("RearAxle", {{"maxSteering", "0"}, {"wheelDiameter", d(wheel)}, {"trackWidth", d(track)},
-                       {"positionX", "0"}, {"positionZ", d(wheel / 2)}});
+  x.empty("FrontAxle", {{"maxSteering", "0.5"},
+                        {"wheelDiameter", d(wheel)},
+                        {"trackWidth", d(track)},
+                        {"positionX", d(wheelbase)},
+                        {"positionZ", d(wheel / 2)}});
+  x.empty("RearAxle", {{"maxSteering", "0"},
+                       {"wheelDiameter", d(wheel)},
+                       {"trackWidth", d(track)},
+                       {"positionX", "0"},
+                       {"positionZ", d(wheel / 2)}});
   x.close();
   x.open("Properties");
   x.empty("Property", {{"name", "role"}, {"value", role}});
@@ -130,14 +148,16 @@ void vehicle(Xml& x, const std::string& name, const std::string& category, const
 }
 
 void world_position(Xml& x, const Pose& p) {
-  x.empty("WorldPosition", {{"x", d(p.x)}, {"y", d(p.y)}, {"z", d(p.z)}, {"h", d(p.h, 6)}, {"p", "0"}, {"r", "0"}});
+  x.empty("WorldPosition",
+          {{"x", d(p.x)}, {"y", d(p.y)}, {"z", d(p.z)}, {"h", d(p.h, 6)}, {"p", "0"}, {"r", "0"}});
 }
 
 void sim_time_trigger(Xml& x, const std::string& tag, const std::string& name, const std::string& value,
                       const std::string& rule) {
   x.open(tag);
   x.open("ConditionGroup");
-  x.open("Condition", {{"name", name}, {"delay", "0"}, {"conditionEdge", rule == "greaterOrEqual" ? "none" : "rising"}});
+  x.open("Condition",
+         {{"name", name}, {"delay", "0"}, {"conditionEdge", rule == "greaterOrEqual" ? "none" : "rising"}});
   x.open("ByValueCondition");
   x.empty("SimulationTimeCondition", {{"value", value}, {"rule", rule}});
   x.close();
@@ -146,13 +166,15 @@ void sim_time_trigger(Xml& x, const std::string& tag, const std::string& name, c
   x.close();
 }
 
-void follow_trajectory(Xml& x, const std::string& actor, const std::vector<std::pair<double, Pose>>& vertices) {
+void follow_trajectory(Xml& x, const std::string& actor,
+                       const std::vector<std::pair<double, Pose>>& vertices) {
   x.open("ManeuverGroup", {{"maximumExecutionCount", "1"}, {"name", actor + "ManeuverGroup"}});
   x.open("Actors", {{"selectTriggeringEntities", "false"}});
   x.empty("EntityRef", {{"entityRef", actor}});
   x.close();
   x.open("Maneuver", {{"name", actor + "Maneuver"}});
-  x.open("Event", {{"name", actor + "FollowsTrajectory"}, {"priority", "override"}, {"maximumExecutionCount", "1"}});
+  x.open("Event",
+         {{"name", actor + "FollowsTrajectory"}, {"priority", "override"}, {"maximumExecutionCount", "1"}});
   x.open("Action", {{"name", actor + "FollowTrajectoryAction"}});
   x.open("PrivateAction");
   x.open("RoutingAction");
@@ -225,10 +247,11 @@ std::string write_xosc(const HazardTrajectory& traj, const XoscOptions& opt) {
   const double t0 = traj.points.front().t;
   std::vector<std::pair<double, Pose>> hazard_v, ego_v;
   for (const TrajectoryPoint& p : traj.points) {
-    // Vehicles are placed by their rear axle (OpenSCENARIO's reference point); the plan tracks the box centre.
+    // Vehicles are placed by their rear axle (OpenSCENARIO's reference point); the plan tracks the box
+    // centre.
     const double back = shape.pedestrian ? 0.0 : shape.wheelbase / 2;
-    hazard_v.emplace_back(p.t - t0, to_world(p.x - back * std::cos(p.heading), p.y - back * std::sin(p.heading),
-                                             p.heading));
+    hazard_v.emplace_back(
+        p.t - t0, to_world(p.x - back * std::cos(p.heading), p.y - back * std::sin(p.heading), p.heading));
   }
   for (const TrajectoryPoint& p : traj.ego) ego_v.emplace_back(p.t - t0, to_world(p.x, p.y, p.heading));
   const double stop_time = std::max(hazard_v.back().first, ego_v.back().first);
@@ -267,11 +290,13 @@ std::string write_xosc(const HazardTrajectory& traj, const XoscOptions& opt) {
   x.close();
   x.open("ScenarioObject", {{"name", opt.hazard_name}});
   if (shape.pedestrian) {
-    x.open("Pedestrian", {{"name", traj.object_class}, {"mass", "75"}, {"pedestrianCategory", shape.category}});
+    x.open("Pedestrian",
+           {{"name", traj.object_class}, {"mass", "75"}, {"pedestrianCategory", shape.category}});
     x.open("BoundingBox");
     x.empty("Center", {{"x", "0"}, {"y", "0"}, {"z", d(traj.size_lwh[2] / 2)}});
-    x.empty("Dimensions",
-            {{"width", d(traj.size_lwh[1])}, {"length", d(traj.size_lwh[0])}, {"height", d(traj.size_lwh[2])}});
+    x.empty(
+        "Dimensions",
+        {{"width", d(traj.size_lwh[1])}, {"length", d(traj.size_lwh[0])}, {"height", d(traj.size_lwh[2])}});
     x.close();
     x.open("Properties");
     x.empty("Property", {{"name", "role"}, {"value", "hazard"}});

@@ -39,8 +39,12 @@ double median(std::vector<double> v) {
 double mean(const std::vector<double>& v) {
   return v.empty() ? std::nan("") : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
 }
-Json maybe(double v) { return std::isfinite(v) ? Json(v) : Json(); }
-Json box_json(const cv::Rect2f& r) { return Json::array({r.x, r.y, r.width, r.height}); }
+Json maybe(double v) {
+  return std::isfinite(v) ? Json(v) : Json();
+}
+Json box_json(const cv::Rect2f& r) {
+  return Json::array({r.x, r.y, r.width, r.height});
+}
 
 }  // namespace
 
@@ -51,40 +55,54 @@ ComponentInfo ClosedLoopVerifier::describe() {
   i.summary = "closed-loop check: is the inserted hazard re-detected, measured and judged Unsafe?";
   i.doc =
       "Per frame with a hazard packet: best IoU of a detection with the inserted box (same class group when "
-      "require_class_match), its confidence, the matched object's estimated distance against the intended one, "
-      "the scene TTC of the TTC metric and every metric's label. At finish: minimum achieved scene TTC against "
-      "the intended one, whether any frame was Unsafe while the hazard was visible, the re-detection rate over "
+      "require_class_match), its confidence, the matched object's estimated distance against the intended "
+      "one, "
+      "the scene TTC of the TTC metric and every metric's label. At finish: minimum achieved scene TTC "
+      "against "
+      "the intended one, whether any frame was Unsafe while the hazard was visible, the re-detection rate "
+      "over "
       "visible frames, distance errors; passed = every criterion holds.";
-  i.inputs = {optional(port<HazardInstance>("hazard", "where the renderer put the hazard")),
-              port<Detections>("detections", "detections on the augmented frames"),
-              optional(multi(port<RiskAssessment>("risk", "re-assessed risk metrics"))),
-              optional(port<ObjectStates>("states", "re-estimated object states")),
-              sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
-              optional(port<Frame>("frames", "the augmented frames: camera position for state_distance_origin"))};
+  i.inputs = {
+      optional(port<HazardInstance>("hazard", "where the renderer put the hazard")),
+      port<Detections>("detections", "detections on the augmented frames"),
+      optional(multi(port<RiskAssessment>("risk", "re-assessed risk metrics"))),
+      optional(port<ObjectStates>("states", "re-estimated object states")),
+      sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
+      optional(port<Frame>("frames", "the augmented frames: camera position for state_distance_origin"))};
   i.outputs = {port<Record>("records", "per-frame verification records and the final summary")};
   i.params = {
-      ParamSpec::number("min_iou", 0.5).range(0.01, 1).describe("IoU with the inserted box that counts as re-detected"),
+      ParamSpec::number("min_iou", 0.5)
+          .range(0.01, 1)
+          .describe("IoU with the inserted box that counts as re-detected"),
       ParamSpec::number("min_redetection_rate", 0.5)
           .range(0, 1)
           .describe("pass: share of visible frames in which the object is re-detected"),
-      ParamSpec::boolean("require_unsafe", true).describe("pass: some frame is Unsafe while the hazard is visible"),
+      ParamSpec::boolean("require_unsafe", true)
+          .describe("pass: some frame is Unsafe while the hazard is visible"),
       ParamSpec::boolean("require_class_match", true)
-          .describe("a re-detection must have the inserted class (car/truck/bus and bicycle/motorcycle interchangeable)"),
-      ParamSpec::string("ttc_metric", "").describe(
-          "risk stream (metric name or producing node) whose scene value is the TTC; empty = the first in seconds"),
-      ParamSpec::string_list("unsafe_metrics", {}).describe("metrics whose Unsafe label counts (empty = all)"),
+          .describe("a re-detection must have the inserted class (car/truck/bus and bicycle/motorcycle "
+                    "interchangeable)"),
+      ParamSpec::string("ttc_metric", "")
+          .describe("risk stream (metric name or producing node) whose scene value is the TTC; empty = the "
+                    "first in seconds"),
+      ParamSpec::string_list("unsafe_metrics", {})
+          .describe("metrics whose Unsafe label counts (empty = all)"),
       ParamSpec::number("max_ttc_error_s", -1.0)
           .range(-1, 100)
           .describe("pass: |achieved - intended minimum TTC| at most this (-1 = not checked)"),
       ParamSpec::string("state_distance_origin", "camera")
           .one_of({"camera", "bumper", "ego_origin"})
           .describe("where the states' distance_m is measured from (the estimator's distance_origin)"),
-      ParamSpec::number("ego_front_m", 3.4).range(0, 20).describe("rear axle to front bumper (m), for 'bumper'"),
+      ParamSpec::number("ego_front_m", 3.4)
+          .range(0, 20)
+          .describe("rear axle to front bumper (m), for 'bumper'"),
       ParamSpec::string("intended_distance_at", "near_face")
           .one_of({"near_face", "centre"})
-          .describe("compare with the inserted object's near face (centre - length/2: what a camera measures) or "
-                    "its centre"),
-      ParamSpec::string("file", "verification.json").describe("summary written below the run's output folder"),
+          .describe(
+              "compare with the inserted object's near face (centre - length/2: what a camera measures) or "
+              "its centre"),
+      ParamSpec::string("file", "verification.json")
+          .describe("summary written below the run's output folder"),
   };
   return i;
 }
@@ -110,8 +128,10 @@ double ClosedLoopVerifier::origin_offset(StageContext& ctx, const Inputs& in) co
   if (state_origin_ == "bumper") return ego_front_;
   const Frame* f = in.get<Frame>("frames");
   if (!f || !f->camera.valid())
-    throw Error("node '" + ctx.node_id() + "': state_distance_origin 'camera' needs the frames input (the camera "
-                "position) at frame " + std::to_string(ctx.frame_index()));
+    throw Error("node '" + ctx.node_id() +
+                "': state_distance_origin 'camera' needs the frames input (the camera "
+                "position) at frame " +
+                std::to_string(ctx.frame_index()));
   return f->camera.t_ego_cam[0];
 }
 
@@ -131,8 +151,11 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   if (object_class_.empty()) object_class_ = inst->object_class;
   const int64_t frame = ctx.frame_index();
 
-  Json rec = {{"frame", frame}, {"visible", inst->visible}, {"box", box_json(inst->box)},
-              {"intended_distance_m", maybe(inst->distance_m)}, {"intended_ttc_s", maybe(inst->intended_ttc_s)}};
+  Json rec = {{"frame", frame},
+              {"visible", inst->visible},
+              {"box", box_json(inst->box)},
+              {"intended_distance_m", maybe(inst->distance_m)},
+              {"intended_ttc_s", maybe(inst->intended_ttc_s)}};
 
   // Re-detection: the best-overlapping detection of a compatible class.
   double best = 0;
@@ -144,7 +167,8 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   }
   const bool redetected = inst->visible && best >= min_iou_;
   rec["best_iou"] = best;
-  rec["detection"] = hit ? Json{{"label", hit->label}, {"score", hit->score}, {"box", box_json(hit->box)}} : Json();
+  rec["detection"] =
+      hit ? Json{{"label", hit->label}, {"score", hit->score}, {"box", box_json(hit->box)}} : Json();
   rec["redetected"] = redetected;
 
   // Distance: the re-estimated object state on the inserted box.
@@ -156,7 +180,8 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
       if (v >= min_iou_ && v > best_state) best_state = v, match = &s;
     }
   }
-  rec["state"] = match ? Json{{"track_id", match->track_id}, {"distance_m", maybe(match->distance_m)}} : Json();
+  rec["state"] =
+      match ? Json{{"track_id", match->track_id}, {"distance_m", maybe(match->distance_m)}} : Json();
 
   // Risk: the TTC stream and every metric's label.
   const auto risks = in.packets("risk");
@@ -171,25 +196,27 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
     names += (names.empty() ? "" : ", ") + name;
     saw_risk_ = true;
     labels[name] = to_string(r.label);
-    const bool counts = unsafe_metrics_.empty() ||
-                        std::find(unsafe_metrics_.begin(), unsafe_metrics_.end(), name) != unsafe_metrics_.end() ||
-                        std::find(unsafe_metrics_.begin(), unsafe_metrics_.end(), producers.at(k)) != unsafe_metrics_.end();
+    const bool counts =
+        unsafe_metrics_.empty() ||
+        std::find(unsafe_metrics_.begin(), unsafe_metrics_.end(), name) != unsafe_metrics_.end() ||
+        std::find(unsafe_metrics_.begin(), unsafe_metrics_.end(), producers.at(k)) != unsafe_metrics_.end();
     if (counts && r.label == SafetyLabel::kUnsafe) {
       unsafe = true;
       if (std::find(unsafe_by_.begin(), unsafe_by_.end(), name) == unsafe_by_.end() && inst->visible)
         unsafe_by_.push_back(name);
     }
-    const bool wanted = ttc_metric_.empty() ? (chosen_ttc_metric_.empty() ? r.unit == "s" && r.lower_is_riskier
-                                                                          : name == chosen_ttc_metric_)
-                                            : (name == ttc_metric_ || producers.at(k) == ttc_metric_);
+    const bool wanted =
+        ttc_metric_.empty()
+            ? (chosen_ttc_metric_.empty() ? r.unit == "s" && r.lower_is_riskier : name == chosen_ttc_metric_)
+            : (name == ttc_metric_ || producers.at(k) == ttc_metric_);
     if (wanted && !ttc) {
       ttc = &r;
       if (chosen_ttc_metric_.empty()) chosen_ttc_metric_ = name;
     }
   }
   if (!ttc_metric_.empty() && !risks.empty() && !ttc)
-    throw Error("node '" + ctx.node_id() + "': ttc_metric '" + ttc_metric_ + "' is none of the risk streams at frame " +
-                std::to_string(frame) + " (" + names + ")");
+    throw Error("node '" + ctx.node_id() + "': ttc_metric '" + ttc_metric_ +
+                "' is none of the risk streams at frame " + std::to_string(frame) + " (" + names + ")");
   rec["ttc_metric"] = ttc ? Json(chosen_ttc_metric_) : Json();
   rec["scene_ttc_s"] = ttc ? maybe(ttc->scene_value) : Json();
   rec["labels"] = labels;
@@ -231,16 +258,17 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
 Json ClosedLoopVerifier::summary() const {
   std::vector<std::string> reasons;
   const double rate = visible_ > 0 ? static_cast<double>(redetected_) / visible_ : 0.0;
-  const double intended = std::isfinite(intended_visible_min_) ? intended_visible_min_ : intended_traj_min_.value_or(kInf);
+  const double intended =
+      std::isfinite(intended_visible_min_) ? intended_visible_min_ : intended_traj_min_.value_or(kInf);
   if (visible_ == 0) {
     reasons.push_back("the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
   } else if (rate < min_rate_) {
-    reasons.push_back("re-detection rate " + num(rate) + " is below min_redetection_rate " + num(min_rate_) + " (" +
-                      std::to_string(redetected_) + " of " + std::to_string(visible_) +
+    reasons.push_back("re-detection rate " + num(rate) + " is below min_redetection_rate " + num(min_rate_) +
+                      " (" + std::to_string(redetected_) + " of " + std::to_string(visible_) +
                       " visible frames with IoU >= " + num(min_iou_) + ")");
   }
   if (require_unsafe_ && !first_unsafe_frame_ && visible_ > 0) {
-    std::string why = !saw_risk_ ? "no risk assessment arrived"
+    std::string why = !saw_risk_                   ? "no risk assessment arrived"
                       : chosen_ttc_metric_.empty() ? "no TTC metric among the risk streams"
                                                    : "minimum scene TTC " + num(achieved_min_ttc_) + " s";
     reasons.push_back("the scene never becomes Unsafe while the hazard is visible (" + why + ")");
@@ -252,8 +280,8 @@ Json ClosedLoopVerifier::summary() const {
                         num(intended) + " s");
     else if (ttc_err > max_ttc_error_)
       reasons.push_back("achieved minimum TTC " + num(achieved_min_ttc_) + " s is " + num(ttc_err) +
-                        " s away from the intended " + num(intended) + " s (max_ttc_error_s " + num(max_ttc_error_) +
-                        ")");
+                        " s away from the intended " + num(intended) + " s (max_ttc_error_s " +
+                        num(max_ttc_error_) + ")");
   }
   Json j;
   j["passed"] = reasons.empty();
@@ -278,12 +306,14 @@ Json ClosedLoopVerifier::summary() const {
                       {"mean_iou", maybe(mean(ious_))},
                       {"median_iou", maybe(median(ious_))},
                       {"mean_confidence", maybe(mean(scores_))}};
-  j["distance"] = {{"state_origin", state_origin_},
-                   {"intended_at", near_face_ ? "near_face" : "centre"},
-                   {"matched_frames", dist_abs_.size()},
-                   {"median_abs_error_m", maybe(median(dist_abs_))},
-                   {"median_rel_error", maybe(median(dist_rel_))},
-                   {"max_abs_error_m", dist_abs_.empty() ? Json() : Json(*std::max_element(dist_abs_.begin(), dist_abs_.end()))}};
+  j["distance"] = {
+      {"state_origin", state_origin_},
+      {"intended_at", near_face_ ? "near_face" : "centre"},
+      {"matched_frames", dist_abs_.size()},
+      {"median_abs_error_m", maybe(median(dist_abs_))},
+      {"median_rel_error", maybe(median(dist_rel_))},
+      {"max_abs_error_m",
+       dist_abs_.empty() ? Json() : Json(*std::max_element(dist_abs_.begin(), dist_abs_.end()))}};
   j["hazard_critical_frames"] = critical_frames_;
   j["criteria"] = {{"min_iou", min_iou_},
                    {"min_redetection_rate", min_rate_},

@@ -1,4 +1,5 @@
-// verifier stage: checks that an inserted hazard is re-detected, measured and judged Unsafe by the same pipeline.
+// verifier stage: checks that an inserted hazard is re-detected, measured and judged Unsafe by the same
+// pipeline.
 #pragma once
 
 #include <optional>
@@ -9,12 +10,12 @@
 
 namespace hf {
 
-// Stage verifier (kind verifier): the closed loop. The graph re-runs detection, tracking, estimation and risk on
-// the augmented frames; this stage compares that re-assessment with what the renderer inserted.
-// Inputs: `hazard` (HazardInstance: where the object was drawn, per frame), `detections` (re-detections on the
-// augmented frames), `risk` (RiskAssessment, multi: the re-assessed metrics), `states` (ObjectStates, optional:
-// for the distance check), `trajectory` (HazardTrajectory, sticky: the intended minimum TTC and the object's
-// length), `frames` (Frame, optional: the camera position when the states measure from the camera).
+// Stage verifier (kind verifier): the closed loop. The graph re-runs detection, tracking, estimation and risk
+// on the augmented frames; this stage compares that re-assessment with what the renderer inserted. Inputs:
+// `hazard` (HazardInstance: where the object was drawn, per frame), `detections` (re-detections on the
+// augmented frames), `risk` (RiskAssessment, multi: the re-assessed metrics), `states` (ObjectStates,
+// optional: for the distance check), `trajectory` (HazardTrajectory, sticky: the intended minimum TTC and the
+// object's length), `frames` (Frame, optional: the camera position when the states measure from the camera).
 // Output: `records` (Record "verification" per frame with a hazard packet, stamped with that frame; and one
 // "verification_summary" at finish, stamped with the last frame). Writes <output>/verification.json at finish
 // (atomic). A scenario counts as generated only when `passed` is true; `reasons` says why not.

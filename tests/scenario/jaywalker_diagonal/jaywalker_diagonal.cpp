@@ -7,17 +7,21 @@
 
 namespace example {
 
-// Kind hazard_template, name jaywalker_diagonal. Starts on the kerb on `side` at x = initial_distance_m and walks
-// at speed_mps along heading_deg, a diagonal towards the other side. Params: the shared template params.
+// Kind hazard_template, name jaywalker_diagonal. Starts on the kerb on `side` at x = initial_distance_m and
+// walks at speed_mps along heading_deg, a diagonal towards the other side. Params: the shared template
+// params.
 class JaywalkerDiagonal : public hf::hazard::TemplateBase {
  public:
-  static hf::ComponentInfo describe() { return base_info("jaywalker_diagonal", "a person crosses diagonally"); }
+  static hf::ComponentInfo describe() {
+    return base_info("jaywalker_diagonal", "a person crosses diagonally");
+  }
   std::string hazard_kind() const override { return "jaywalker_diagonal"; }
 
  protected:
   std::vector<std::string> allowed_classes() const override { return {"person"}; }
 
-  hf::hazard::Design design(const hf::hazard::PlanRequest& req, std::vector<std::string>& reasons) const override {
+  hf::hazard::Design design(const hf::hazard::PlanRequest& req,
+                            std::vector<std::string>& reasons) const override {
     const int side = req.side_sign();  // +1 left, -1 right
     const double h = req.spec.heading_deg * std::numbers::pi / 180;
     const double across = -side * std::sin(h);  // share of the motion towards the other side

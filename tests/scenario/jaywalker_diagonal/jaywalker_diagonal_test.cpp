@@ -45,14 +45,15 @@ hf::SceneContext scene() {
 }
 
 TEST(JaywalkerDiagonal, WalksDiagonallyFromTheKerb) {
-  auto tpl = registry().create<hf::HazardTemplate>("hazard_template", "jaywalker_diagonal", {{"duration_s", 4.0}});
+  auto tpl =
+      registry().create<hf::HazardTemplate>("hazard_template", "jaywalker_diagonal", {{"duration_s", 4.0}});
   const hf::HazardTrajectory tr = tpl->plan(spec(-45, 1.5), scene());
   EXPECT_DOUBLE_EQ(tr.points.front().x, 30.0);
   EXPECT_DOUBLE_EQ(tr.points.front().y, 5.75);  // kerb: 1.75 + 3.5 + 0.5 m
   EXPECT_NEAR(tr.points.front().heading, -M_PI / 4, 1e-12);
   EXPECT_NEAR(tr.points[20].y - tr.points[0].y, -1.5 * std::sqrt(0.5), 1e-9);  // 1 s later
-  // In the ego path (|y| < 1.8 m) after 3.72 s; the gap 26.35 m closes at 8 - 1.06 m/s and reaches 0 at 3.797 s,
-  // so the plan ends at that contact: the last sample is at 3.75 s, with TTC = gap / closing there.
+  // In the ego path (|y| < 1.8 m) after 3.72 s; the gap 26.35 m closes at 8 - 1.06 m/s and reaches 0 at 3.797
+  // s, so the plan ends at that contact: the last sample is at 3.75 s, with TTC = gap / closing there.
   const double closing = 8.0 - 1.5 * std::sqrt(0.5);
   EXPECT_EQ(tr.points.size(), 76u);
   EXPECT_NEAR(tr.intended_min_ttc_s, (26.35 - closing * 3.75) / closing, 1e-9);

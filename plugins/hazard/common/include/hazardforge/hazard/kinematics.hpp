@@ -1,4 +1,5 @@
-// Shared hazard kinematics: per-class limits, jerk-limited profiles, lane-change shapes, TTC of two trajectories.
+// Shared hazard kinematics: per-class limits, jerk-limited profiles, lane-change shapes, TTC of two
+// trajectories.
 #pragma once
 
 #include <filesystem>
@@ -83,8 +84,8 @@ struct Shift {
   double p = 0, v = 0, a = 0, j = 0;
 };
 Shift min_jerk_shift(double distance, double duration, double t);
-// Shortest duration for which a min-jerk shift of `distance` keeps its peak rate, acceleration and jerk within
-// the given limits (peaks: 1.875 D/T, 5.7735 D/T^2, 60 D/T^3).
+// Shortest duration for which a min-jerk shift of `distance` keeps its peak rate, acceleration and jerk
+// within the given limits (peaks: 1.875 D/T, 5.7735 D/T^2, 60 D/T^3).
 double min_jerk_duration(double distance, double max_rate, double max_accel, double max_jerk);
 
 // The ground-truth protocol's TTC conventions (GUIDE section 3), every constant configurable.
@@ -98,20 +99,21 @@ struct TtcConventions {
 };
 
 struct TtcSample {
-  double t = 0;                   // stream time
-  double x_rel = 0, y_rel = 0;    // object centre in the ego frame at t
+  double t = 0;                 // stream time
+  double x_rel = 0, y_rel = 0;  // object centre in the ego frame at t
   bool in_path = false;
-  double gap = kInf;              // m
-  double closing = 0;             // m/s, positive = approaching
-  double ttc = kInf;              // s; infinite when not in path or not closing
+  double gap = kInf;   // m
+  double closing = 0;  // m/s, positive = approaching
+  double ttc = kInf;   // s; infinite when not in path or not closing
 };
 
 // TTC of one object sample seen from one ego sample (both in the same fixed frame).
 TtcSample ttc_at(const TrajectoryPoint& ego, const TrajectoryPoint& obj, const cv::Vec3d& size_lwh,
                  const TtcConventions& conv);
 // Pairs samples by index; both trajectories must share their time stamps (throws hf::Error otherwise).
-std::vector<TtcSample> ttc_series(const std::vector<TrajectoryPoint>& ego, const std::vector<TrajectoryPoint>& obj,
-                                  const cv::Vec3d& size_lwh, const TtcConventions& conv);
+std::vector<TtcSample> ttc_series(const std::vector<TrajectoryPoint>& ego,
+                                  const std::vector<TrajectoryPoint>& obj, const cv::Vec3d& size_lwh,
+                                  const TtcConventions& conv);
 double min_ttc(const std::vector<TtcSample>& series);
 
 // Peak kinematic quantities of a sampled trajectory, from finite differences of the positions only (so they

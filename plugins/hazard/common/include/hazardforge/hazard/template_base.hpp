@@ -1,5 +1,5 @@
-// Base class for hazard templates: a kind only designs the object's motion; sampling, ego plan, TTC, limits and
-// visibility checks are shared so every kind is judged by the same rules.
+// Base class for hazard templates: a kind only designs the object's motion; sampling, ego plan, TTC, limits
+// and visibility checks are shared so every kind is judged by the same rules.
 #pragma once
 
 #include <functional>
@@ -27,9 +27,9 @@ struct RoadModel {
 
 // The object's state `tau` seconds after the anchor time, in the anchor frame.
 struct ObjectMotion {
-  double x = 0, y = 0;    // ground-contact centre (m)
-  double vx = 0, vy = 0;  // m/s
-  double accel = 0;       // along the path (m/s^2), for the record
+  double x = 0, y = 0;            // ground-contact centre (m)
+  double vx = 0, vy = 0;          // m/s
+  double accel = 0;               // along the path (m/s^2), for the record
   std::optional<double> heading;  // rad; default: direction of motion (held while standing)
 };
 using MotionFn = std::function<ObjectMotion(double tau)>;
@@ -50,7 +50,7 @@ struct PlanRequest {
   double ego_speed = 0;           // m/s, constant over the plan
   const RoadModel& road;
   const TtcConventions& ttc;
-  double duration = 0;  // s
+  double duration = 0;   // s
   const Params& params;  // the template's validated params
 
   // |y| below which an object of this width is in the ego path.
@@ -58,7 +58,9 @@ struct PlanRequest {
     return ttc.ego_half_width + ttc.margin + object_width / 2;
   }
   // Gap (protocol convention) of an object centred at x with length l to the ego at tau.
-  double gap(double x, double length, double tau) const { return x - ego_speed * tau - ttc.ego_front - length / 2; }
+  double gap(double x, double length, double tau) const {
+    return x - ego_speed * tau - ttc.ego_front - length / 2;
+  }
   // +1 left / -1 right from lateral_offset_m's sign, else from `side`; 0 when neither says.
   int side_sign() const;
 };
