@@ -1,6 +1,7 @@
 // Overlay drawing for the annotated video: class-coloured boxes with labels and one banner per metric.
 #include "overlay.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -33,6 +34,9 @@ void label_box(cv::Mat& img, const std::string& text, cv::Point org, double scal
   int base = 0;
   const int th = std::max(1, static_cast<int>(std::lround(scale * 2)));
   const cv::Size ts = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, th, &base);
+  // Keep the whole label on screen: boxes at the right or top edge would otherwise cut it off.
+  org.x = std::max(0, std::min(org.x, img.cols - ts.width - 4));
+  org.y = std::max(org.y, ts.height + base);
   cv::Rect r(org.x, org.y - ts.height - base, ts.width + 4, ts.height + base + 4);
   r &= cv::Rect(0, 0, img.cols, img.rows);
   cv::rectangle(img, r, bg, cv::FILLED);
