@@ -282,6 +282,34 @@ TEST(NuScenesSource, BrokenTablesNameTheFile) {
   }
 }
 
+TEST(NuScenesSource, SecondSceneContinuesAfterAGap) {
+  HF_REQUIRE_SHARED(dataroot() / "v1.0-mini/scene.json");
+  // The scene listed twice under two names stands in for a two-scene dataset.
+  BrokenCopy c;
+  Json scenes = load("scene");
+  Json twin = scenes[0];
+  twin["token"] = "twin";
+  twin["name"] = "scene-twin";
+  scenes.push_back(twin);
+  std::ofstream(c.table("scene")) << scenes.dump();
+  auto frames = run_source<NuScenesSource>("{dataroot: '" + c.root().string() +
+                                           "', annotations: false, scene_gap_s: 2}");
+  ASSERT_EQ(frames.size(), 82u);
+  EXPECT_EQ(frames[41].meta["scene"], "scene-twin");
+  EXPECT_EQ(frames[41].meta["scene_start"], true);
+  EXPECT_EQ(frames[40].meta["scene_start"], false);
+  EXPECT_EQ(frames[41].index, 41);
+  EXPECT_DOUBLE_EQ(frames[41].timestamp, frames[40].timestamp + 2.0);
+  EXPECT_DOUBLE_EQ(frames[81].timestamp - frames[41].timestamp, frames[40].timestamp);
+  // Ego motion is differenced within a scene: the twin's first frame is one-sided again, like frame 0.
+  EXPECT_DOUBLE_EQ(*frames[41].ego.speed_mps, *frames[0].ego.speed_mps);
+  // Only the named scene.
+  EXPECT_EQ(run_source<NuScenesSource>("{dataroot: '" + c.root().string() +
+                                       "', annotations: false, scenes: [scene-twin]}")
+                .size(),
+            41u);
+}
+
 TEST(NuScenesSource, MissingImageNamesTheFile) {
   HF_REQUIRE_SHARED(dataroot() / "v1.0-mini/scene.json");
   TempDir dir;
