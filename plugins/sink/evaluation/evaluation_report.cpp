@@ -30,12 +30,14 @@ double number_from(const Json& j, const std::string& where, const std::string& f
 }
 
 Json verdict_json(const Verdict& v) {
-  return {{"stage", v.stage},
-          {"unit", v.unit},
-          {"lower_is_riskier", v.lower_is_riskier},
-          {"threshold", v.threshold},
-          {"scene_value", number_or_inf(v.scene_value)},
-          {"critical", v.critical}};
+  Json j = {{"stage", v.stage},
+            {"unit", v.unit},
+            {"lower_is_riskier", v.lower_is_riskier},
+            {"threshold", v.threshold},
+            {"scene_value", number_or_inf(v.scene_value)},
+            {"critical", v.critical}};
+  if (v.lead_value) j["lead_value"] = number_or_inf(*v.lead_value);
+  return j;
 }
 
 Verdict verdict_from(const Json& j, const std::string& where, const std::string& field) {
@@ -52,6 +54,7 @@ Verdict verdict_from(const Json& j, const std::string& where, const std::string&
   }
   if (!j.contains("scene_value")) throw Error(where + ": field '" + field + "' has no 'scene_value'");
   v.scene_value = number_from(j["scene_value"], where, field + ".scene_value");
+  if (j.contains("lead_value")) v.lead_value = number_from(j["lead_value"], where, field + ".lead_value");
   return v;
 }
 
@@ -248,6 +251,22 @@ std::string html_table(const Table& t) {
   return s.str();
 }
 
+// Frames whose ground truth is unknown (NaN scene value) are left out of every table of the group.
+std::string truth_unknown_line(const Json& group) {
+  const long n = group.value("truth_unknown", 0L);
+  if (n == 0) return "";
+  return std::to_string(n) + " of " + std::to_string(group.value("frames", 0L)) +
+         " frames have no ground-truth value (unknown) and are not scored.\n\n";
+}
+
+// A metric's value in a record: the stream's scene value, or its value for the truth's critical object.
+const Verdict* stream_of(const FrameRecord& r, const Json& metric) {
+  return r.estimate(metric.value("stream", metric.at("name").get<std::string>()));
+}
+double value_of(const Verdict& v, const Json& metric) {
+  return metric.value("compare", "scene") == "lead" ? v.lead_value.value_or(std::nan("")) : v.scene_value;
+}
+
 std::vector<std::string> notes_of(const Json& report) {
   std::vector<std::string> notes;
   for (const Json& m : report.at("metrics")) {
@@ -265,6 +284,14 @@ std::vector<std::string> notes_of(const Json& report) {
           "` is a time headway, not a time-to-collision: its labels and errors compare a following-"
           "distance measure with the true TTC.");
   }
+  for (const Json& m : report.at("metrics"))
+    if (m.value("compare", "scene") == "lead") {
+      notes.push_back(
+          "`@lead` metrics compare the stream's value for the ground truth's critical object (the same "
+          "track id) with the ground truth, whether or not the stream counts that object in path; a "
+          "frame where the stream has no value for it counts as Safe with no TTC.");
+      break;
+    }
   notes.push_back(
       "n/a: a ratio with an empty denominator — precision without any estimated Unsafe frame, recall "
       "without any true Unsafe frame, balanced accuracy unless both classes occur in the ground truth.");
@@ -281,7 +308,7 @@ double median(std::vector<double> v) {
 }
 
 Verdict verdict_of(const RiskAssessment& r) {
-  return {r.stage, r.unit, r.lower_is_riskier, r.threshold, r.scene_value, r.critical_track};
+  return {r.stage, r.unit, r.lower_is_riskier, r.threshold, r.scene_value, r.critical_track, std::nullopt};
 }
 
 const Verdict* FrameRecord::estimate(const std::string& label) const {
@@ -353,7 +380,8 @@ Json options_to_json(const Options& o) {
   return {{"thresholds", o.thresholds},
           {"max_ttc_s", o.max_ttc_s},
           {"plot_max_s", o.plot_max_s},
-          {"title", o.title}};
+          {"title", o.title},
+          {"compare", o.compare}};
 }
 
 Options options_from_json(const Json& j) {
@@ -362,18 +390,34 @@ Options options_from_json(const Json& j) {
   o.max_ttc_s = j.at("max_ttc_s").get<double>();
   o.plot_max_s = j.at("plot_max_s").get<double>();
   o.title = j.at("title").get<std::string>();
+  // Reports written before the comparison modes existed compared scene values only.
+  if (j.contains("compare")) o.compare = j.at("compare").get<std::vector<std::string>>();
   return o;
 }
 
+std::string metric_name(const std::string& stream, const std::string& mode) {
+  return mode == "lead" ? stream + "@lead" : stream;
+}
+
 Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
-  // Metrics and scenes in order of first appearance.
-  std::vector<std::string> metric_names, scenes;
+  for (const std::string& mode : o.compare)
+    if (mode != "scene" && mode != "lead")
+      throw Error("evaluation: comparison mode '" + mode + "' is not one of scene, lead");
+  // Streams and scenes in order of first appearance; one metric per (comparison mode, stream).
+  std::vector<std::string> streams, scenes;
   std::map<std::string, Verdict> first;
   for (const FrameRecord& r : records) {
     if (std::find(scenes.begin(), scenes.end(), r.scene) == scenes.end()) scenes.push_back(r.scene);
     for (const auto& [name, v] : r.estimates)
-      if (first.emplace(name, v).second) metric_names.push_back(name);
+      if (first.emplace(name, v).second) streams.push_back(name);
   }
+  struct Series {
+    std::string name, stream, mode;
+  };
+  std::vector<Series> series;
+  for (const std::string& mode : o.compare)
+    for (const std::string& st : streams) series.push_back({metric_name(st, mode), st, mode});
+
   Json report;
   Json protocol = options_to_json(o);
   protocol["truth_stage"] = records.empty() ? "" : records.front().truth.stage;
@@ -382,9 +426,11 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
   report["frames"] = records.size();
   report["scenes"] = scenes;
   Json metrics = Json::array();
-  for (const std::string& n : metric_names) {
-    const Verdict& v = first[n];
-    metrics.push_back({{"name", n},
+  for (const Series& se : series) {
+    const Verdict& v = first[se.stream];
+    metrics.push_back({{"name", se.name},
+                       {"stream", se.stream},
+                       {"compare", se.mode},
                        {"stage", v.stage},
                        {"unit", v.unit},
                        {"lower_is_riskier", v.lower_is_riskier},
@@ -395,16 +441,30 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
   std::vector<std::string> groups = scenes;
   if (scenes.size() > 1) groups.push_back(kAllScenes);
   Json results = Json::array();
+  Json summary = Json::array();
   for (const std::string& g : groups) {
-    Json group = {{"scene", g}, {"metrics", Json::array()}};
-    for (const std::string& name : metric_names) {
-      const Verdict& meta = first[name];
-      std::vector<std::pair<const Verdict*, const Verdict*>> pairs;  // (truth, estimate)
+    long truth_unknown = 0, in_group = 0;
+    for (const FrameRecord& r : records) {
+      if (g != kAllScenes && r.scene != g) continue;
+      ++in_group;
+      if (std::isnan(r.truth.scene_value)) ++truth_unknown;
+    }
+    Json group = {
+        {"scene", g}, {"frames", in_group}, {"truth_unknown", truth_unknown}, {"metrics", Json::array()}};
+    for (const Series& se : series) {
+      const Verdict& meta = first[se.stream];
+      // (truth value, estimate value); frames with an unknown truth are not scored.
+      std::vector<std::pair<double, double>> pairs;
       for (const FrameRecord& r : records) {
         if (g != kAllScenes && r.scene != g) continue;
-        if (const Verdict* e = r.estimate(name)) pairs.push_back({&r.truth, e});
+        if (std::isnan(r.truth.scene_value)) continue;
+        const Verdict* e = r.estimate(se.stream);
+        if (!e) continue;
+        const double v = se.mode == "lead" ? e->lead_value.value_or(std::nan("")) : e->scene_value;
+        pairs.push_back({r.truth.scene_value, v});
       }
-      Json m = {{"name", name},
+      const double truth_threshold = records.empty() ? 1.5 : records.front().truth.threshold;
+      Json m = {{"name", se.name},
                 {"stage", meta.stage},
                 {"unit", meta.unit},
                 {"lower_is_riskier", meta.lower_is_riskier},
@@ -413,14 +473,13 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
       if (meta.lower_is_riskier) {
         for (double th : o.thresholds) {
           Confusion c;
-          for (const auto& [t, e] : pairs)
-            c.add(unsafe(e->scene_value, th, true), unsafe(t->scene_value, th, true));
+          for (const auto& [t, e] : pairs) c.add(unsafe(e, th, true), unsafe(t, th, true));
           evals.push_back(c.json(th));
         }
       } else {
         Confusion c;
         for (const auto& [t, e] : pairs)
-          c.add(unsafe(e->scene_value, e->threshold, false), unsafe(t->scene_value, t->threshold, true));
+          c.add(unsafe(e, meta.threshold, false), unsafe(t, truth_threshold, true));
         evals.push_back(c.json("own"));
       }
       m["evaluations"] = evals;
@@ -428,13 +487,13 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
         std::vector<double> abs_err, rel_err;
         long eligible = 0;
         for (const auto& [t, e] : pairs) {
-          if (!std::isfinite(t->scene_value) || t->scene_value >= o.max_ttc_s) continue;
+          if (!std::isfinite(t) || t >= o.max_ttc_s) continue;
           ++eligible;
-          if (!std::isfinite(e->scene_value)) continue;
-          const double err = std::abs(e->scene_value - t->scene_value);
+          if (!std::isfinite(e)) continue;
+          const double err = std::abs(e - t);
           abs_err.push_back(err);
           // A true TTC of 0 (overlapping boxes) has no relative error.
-          if (t->scene_value > 0) rel_err.push_back(err / t->scene_value);
+          if (t > 0) rel_err.push_back(err / t);
         }
         m["ttc_error"] = {{"frames", eligible},
                           {"estimate_finite", static_cast<long>(abs_err.size())},
@@ -443,11 +502,31 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
       } else {
         m["ttc_error"] = Json();
       }
+      // Flat rows, one per threshold, for comparisons across runs (`hazardforge experiment`).
+      const Json& err = m["ttc_error"];
+      for (const Json& e : evals) {
+        Json row = {{"metric", se.name},
+                    {"threshold", e.at("threshold")},
+                    {"frames", e.at("frames")},
+                    {"accuracy", e.at("accuracy")},
+                    {"balanced_accuracy", e.at("balanced_accuracy")},
+                    {"unsafe_precision", e.at("precision")},
+                    {"unsafe_recall", e.at("recall")},
+                    {"always_safe_accuracy", e.at("always_safe_accuracy")},
+                    {"ttc_median_abs_err_s", err.is_null() ? Json() : err.at("median_abs_s")},
+                    {"ttc_median_rel_err", err.is_null() ? Json() : err.at("median_rel")},
+                    {"ttc_frames", err.is_null() ? Json() : err.at("estimate_finite")},
+                    {"ttc_eligible_frames", err.is_null() ? Json() : err.at("frames")}};
+        // The unnamed scene of a stream without scene names is left out.
+        if (g != "all") row["scene"] = g;
+        summary.push_back(std::move(row));
+      }
       group["metrics"].push_back(m);
     }
     results.push_back(group);
   }
   report["results"] = results;
+  report["summary"] = summary;
   return report;
 }
 
@@ -463,7 +542,8 @@ std::string render_markdown(const Json& report) {
        "error on frames whose true TTC is finite and below "
     << num(p.at("max_ttc_s")) << " s; an infinite estimate there has no error and is counted apart.\n\n";
   for (const Json& g : report.at("results")) {
-    s << "## " << g.at("scene").get<std::string>() << "\n\n### All metrics\n\n"
+    s << "## " << g.at("scene").get<std::string>() << "\n\n"
+      << truth_unknown_line(g) << "### All metrics\n\n"
       << markdown_table(summary_table(g, p.at("thresholds").get<std::vector<double>>()))
       << "\n### Safe / Unsafe\n\n"
       << markdown_table(threshold_table(g));
@@ -512,24 +592,24 @@ std::string svg_plot(const std::string& scene, const std::vector<const FrameReco
   struct Series {
     std::string name, color;
     double width;
-    std::function<const Verdict*(const FrameRecord&)> get;
+    std::function<double(const FrameRecord&)> get;  // NaN = no point
   };
   std::vector<Series> series;
-  series.push_back({"ground truth", "#000", 2.5, [](const FrameRecord& r) { return &r.truth; }});
+  series.push_back({"ground truth", "#000", 2.5, [](const FrameRecord& r) { return r.truth.scene_value; }});
   int ci = 0;
   for (const Json& m : report.at("metrics")) {
     if (!m.at("lower_is_riskier").get<bool>() || m.at("unit") != "s") continue;
-    const std::string name = m.at("name").get<std::string>();
-    series.push_back(
-        {name, kColors[ci++ % 10], 1.5, [name](const FrameRecord& r) { return r.estimate(name); }});
+    series.push_back({m.at("name").get<std::string>(), kColors[ci++ % 10], 1.5, [m](const FrameRecord& r) {
+                        const Verdict* v = stream_of(r, m);
+                        return v ? value_of(*v, m) : std::nan("");
+                      }});
   }
   for (size_t k = 0; k < series.size(); ++k) {
     const Series& se = series[k];
     std::ostringstream pts;
     pts << std::fixed << std::setprecision(1);
     for (const FrameRecord* r : recs)
-      if (const Verdict* v = se.get(*r); v && !std::isnan(v->scene_value))
-        pts << X(r->timestamp) << "," << Y(v->scene_value) << " ";
+      if (const double v = se.get(*r); !std::isnan(v)) pts << X(r->timestamp) << "," << Y(v) << " ";
     s << "<polyline fill='none' stroke='" << se.color << "' stroke-width='" << se.width << "' points='"
       << pts.str() << "'/>\n";
     s << "<line x1='" << W - R + 40 << "' x2='" << W - R + 60 << "' y1='" << T + 12 + 16 * k << "' y2='"
@@ -562,7 +642,9 @@ std::string render_html(const Json& report, const std::vector<FrameRecord>& reco
     << num(p.at("max_ttc_s")) << " s.</p>\n";
   for (const Json& g : report.at("results")) {
     const std::string scene = g.at("scene").get<std::string>();
-    s << "<h2>" << html_escape(scene) << "</h2>\n<h3>All metrics</h3>\n"
+    s << "<h2>" << html_escape(scene) << "</h2>\n";
+    if (const std::string u = truth_unknown_line(g); !u.empty()) s << "<p>" << html_escape(u) << "</p>\n";
+    s << "<h3>All metrics</h3>\n"
       << html_table(summary_table(g, p.at("thresholds").get<std::vector<double>>()))
       << "<h3>Safe / Unsafe</h3>\n"
       << html_table(threshold_table(g));

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,9 @@ struct Verdict {
   double threshold = 1.5;
   double scene_value = kInf;
   int64_t critical = -1;
+  // Estimates only, with the "lead" comparison: this stream's value for the truth's critical object (same
+  // track id), NaN when it has no such object or the truth has none.
+  std::optional<double> lead_value;
 };
 
 struct FrameRecord {
@@ -37,7 +41,13 @@ struct Options {
   double max_ttc_s = 10.0;   // TTC error only on frames whose true TTC is finite and below this
   double plot_max_s = 12.0;  // y range of the plots
   std::string title = "HazardForge evaluation";
+  // What of each estimate is compared with the truth: "scene" = its scene value; "lead" = its value for the
+  // truth's critical object (metric named "<stream>@lead"). Each listed mode adds one metric per stream.
+  std::vector<std::string> compare{"scene"};
 };
+
+// Name of the metric a stream gets under a comparison mode.
+std::string metric_name(const std::string& stream, const std::string& mode);
 
 Verdict verdict_of(const RiskAssessment& r);
 
@@ -51,8 +61,10 @@ std::vector<FrameRecord> read_records(const std::string& jsonl_path);
 Json options_to_json(const Options& o);
 Options options_from_json(const Json& j);
 
-// The report: protocol, metric list, scenes, and per (scene, metric) the confusion tables at each threshold
-// and the TTC error. Depends only on the records and the options.
+// The report: protocol, metric list, scenes, per (scene, metric) the confusion tables at each threshold and
+// the TTC error, and `summary`, one flat row per (scene, metric, threshold) for side-by-side comparisons.
+// Frames whose true scene value is unknown (NaN) are not scored; each group counts them. Depends only on the
+// records and the options.
 Json evaluate(const std::vector<FrameRecord>& records, const Options& options);
 
 std::string render_markdown(const Json& report);

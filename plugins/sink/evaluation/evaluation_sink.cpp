@@ -2,6 +2,7 @@
 // reports.
 #include "evaluation_sink.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace hf {
@@ -36,9 +37,13 @@ ComponentInfo EvaluationSink::describe() {
       "always-Safe "
       "baseline; labels of truth and estimate are recomputed from their scene values. Higher-is-riskier "
       "metrics (DRAC) are scored once with their own label. TTC error: median absolute and relative error of "
-      "the scene TTC on frames whose true TTC is finite and below max_ttc_s. See docs/evaluation.md.";
+      "the scene TTC on frames whose true TTC is finite and below max_ttc_s. Frames with an unknown (NaN) "
+      "true "
+      "scene value are not scored. compare: lead scores each stream's value for the truth's critical object "
+      "(lidar_ttc's lead vehicle). report.json carries a flat `summary` for `hazardforge experiment`. See "
+      "docs/evaluation.md.";
   i.inputs = {
-      port<RiskAssessment>("truth", "reference assessment (risk_metric/ground_truth)"),
+      port<RiskAssessment>("truth", "reference assessment (ground_truth, label_ttc, lidar_ttc)"),
       multi(port<RiskAssessment>("estimates", "assessments to score, labelled by their producer node")),
       optional(port<Frame>("frames", "for the scene name (Frame.meta) of each frame"))};
   i.params = {
@@ -51,6 +56,11 @@ ComponentInfo EvaluationSink::describe() {
           .range(0.1, 1e6)
           .describe("upper end of the TTC plots' y axis (s)"),
       ParamSpec::string("scene_key", "scene").describe("Frame.meta key holding the scene name"),
+      ParamSpec::string("scene", "")
+          .describe("scene name of every frame (e.g. a KITTI sequence per run); empty = from the frames"),
+      ParamSpec::string_list("compare", {"scene"})
+          .describe("scene = score each stream's scene value; lead = its value for the truth's critical "
+                    "object (same track id; metric '<stream>@lead'); both = one metric per mode"),
       ParamSpec::string("title", "HazardForge evaluation").describe("report title"),
   };
   return i;
@@ -65,6 +75,13 @@ void EvaluationSink::open(StageContext& ctx) {
   options_.plot_max_s = p.get_double("plot_max_s");
   options_.title = p.get_string("title");
   scene_key_ = p.get_string("scene_key");
+  scene_ = p.get_string("scene");
+  options_.compare = p.get_strings("compare");
+  if (options_.compare.empty()) throw Error("stage 'evaluation': 'compare' must list scene and/or lead");
+  for (const std::string& m : options_.compare)
+    if (m != "scene" && m != "lead")
+      throw Error("stage 'evaluation': parameter 'compare': '" + m + "' is not one of scene, lead");
+  lead_ = std::find(options_.compare.begin(), options_.compare.end(), "lead") != options_.compare.end();
   dir_ = ctx.output_dir() / p.get_string("dir");
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
@@ -86,6 +103,7 @@ void EvaluationSink::process(StageContext& ctx, const Inputs& in, Outputs&) {
     if (f->meta.contains(scene_key_) && f->meta[scene_key_].is_string())
       r.scene = f->meta[scene_key_].get<std::string>();
   }
+  if (!scene_.empty()) r.scene = scene_;
   const std::vector<const Packet*> packets = in.packets("estimates");
   const std::vector<std::string> producers = in.producers("estimates");
   for (size_t k = 0; k < packets.size(); ++k) {
@@ -94,7 +112,15 @@ void EvaluationSink::process(StageContext& ctx, const Inputs& in, Outputs&) {
     const std::string label = k < producers.size() && !producers[k].empty() ? producers[k] : e.metric;
     if (r.estimate(label))
       throw Error("frame " + std::to_string(r.frame) + ": two estimate packets from '" + label + "'");
-    r.estimates.emplace_back(label, eval::verdict_of(e));
+    eval::Verdict v = eval::verdict_of(e);
+    if (lead_) {
+      // The stream's own value for the object the truth calls critical; unknown when it has none.
+      v.lead_value = std::nan("");
+      if (truth.critical_track >= 0)
+        for (const ObjectRisk& o : e.objects)
+          if (o.track_id == truth.critical_track) v.lead_value = o.value;
+    }
+    r.estimates.emplace_back(label, std::move(v));
   }
   if (r.estimates.empty()) return;
   jsonl_ << eval::to_json(r).dump() << "\n";
