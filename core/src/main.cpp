@@ -54,7 +54,9 @@ int main(int argc, char** argv) {
   auto* inspect = app.add_subcommand("inspect", "Show a stage's ports and params with their docs");
   std::string stage_name;
   bool inspect_md = false;
-  inspect->add_option("stage", stage_name, "Stage or component name (kind/name when ambiguous)")->required();
+  bool inspect_all = false;
+  inspect->add_option("stage", stage_name, "Stage or component name (kind/name when ambiguous)");
+  inspect->add_flag("--all", inspect_all, "Every registered component (with --markdown: docs/stages.md)");
   inspect->add_flag("--markdown", inspect_md, "Markdown output (for generated docs)");
 
   auto* graph = app.add_subcommand("graph", "Print a config's graph");
@@ -113,7 +115,13 @@ int main(int argc, char** argv) {
     if (*run) return cmd_run(host, common);
     if (*validate) return cmd_validate(host, common);
     if (*plugins) return cmd_plugins(host, plugins_json);
-    if (*inspect) return cmd_inspect(host, stage_name, inspect_md);
+    if (*inspect) {
+      if (inspect_all == !stage_name.empty()) {
+        std::cerr << "error: inspect takes a STAGE or --all\n";
+        return 2;
+      }
+      return inspect_all ? cmd_inspect_all(host, inspect_md) : cmd_inspect(host, stage_name, inspect_md);
+    }
     if (*graph) return cmd_graph(host, common);
     if (*bench) return cmd_bench(host, common, bopt);
     if (*eval) return cmd_eval(host, common);

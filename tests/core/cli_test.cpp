@@ -143,3 +143,18 @@ TEST(Cli, CtrlCKeepsWhatWasWrittenAndMarksTheManifest) {
 }
 
 }  // namespace
+
+namespace {
+
+// docs/stages.md is generated from the stages' own declarations; regenerate it with
+//   build/bin/hazardforge inspect --all --markdown > docs/stages.md
+TEST(Cli, GeneratedStageReferenceIsUpToDate) {
+  Cmd c = run("inspect --all --markdown");
+  ASSERT_EQ(c.code, 0) << c.out;
+  std::ifstream in(hf::test::source_dir() / "docs" / "stages.md");
+  std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_TRUE(c.out == doc) << "docs/stages.md is stale: regenerate it with "
+                               "`build/bin/hazardforge inspect --all --markdown > docs/stages.md`";
+}
+
+}  // namespace

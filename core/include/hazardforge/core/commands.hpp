@@ -54,6 +54,7 @@ int cmd_run(Host& host, const CommonOptions& o);
 int cmd_validate(Host& host, const CommonOptions& o);
 int cmd_plugins(Host& host, bool json);
 int cmd_inspect(Host& host, const std::string& name, bool markdown);
+int cmd_inspect_all(Host& host, bool markdown);
 int cmd_graph(Host& host, const CommonOptions& o);
 int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b);
 int cmd_eval(Host& host, const CommonOptions& o);
