@@ -1,7 +1,7 @@
 // Generates the default appearance assets (share/assets): simple shaded 3D models of a car, a truck, a bus and
-// a pedestrian, ray-cast from eight viewpoints into PNGs with alpha, plus the assets.yaml index.
+// a pedestrian, ray-cast from sixteen viewpoints into PNGs with alpha, plus the assets.yaml index.
 //
-//   hf_make_assets --out share/assets [--height 240]
+//   hf_make_assets --out share/assets [--height 240] [--only car]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -362,7 +362,7 @@ Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray) {
 }
 
 cv::Mat render(const Model& m, const Camera& cam, cv::Size size) {
-  constexpr int kSuper = 4;  // supersampling per axis, for anti-aliased edges and alpha
+  constexpr int kSuper = 3;  // supersampling per axis, for anti-aliased edges and alpha
   cv::Mat acc(size, CV_64FC4, cv::Scalar::all(0));
   for (int y = 0; y < size.height; ++y)
     for (int x = 0; x < size.width; ++x) {
@@ -392,22 +392,28 @@ cv::Mat render(const Model& m, const Camera& cam, cv::Size size) {
   return out;
 }
 
-int run(const fs::path& out_dir, int vehicle_height) {
+int run(const fs::path& out_dir, int vehicle_height, const std::string& only) {
   std::vector<Model> models;
-  models.push_back(make_car());
-  models.push_back(make_truck());
-  models.push_back(make_bus());
-  models.push_back(make_person());
+  for (Model m : {make_car(), make_truck(), make_bus(), make_person()})
+    if (only.empty() || m.object_class == only) models.push_back(std::move(m));
+  if (models.empty()) throw hf::Error("--only '" + only + "' is not one of car, truck, bus, person");
   hr::AssetIndex index;
   for (Model& m : models) {
     if (m.object_class != "person") m.target_height_px = vehicle_height;
-    for (const std::string& view : hr::view_names()) {
-      const double az = hr::view_azimuth_deg(view);
+    // Sixteen viewpoints, 22.5 degrees apart, so the renderer's nearest picture is never more than 11.25 degrees
+    // off: the eight named views plus one between each pair.
+    for (int k = 0; k < 16; ++k) {
+      const double az = hr::wrap_deg(22.5 * k);
+      // In-between viewpoints take the name of their three-quarter neighbour (odd view index), symmetrically.
+      const int bin = k % 2 ? ((k / 2) % 2 ? k / 2 : (k / 2 + 1) % 8) : k / 2;
+      const std::string view = hr::view_names()[static_cast<size_t>(bin)];
       cv::Size size;
       const Camera cam = view_camera(m, az, size);
       const cv::Mat img = render(m, cam, size);
       hr::AssetSpec s;
-      s.file = m.object_class + "_" + view + ".png";
+      char az_tag[16];
+      std::snprintf(az_tag, sizeof az_tag, "_az%03ld", std::lround(std::fmod(22.5 * k, 360.0)));
+      s.file = m.object_class + "_" + view + (k % 2 ? az_tag : "") + ".png";
       s.object_class = m.object_class;
       s.view = view;
       s.azimuth_deg = az;
@@ -435,23 +441,27 @@ int run(const fs::path& out_dir, int vehicle_height) {
 int main(int argc, char** argv) {
   fs::path out;
   int height = 240;
+  std::string only;
+  const char* usage = "usage: hf_make_assets --out DIR [--height PX (>= 32)] [--only car|truck|bus|person]\n";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--out" && i + 1 < argc) {
       out = argv[++i];
     } else if (a == "--height" && i + 1 < argc) {
       height = std::atoi(argv[++i]);
+    } else if (a == "--only" && i + 1 < argc) {
+      only = argv[++i];
     } else {
-      std::cerr << "usage: hf_make_assets --out DIR [--height PX]\n";
+      std::cerr << usage;
       return 2;
     }
   }
   if (out.empty() || height < 32) {
-    std::cerr << "usage: hf_make_assets --out DIR [--height PX]   (PX >= 32)\n";
+    std::cerr << usage;
     return 2;
   }
   try {
-    return run(out, height);
+    return run(out, height, only);
   } catch (const std::exception& e) {
     std::cerr << "hf_make_assets: " << e.what() << "\n";
     return 1;

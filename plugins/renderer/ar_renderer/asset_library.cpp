@@ -181,7 +181,7 @@ void save_asset_index(const fs::path& dir, const AssetIndex& index, const std::s
   std::ostringstream os;
   std::istringstream cs(comment);
   for (std::string line; std::getline(cs, line);) os << "# " << line << "\n";
-  os << "format: " << kAssetFormat << "\nversion: " << kAssetFormatVersion << "\nassets:\n";
+  os << "format: " << kAssetFormat << "\nversion: " << kAssetFormatVersion << "\nassets:" << (index.assets.empty() ? " []" : "") << "\n";
   for (const AssetSpec& s : index.assets) {
     os << "  - file: " << quoted(s.file) << "\n";
     os << "    class: " << s.object_class << "\n";

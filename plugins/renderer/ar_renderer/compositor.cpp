@@ -80,8 +80,20 @@ cv::Mat harmonisation_lut(const LoadedAsset& a, const ExposureState& ex, const C
 
 }  // namespace
 
-cv::Matx33d asset_homography(const LoadedAsset& a, const std::array<cv::Point2d, 8>& img) {
-  const std::vector<int> ids = visible_corners(a.spec.azimuth_deg);
+std::vector<int> mapping_corners(double asset_az, double view_az) {
+  std::vector<int> ids;
+  const auto faces = visible_faces(view_az);
+  for (Face f : visible_faces(asset_az))
+    if (std::find(faces.begin(), faces.end(), f) != faces.end())
+      for (int c : face_corners(f)) ids.push_back(c);
+  if (ids.empty()) return visible_corners(asset_az);
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  return ids;
+}
+
+cv::Matx33d asset_homography(const LoadedAsset& a, const std::array<cv::Point2d, 8>& img, double view_az) {
+  const std::vector<int> ids = mapping_corners(a.spec.azimuth_deg, view_az);
   std::vector<cv::Point2f> src, dst;
   for (int i : ids) {
     src.emplace_back(a.spec.box_corners_px[i]);
@@ -97,11 +109,11 @@ cv::Matx33d asset_homography(const LoadedAsset& a, const std::array<cv::Point2d,
 CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, ExposureState& ex) {
   CompositeResult r;
   const LoadedAsset& a = *p.asset;
-  const cv::Matx33d H0 = asset_homography(a, p.corners_px);
+  const cv::Matx33d H0 = asset_homography(a, p.corners_px, p.view_azimuth_deg);
   if (cv::norm(H0) < 1e-12) return r;
 
   // Pyramid level: the coarsest one still as tall as the object will be drawn (no aliasing, least work).
-  const std::vector<int> ids = visible_corners(a.spec.azimuth_deg);
+  const std::vector<int> ids = mapping_corners(a.spec.azimuth_deg, p.view_azimuth_deg);
   double sy0 = 1e9, sy1 = -1e9, iy0 = 1e9, iy1 = -1e9;
   for (int i : ids) {
     sy0 = std::min(sy0, a.spec.box_corners_px[i].y);
