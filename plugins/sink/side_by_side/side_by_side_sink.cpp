@@ -1,0 +1,179 @@
+// The side_by_side sink: original | augmented composites written as H.264 (or MPEG-4) video and PNG stills.
+#include "side_by_side_sink.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "hazardforge/error.hpp"
+
+namespace hf::render {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+void label(cv::Mat& img, const std::string& text, cv::Point org, double scale) {
+  const int font = cv::FONT_HERSHEY_SIMPLEX;
+  const double fs = std::max(0.45, 0.9 * scale);
+  const int th = std::max(1, static_cast<int>(std::lround(2 * scale)));
+  int base = 0;
+  const cv::Size ts = cv::getTextSize(text, font, fs, th, &base);
+  const cv::Rect bg = cv::Rect(org.x - 6, org.y - ts.height - 8, ts.width + 12, ts.height + base + 14) &
+                      cv::Rect(0, 0, img.cols, img.rows);
+  cv::Mat roi = img(bg);
+  roi.convertTo(roi, -1, 0.35, 0);  // darkened backdrop keeps the text readable on any scene
+  cv::putText(img, text, org, font, fs, cv::Scalar(255, 255, 255), th, cv::LINE_AA);
+}
+
+fs::path below(const fs::path& base, const fs::path& p) { return p.is_absolute() ? p : base / p; }
+
+}  // namespace
+
+ComponentInfo SideBySideSink::describe() {
+  ComponentInfo i;
+  i.name = "side_by_side";
+  i.kind = kind::kSink;
+  i.summary = "writes original and augmented frames side by side (before_after.mp4) and PNG stills";
+  i.doc =
+      "Each frame pair becomes one labelled picture (original left or top, augmented right or bottom). The video "
+      "is H.264 ('avc1') when OpenCV's FFmpeg backend has an encoder for it, else MPEG-4 ('mp4v'); it is written "
+      "under a temporary name and renamed when the stream ends, so an interrupted run keeps a playable file.";
+  i.inputs = {port<Frame>("original", "frames before augmentation"),
+              port<Frame>("augmented", "the same frames after augmentation"),
+              optional(port<HazardInstance>("hazard", "where the hazard is (outlined when draw_hazard_box)"))};
+  i.params = {
+      ParamSpec::string("file", "before_after.mp4").describe("video file name below the run's output folder"),
+      ParamSpec::number("fps", 0.0).range(0.0, 240.0).describe("video rate; 0 = from the frames' timestamps"),
+      ParamSpec::string("fourcc", "avc1").describe("preferred codec; 'mp4v' is the fallback"),
+      ParamSpec::number("scale", 0.5).range(0.05, 2.0).describe("scale of each half in the video"),
+      ParamSpec::string("layout", "horizontal").one_of({"horizontal", "vertical"}).describe("halves side by side or stacked"),
+      ParamSpec::string_list("labels", {"original", "augmented"}).describe("captions of the two halves"),
+      ParamSpec::int_list("stills", {}).describe("frame indices written as PNG stills"),
+      ParamSpec::string("stills_dir", "stills").describe("folder for stills; relative = below the run's output folder"),
+      ParamSpec::number("stills_scale", 0.5).range(0.05, 2.0).describe("scale of each half in the stills"),
+      ParamSpec::boolean("draw_hazard_box", false).describe("outline the inserted object on the augmented half"),
+  };
+  return i;
+}
+
+void SideBySideSink::open(StageContext& ctx) {
+  const Params& p = ctx.params();
+  const fs::path file = p.get_string("file");
+  if (file.empty() || file.extension() != ".mp4") throw Error("file '" + file.string() + "' must end in .mp4");
+  file_ = below(ctx.output_dir(), file);
+  tmp_file_ = file_.parent_path() / (file_.stem().string() + ".partial.mp4");
+  stills_dir_ = below(ctx.output_dir(), p.get_string("stills_dir"));
+  fps_ = p.get_double("fps");
+  fourcc_ = p.get_string("fourcc");
+  if (fourcc_.size() != 4) throw Error("fourcc '" + fourcc_ + "' must have four characters");
+  scale_ = p.get_double("scale");
+  stills_scale_ = p.get_double("stills_scale");
+  layout_ = p.get_string("layout");
+  labels_ = p.get_strings("labels");
+  if (labels_.size() != 2) throw Error("labels must list two captions (original, augmented)");
+  for (long long s : p.get_ints("stills")) stills_.insert(s);
+  draw_box_ = p.get_bool("draw_hazard_box");
+}
+
+cv::Mat SideBySideSink::compose(const Frame& a, const Frame& b, const HazardInstance* hz, double scale) const {
+  if (a.image.empty() || b.image.empty())
+    throw Error("frame " + std::to_string(a.index) + ": an input frame has no image");
+  if (a.image.size() != b.image.size())
+    throw Error("frame " + std::to_string(a.index) + ": original is " + std::to_string(a.image.cols) + "x" +
+                std::to_string(a.image.rows) + " but augmented is " + std::to_string(b.image.cols) + "x" +
+                std::to_string(b.image.rows));
+  const cv::Size half(std::max(2, static_cast<int>(std::lround(a.image.cols * scale / 2)) * 2),
+                      std::max(2, static_cast<int>(std::lround(a.image.rows * scale / 2)) * 2));
+  cv::Mat l, r;
+  cv::resize(a.image, l, half, 0, 0, cv::INTER_AREA);
+  cv::resize(b.image, r, half, 0, 0, cv::INTER_AREA);
+  if (draw_box_ && hz && hz->visible) {
+    const double sx = static_cast<double>(half.width) / a.image.cols, sy = static_cast<double>(half.height) / a.image.rows;
+    cv::rectangle(r, cv::Rect(cvRound(hz->box.x * sx), cvRound(hz->box.y * sy), cvRound(hz->box.width * sx),
+                              cvRound(hz->box.height * sy)),
+                  cv::Scalar(0, 200, 255), std::max(1, cvRound(2 * scale)), cv::LINE_AA);
+  }
+  const double ts = std::clamp(half.height / 450.0, 0.5, 2.0);
+  const cv::Point org(12, static_cast<int>(30 * ts) + 8);
+  label(l, labels_[0], org, ts);
+  label(r, labels_[1], org, ts);
+  char info[64];
+  std::snprintf(info, sizeof info, "frame %lld  t=%.2f s", static_cast<long long>(b.index), b.timestamp);
+  label(r, info, cv::Point(12, half.height - 14), ts * 0.8);
+  cv::Mat out;
+  if (layout_ == "vertical") {
+    cv::vconcat(l, r, out);
+  } else {
+    cv::hconcat(l, r, out);
+  }
+  return out;
+}
+
+void SideBySideSink::open_writer(StageContext& ctx, double fps, cv::Size size) {
+  fs::create_directories(file_.parent_path());
+  for (const std::string& cc : {fourcc_, std::string("mp4v")}) {
+    writer_.open(tmp_file_.string(), cv::VideoWriter::fourcc(cc[0], cc[1], cc[2], cc[3]), fps, size);
+    if (writer_.isOpened()) {
+      codec_ = cc;
+      if (cc != fourcc_)
+        ctx.log(LogLevel::kWarning, "side_by_side: no '" + fourcc_ + "' encoder, writing '" + cc + "' instead");
+      return;
+    }
+  }
+  throw Error("cannot open a video writer for '" + tmp_file_.string() + "' with '" + fourcc_ + "' or 'mp4v'");
+}
+
+void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
+  const Frame& a = in.require<Frame>("original");
+  const Frame& b = in.require<Frame>("augmented");
+  if (a.index != b.index)
+    throw Error("side_by_side: original frame " + std::to_string(a.index) + " is paired with augmented frame " +
+                std::to_string(b.index));
+  const HazardInstance* hz = in.get<HazardInstance>("hazard");
+  if (stills_.count(b.index)) {
+    fs::create_directories(stills_dir_);
+    const fs::path still = stills_dir_ / ("before_after_" + std::to_string(b.index) + ".png");
+    const fs::path tmp = stills_dir_ / ("before_after_" + std::to_string(b.index) + ".partial.png");
+    if (!cv::imwrite(tmp.string(), compose(a, b, hz, stills_scale_))) throw Error("cannot write '" + tmp.string() + "'");
+    fs::rename(tmp, still);
+  }
+  cv::Mat img = compose(a, b, hz, scale_);
+  if (!writer_.isOpened()) {
+    if (fps_ > 0) {
+      open_writer(ctx, fps_, img.size());
+    } else if (!pending_) {
+      pending_ = img;
+      first_t_ = b.timestamp;
+      return;
+    } else {
+      const double dt = b.timestamp - *first_t_;
+      open_writer(ctx, dt > 1e-6 ? 1.0 / dt : 1.0, img.size());
+    }
+    if (pending_) {
+      writer_.write(*pending_);
+      ++written_;
+      pending_.reset();
+    }
+  }
+  writer_.write(img);
+  ++written_;
+}
+
+void SideBySideSink::finish(StageContext& ctx, Outputs& /*out*/) {
+  if (pending_) {  // a single frame: no interval to derive the rate from
+    open_writer(ctx, fps_ > 0 ? fps_ : 1.0, pending_->size());
+    writer_.write(*pending_);
+    ++written_;
+    pending_.reset();
+  }
+  if (!writer_.isOpened()) return;
+  writer_.release();
+  fs::rename(tmp_file_, file_);
+  ctx.log(LogLevel::kInfo, "side_by_side: " + std::to_string(written_) + " frames written to " + file_.string() +
+                               " (" + codec_ + ")");
+}
+
+}  // namespace hf::render

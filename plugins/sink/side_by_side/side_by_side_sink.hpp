@@ -1,0 +1,53 @@
+// The side_by_side sink: original and augmented frames next to each other, as an MP4 and optional PNG stills.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "hazardforge/stage.hpp"
+
+namespace hf::render {
+
+// Stage "side_by_side" (kind sink).
+//  inputs:  original (Frame), augmented (Frame) — the same frame before and after augmentation; hazard
+//           (HazardInstance, optional) — outlined on the augmented half when draw_hazard_box is set.
+//  outputs: none; writes <output_dir>/<file> (H.264 'avc1', falling back to MPEG-4 'mp4v' when the encoder is
+//           missing; written under a temporary name and renamed in finish()) and, for the frame indices in `stills`,
+//           PNGs <stills_dir>/before_after_<index>.png. Timestamps: the video's rate is `fps`, or the first two
+//           frames' interval when fps is 0.
+//  params:  file, fps, fourcc, scale, layout, labels, stills, stills_dir, stills_scale, draw_hazard_box.
+class SideBySideSink : public Stage {
+ public:
+  static ComponentInfo describe();
+  void open(StageContext& ctx) override;
+  void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  void finish(StageContext& ctx, Outputs& out) override;
+
+  // Composes one pair at `scale` (labels drawn); public for tests.
+  cv::Mat compose(const Frame& original, const Frame& augmented, const HazardInstance* hazard, double scale) const;
+  // The FOURCC the video was finally written with ("avc1" or "mp4v"), empty before the writer opened.
+  const std::string& codec() const { return codec_; }
+
+ private:
+  void open_writer(StageContext& ctx, double fps, cv::Size size);
+
+  std::filesystem::path file_, tmp_file_, stills_dir_;
+  double fps_ = 0, scale_ = 0.5, stills_scale_ = 0.5;
+  std::string fourcc_, layout_;
+  std::vector<std::string> labels_;
+  std::set<long long> stills_;
+  bool draw_box_ = false;
+  cv::VideoWriter writer_;
+  std::string codec_;
+  std::optional<cv::Mat> pending_;  // first composite, held until the second frame gives the rate
+  std::optional<double> first_t_;
+  int64_t written_ = 0;
+};
+
+}  // namespace hf::render
