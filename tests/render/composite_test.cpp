@@ -1,0 +1,251 @@
+// Compositing: alpha is respected for default and harvested assets, nearer objects occlude, the shadow darkens the
+// road, harmonisation moves colours towards the surroundings, and the stage's ports behave.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "ar_renderer.hpp"
+#include "box_geometry.hpp"
+#include "hazardforge/testing/stage_runner.hpp"
+#include "render_fixtures.hpp"
+
+namespace hf::render {
+namespace {
+
+namespace fs = std::filesystem;
+using hf::test::make_frame;
+using hf::test::static_object;
+using hf::test::test_camera;
+
+fs::path default_dir() { return fs::path(share_dir()) / "assets"; }
+
+RendererOptions options(bool shadow = false) {
+  RendererOptions o;
+  o.composite.shadow = shadow;
+  o.composite.exposure_s = 0;
+  o.ego.mode = EgoMotionMode::kPoses;
+  return o;
+}
+
+// A harvested-style asset folder: a real-looking picture (textured cuboid with a soft silhouette) with the box
+// geometry a harvester writes, so the renderer sees exactly what `asset_harvester` produces.
+fs::path make_harvested_folder(const fs::path& dir) {
+  fs::create_directories(dir);
+  const CameraModel cam = test_camera();
+  // A car 10 m ahead seen from behind: project its box like the harvester does.
+  const BoxCorners c = box_corners(13.0, 0.0, 0.0, {4.5, 1.85, 1.52});
+  const auto pb = project_box(cam, c, 0.5);
+  const cv::Rect pic(static_cast<int>(pb->bounds.x) - 1, static_cast<int>(pb->bounds.y) - 1,
+                     static_cast<int>(pb->bounds.width) + 3, static_cast<int>(pb->bounds.height) + 3);
+  cv::Mat colour = hf::test::textured_image(pic.size(), 3);
+  colour.forEach<cv::Vec3b>([](cv::Vec3b& p, const int*) { p = cv::Vec3b(p[0] / 3, p[1] / 3, p[2]); });  // reddish
+  cv::Mat alpha(pic.size(), CV_8U, cv::Scalar(0));
+  std::vector<cv::Point> poly;
+  for (int k : {2, 3, 7, 6})
+    poly.emplace_back(cvRound(pb->px[k].x - pic.x), cvRound(pb->px[k].y - pic.y));
+  cv::fillConvexPoly(alpha, poly, cv::Scalar(255));
+  cv::GaussianBlur(alpha, alpha, cv::Size(), 0.7);
+  std::vector<cv::Mat> ch;
+  cv::split(colour, ch);
+  ch.push_back(alpha);
+  cv::Mat bgra;
+  cv::merge(ch, bgra);
+  AssetIndex idx;
+  AssetSpec s;
+  s.file = "car_rear_test.png";
+  s.object_class = "car";
+  s.view = "rear";
+  s.azimuth_deg = camera_azimuth_deg(cam.t_ego_cam, 13.0, 0.0, 0.0);
+  s.size_lwh = {4.5, 1.85, 1.52};
+  s.image_size = pic.size();
+  s.anchor_px = *cam.project_ego({13.0, 0, 0}) - cv::Point2d(pic.tl());
+  for (int k = 0; k < 8; ++k) s.box_corners_px[k] = pb->px[k] - cv::Point2d(pic.tl());
+  s.source = "harvested";
+  s.instance = "test-instance";
+  idx.assets.push_back(s);
+  write_png_atomic(dir / s.file, bgra);
+  save_asset_index(dir, idx, "test");
+  return dir;
+}
+
+// Checks the alpha contract on one rendering: outside the ROI and where alpha is 0 nothing changed; where alpha
+// is (nearly) 1 nearly everything changed.
+void expect_alpha_respected(const cv::Mat& before, const HazardRenderer::Result& r) {
+  ASSERT_TRUE(r.composite.drawn);
+  const cv::Rect roi = r.composite.roi;
+  cv::Mat diff;
+  cv::absdiff(before, r.frame.image, diff);
+  cv::Mat outside = diff.clone();
+  outside(roi).setTo(cv::Scalar::all(0));
+  EXPECT_EQ(cv::countNonZero(outside.reshape(1)), 0) << "pixels outside the ROI changed";
+  int zero_alpha = 0, zero_changed = 0, opaque = 0, opaque_changed = 0;
+  for (int y = 0; y < roi.height; ++y)
+    for (int x = 0; x < roi.width; ++x) {
+      const float a = r.composite.alpha.at<float>(y, x);
+      const cv::Vec3b d = diff.at<cv::Vec3b>(y + roi.y, x + roi.x);
+      const bool changed = d[0] || d[1] || d[2];
+      if (a == 0.f) {
+        ++zero_alpha;
+        zero_changed += changed;
+      } else if (a > 0.99f) {
+        ++opaque;
+        opaque_changed += changed;
+      }
+    }
+  EXPECT_GT(zero_alpha, 100);
+  EXPECT_EQ(zero_changed, 0) << "pixels with zero alpha changed";
+  ASSERT_GT(opaque, 1000);
+  EXPECT_GT(opaque_changed, 0.97 * opaque) << opaque_changed << " of " << opaque << " opaque pixels changed";
+}
+
+TEST(Composite, DefaultAssetsRespectAlpha) {
+  const cv::Mat img = hf::test::textured_image();
+  for (const char* cls : {"car", "person", "truck", "bus"}) {
+    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    auto traj = std::make_shared<const HazardTrajectory>(
+        static_object(cls, 18.0, 1.0, 0.7, 0.0, 1.0, 0.0, std::string(cls) == "person" ? cv::Vec3d(0.5, 0.6, 1.7)
+                                                                                        : cv::Vec3d(4.5, 1.85, 1.52)));
+    auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+    SCOPED_TRACE(cls);
+    EXPECT_NE(res.asset_file.find(default_dir().string()), std::string::npos);
+    expect_alpha_respected(img, res);
+  }
+}
+
+TEST(Composite, HarvestedAssetsRespectAlphaAndOverrideDefaults) {
+  const fs::path dir = make_harvested_folder(fs::temp_directory_path() / "hf_render_harvested");
+  const cv::Mat img = hf::test::textured_image();
+  auto lib = std::make_shared<const AssetLibrary>(AssetLibrary::load(dir, default_dir()));
+  HazardRenderer r(options(), lib);
+  // A car driving away 14 m ahead: the harvested rear view is used (primary folder), not the default one.
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", 14.0, 0.3, 0.05, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+  EXPECT_EQ(fs::path(res.asset_file).filename(), "car_rear_test.png");
+  expect_alpha_respected(img, res);
+  // A class the folder lacks comes from the default set.
+  HazardRenderer r2(options(), lib);
+  auto person = std::make_shared<const HazardTrajectory>(
+      static_object("person", 12.0, 0.0, 1.57, 0.0, 1.0, 0.0, cv::Vec3d(0.5, 0.6, 1.7)));
+  auto res2 = r2.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), person, {});
+  EXPECT_NE(res2.asset_file.find(default_dir().string()), std::string::npos);
+  expect_alpha_respected(img, res2);
+}
+
+TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
+  const cv::Mat img = hf::test::textured_image();
+  const CameraModel cam = test_camera();
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", 20.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  // The hazard's box without occluders.
+  HazardRenderer free_r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  const auto free = free_r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {});
+  const cv::Rect2f hb = free.hazard.box;
+  ASSERT_GT(hb.area(), 1000);
+  EXPECT_NEAR(free.hazard.occluded_fraction, 0.0, 1e-9);
+  // A detection covering the left half of the hazard, standing on the road 9 m ahead of the camera (its bottom
+  // edge lower in the image than the hazard's).
+  const double near_bottom = cam.project_ego({1.5 + 9.0, 0, 0})->y;
+  const cv::Rect2f near_box(hb.x - 20, static_cast<float>(near_bottom) - 160, hb.width / 2 + 20, 160);
+  HazardRenderer r(options(true), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{near_box, 0.9f, std::nullopt}});
+  // Every pixel of the nearer object's box is untouched (the hazard and its shadow are behind it).
+  const cv::Rect ib = cv::Rect(near_box) & cv::Rect(0, 0, img.cols, img.rows);
+  cv::Mat d;
+  cv::absdiff(img(ib), occ.frame.image(ib), d);
+  EXPECT_EQ(cv::countNonZero(d.reshape(1)), 0);
+  // Roughly the covered share of the hazard is reported occluded.
+  const double covered = (cv::Rect2f(near_box) & hb).area() / hb.area();
+  EXPECT_GT(occ.hazard.occluded_fraction, 0.5 * covered);
+  EXPECT_LT(occ.hazard.occluded_fraction, 1.0);
+  EXPECT_TRUE(occ.hazard.visible);
+  // The same box standing farther away (bottom edge above the hazard's) is drawn over.
+  const double far_bottom = cam.project_ego({1.5 + 40.0, 0, 0})->y;
+  const cv::Rect2f far_box(hb.x - 20, static_cast<float>(far_bottom) - 160, hb.width / 2 + 20, 160);
+  HazardRenderer r3(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{far_box, 0.9f, std::nullopt}});
+  EXPECT_NEAR(behind.hazard.occluded_fraction, 0.0, 1e-9);
+}
+
+TEST(Composite, ContactShadowDarkensTheRoadBesideTheObject) {
+  const cv::Mat img(900, 1600, CV_8UC3, cv::Scalar(120, 120, 120));
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", 12.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  HazardRenderer r(options(true), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+  // Just below the rear bumper's ground line, outside the object, the road is darker than before.
+  const cv::Point2d below = *test_camera().project_ego({12.0 - 2.25 - 0.05, 0.0, 0.0});
+  const int y = static_cast<int>(below.y) + 2, x = static_cast<int>(below.x);
+  ASSERT_LT(res.composite.alpha.at<float>(y - res.composite.roi.y, x - res.composite.roi.x), 0.01f);
+  EXPECT_LT(res.frame.image.at<cv::Vec3b>(y, x)[1], 110);
+}
+
+TEST(Composite, HarmonisationMovesLightnessTowardsTheSurroundings) {
+  // The same car on a dark and on a bright background: with harmonisation its pixels follow the scene.
+  auto mean_inside = [](double grey, double luma) {
+    RendererOptions o = options();
+    o.composite.harmonize_luma = luma;
+    o.composite.feather_px = 0;
+    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    const cv::Mat img(900, 1600, CV_8UC3, cv::Scalar(grey, grey, grey));
+    auto traj = std::make_shared<const HazardTrajectory>(
+        static_object("car", 15.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+    const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+    cv::Mat gray;
+    cv::cvtColor(res.frame.image(res.composite.roi), gray, cv::COLOR_BGR2GRAY);
+    return cv::mean(gray, res.composite.alpha > 0.99f)[0];
+  };
+  const double dark0 = mean_inside(30, 0.0), bright0 = mean_inside(220, 0.0);
+  EXPECT_NEAR(dark0, bright0, 0.5);  // without harmonisation the object ignores the scene
+  const double dark = mean_inside(30, 0.6), bright = mean_inside(220, 0.6);
+  EXPECT_LT(dark, dark0 - 5);
+  EXPECT_GT(bright, bright0 + 5);
+}
+
+TEST(ArRendererStage, PassesFramesThroughUntilTheHazardStartsAndEmitsOneInstancePerFrame) {
+  auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses\nshadow: false");
+  const cv::Mat img = hf::test::textured_image();
+  for (int k = 0; k < 6; ++k) {
+    Frame f = make_frame(k, k * 0.1, img, test_camera(), planar_pose(k * 1.0, 0, 0));
+    f.meta = Json{{"k", k}};
+    runner.push("frames", f, f.timestamp);
+  }
+  // The plan arrives with frame 1 and starts at t = 0.3 s; the sticky port keeps it for later frames.
+  runner.push("trajectory", static_object("car", 25.0, 0.0, 0.0, 0.3, 2.0, 0.1, cv::Vec3d(4.5, 1.85, 1.52)), 0.1);
+  runner.run();
+  const auto frames = runner.collect<Frame>("frames");
+  const auto hazards = runner.collect<HazardInstance>("hazard");
+  ASSERT_EQ(frames.size(), 6u);
+  ASSERT_EQ(hazards.size(), 6u);
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(frames[k].index, k);
+    EXPECT_DOUBLE_EQ(frames[k].timestamp, k * 0.1);
+    EXPECT_EQ(frames[k].meta["k"], k);
+    EXPECT_EQ(hazards[k].frame_index, k);
+    if (k < 3) {
+      EXPECT_EQ(frames[k].image.data, img.data) << "frame " << k << " should pass through";
+      EXPECT_FALSE(hazards[k].visible);
+    } else {
+      EXPECT_TRUE(hazards[k].visible) << "frame " << k;
+      // Anchored at t = 0.1 (ego at x = 1): 25 m ahead there, so 25 - (k - 1) m ahead now.
+      EXPECT_NEAR(hazards[k].distance_m, 25.0 - (k - 1), 1e-9);
+    }
+  }
+}
+
+TEST(ArRendererStage, RefusesFramesWithoutPosesInPosesMode) {
+  auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses");
+  runner.push("frames", make_frame(4, 0.4, hf::test::textured_image(), test_camera()), 0.4);
+  try {
+    runner.run();
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 4"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("T_world_ego"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace hf::render
