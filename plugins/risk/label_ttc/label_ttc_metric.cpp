@@ -1,0 +1,89 @@
+// LabelTtcMetric: the ground-truth protocol on camera-relative labels, objects named by their track ids.
+#include "label_ttc_metric.hpp"
+
+#include <charconv>
+
+namespace hf {
+
+ComponentInfo LabelTtcMetric::describe() {
+  ComponentInfo i;
+  i.name = "label_ttc";
+  i.kind = kind::kRiskMetric;
+  i.summary = "reference TTC per labelled track from KITTI tracking labels (camera-relative motion) (s)";
+  i.doc =
+      "The ground-truth protocol (docs/evaluation.md) on Frame::annotations from the kitti source: KITTI "
+      "tracking labels have no ego motion, so velocities are relative to the camera and closing = -v_rel.x "
+      "along the camera's forward axis. Labels of `categories` (KITTI types); in path when x > 0 and |y| < "
+      "corridor_half_width + corridor_margin + w/2; gap = x - front_overhang - l/2 (default: from the "
+      "camera); "
+      "TTC = max(gap, 0) / closing when closing > min_closing_mps, else infinite; unknown for tracks "
+      "labelled "
+      "in one frame only. Scene TTC = minimum over in-path labels. ObjectRisk.track_id = KITTI track id.";
+  i.inputs = {
+      port<Frame>("frames", "frames carrying camera-relative label annotations (kitti source)"),
+      optional(port<ObjectStates>("states", "unused; lets the node stand where a risk metric is expected"))};
+  i.outputs = {port<RiskAssessment>("risk", "per-track TTC, scene TTC and the reference label")};
+  i.params = {
+      ParamSpec::number("threshold", 1.5)
+          .range(0, 1000)
+          .describe("Unsafe when the scene TTC is below this (s)"),
+      ParamSpec::number("corridor_half_width", 1.0).range(0, 10).describe("ego half-width (m)"),
+      ParamSpec::number("corridor_margin", 0.5)
+          .range(0, 10)
+          .describe("extra lateral margin (m); in path when |y| < half_width + margin + w/2"),
+      ParamSpec::number("front_overhang", 0.0)
+          .range(-10, 20)
+          .describe("ego origin (below camera 2) to the reference the gap is measured from (m); 0 = camera"),
+      ParamSpec::number("min_closing_mps", 0.1)
+          .range(0, 100)
+          .describe("closing speeds at or below this (m/s) give an infinite TTC"),
+      ParamSpec::string_list("categories",
+                             {"Car", "Van", "Truck", "Pedestrian", "Person_sitting", "Cyclist", "Tram"})
+          .describe("KITTI types (category prefixes) that count; Misc and DontCare are left out by default"),
+      ParamSpec::string("missing_object_velocity", "ignore")
+          .one_of({"ignore", "static"})
+          .describe(
+              "tracks labelled in one frame only: ignore = unknown TTC; static = not moving relative to "
+              "the camera"),
+  };
+  return i;
+}
+
+void LabelTtcMetric::open(StageContext& ctx) {
+  const Params& p = ctx.params();
+  protocol_.category_prefixes = p.get_strings("categories");
+  protocol_.ego_half_width = p.get_double("corridor_half_width");
+  protocol_.margin = p.get_double("corridor_margin");
+  protocol_.front_overhang = p.get_double("front_overhang");
+  protocol_.min_closing_mps = p.get_double("min_closing_mps");
+  protocol_.threshold = p.get_double("threshold");
+  protocol_.static_when_unknown = p.get_string("missing_object_velocity") == "static";
+}
+
+void LabelTtcMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) {
+  const Frame& f = in.require<Frame>("frames");
+  const std::string what =
+      "label_ttc: frame " + std::to_string(f.index) +
+      (f.meta.contains("kitti_frame") ? " (KITTI frame " + f.meta["kitti_frame"].dump() + ")" : "");
+  if (!f.annotations)
+    throw Error(what + ": no annotations; label_ttc needs a source with labels (kitti, layout tracking)");
+  RiskAssessment r = protocol_.assess(*f.annotations, what);
+  // The protocol names objects by annotation index; a KITTI track id is stable across frames.
+  const int64_t critical_index = r.critical_track;
+  for (ObjectRisk& o : r.objects) {
+    const std::string& id = f.annotations->objects[static_cast<size_t>(o.track_id)].instance_id;
+    int64_t track = -1;
+    const auto [end, ec] = std::from_chars(id.data(), id.data() + id.size(), track);
+    if (ec != std::errc() || end != id.data() + id.size() || track < 0)
+      throw Error(what + ": annotation " + std::to_string(o.track_id) + " has instance id '" + id +
+                  "', not a KITTI track id (a non-negative integer)");
+    if (o.track_id == critical_index) r.critical_track = track;
+    o.track_id = track;
+  }
+  r.stage = "label_ttc";
+  r.frame_index = f.index;
+  r.metric = ctx.node_id();
+  out.emit("risk", std::move(r));
+}
+
+}  // namespace hf
