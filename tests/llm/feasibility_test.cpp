@@ -38,14 +38,18 @@ class Feasibility : public ::testing::Test {
     s.target_ttc_s = 1.0;
     return s;
   }
-  std::vector<std::string> check(const HazardSpec& s) const { return check_feasibility(s, scene_, cfg_, nullptr); }
+  std::vector<std::string> check(const HazardSpec& s) const {
+    return check_feasibility(s, scene_, cfg_, nullptr);
+  }
 
   hazard::LimitsTable limits_;
   FeasibilityConfig cfg_;
   SceneContext scene_;
 };
 
-TEST_F(Feasibility, PlausibleSuddenStopPasses) { EXPECT_EQ(check(stop()), std::vector<std::string>{}); }
+TEST_F(Feasibility, PlausibleSuddenStopPasses) {
+  EXPECT_EQ(check(stop()), std::vector<std::string>{});
+}
 
 TEST_F(Feasibility, ClassLimitsFromTheSharedTable) {
   HazardSpec s = stop();
@@ -77,7 +81,9 @@ TEST_F(Feasibility, SceneRulesFromThePrompt) {
   c.heading_deg = 90;
   e = check(c);
   ASSERT_GE(e.size(), 2u);
-  EXPECT_EQ(e[0], "/heading_deg = 90 makes a vehicle cross the ego path, which needs an intersection (intersection = no)");
+  EXPECT_EQ(e[0],
+            "/heading_deg = 90 makes a vehicle cross the ego path, which needs an intersection (intersection "
+            "= no)");
   EXPECT_EQ(e[1], "/kind = \"cut_in\" needs a lane beside the ego lane; this road has one (multi_lane = no)");
 }
 
@@ -106,8 +112,9 @@ TEST_F(Feasibility, StartPointMustBeInTheCameraView) {
   s.side = "left";
   std::vector<std::string> e = check(s);
   ASSERT_FALSE(e.empty());
-  EXPECT_EQ(e[0], "start point (x 6 m, y 4.5 m) is outside the camera view: it projects to pixel (-466, 872) in a "
-                  "1600x900 image");
+  EXPECT_EQ(e[0],
+            "start point (x 6 m, y 4.5 m) is outside the camera view: it projects to pixel (-466, 872) in a "
+            "1600x900 image");
 }
 
 TEST_F(Feasibility, TargetTtcMustBeReachedAndBelowThreshold) {
@@ -117,7 +124,9 @@ TEST_F(Feasibility, TargetTtcMustBeReachedAndBelowThreshold) {
   s.initial_distance_m = 60;
   std::vector<std::string> e = check(s);
   ASSERT_EQ(e.size(), 1u);
-  EXPECT_EQ(e[0], "/target_ttc_s = 1 is never reached: with the ego at 10 m/s the lowest TTC within 6 s is 15.13 s");
+  EXPECT_EQ(
+      e[0],
+      "/target_ttc_s = 1 is never reached: with the ego at 10 m/s the lowest TTC within 6 s is 15.13 s");
 
   s = stop();
   s.target_ttc_s = 2.0;
@@ -131,8 +140,10 @@ TEST_F(Feasibility, TargetTtcMustBeReachedAndBelowThreshold) {
   s.initial_distance_m = 8;
   e = check(s);
   ASSERT_EQ(e.size(), 1u);
-  EXPECT_EQ(e[0], "the car would appear with TTC 0.23 s, already below /target_ttc_s = 1: a hazard must develop, not "
-                  "appear on a collision course (increase /initial_distance_m)");
+  EXPECT_EQ(
+      e[0],
+      "the car would appear with TTC 0.23 s, already below /target_ttc_s = 1: a hazard must develop, not "
+      "appear on a collision course (increase /initial_distance_m)");
 }
 
 TEST_F(Feasibility, KinematicChecksLeftToTheTemplate) {
@@ -153,8 +164,9 @@ TEST(TtcReplay, CrossingPedestrianEntersThePath) {
   TtcSimulation sim = simulate_ttc(s, ClassSize{1.7, 0.6, 0.5}, 10.0, hazard::TtcConventions{}, 6.0);
   EXPECT_FALSE(sim.starts_in_collision);
   EXPECT_EQ(sim.ttc_at_start, kInf);
-  // In the path once |y| < 1.5 + 0.25, i.e. from t = 1.625 s (gap 30 - 16.25 - 3.4 - 0.3 = 10.05 m, TTC 1.005 s);
-  // the constant-speed ego then reaches it at t = 2.63 s, before it leaves the path (3.375 s): TTC falls to 0.
+  // In the path once |y| < 1.5 + 0.25, i.e. from t = 1.625 s (gap 30 - 16.25 - 3.4 - 0.3 = 10.05 m, TTC 1.005
+  // s); the constant-speed ego then reaches it at t = 2.63 s, before it leaves the path (3.375 s): TTC falls
+  // to 0.
   EXPECT_TRUE(sim.enters_path);
   EXPECT_DOUBLE_EQ(sim.min_ttc, 0.0);
   EXPECT_NEAR(sim.t_min_ttc, 2.63, 0.03);

@@ -16,7 +16,8 @@ using test::ScriptedServer;
 const char* kDescription = "Busy city street, peds on the sidewalk, two lanes each way";
 
 std::string ollama_yaml(const std::string& url, const std::string& extra = "") {
-  return "provider: {name: ollama, host: '" + url + "', read_timeout_s: 2}\nseed: 7\ntemperature: 0\n" + extra;
+  return "provider: {name: ollama, host: '" + url + "', read_timeout_s: 2}\nseed: 7\ntemperature: 0\n" +
+         extra;
 }
 
 std::string run_error(testing::StageRunner& r) {
@@ -41,7 +42,8 @@ class FallenCargoTemplate : public HazardTemplate {
   void open(const Params&) override {}
   std::string hazard_kind() const override { return "fallen_cargo"; }
   std::vector<std::string> check(const HazardSpec& spec, const SceneContext&) const override {
-    if (spec.speed_mps != 0) return {"cargo lies still (speed_mps must be 0, got " + std::to_string(int(spec.speed_mps)) + ")"};
+    if (spec.speed_mps != 0)
+      return {"cargo lies still (speed_mps must be 0, got " + std::to_string(int(spec.speed_mps)) + ")"};
     return {};
   }
   HazardTrajectory plan(const HazardSpec&, const SceneContext&) const override { return {}; }
@@ -98,10 +100,11 @@ TEST(LlmHazard, UnsafeTriggerFrameGeneratesNothing) {
   EXPECT_TRUE(r.outputs("hazard").empty());
   EXPECT_FALSE(std::filesystem::exists(r.output_dir() / "hazard_spec.json"));
   const auto& log = r.log();
-  EXPECT_NE(std::find(log.begin(), log.end(),
-                      "warning: frame 3 is Unsafe (ttc = 0.9 s (threshold 1.5)): it is already critical, no hazard "
-                      "generated"),
-            log.end());
+  EXPECT_NE(
+      std::find(log.begin(), log.end(),
+                "warning: frame 3 is Unsafe (ttc = 0.9 s (threshold 1.5)): it is already critical, no hazard "
+                "generated"),
+      log.end());
 }
 
 TEST(LlmHazard, FirstSafeSkipsUnsafeFrames) {
@@ -117,7 +120,8 @@ TEST(LlmHazard, NoSafeFrameIsLoggedAtTheEnd) {
   test::push_scene(r, 6, kDescription, {5});
   r.run();
   EXPECT_TRUE(r.outputs("hazard").empty());
-  EXPECT_EQ(r.log().back(), "warning: no hazard generated: no frame after the 5 warm-up frames was Safe (6 frames seen)");
+  EXPECT_EQ(r.log().back(),
+            "warning: no hazard generated: no frame after the 5 warm-up frames was Safe (6 frames seen)");
 }
 
 TEST(LlmHazard, OllamaRetriesWithTheErrorsUntilValid) {
@@ -154,9 +158,11 @@ TEST(LlmHazard, OllamaRetriesWithTheErrorsUntilValid) {
   }
   ASSERT_EQ(got[1]["messages"].size(), 3u);
   EXPECT_EQ(got[1]["messages"][1]["role"], "assistant");
-  EXPECT_EQ(got[1]["messages"][1]["content"], "Here is a realistic hazard:\n" + bad_schema.dump() + "\nLet me know!");
+  EXPECT_EQ(got[1]["messages"][1]["content"],
+            "Here is a realistic hazard:\n" + bad_schema.dump() + "\nLet me know!");
   EXPECT_EQ(got[1]["messages"][2]["content"],
-            "Your answer was rejected:\n- /speed_mps = \"fast\" has type string, expected number\n\nReply again with "
+            "Your answer was rejected:\n- /speed_mps = \"fast\" has type string, expected number\n\nReply "
+            "again with "
             "ONLY the corrected JSON object that follows the schema and fixes every point above.\n");
   ASSERT_EQ(got[2]["messages"].size(), 5u);
   EXPECT_NE(got[2]["messages"][4]["content"].get<std::string>().find(
@@ -180,9 +186,9 @@ TEST(LlmHazard, GivesUpWithTheLastErrors) {
   srv.then_ollama("{\"kind\": \"pedestrian_crossing\"");
   auto r = test::make_runner(ollama_yaml(srv.url(), "max_retries: 1\n"));
   test::push_scene(r, 6, kDescription);
-  EXPECT_EQ(run_error(r), "node 'llm_hazard': no valid hazard spec after 2 attempt(s) from ollama llama3 @ " +
-                              srv.url() + "; last errors: reply JSON object is cut off: the '{' at character 0 is "
-                                          "never closed");
+  EXPECT_EQ(run_error(r), "no valid hazard spec after 2 attempt(s) from ollama llama3 @ " + srv.url() +
+                              "; last errors: reply JSON object is cut off: the '{' at character 0 is "
+                              "never closed");
   EXPECT_TRUE(r.outputs("hazard").empty());
   EXPECT_FALSE(std::filesystem::exists(r.output_dir() / "hazard_spec.json"));
   EXPECT_EQ(test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl").size(), 2u);
@@ -196,13 +202,15 @@ TEST(LlmHazard, Http500FailsAtOnceWithTheServersWords) {
   });
   auto r = test::make_runner(ollama_yaml(srv.url()));
   test::push_scene(r, 6, kDescription);
-  EXPECT_EQ(run_error(r), "node 'llm_hazard': ollama: POST " + srv.url() +
-                              "/api/chat returned HTTP 500: model \"llama3\" not found, try pulling it first");
+  EXPECT_EQ(run_error(r),
+            "ollama: POST " + srv.url() +
+                "/api/chat returned HTTP 500: model \"llama3\" not found, try pulling it first");
   EXPECT_EQ(srv.requests().size(), 1u);
   auto calls = test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl");
   ASSERT_EQ(calls.size(), 1u);
   EXPECT_EQ(calls[0]["transport_error"],
-            "ollama: POST " + srv.url() + "/api/chat returned HTTP 500: model \"llama3\" not found, try pulling it first");
+            "ollama: POST " + srv.url() +
+                "/api/chat returned HTTP 500: model \"llama3\" not found, try pulling it first");
 }
 
 TEST(LlmHazard, ReadTimeout) {
@@ -213,14 +221,14 @@ TEST(LlmHazard, ReadTimeout) {
   });
   auto r = test::make_runner("provider: {name: ollama, host: '" + srv.url() + "', read_timeout_s: 0.3}\n");
   test::push_scene(r, 6, kDescription);
-  EXPECT_EQ(run_error(r), "node 'llm_hazard': ollama: POST " + srv.url() + "/api/chat failed: Timeout was reached");
+  EXPECT_EQ(run_error(r), "ollama: POST " + srv.url() + "/api/chat failed: Timeout was reached");
 }
 
 TEST(LlmHazard, ConnectionRefused) {
   const std::string url = "http://127.0.0.1:" + std::to_string(test::unused_port());
   auto r = test::make_runner(ollama_yaml(url));
   test::push_scene(r, 6, kDescription);
-  EXPECT_EQ(run_error(r), "node 'llm_hazard': ollama: POST " + url + "/api/chat failed: Couldn't connect to server");
+  EXPECT_EQ(run_error(r), "ollama: POST " + url + "/api/chat failed: Couldn't connect to server");
 }
 
 TEST(LlmHazard, TruncatedBody) {
@@ -234,13 +242,14 @@ TEST(LlmHazard, TruncatedBody) {
   });
   auto r = test::make_runner(ollama_yaml(srv.url()));
   test::push_scene(r, 6, kDescription);
-  EXPECT_EQ(run_error(r), "node 'llm_hazard': ollama: POST " + srv.url() + "/api/chat failed: Transferred a partial file");
+  EXPECT_EQ(run_error(r), "ollama: POST " + srv.url() + "/api/chat failed: Transferred a partial file");
 }
 
 TEST(LlmHazard, OpenAiCompatibleServer) {
   ScriptedServer srv("/v1/chat/completions");
   srv.then_openai("Sure.\n```\n" + test::valid_reply().dump() + "\n```");
-  auto r = test::make_runner("provider: {name: openai, base_url: '" + srv.url() + "/v1', model: llama3}\nseed: 11\n"
+  auto r = test::make_runner("provider: {name: openai, base_url: '" + srv.url() +
+                             "/v1', model: llama3}\nseed: 11\n"
                              "force_kind: pedestrian_crossing\n");
   test::push_scene(r, 6, kDescription);
   r.run();
@@ -282,12 +291,13 @@ TEST(LlmHazard, ThirdPartyKindsComeFromRegisteredTemplates) {
 TEST(LlmHazard, ConfigurationErrors) {
   auto none = test::make_runner("", /*with_templates=*/false);
   test::push_scene(none, 1, kDescription);
-  EXPECT_EQ(run_error(none), "node 'llm_hazard': no hazard kinds to choose from: no hazard_template component is "
-                             "registered and param 'kinds' is empty");
+  EXPECT_EQ(run_error(none),
+            "no hazard kinds to choose from: no hazard_template component is "
+            "registered and param 'kinds' is empty");
   auto forced = test::make_runner("kinds: [cut_in, sudden_stop]\nforce_kind: pedestrian_crossing\n");
   test::push_scene(forced, 1, kDescription);
   EXPECT_EQ(run_error(forced),
-            "node 'llm_hazard': force_kind 'pedestrian_crossing' is not among the allowed kinds (cut_in, sudden_stop)");
+            "force_kind 'pedestrian_crossing' is not among the allowed kinds (cut_in, sudden_stop)");
   auto unknown = test::make_runner("provider: {name: olama}\n");
   test::push_scene(unknown, 1, kDescription);
   EXPECT_EQ(run_error(unknown), "unknown llm_provider 'olama'; did you mean 'ollama'?");

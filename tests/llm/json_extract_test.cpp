@@ -16,16 +16,20 @@ std::string error_of(const std::string& reply) {
   return "(no error)";
 }
 
-TEST(JsonExtract, BareObject) { EXPECT_EQ(extract_json_object(" {\"a\": 1}\n")["a"], 1); }
+TEST(JsonExtract, BareObject) {
+  EXPECT_EQ(extract_json_object(" {\"a\": 1}\n")["a"], 1);
+}
 
 TEST(JsonExtract, ObjectInsideProse) {
-  Json j = extract_json_object("Sure! Here is the hazard: {\"kind\": \"cut_in\", \"note\": \"a } in a string\"} Hope it helps.");
+  Json j = extract_json_object(
+      "Sure! Here is the hazard: {\"kind\": \"cut_in\", \"note\": \"a } in a string\"} Hope it helps.");
   EXPECT_EQ(j["kind"], "cut_in");
   EXPECT_EQ(j["note"], "a } in a string");
 }
 
 TEST(JsonExtract, FencedWithLanguageTag) {
-  Json j = extract_json_object("Here you go:\n```json\n{\"kind\": \"sudden_stop\", \"x\": {\"y\": [1, 2]}}\n```\nDone.");
+  Json j = extract_json_object(
+      "Here you go:\n```json\n{\"kind\": \"sudden_stop\", \"x\": {\"y\": [1, 2]}}\n```\nDone.");
   EXPECT_EQ(j["kind"], "sudden_stop");
   EXPECT_EQ(j["x"]["y"][1], 2);
 }
@@ -42,9 +46,10 @@ TEST(JsonExtract, ClearMessages) {
   EXPECT_EQ(error_of("[{\"kind\": \"cut_in\"}]"), "reply is a JSON array, not an object");
   EXPECT_EQ(error_of("{\"kind\": \"cut_in\", \"speed_mps\": 3"),
             "reply JSON object is cut off: the '{' at character 0 is never closed");
-  EXPECT_EQ(error_of("{\"kind\": cut_in}"),
-            "reply is not valid JSON: parse error at line 1, column 10: syntax error while parsing value - invalid "
-            "literal; last read: '\"kind\": c'");
+  EXPECT_EQ(
+      error_of("{\"kind\": cut_in}"),
+      "reply is not valid JSON: parse error at line 1, column 10: syntax error while parsing value - invalid "
+      "literal; last read: '\"kind\": c'");
 }
 
 TEST(Sha256, KnownDigest) {

@@ -1,10 +1,10 @@
-// Shared fixtures for the LLM tests: a synthetic safe scene, a scripted loopback model server and a stage runner
-// with every provider and the built-in hazard templates registered.
+// Shared fixtures for the LLM tests: a synthetic safe scene, a scripted loopback model server and a stage
+// runner with every provider and the built-in hazard templates registered.
 #pragma once
 
 #include <httplib.h>
-#include <sys/socket.h>
 #include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -28,7 +28,9 @@
 namespace hf::test {
 
 // nuScenes-like front camera: 1600x900, f = 1266 px, 1.5 m high, 1.5 m ahead of the rear axle, level.
-inline CameraModel test_camera() { return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.0, 1.5); }
+inline CameraModel test_camera() {
+  return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.0, 1.5);
+}
 
 inline Frame make_frame(int64_t index, double t, const std::string& description) {
   Frame f;
@@ -117,8 +119,11 @@ inline Json valid_reply() {
           {"start_time_s", nullptr},
           {"deceleration_mps2", nullptr},
           {"target_ttc_s", 1.0},
-          {"extra", {{"crossing_from", "right"}, {"final_speed_mps", nullptr}, {"brake_delay_s", nullptr},
-                     {"track_id", nullptr}}},
+          {"extra",
+           {{"crossing_from", "right"},
+            {"final_speed_mps", nullptr},
+            {"brake_delay_s", nullptr},
+            {"track_id", nullptr}}},
           {"rationale", "sidewalks on both sides; a jogger crosses"}};
 }
 
@@ -147,7 +152,8 @@ class ScriptedServer {
     port_ = server_.bind_to_any_port("127.0.0.1");
     thread_ = std::thread([this] { server_.listen_after_bind(); });
     // The socket already listens after bind; wait (bounded) for the accept loop so stop() finds it running.
-    for (int i = 0; i < 2000 && !server_.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    for (int i = 0; i < 2000 && !server_.is_running(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   ~ScriptedServer() {
     server_.stop();
@@ -174,9 +180,10 @@ class ScriptedServer {
       Json body = {{"id", "chatcmpl-1"},
                    {"object", "chat.completion"},
                    {"model", model},
-                   {"choices", {{{"index", 0},
-                                 {"message", {{"role", "assistant"}, {"content", content}}},
-                                 {"finish_reason", "stop"}}}}};
+                   {"choices",
+                    {{{"index", 0},
+                      {"message", {{"role", "assistant"}, {"content", content}}},
+                      {"finish_reason", "stop"}}}}};
       res.set_content(body.dump(), "application/json");
     });
   }

@@ -72,7 +72,8 @@ TEST(OfflinePlanner, FollowsTheRules) {
   // No sidewalks, one lane: only a sudden stop is left.
   Json scene = scene_context(false, false, 10.0, kAll);
   for (int64_t seed = 0; seed < 8; ++seed)
-    EXPECT_EQ(Json::parse(p.complete(request(scene, seed)).content)["kind"], "sudden_stop") << "seed " << seed;
+    EXPECT_EQ(Json::parse(p.complete(request(scene, seed)).content)["kind"], "sudden_stop")
+        << "seed " << seed;
   // Sidewalks, pedestrian crossings only: the person starts beyond the road edge, crossing towards the road.
   scene = scene_context(true, false, 10.0, {"pedestrian_crossing"});
   for (int64_t seed = 0; seed < 8; ++seed) {
@@ -101,21 +102,26 @@ TEST(OfflinePlanner, RefusesClearlyWhenNothingFits) {
     p.complete(request(scene_context(true, true, 0.0, kAll), 1));
     FAIL();
   } catch (const Error& e) {
-    EXPECT_STREQ(e.what(), "offline: no hazard fits this scene (allowed kinds: pedestrian_crossing, cut_in, "
-                           "sudden_stop): the ego speed 0.0 m/s is below 1.0 m/s, so no inserted object closes in on it");
+    EXPECT_STREQ(
+        e.what(),
+        "offline: no hazard fits this scene (allowed kinds: pedestrian_crossing, cut_in, "
+        "sudden_stop): the ego speed 0.0 m/s is below 1.0 m/s, so no inserted object closes in on it");
   }
   try {
     p.complete(request(scene_context(false, false, 10.0, {"pedestrian_crossing"}), 1));
     FAIL();
   } catch (const Error& e) {
-    EXPECT_STREQ(e.what(), "offline: no hazard fits this scene (allowed kinds: pedestrian_crossing): "
-                           "pedestrian_crossing: the scene has no sidewalks");
+    EXPECT_STREQ(e.what(),
+                 "offline: no hazard fits this scene (allowed kinds: pedestrian_crossing): "
+                 "pedestrian_crossing: the scene has no sidewalks");
   }
   try {
     p.complete(request(Json::object(), 1));
     FAIL();
   } catch (const Error& e) {
-    EXPECT_STREQ(e.what(), "offline: the request carries no scene context (the offline planner reads LlmRequest::scene)");
+    EXPECT_STREQ(
+        e.what(),
+        "offline: the request carries no scene context (the offline planner reads LlmRequest::scene)");
   }
 }
 

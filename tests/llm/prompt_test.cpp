@@ -11,7 +11,8 @@ namespace hf::llm_hazard {
 namespace {
 
 TEST(PromptTemplate, SubstitutesAndStripsComments) {
-  auto t = PromptTemplate::from_text("<!-- for editors: {{not_a_placeholder}} -->\nSpeed {{v}} m/s, {{v}} again.\n", "p.md");
+  auto t = PromptTemplate::from_text(
+      "<!-- for editors: {{not_a_placeholder}} -->\nSpeed {{v}} m/s, {{v}} again.\n", "p.md");
   EXPECT_EQ(t.render({{"v", "8.5"}}), "Speed 8.5 m/s, 8.5 again.\n");
   EXPECT_EQ(t.placeholders(), std::set<std::string>{"v"});
 }
@@ -70,7 +71,8 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
 
 TEST(SceneRules, AutoResolutionFromText) {
   EXPECT_TRUE(resolve_sidewalks("auto", "Parking lot, bicycle rack, many peds").value);
-  EXPECT_EQ(resolve_sidewalks("auto", "Parking lot, bicycle rack, many peds").why, "auto: the scene text mentions 'parking'");
+  EXPECT_EQ(resolve_sidewalks("auto", "Parking lot, bicycle rack, many peds").why,
+            "auto: the scene text mentions 'parking'");
   EXPECT_FALSE(resolve_sidewalks("auto", "Highway at night, peds unlikely").value);
   EXPECT_FALSE(resolve_sidewalks("auto", "empty test track").value);
   EXPECT_TRUE(resolve_sidewalks("yes", "highway").value);

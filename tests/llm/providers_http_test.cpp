@@ -13,7 +13,8 @@ using test::ScriptedServer;
 LlmRequest sample_request() {
   LlmRequest r;
   r.messages = {{"user", "Describe a hazard."}};
-  r.response_schema = {{"type", "object"}, {"properties", {{"kind", {{"type", "string"}, {"enum", {"cut_in"}}}}}}};
+  r.response_schema = {{"type", "object"},
+                       {"properties", {{"kind", {{"type", "string"}, {"enum", {"cut_in"}}}}}}};
   r.temperature = 0.3;
   r.seed = 1234;
   r.max_tokens = 512;
@@ -22,15 +23,22 @@ LlmRequest sample_request() {
 
 std::unique_ptr<OllamaProvider> ollama(const std::string& host, double read_timeout = 5.0) {
   auto p = std::make_unique<OllamaProvider>();
-  p->open(Params(Json{{"host", host}, {"model", "llama3"}, {"connect_timeout_s", 2.0}, {"read_timeout_s", read_timeout},
+  p->open(Params(Json{{"host", host},
+                      {"model", "llama3"},
+                      {"connect_timeout_s", 2.0},
+                      {"read_timeout_s", read_timeout},
                       {"keep_alive", ""}}));
   return p;
 }
 
 std::unique_ptr<OpenAiProvider> openai(const std::string& base, const std::string& format = "json_schema") {
   auto p = std::make_unique<OpenAiProvider>();
-  p->open(Params(Json{{"base_url", base + "/v1"}, {"model", "llama-3-8b"}, {"api_key_env", "HF_TEST_LLM_KEY"},
-                      {"response_format", format}, {"schema_name", "hazard_spec"}, {"connect_timeout_s", 2.0},
+  p->open(Params(Json{{"base_url", base + "/v1"},
+                      {"model", "llama-3-8b"},
+                      {"api_key_env", "HF_TEST_LLM_KEY"},
+                      {"response_format", format},
+                      {"schema_name", "hazard_spec"},
+                      {"connect_timeout_s", 2.0},
                       {"read_timeout_s", 5.0}}));
   return p;
 }
@@ -81,7 +89,9 @@ TEST(OllamaProvider, TransportAndProtocolFailures) {
     res.status = 500;
     res.set_content(R"({"error":"model \"llama3\" not found, try pulling it first"})", "application/json");
   });
-  srv.then([](const httplib::Request&, httplib::Response& res) { res.set_content("<html>proxy</html>", "text/html"); });
+  srv.then([](const httplib::Request&, httplib::Response& res) {
+    res.set_content("<html>proxy</html>", "text/html");
+  });
   srv.then([](const httplib::Request&, httplib::Response& res) {
     res.set_content(R"({"model":"llama3","done":true})", "application/json");
   });
@@ -89,15 +99,15 @@ TEST(OllamaProvider, TransportAndProtocolFailures) {
   const std::string ep = "ollama: POST " + srv.url() + "/api/chat";
   EXPECT_EQ(error_of(*p, sample_request()),
             ep + " returned HTTP 500: model \"llama3\" not found, try pulling it first");
-  EXPECT_EQ(error_of(*p, sample_request()),
-            ep + ": response is not JSON: parse error at line 1, column 1: syntax error while parsing value - invalid "
-                 "literal; last read: '<'");
+  EXPECT_EQ(error_of(*p, sample_request()), ep + ": response is not JSON: parse error at line 1, column 1: "
+                                                 "syntax error while parsing value - invalid "
+                                                 "literal; last read: '<'");
   EXPECT_EQ(error_of(*p, sample_request()), ep + ": response has no message.content");
 
   const int dead = test::unused_port();
   auto refused = ollama("http://127.0.0.1:" + std::to_string(dead));
-  EXPECT_EQ(error_of(*refused, sample_request()),
-            "ollama: POST http://127.0.0.1:" + std::to_string(dead) + "/api/chat failed: Couldn't connect to server");
+  EXPECT_EQ(error_of(*refused, sample_request()), "ollama: POST http://127.0.0.1:" + std::to_string(dead) +
+                                                      "/api/chat failed: Couldn't connect to server");
 }
 
 TEST(OpenAiProvider, SendsStrictJsonSchemaAndKeyFromNamedVariable) {
@@ -134,8 +144,9 @@ TEST(OpenAiProvider, JsonObjectFallbackAndErrors) {
                     "application/json");
   });
   srv.then([](const httplib::Request&, httplib::Response& res) {
-    res.set_content(R"({"choices":[{"message":{"role":"assistant","content":null,"refusal":"I can't help with that."}}]})",
-                    "application/json");
+    res.set_content(
+        R"({"choices":[{"message":{"role":"assistant","content":null,"refusal":"I can't help with that."}}]})",
+        "application/json");
   });
   auto p = openai(srv.url(), "json_object");
   p->complete(sample_request());

@@ -9,7 +9,9 @@
 namespace hf::llm_hazard {
 namespace {
 
-Json shipped() { return load_schema_file(share_dir() + "/schemas/hazard_spec.schema.json"); }
+Json shipped() {
+  return load_schema_file(share_dir() + "/schemas/hazard_spec.schema.json");
+}
 
 TEST(HazardSchema, ShippedFileIsDraft07AndVersioned) {
   Json s = shipped();
@@ -44,13 +46,14 @@ TEST(HazardSchema, MessagesNamePointerValueAndAllowedRange) {
   bad["colour"] = "red";
   std::vector<std::string> errs = v.validate(bad);
   std::sort(errs.begin(), errs.end());
-  std::vector<std::string> expected = {"/colour is not an allowed field (allowed: deceleration_mps2, extra, heading_deg, initial_distance_m, "
-              "kind, lateral_offset_m, motion, object_class, rationale, side, speed_mps, start_time_s, target_ttc_s)",
-              "/extra/crossing_from = \"north\" is not one of \"left\", \"right\", null",
-              "/heading_deg = \"left\" has type string, expected number",
-              "/kind = \"flying_car\" is not one of \"pedestrian_crossing\", \"cut_in\"",
-              "/rationale is missing (required)",
-              "/speed_mps = 75.5 is outside the allowed range [0, 50]"};
+  std::vector<std::string> expected = {
+      "/colour is not an allowed field (allowed: deceleration_mps2, extra, heading_deg, initial_distance_m, "
+      "kind, lateral_offset_m, motion, object_class, rationale, side, speed_mps, start_time_s, target_ttc_s)",
+      "/extra/crossing_from = \"north\" is not one of \"left\", \"right\", null",
+      "/heading_deg = \"left\" has type string, expected number",
+      "/kind = \"flying_car\" is not one of \"pedestrian_crossing\", \"cut_in\"",
+      "/rationale is missing (required)",
+      "/speed_mps = 75.5 is outside the allowed range [0, 50]"};
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(errs, expected);
 }

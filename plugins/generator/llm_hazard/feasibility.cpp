@@ -57,8 +57,10 @@ TtcSimulation simulate_ttc(const HazardSpec& spec, const ClassSize& size, double
       const double gap = xr - conv.ego_front - ext.longitudinal_half;
       const double closing = ego_speed_mps - v * std::cos(h);
       double ttc = kInf;
-      if (gap <= 0.0) ttc = 0.0;
-      else if (closing > conv.min_closing) ttc = gap / closing;
+      if (gap <= 0.0)
+        ttc = 0.0;
+      else if (closing > conv.min_closing)
+        ttc = gap / closing;
       if (i == 0) {
         sim.starts_in_collision = gap <= 0.0;
         sim.ttc_at_start = ttc;
@@ -89,21 +91,24 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
     errs.push_back("/heading_deg = " + num(spec.heading_deg) +
                    " makes a vehicle cross the ego path, which needs an intersection (intersection = no)");
   if (spec.kind == "cut_in" && !cfg.multi_lane)
-    errs.push_back("/kind = \"cut_in\" needs a lane beside the ego lane; this road has one (multi_lane = no)");
+    errs.push_back(
+        "/kind = \"cut_in\" needs a lane beside the ego lane; this road has one (multi_lane = no)");
 
   // Side, crossing side and lateral position agree.
   const double lane_half = cfg.ttc.ego_half_width + cfg.ttc.margin;
   if (spec.side == "left" && y <= 0.0)
-    errs.push_back("/side = \"left\" contradicts /lateral_offset_m = " + num(y) + " (left of the ego means y > 0)");
+    errs.push_back("/side = \"left\" contradicts /lateral_offset_m = " + num(y) +
+                   " (left of the ego means y > 0)");
   if (spec.side == "right" && y >= 0.0)
-    errs.push_back("/side = \"right\" contradicts /lateral_offset_m = " + num(y) + " (right of the ego means y < 0)");
+    errs.push_back("/side = \"right\" contradicts /lateral_offset_m = " + num(y) +
+                   " (right of the ego means y < 0)");
   if (spec.side == "center" && std::abs(y) > lane_half)
-    errs.push_back("/side = \"center\" contradicts /lateral_offset_m = " + num(y) + " (center means |y| <= " +
-                   num(lane_half) + " m)");
+    errs.push_back("/side = \"center\" contradicts /lateral_offset_m = " + num(y) +
+                   " (center means |y| <= " + num(lane_half) + " m)");
   if (spec.extra.contains("crossing_from") && spec.extra["crossing_from"].is_string() &&
       spec.extra["crossing_from"] != spec.side)
-    errs.push_back("/extra/crossing_from = " + spec.extra["crossing_from"].dump() + " contradicts /side = \"" +
-                   spec.side + "\"");
+    errs.push_back("/extra/crossing_from = " + spec.extra["crossing_from"].dump() +
+                   " contradicts /side = \"" + spec.side + "\"");
 
   // On the road, or on a sidewalk for people and bicycles.
   const int side_sign = y >= 0 ? 1 : -1;
@@ -111,8 +116,8 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
   const double max_y = cfg.road.edge(side_sign) + (may_use_sidewalk ? cfg.sidewalk_width_m : 0.0);
   if (std::abs(y) > max_y)
     errs.push_back("/lateral_offset_m = " + num(y) + " puts the " + cls + " off the " +
-                   (may_use_sidewalk ? "road and sidewalk" : "road") + " (|y| <= " + num(max_y) + " m on the " +
-                   (side_sign > 0 ? "left" : "right") + ")");
+                   (may_use_sidewalk ? "road and sidewalk" : "road") + " (|y| <= " + num(max_y) +
+                   " m on the " + (side_sign > 0 ? "left" : "right") + ")");
 
   // Not on top of a detected object (unless the spec takes that object over).
   const bool takes_track = spec.extra.contains("track_id") && spec.extra["track_id"].is_number();
@@ -168,9 +173,9 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
                      " puts the start point behind the camera");
     } else if (px->x < 0 || px->y < 0 || px->x >= scene.camera.width || px->y >= scene.camera.height) {
       errs.push_back("start point (x " + num(spec.initial_distance_m) + " m, y " + num(y) +
-                     " m) is outside the camera view: it projects to pixel (" + num(px->x) + ", " + num(px->y) +
-                     ") in a " + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) +
-                     " image");
+                     " m) is outside the camera view: it projects to pixel (" + num(px->x) + ", " +
+                     num(px->y) + ") in a " + std::to_string(scene.camera.width) + "x" +
+                     std::to_string(scene.camera.height) + " image");
     }
   } else if (skipped) {
     skipped->push_back("camera visibility not checked: the frame has no camera model");
@@ -181,12 +186,14 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
     TtcSimulation sim = simulate_ttc(spec, cfg.sizes.at(cls), cfg.ego_speed_mps, cfg.ttc, cfg.horizon_s);
     const double target = spec.target_ttc_s.value_or(cfg.threshold_s);
     if (sim.starts_in_collision) {
-      errs.push_back("the " + cls + " would appear touching the ego vehicle (x " + num(spec.initial_distance_m) +
-                     " m is within the ego front " + num(cfg.ttc.ego_front) + " m plus half its length)");
+      errs.push_back("the " + cls + " would appear touching the ego vehicle (x " +
+                     num(spec.initial_distance_m) + " m is within the ego front " + num(cfg.ttc.ego_front) +
+                     " m plus half its length)");
     } else if (sim.ttc_at_start < target - cfg.ttc_tolerance_s) {
-      errs.push_back("the " + cls + " would appear with TTC " + num(sim.ttc_at_start) +
-                     " s, already below /target_ttc_s = " + num(target) +
-                     ": a hazard must develop, not appear on a collision course (increase /initial_distance_m)");
+      errs.push_back(
+          "the " + cls + " would appear with TTC " + num(sim.ttc_at_start) +
+          " s, already below /target_ttc_s = " + num(target) +
+          ": a hazard must develop, not appear on a collision course (increase /initial_distance_m)");
     } else if (!sim.enters_path) {
       errs.push_back("/target_ttc_s = " + num(target) + " is never reached: with the ego at " +
                      num(cfg.ego_speed_mps) + " m/s the " + cls + " never enters the ego path within " +

@@ -31,9 +31,12 @@ void require_all(Json& node) {
 std::string escape_pointer_token(const std::string& t) {
   std::string out;
   for (char c : t) {
-    if (c == '~') out += "~0";
-    else if (c == '/') out += "~1";
-    else out += c;
+    if (c == '~')
+      out += "~0";
+    else if (c == '/')
+      out += "~1";
+    else
+      out += c;
   }
   return out;
 }
@@ -43,8 +46,10 @@ std::vector<std::string> context_tokens(const std::vector<std::string>& context)
   std::vector<std::string> tokens;
   for (const std::string& c : context) {
     if (c == "<root>") continue;
-    if (c.size() >= 2 && c.front() == '[' && c.back() == ']') tokens.push_back(c.substr(1, c.size() - 2));
-    else tokens.push_back(c);
+    if (c.size() >= 2 && c.front() == '[' && c.back() == ']')
+      tokens.push_back(c.substr(1, c.size() - 2));
+    else
+      tokens.push_back(c);
   }
   return tokens;
 }
@@ -59,9 +64,12 @@ const Json* schema_at(const Json& schema, const std::vector<std::string>& tokens
   const Json* node = &schema;
   for (const std::string& t : tokens) {
     if (!node->is_object()) return nullptr;
-    if (node->contains("properties") && (*node)["properties"].contains(t)) node = &(*node)["properties"][t];
-    else if (node->contains("items")) node = &(*node)["items"];
-    else return nullptr;
+    if (node->contains("properties") && (*node)["properties"].contains(t))
+      node = &(*node)["properties"][t];
+    else if (node->contains("items"))
+      node = &(*node)["items"];
+    else
+      return nullptr;
   }
   return node;
 }
@@ -69,7 +77,8 @@ const Json* schema_at(const Json& schema, const std::vector<std::string>& tokens
 const Json* value_at(const Json& doc, const std::vector<std::string>& tokens) {
   const Json* node = &doc;
   for (const std::string& t : tokens) {
-    if (node->is_object() && node->contains(t)) node = &(*node)[t];
+    if (node->is_object() && node->contains(t))
+      node = &(*node)[t];
     else if (node->is_array()) {
       size_t i = std::stoul(t);
       if (i >= node->size()) return nullptr;
@@ -105,7 +114,9 @@ std::string last_quoted(const std::string& text) {
   return b == std::string::npos ? std::string() : text.substr(b + 1, e - b - 1);
 }
 
-bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
+bool starts_with(const std::string& s, const char* prefix) {
+  return s.rfind(prefix, 0) == 0;
+}
 
 }  // namespace
 
@@ -166,7 +177,8 @@ struct SchemaValidator::Compiled {
   valijson::Schema schema;
 };
 
-SchemaValidator::SchemaValidator(Json schema) : schema_(std::move(schema)), compiled_(std::make_unique<Compiled>()) {
+SchemaValidator::SchemaValidator(Json schema)
+    : schema_(std::move(schema)), compiled_(std::make_unique<Compiled>()) {
   valijson::SchemaParser parser(valijson::SchemaParser::kDraft7);
   valijson::adapters::NlohmannJsonAdapter adapter(schema_);
   try {
@@ -220,13 +232,15 @@ std::vector<std::string> SchemaValidator::validate(const Json& document) const {
       std::string types;
       if (sch && sch->contains("type")) {
         const Json& t = (*sch)["type"];
-        if (t.is_string()) types = t.get<std::string>();
+        if (t.is_string())
+          types = t.get<std::string>();
         else
           for (const Json& one : t) types += (types.empty() ? "" : " or ") + one.get<std::string>();
       }
       msg = shown + " has type " + (val ? json_type(*val) : "?") + ", expected " + types;
     } else if (starts_with(d, "Failed to match against any enum values")) {
-      msg = shown + " is not one of " + (sch && sch->contains("enum") ? join_values((*sch)["enum"]) : "the allowed values");
+      msg = shown + " is not one of " +
+            (sch && sch->contains("enum") ? join_values((*sch)["enum"]) : "the allowed values");
     } else {
       msg = shown + ": " + d;
     }

@@ -46,10 +46,13 @@ ComponentInfo LlmHazardGenerator::describe() {
   i.kind = kind::kGenerator;
   i.summary = "Asks an LLM for a collision-inducing hazard (HazardSpec) when the scene is Safe";
   i.doc =
-      "Emits one HazardSpec at the trigger frame (stamped with its timestamp) when every risk input labels it "
+      "Emits one HazardSpec at the trigger frame (stamped with its timestamp) when every risk input labels "
+      "it "
       "Safe. The reply is validated against share/schemas/hazard_spec.schema.json, the class limits in "
-      "share/hazard_limits.yaml, road/camera/TTC feasibility and the kind's hazard template; invalid replies are "
-      "sent back with the errors up to max_retries times. Records every call in llm/calls.jsonl and the spec in "
+      "share/hazard_limits.yaml, road/camera/TTC feasibility and the kind's hazard template; invalid replies "
+      "are "
+      "sent back with the errors up to max_retries times. Records every call in llm/calls.jsonl and the spec "
+      "in "
       "hazard_spec.json.";
   i.inputs = {port<ObjectStates>("states", "tracked objects in the ego frame"),
               multi(port<RiskAssessment>("risk", "risk verdicts; the trigger frame must be Safe for all")),
@@ -58,31 +61,47 @@ ComponentInfo LlmHazardGenerator::describe() {
   i.params = {
       ParamSpec::object("provider", Json{{"name", "offline"}})
           .describe("LLM provider: {name: offline|ollama|openai|..., <provider params>}"),
-      ParamSpec::string_list("kinds", {}).describe("allowed hazard kinds; empty = every registered hazard_template"),
+      ParamSpec::string_list("kinds", {})
+          .describe("allowed hazard kinds; empty = every registered hazard_template"),
       ParamSpec::string("force_kind", "").describe("ask for exactly this kind (must be allowed)"),
-      ParamSpec::integer("max_retries", 3).range(0, 20).describe("invalid replies sent back before giving up"),
+      ParamSpec::integer("max_retries", 3)
+          .range(0, 20)
+          .describe("invalid replies sent back before giving up"),
       ParamSpec::integer("seed", 0).describe("sampling seed passed to the provider"),
-      ParamSpec::number("temperature", 0.2).range(0, 2).describe("sampling temperature passed to the provider"),
+      ParamSpec::number("temperature", 0.2)
+          .range(0, 2)
+          .describe("sampling temperature passed to the provider"),
       ParamSpec::integer("max_tokens", 1024).range(64, 32768).describe("reply length limit"),
       ParamSpec::number("target_ttc_s", 1.0).range(0.1, 10).describe("TTC the hazard should reach"),
       ParamSpec::number("ttc_tolerance_s", 0.25).range(0, 5).describe("slack when checking the reached TTC"),
       ParamSpec::string("trigger", "first_safe").one_of({"first_safe", "frame"}).describe("when to generate"),
-      ParamSpec::integer("trigger_frame", 0).range(0, std::nullopt).describe("frame index for trigger: frame"),
-      ParamSpec::integer("warmup_frames", 5).range(0, std::nullopt)
+      ParamSpec::integer("trigger_frame", 0)
+          .range(0, std::nullopt)
+          .describe("frame index for trigger: frame"),
+      ParamSpec::integer("warmup_frames", 5)
+          .range(0, std::nullopt)
           .describe("frames skipped by first_safe so tracks have velocities"),
-      ParamSpec::string("environment", "").describe("scene environment for the prompt; empty = dataset description"),
+      ParamSpec::string("environment", "")
+          .describe("scene environment for the prompt; empty = dataset description"),
       ParamSpec::string("road_type", "").describe("road type for the prompt, e.g. 'urban two-lane street'"),
       ParamSpec::string("sidewalks", "auto").one_of({"auto", "yes", "no"}).describe("pedestrians allowed"),
-      ParamSpec::string("intersection", "auto").one_of({"auto", "yes", "no"}).describe("crossing vehicles allowed"),
+      ParamSpec::string("intersection", "auto")
+          .one_of({"auto", "yes", "no"})
+          .describe("crossing vehicles allowed"),
       ParamSpec::string("multi_lane", "auto").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
       ParamSpec::number("sidewalk_width_m", 3.0).range(0, 15).describe("sidewalk width beyond the road edge"),
-      ParamSpec::number("horizon_s", 6.0).range(1, 60)
+      ParamSpec::number("horizon_s", 6.0)
+          .range(1, 60)
           .describe("how long hazards are planned/replayed for the TTC check (templates' duration_s)"),
-      ParamSpec::number("ego_speed_mps", -1.0).range(-1, 80)
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .range(-1, 80)
           .describe("ego speed if the data has none; negative = from ObjectStates / Frame.ego"),
-      ParamSpec::path("prompt_template", "").describe("prompt file; empty = share/prompts/hazard_generation.md"),
-      ParamSpec::path("retry_template", "").describe("retry message file; empty = share/prompts/hazard_retry.md"),
-      ParamSpec::path("schema", "").describe("hazard spec schema; empty = share/schemas/hazard_spec.schema.json"),
+      ParamSpec::path("prompt_template", "")
+          .describe("prompt file; empty = share/prompts/hazard_generation.md"),
+      ParamSpec::path("retry_template", "")
+          .describe("retry message file; empty = share/prompts/hazard_retry.md"),
+      ParamSpec::path("schema", "")
+          .describe("hazard spec schema; empty = share/schemas/hazard_spec.schema.json"),
       ParamSpec::path("limits", "").describe("kinematic limits per class; empty = share/hazard_limits.yaml"),
       ParamSpec::path("class_sizes", "").describe("object sizes; empty = share/class_sizes.yaml"),
   };
@@ -97,12 +116,12 @@ LlmHazardGenerator::~LlmHazardGenerator() = default;
 
 void LlmHazardGenerator::open(StageContext& ctx) {
   const Params& p = ctx.params();
-  const std::string who = "node '" + ctx.node_id() + "'";
 
   // Provider: {name: ..., rest = its own params}.
   Json provider_params = p.raw("provider");
-  if (!provider_params.is_object() || !provider_params.contains("name") || !provider_params["name"].is_string())
-    throw Error(who + ": param 'provider' needs a 'name' (e.g. {name: offline})");
+  if (!provider_params.is_object() || !provider_params.contains("name") ||
+      !provider_params["name"].is_string())
+    throw Error("param 'provider' needs a 'name' (e.g. {name: offline})");
   provider_name_ = provider_params["name"].get<std::string>();
   provider_params.erase("name");
   provider_ = ctx.components().create<LlmProvider>(kind::kLlmProvider, provider_name_, provider_params);
@@ -112,12 +131,14 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   allowed_kinds_ = p.get_strings("kinds");
   if (allowed_kinds_.empty()) allowed_kinds_ = registered;
   if (allowed_kinds_.empty())
-    throw Error(who + ": no hazard kinds to choose from: no hazard_template component is registered and param "
-                      "'kinds' is empty");
+    throw Error(
+        "no hazard kinds to choose from: no hazard_template component is registered and param "
+        "'kinds' is empty");
   std::string force = p.get_string("force_kind");
   if (!force.empty()) {
     if (std::find(allowed_kinds_.begin(), allowed_kinds_.end(), force) == allowed_kinds_.end())
-      throw Error(who + ": force_kind '" + force + "' is not among the allowed kinds (" + join(allowed_kinds_, ", ") + ")");
+      throw Error("force_kind '" + force + "' is not among the allowed kinds (" + join(allowed_kinds_, ", ") +
+                  ")");
     allowed_kinds_ = {force};
   }
   road_ = hazard::RoadModel::from(p);
@@ -137,7 +158,8 @@ void LlmHazardGenerator::open(StageContext& ctx) {
                        {"duration_s", p.get_double("horizon_s")}};
   for (const std::string& k : allowed_kinds_) {
     if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
-      ctx.log(LogLevel::kWarning, "no hazard_template '" + k + "' is registered: the generic kinematic checks apply");
+      ctx.log(LogLevel::kWarning,
+              "no hazard_template '" + k + "' is registered: the generic kinematic checks apply");
       continue;
     }
     try {
@@ -165,7 +187,8 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   trigger_frame_ = p.get_int("trigger_frame");
   warmup_frames_ = p.get_int("warmup_frames");
   calls_ = std::make_unique<CallLog>(ctx.output_dir() / "llm" / "calls.jsonl");
-  ctx.log(LogLevel::kInfo, "hazards from " + provider_->describe_backend() + "; kinds: " + join(allowed_kinds_, ", "));
+  ctx.log(LogLevel::kInfo,
+          "hazards from " + provider_->describe_backend() + "; kinds: " + join(allowed_kinds_, ", "));
 }
 
 void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& out) {
@@ -180,7 +203,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
   if (trigger_ == "first_safe" && seen < warmup_frames_) return;
   if (trigger_ == "frame" && frame.index != trigger_frame_) return;
   if (risks.empty())
-    throw Error("node '" + ctx.node_id() + "': frame " + std::to_string(frame.index) +
+    throw Error("frame " + std::to_string(frame.index) +
                 " has no risk input; connect at least one risk metric to 'risk'");
 
   std::string unsafe;
@@ -209,7 +232,8 @@ void LlmHazardGenerator::finish(StageContext& ctx, Outputs&) {
                                     " never arrived (" + std::to_string(frames_seen_) + " frames seen)");
   else
     ctx.log(LogLevel::kWarning, "no hazard generated: no frame after the " + std::to_string(warmup_frames_) +
-                                    " warm-up frames was Safe (" + std::to_string(frames_seen_) + " frames seen)");
+                                    " warm-up frames was Safe (" + std::to_string(frames_seen_) +
+                                    " frames seen)");
 }
 
 double LlmHazardGenerator::ego_speed(const Frame& frame, const ObjectStates& states) const {
@@ -218,7 +242,8 @@ double LlmHazardGenerator::ego_speed(const Frame& frame, const ObjectStates& sta
   return -1.0;
 }
 
-double LlmHazardGenerator::risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const {
+double LlmHazardGenerator::risk_threshold(const std::vector<const RiskAssessment*>& risks,
+                                          int64_t frame) const {
   for (const RiskAssessment* r : risks)
     if (r->unit == "s" && r->lower_is_riskier) return r->threshold;
   throw Error("frame " + std::to_string(frame) +
@@ -228,7 +253,6 @@ double LlmHazardGenerator::risk_threshold(const std::vector<const RiskAssessment
 HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, const ObjectStates& states,
                                         const std::vector<const RiskAssessment*>& risks) {
   const Params& p = ctx.params();
-  const std::string who = "node '" + ctx.node_id() + "'";
 
   SceneSettings s;
   s.description = dataset_description(frame);
@@ -245,21 +269,22 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
   s.ttc_tolerance_s = p.get_double("ttc_tolerance_s");
   s.threshold_s = risk_threshold(risks, frame.index);
   if (s.target_ttc_s >= s.threshold_s)
-    throw Error(who + ": target_ttc_s = " + num(s.target_ttc_s) + " is not below the risk threshold " +
+    throw Error("target_ttc_s = " + num(s.target_ttc_s) + " is not below the risk threshold " +
                 num(s.threshold_s) + " s, so no hazard could make the scene Unsafe");
   s.ego_speed_mps = ego_speed(frame, states);
   if (s.ego_speed_mps < 0) s.ego_speed_mps = p.get_double("ego_speed_mps");
   if (s.ego_speed_mps < 0)
-    throw Error(who + ": the ego speed at frame " + std::to_string(frame.index) +
+    throw Error("the ego speed at frame " + std::to_string(frame.index) +
                 " is unknown (neither ObjectStates nor the frame carry it); set param ego_speed_mps");
   s.horizon_s = p.get_double("horizon_s");
   s.sidewalk_width_m = p.get_double("sidewalk_width_m");
   s.ttc = ttc_;
   s.road = road_;
-  ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + " is Safe: generating a hazard (sidewalks " +
-                               (s.sidewalks.value ? "yes" : "no") + ", " + s.sidewalks.why + "; intersection " +
-                               (s.intersection.value ? "yes" : "no") + ", " + s.intersection.why + "; multi-lane " +
-                               (s.multi_lane.value ? "yes" : "no") + ", " + s.multi_lane.why + ")");
+  ctx.log(LogLevel::kInfo,
+          "frame " + std::to_string(frame.index) + " is Safe: generating a hazard (sidewalks " +
+              (s.sidewalks.value ? "yes" : "no") + ", " + s.sidewalks.why + "; intersection " +
+              (s.intersection.value ? "yes" : "no") + ", " + s.intersection.why + "; multi-lane " +
+              (s.multi_lane.value ? "yes" : "no") + ", " + s.multi_lane.why + ")");
 
   SceneSummary scene = summarize_scene(frame, states, risks, s, limits_, sizes_);
   std::map<std::string, std::string> values = scene.placeholders;
@@ -294,16 +319,11 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
   const std::string backend = provider_->describe_backend();
   std::vector<std::string> errors;
   for (int attempt = 1; attempt <= max_attempts; ++attempt) {
-    Json record = {{"node", ctx.node_id()},
-                   {"frame_index", frame.index},
-                   {"timestamp_s", frame.timestamp},
-                   {"attempt", attempt},
-                   {"provider", provider_name_},
-                   {"backend", backend},
-                   {"temperature", req.temperature},
-                   {"seed", req.seed},
-                   {"prompt_sha256", prompt_hash},
-                   {"messages", messages_json(req.messages)}};
+    Json record = {{"node", ctx.node_id()},          {"frame_index", frame.index},
+                   {"timestamp_s", frame.timestamp}, {"attempt", attempt},
+                   {"provider", provider_name_},     {"backend", backend},
+                   {"temperature", req.temperature}, {"seed", req.seed},
+                   {"prompt_sha256", prompt_hash},   {"messages", messages_json(req.messages)}};
     LlmReply reply;
     auto t0 = std::chrono::steady_clock::now();
     try {
@@ -313,7 +333,7 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
       record["transport_error"] = e.what();
       record["accepted"] = false;
       calls_->append(record);
-      throw Error(who + ": " + e.what());
+      throw;  // the host names the node; the provider named the endpoint
     }
     const double latency = reply.latency_s > 0
                                ? reply.latency_s
@@ -366,7 +386,7 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
                          {"calls", "llm/calls.jsonl"}};
       Json written = spec;
       if (std::vector<std::string> bad = spec_validator_->validate(written); !bad.empty())
-        throw Error(who + ": internal error: the accepted spec does not follow the schema: " + join(bad, "; "));
+        throw Error("internal error: the accepted spec does not follow the schema: " + join(bad, "; "));
       write_file_atomic(ctx.output_dir() / "hazard_spec.json", written.dump(2) + "\n");
       ctx.log(LogLevel::kInfo, "hazard " + spec.kind + " (" + spec.object_class + ") accepted after " +
                                    std::to_string(attempt) + " attempt(s)");
@@ -378,7 +398,7 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
       req.messages.push_back({"user", retry_prompt_->render({{"errors", bullet_list(errors)}})});
     }
   }
-  throw Error(who + ": no valid hazard spec after " + std::to_string(max_attempts) + " attempt(s) from " + backend +
+  throw Error("no valid hazard spec after " + std::to_string(max_attempts) + " attempt(s) from " + backend +
               "; last errors: " + join(errors, "; "));
 }
 

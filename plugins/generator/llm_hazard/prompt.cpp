@@ -29,7 +29,8 @@ std::string strip_comments(const std::string& text) {
   return out;
 }
 
-// Same text with comment bodies blanked (newlines kept), so placeholder checks skip them and keep line numbers.
+// Same text with comment bodies blanked (newlines kept), so placeholder checks skip them and keep line
+// numbers.
 std::string blank_comments(const std::string& text) {
   std::string out = text;
   for (size_t b = out.find("<!--"); b != std::string::npos; b = out.find("<!--", b)) {

@@ -1,4 +1,5 @@
-// Scene context for the prompt and the offline planner, from ObjectStates, RiskAssessments and Frame metadata.
+// Scene context for the prompt and the offline planner, from ObjectStates, RiskAssessments and Frame
+// metadata.
 #include "scene_summary.hpp"
 
 #include <algorithm>
@@ -36,28 +37,34 @@ Resolved resolve(const std::string& setting, const std::string& text, const std:
   return {false, "auto: nothing in the scene text suggests " + what};
 }
 
-Json opt(const std::optional<double>& v) { return v && std::isfinite(*v) ? Json(*v) : Json(nullptr); }
+Json opt(const std::optional<double>& v) {
+  return v && std::isfinite(*v) ? Json(*v) : Json(nullptr);
+}
 
 std::string fmt_opt(const std::optional<double>& v, const std::string& unit) {
   return v && std::isfinite(*v) ? num(*v) + unit : "unknown";
 }
 
-std::string yes_no(const Resolved& r) { return r.value ? "yes" : "no"; }
+std::string yes_no(const Resolved& r) {
+  return r.value ? "yes" : "no";
+}
 
 }  // namespace
 
 Resolved resolve_sidewalks(const std::string& setting, const std::string& text) {
-  return resolve(setting, text,
-                 {"sidewalk", "sidewalks", "pedestrian", "pedestrians", "ped", "peds", "crosswalk", "crosswalks",
-                  "urban", "city", "downtown", "residential", "parking", "shops", "school", "market", "street"},
-                 {"highway", "motorway", "freeway", "expressway", "interstate", "autobahn"}, "sidewalks");
+  return resolve(
+      setting, text,
+      {"sidewalk", "sidewalks", "pedestrian", "pedestrians", "ped", "peds", "crosswalk", "crosswalks",
+       "urban", "city", "downtown", "residential", "parking", "shops", "school", "market", "street"},
+      {"highway", "motorway", "freeway", "expressway", "interstate", "autobahn"}, "sidewalks");
 }
 
 Resolved resolve_intersection(const std::string& setting, const std::string& text) {
   return resolve(setting, text,
-                 {"intersection", "intersections", "junction", "junctions", "crossroads", "roundabout", "turn",
-                  "turning"},
-                 {"highway", "motorway", "freeway", "expressway", "interstate", "autobahn"}, "an intersection");
+                 {"intersection", "intersections", "junction", "junctions", "crossroads", "roundabout",
+                  "turn", "turning"},
+                 {"highway", "motorway", "freeway", "expressway", "interstate", "autobahn"},
+                 "an intersection");
 }
 
 Resolved resolve_multi_lane(const std::string& setting, const std::string& text) {
@@ -79,7 +86,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                              const hazard::LimitsTable& limits, const ClassPriors& sizes) {
   SceneSummary out;
 
-  // Per-object TTC from the first seconds-valued metric, so the prompt can say which object is closest in time.
+  // Per-object TTC from the first seconds-valued metric, so the prompt can say which object is closest in
+  // time.
   const RiskAssessment* ttc_metric = nullptr;
   for (const RiskAssessment* r : risks)
     if (r->unit == "s" && r->lower_is_riskier) {
@@ -97,21 +105,16 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
   std::string object_lines;
   for (const ObjectState& o : states.objects) {
     std::optional<double> ttc = object_ttc(o.track_id);
-    Json j = {{"track_id", o.track_id},
-              {"label", o.label},
-              {"distance_m", finite_or_null(o.distance_m)},
-              {"lateral_m", o.lateral_m},
-              {"width_m", o.width_m},
-              {"length_m", o.length_m},
-              {"speed_mps", opt(o.speed_mps)},
-              {"in_path", o.in_path},
-              {"ttc_s", opt(ttc)}};
+    Json j = {
+        {"track_id", o.track_id},        {"label", o.label},     {"distance_m", finite_or_null(o.distance_m)},
+        {"lateral_m", o.lateral_m},      {"width_m", o.width_m}, {"length_m", o.length_m},
+        {"speed_mps", opt(o.speed_mps)}, {"in_path", o.in_path}, {"ttc_s", opt(ttc)}};
     if (o.velocity_rel) j["velocity_rel"] = {(*o.velocity_rel)[0], (*o.velocity_rel)[1]};
     objects.push_back(std::move(j));
-    object_lines += "- track " + std::to_string(o.track_id) + ": " + o.label + ", x " + num(o.distance_m) + " m, y " +
-                    num(o.lateral_m) + " m, speed " + fmt_opt(o.speed_mps, " m/s") +
-                    (o.in_path ? ", in the ego path" : "") + (ttc && std::isfinite(*ttc) ? ", TTC " + num(*ttc) + " s" : "") +
-                    "\n";
+    object_lines += "- track " + std::to_string(o.track_id) + ": " + o.label + ", x " + num(o.distance_m) +
+                    " m, y " + num(o.lateral_m) + " m, speed " + fmt_opt(o.speed_mps, " m/s") +
+                    (o.in_path ? ", in the ego path" : "") +
+                    (ttc && std::isfinite(*ttc) ? ", TTC " + num(*ttc) + " s" : "") + "\n";
   }
   if (object_lines.empty()) object_lines = "- none\n";
   if (!object_lines.empty()) object_lines.pop_back();
@@ -126,8 +129,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                     {"scene_value", finite_or_null(r->scene_value)},
                     {"threshold", r->threshold},
                     {"label", to_string(r->label)}});
-    risk_summary += (risk_summary.empty() ? "" : "; ") + r->metric + " " + num(r->scene_value) + " " + r->unit + " (" +
-                    to_string(r->label) + ")";
+    risk_summary += (risk_summary.empty() ? "" : "; ") + r->metric + " " + num(r->scene_value) + " " +
+                    r->unit + " (" + to_string(r->label) + ")";
     if (r->unit == "s" && r->lower_is_riskier) scene_ttc = std::min(scene_ttc, r->scene_value);
   }
 
@@ -143,8 +146,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                          {"max_accel_mps2", c.max_accel_mps2},
                          {"max_decel_mps2", c.max_decel_mps2},
                          {"max_lateral_speed_mps", c.max_lateral_speed_mps}};
-    limit_lines += "- " + name + ": speed <= " + num(c.max_speed_mps) + " m/s, braking <= " + num(c.max_decel_mps2) +
-                   " m/s^2\n";
+    limit_lines += "- " + name + ": speed <= " + num(c.max_speed_mps) +
+                   " m/s, braking <= " + num(c.max_decel_mps2) + " m/s^2\n";
   }
   if (!limit_lines.empty()) limit_lines.pop_back();
 
@@ -210,14 +213,10 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
   out.context.ego_speed_mps = s.ego_speed_mps;
   out.context.camera = frame.camera;
   out.context.objects = states.objects;
-  out.context.meta = {{"environment", s.environment},
-                      {"road_type", s.road_type},
-                      {"description", s.description},
-                      {"sidewalks", s.sidewalks.value},
-                      {"intersection", s.intersection.value},
-                      {"multi_lane", s.multi_lane.value},
-                      {"threshold_s", s.threshold_s},
-                      {"target_ttc_s", s.target_ttc_s}};
+  out.context.meta = {{"environment", s.environment},         {"road_type", s.road_type},
+                      {"description", s.description},         {"sidewalks", s.sidewalks.value},
+                      {"intersection", s.intersection.value}, {"multi_lane", s.multi_lane.value},
+                      {"threshold_s", s.threshold_s},         {"target_ttc_s", s.target_ttc_s}};
   return out;
 }
 

@@ -41,9 +41,9 @@ struct SceneSettings {
 };
 
 struct SceneSummary {
-  Json scene;                                      // LlmRequest::scene
+  Json scene;                                       // LlmRequest::scene
   std::map<std::string, std::string> placeholders;  // prompt values (all but "schema")
-  SceneContext context;                            // for feasibility and template checks
+  SceneContext context;                             // for feasibility and template checks
 };
 
 SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,

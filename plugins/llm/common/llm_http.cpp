@@ -25,7 +25,9 @@ void init_curl_once() {
   });
 }
 
-long to_ms(double seconds) { return seconds <= 0 ? 0L : static_cast<long>(seconds * 1000.0 + 0.5); }
+long to_ms(double seconds) {
+  return seconds <= 0 ? 0L : static_cast<long>(seconds * 1000.0 + 0.5);
+}
 
 }  // namespace
 
@@ -70,9 +72,12 @@ std::string http_status_error(const std::string& who, const std::string& url, lo
   Json j = Json::parse(body, nullptr, /*allow_exceptions=*/false);
   if (j.is_object() && j.contains("error")) {
     const Json& e = j["error"];
-    if (e.is_string()) detail = e.get<std::string>();
-    else if (e.is_object() && e.contains("message") && e["message"].is_string()) detail = e["message"];
-    else detail = e.dump();
+    if (e.is_string())
+      detail = e.get<std::string>();
+    else if (e.is_object() && e.contains("message") && e["message"].is_string())
+      detail = e["message"];
+    else
+      detail = e.dump();
   } else {
     constexpr size_t kMax = 200;
     detail = body.size() > kMax ? body.substr(0, kMax) + "..." : body;

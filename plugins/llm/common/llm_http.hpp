@@ -28,7 +28,8 @@ HttpResponse post_json(const std::string& who, const std::string& url, const Jso
 
 // "<who>: POST <url> returned HTTP <status>: <detail>", detail taken from an {"error": ...} body
 // (string or {"message": ...}) when there is one, else the start of the body.
-std::string http_status_error(const std::string& who, const std::string& url, long status, const std::string& body);
+std::string http_status_error(const std::string& who, const std::string& url, long status,
+                              const std::string& body);
 
 // Parses a response body as JSON; throws hf::Error "<who>: POST <url>: response is not JSON: ...".
 Json parse_response(const std::string& who, const std::string& url, const std::string& body);

@@ -32,13 +32,18 @@ size_t matching_brace(std::string_view s, size_t open) {
   for (size_t i = open; i < s.size(); ++i) {
     char c = s[i];
     if (in_string) {
-      if (c == '\\') ++i;
-      else if (c == '"') in_string = false;
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
       continue;
     }
-    if (c == '"') in_string = true;
-    else if (c == '{') ++depth;
-    else if (c == '}' && --depth == 0) return i + 1;
+    if (c == '"')
+      in_string = true;
+    else if (c == '{')
+      ++depth;
+    else if (c == '}' && --depth == 0)
+      return i + 1;
   }
   return std::string_view::npos;
 }
@@ -51,8 +56,10 @@ struct Attempt {
 void try_candidate(std::string_view text, Attempt& a) {
   try {
     Json j = Json::parse(text.begin(), text.end());
-    if (j.is_object()) a.object = std::move(j);
-    else if (a.error.empty() && j.is_array()) a.error = "reply is a JSON array, not an object";
+    if (j.is_object())
+      a.object = std::move(j);
+    else if (a.error.empty() && j.is_array())
+      a.error = "reply is a JSON array, not an object";
   } catch (const Json::parse_error& e) {
     if (a.error.empty()) a.error = "reply is not valid JSON: " + parse_message(e);
   }
@@ -67,8 +74,8 @@ void scan_objects(std::string_view text, Attempt& a) {
     size_t end = matching_brace(text, p);
     if (end == std::string_view::npos) {
       if (a.error.empty())
-        a.error = "reply JSON object is cut off: the '{' at character " + std::to_string(p) +
-                  " is never closed";
+        a.error =
+            "reply JSON object is cut off: the '{' at character " + std::to_string(p) + " is never closed";
       return;
     }
     try_candidate(text.substr(p, end - p), a);
@@ -91,9 +98,12 @@ Json extract_json_object(const std::string& reply) {
     size_t body = text.find('\n', open);
     if (body == std::string_view::npos) break;
     size_t close = text.find("```", body);
-    std::string_view inside = trim(text.substr(body + 1, close == std::string_view::npos ? text.npos : close - body - 1));
-    if (!inside.empty() && inside.front() == '{') scan_objects(inside, a);
-    else if (!inside.empty() && inside.front() == '[') try_candidate(inside, a);
+    std::string_view inside =
+        trim(text.substr(body + 1, close == std::string_view::npos ? text.npos : close - body - 1));
+    if (!inside.empty() && inside.front() == '{')
+      scan_objects(inside, a);
+    else if (!inside.empty() && inside.front() == '[')
+      try_candidate(inside, a);
     if (close == std::string_view::npos) break;
     open = text.find("```", close + 3);
   }
@@ -102,7 +112,8 @@ Json extract_json_object(const std::string& reply) {
   if (!a.error.empty()) throw Error(a.error);
   constexpr size_t kShown = 60;
   std::string start(text.substr(0, kShown));
-  throw Error("reply contains no JSON object (it begins \"" + start + (text.size() > kShown ? "...\")" : "\")"));
+  throw Error("reply contains no JSON object (it begins \"" + start +
+              (text.size() > kShown ? "...\")" : "\")"));
 }
 
 }  // namespace hf::llm

@@ -16,14 +16,16 @@ namespace hf::llm {
 namespace {
 
 constexpr double kMinEgoSpeed = 1.0;  // m/s: below it no inserted object closes in on the ego
-constexpr double kMinDistance = 4.0;   // nearest start of an inserted lead vehicle
+constexpr double kMinDistance = 4.0;  // nearest start of an inserted lead vehicle
 constexpr double kMaxDistance = 120.0;
 
 // std::uniform_real_distribution differs between standard libraries; this does not.
 class Draw {
  public:
   explicit Draw(uint64_t seed) : gen_(seed) {}
-  double uniform(double lo, double hi) { return lo + (hi - lo) * static_cast<double>(gen_() >> 11) * 0x1.0p-53; }
+  double uniform(double lo, double hi) {
+    return lo + (hi - lo) * static_cast<double>(gen_() >> 11) * 0x1.0p-53;
+  }
   size_t index(size_t n) { return static_cast<size_t>(gen_() % n); }
   bool coin() { return (gen_() >> 63) != 0; }
 
@@ -31,7 +33,9 @@ class Draw {
   std::mt19937_64 gen_;
 };
 
-double round_to(double v, double step) { return std::round(v / step) * step; }
+double round_to(double v, double step) {
+  return std::round(v / step) * step;
+}
 
 std::string fmt(double v) {
   char buf[32];
@@ -40,7 +44,8 @@ std::string fmt(double v) {
 }
 
 const Json& field(const Json& scene, const char* name) {
-  if (!scene.contains(name)) throw Error(std::string("offline: the request's scene context lacks '") + name + "'");
+  if (!scene.contains(name))
+    throw Error(std::string("offline: the request's scene context lacks '") + name + "'");
   return scene[name];
 }
 
@@ -87,7 +92,8 @@ struct Scene {
 
 Scene read_scene(const Json& s) {
   if (!s.is_object() || s.empty())
-    throw Error("offline: the request carries no scene context (the offline planner reads LlmRequest::scene)");
+    throw Error(
+        "offline: the request carries no scene context (the offline planner reads LlmRequest::scene)");
   Scene sc;
   try {
     for (const Json& k : field(s, "allowed_kinds")) sc.allowed.push_back(k.get<std::string>());
@@ -108,7 +114,8 @@ Scene read_scene(const Json& s) {
     sc.margin = ttc.at("corridor_margin_m").get<double>();
     sc.ego_front = ttc.at("ego_front_m").get<double>();
     for (auto it = field(s, "limits").begin(); it != s["limits"].end(); ++it)
-      sc.limits[it.key()] = {it.value().at("max_speed_mps").get<double>(), it.value().at("max_accel_mps2").get<double>(),
+      sc.limits[it.key()] = {it.value().at("max_speed_mps").get<double>(),
+                             it.value().at("max_accel_mps2").get<double>(),
                              it.value().at("max_decel_mps2").get<double>(),
                              it.value().at("max_lateral_speed_mps").get<double>()};
     for (auto it = field(s, "class_sizes").begin(); it != s["class_sizes"].end(); ++it)
@@ -124,11 +131,13 @@ Scene read_scene(const Json& s) {
       Size prior = sc.sizes.count(label) ? sc.sizes[label] : Size{};
       double l = o.value("length_m", 0.0), w = o.value("width_m", 0.0);
       std::optional<double> speed;
-      if (o.contains("velocity_rel") && o["velocity_rel"].is_array()) speed = sc.ego_speed + o["velocity_rel"][0].get<double>();
-      else if (o.contains("speed_mps") && o["speed_mps"].is_number()) speed = o["speed_mps"].get<double>();
+      if (o.contains("velocity_rel") && o["velocity_rel"].is_array())
+        speed = sc.ego_speed + o["velocity_rel"][0].get<double>();
+      else if (o.contains("speed_mps") && o["speed_mps"].is_number())
+        speed = o["speed_mps"].get<double>();
       sc.objects.push_back({o.at("track_id").get<int64_t>(), label, o["distance_m"].get<double>(),
-                            o.at("lateral_m").get<double>(), l > 0 ? l : prior.length, w > 0 ? w : prior.width,
-                            o.value("in_path", false), speed});
+                            o.at("lateral_m").get<double>(), l > 0 ? l : prior.length,
+                            w > 0 ? w : prior.width, o.value("in_path", false), speed});
     }
   } catch (const Json::exception& e) {
     throw Error(std::string("offline: malformed scene context: ") + e.what());
@@ -168,13 +177,18 @@ Json base_spec(const std::string& kind, const std::string& cls, double x, double
           {"start_time_s", nullptr},
           {"deceleration_mps2", nullptr},
           {"target_ttc_s", target},
-          {"extra", {{"crossing_from", nullptr}, {"final_speed_mps", nullptr}, {"brake_delay_s", nullptr},
-                     {"track_id", nullptr}}},
+          {"extra",
+           {{"crossing_from", nullptr},
+            {"final_speed_mps", nullptr},
+            {"brake_delay_s", nullptr},
+            {"track_id", nullptr}}},
           {"rationale", ""}};
 }
 
 // Time for a start from rest to cover d at walking speed v (acceleration phase plus a jerk allowance).
-double walk_time(double d, double v, double accel) { return d / v + v / (2.0 * accel) + 0.3; }
+double walk_time(double d, double v, double accel) {
+  return d / v + v / (2.0 * accel) + 0.3;
+}
 
 // pedestrian_crossing: waits on the kerb, walks across; the ego arrives `enter + target` after the start.
 Plan plan_pedestrian(const Scene& sc, Draw& d, double aim) {
@@ -193,16 +207,18 @@ Plan plan_pedestrian(const Scene& sc, Draw& d, double aim) {
   if (enter > sc.horizon - 0.5) return {{}, "walking into the ego path takes longer than the horizon"};
   const double x0 = sc.ego_front + size.length / 2.0 + sc.ego_speed * (enter + ttc);
   if (x0 > kMaxDistance) return {{}, "the crossing would be more than 120 m ahead"};
-  if (!visible(sc, x0, y0)) return {{}, "the kerb point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
+  if (!visible(sc, x0, y0))
+    return {{}, "the kerb point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
   if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
   const std::string from = left ? "left" : "right";
-  Json spec = base_spec("pedestrian_crossing", cls, x0, y0, from, speed, -sign * 90.0,
-                        "steps off the " + from + " kerb and crosses to the " + (left ? "right" : "left"), sc.target);
+  Json spec =
+      base_spec("pedestrian_crossing", cls, x0, y0, from, speed, -sign * 90.0,
+                "steps off the " + from + " kerb and crosses to the " + (left ? "right" : "left"), sc.target);
   spec["extra"]["crossing_from"] = from;
-  spec["rationale"] = "The scene has sidewalks, so a pedestrian stepping off the " + from + " kerb " + fmt(x0) +
-                      " m ahead and crossing at " + fmt(speed) + " m/s is realistic; with the ego at " +
-                      fmt(sc.ego_speed) + " m/s they are in its path about " + fmt(enter) + " s later, TTC near " +
-                      fmt(ttc) + " s.";
+  spec["rationale"] =
+      "The scene has sidewalks, so a pedestrian stepping off the " + from + " kerb " + fmt(x0) +
+      " m ahead and crossing at " + fmt(speed) + " m/s is realistic; with the ego at " + fmt(sc.ego_speed) +
+      " m/s they are in its path about " + fmt(enter) + " s later, TTC near " + fmt(ttc) + " s.";
   return {spec, {}};
 }
 
@@ -231,8 +247,8 @@ Plan plan_cut_in(const Scene& sc, Draw& d, double aim) {
   const double s_slow = (v0 + v1) / 2.0 * t_slow;
   const double lane_change = 1.15 * 1.875 * sc.lane_width / std::max(0.5, lim.max_lateral_speed);
   const double t_brake = std::max(0.5, lane_change - t_slow + 0.5) + d.uniform(0.0, 1.0);
-  const double x0 = gap_end + sc.ego_front + size.length / 2.0 + sc.ego_speed * (t_brake + t_slow) - s_slow -
-                    v0 * t_brake;
+  const double x0 =
+      gap_end + sc.ego_front + size.length / 2.0 + sc.ego_speed * (t_brake + t_slow) - s_slow - v0 * t_brake;
   if (x0 < -25.0 || x0 > 3.0) return {{}, "no start beside or behind the ego fits (x " + fmt(x0) + " m)"};
   if (t_brake + t_slow > sc.horizon - 0.5) return {{}, "the cut-in takes longer than the horizon"};
   if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
@@ -248,7 +264,8 @@ Plan plan_cut_in(const Scene& sc, Draw& d, double aim) {
 }
 
 // First time (s) the TTC to a lead braking after `delay` falls to `ttc`, by a 20 ms replay; kInf if never.
-double time_to_ttc(double gap0, double ego, double v0, double delay, double decel, double ttc, double horizon) {
+double time_to_ttc(double gap0, double ego, double v0, double delay, double decel, double ttc,
+                   double horizon) {
   double gap = gap0, v = v0;
   for (double t = 0; t <= horizon; t += 0.02) {
     const double closing = ego - v;
@@ -274,16 +291,19 @@ Plan plan_sudden_stop(const Scene& sc, Draw& d, double aim) {
   if (lead && is_vehicle(lead->label) && lead->speed && *lead->speed >= 0.5 && sc.limits.count(lead->label)) {
     const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(lead->label).max_decel, 0.1);
     const double gap = lead->x - sc.ego_front - lead->length / 2.0;
-    if (gap > 0 && time_to_ttc(gap, sc.ego_speed, *lead->speed, delay, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
+    if (gap > 0 &&
+        time_to_ttc(gap, sc.ego_speed, *lead->speed, delay, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
       Json spec = base_spec("sudden_stop", lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
                             "the tracked lead brakes hard in the ego lane", sc.target);
-      spec["side"] = std::abs(lead->y) <= sc.ego_half + sc.margin ? "center" : (lead->y > 0 ? "left" : "right");
+      spec["side"] =
+          std::abs(lead->y) <= sc.ego_half + sc.margin ? "center" : (lead->y > 0 ? "left" : "right");
       spec["deceleration_mps2"] = decel;
       spec["extra"]["brake_delay_s"] = delay;
       spec["extra"]["track_id"] = lead->track_id;
-      spec["rationale"] = "The " + lead->label + " (track " + std::to_string(lead->track_id) + ") " + fmt(lead->x) +
-                          " m ahead in the ego lane brakes at " + fmt(decel) + " m/s^2 after " + fmt(delay) +
-                          " s; the ego, keeping " + fmt(sc.ego_speed) + " m/s, closes in to a TTC near " + fmt(ttc) + " s.";
+      spec["rationale"] = "The " + lead->label + " (track " + std::to_string(lead->track_id) + ") " +
+                          fmt(lead->x) + " m ahead in the ego lane brakes at " + fmt(decel) +
+                          " m/s^2 after " + fmt(delay) + " s; the ego, keeping " + fmt(sc.ego_speed) +
+                          " m/s, closes in to a TTC near " + fmt(ttc) + " s.";
       return {spec, {}};
     }
   }
@@ -304,15 +324,16 @@ Plan plan_sudden_stop(const Scene& sc, Draw& d, double aim) {
     return {{}, "the stop would come too late within the horizon"};
   if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
     return {{}, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt(lead->x) + " m"};
-  if (!visible(sc, x0, y0)) return {{}, "the start point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
+  if (!visible(sc, x0, y0))
+    return {{}, "the start point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
   if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
   Json spec = base_spec("sudden_stop", cls, x0, y0, "center", speed, 0.0,
                         "drives ahead in the ego lane, then brakes hard", sc.target);
   spec["deceleration_mps2"] = decel;
   spec["extra"]["brake_delay_s"] = delay;
   spec["rationale"] = "A " + cls + " driving " + fmt(gap) + " m ahead of the ego at the same " + fmt(speed) +
-                      " m/s brakes at " + fmt(decel) + " m/s^2 after " + fmt(delay) + " s; the TTC falls to about " +
-                      fmt(ttc) + " s.";
+                      " m/s brakes at " + fmt(decel) + " m/s^2 after " + fmt(delay) +
+                      " s; the TTC falls to about " + fmt(ttc) + " s.";
   return {spec, {}};
 }
 
@@ -325,7 +346,9 @@ ComponentInfo OfflinePlanner::describe() {
   i.summary = "Deterministic, seeded hazard planner that answers like an LLM (no server needed)";
   i.params = {
       ParamSpec::number("aim", 0.85).range(0.3, 1.0).describe("planned TTC as a fraction of target_ttc_s"),
-      ParamSpec::integer("candidates_per_kind", 12).range(1, 100).describe("draws tried per kind before giving up"),
+      ParamSpec::integer("candidates_per_kind", 12)
+          .range(1, 100)
+          .describe("draws tried per kind before giving up"),
   };
   return i;
 }
@@ -335,7 +358,9 @@ void OfflinePlanner::open(const Params& p) {
   candidates_ = static_cast<int>(p.get_int("candidates_per_kind"));
 }
 
-std::string OfflinePlanner::describe_backend() const { return "offline planner"; }
+std::string OfflinePlanner::describe_backend() const {
+  return "offline planner";
+}
 
 LlmReply OfflinePlanner::complete(const LlmRequest& request) {
   auto t0 = std::chrono::steady_clock::now();
@@ -345,8 +370,9 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
   Draw draw(static_cast<uint64_t>(request.seed) * 0x9E3779B97F4A7C15ULL + static_cast<uint64_t>(previous));
 
   using Planner = Plan (*)(const Scene&, Draw&, double);
-  const std::vector<std::pair<std::string, Planner>> known = {
-      {"pedestrian_crossing", &plan_pedestrian}, {"cut_in", &plan_cut_in}, {"sudden_stop", &plan_sudden_stop}};
+  const std::vector<std::pair<std::string, Planner>> known = {{"pedestrian_crossing", &plan_pedestrian},
+                                                              {"cut_in", &plan_cut_in},
+                                                              {"sudden_stop", &plan_sudden_stop}};
 
   std::vector<std::string> problems;
   std::vector<Json> plans;

@@ -18,7 +18,8 @@ ComponentInfo OllamaProvider::describe() {
       ParamSpec::string("model", "llama3").describe("model tag as `ollama list` shows it"),
       ParamSpec::number("connect_timeout_s", 5.0).range(0.1, 600).describe("TCP connect timeout"),
       ParamSpec::number("read_timeout_s", 300.0).range(0.1, 7200).describe("limit for the whole reply"),
-      ParamSpec::string("keep_alive", "").describe("how long the server keeps the model loaded, e.g. '10m'; empty = server default"),
+      ParamSpec::string("keep_alive", "")
+          .describe("how long the server keeps the model loaded, e.g. '10m'; empty = server default"),
   };
   return i;
 }
@@ -35,15 +36,18 @@ void OllamaProvider::open(const Params& p) {
   timeouts_ = {p.get_double("connect_timeout_s"), p.get_double("read_timeout_s")};
 }
 
-std::string OllamaProvider::describe_backend() const { return "ollama " + model_ + " @ " + base_url_; }
+std::string OllamaProvider::describe_backend() const {
+  return "ollama " + model_ + " @ " + base_url_;
+}
 
 LlmReply OllamaProvider::complete(const LlmRequest& r) {
   Json messages = Json::array();
   for (const LlmMessage& m : r.messages) messages.push_back({{"role", m.role}, {"content", m.content}});
-  Json body = {{"model", model_},
-               {"messages", messages},
-               {"stream", false},
-               {"options", {{"temperature", r.temperature}, {"seed", r.seed}, {"num_predict", r.max_tokens}}}};
+  Json body = {
+      {"model", model_},
+      {"messages", messages},
+      {"stream", false},
+      {"options", {{"temperature", r.temperature}, {"seed", r.seed}, {"num_predict", r.max_tokens}}}};
   if (!r.response_schema.is_null() && !r.response_schema.empty()) body["format"] = r.response_schema;
   if (!keep_alive_.empty()) body["keep_alive"] = keep_alive_;
 
@@ -54,11 +58,12 @@ LlmReply OllamaProvider::complete(const LlmRequest& r) {
   if (res.status != 200) throw Error(http_status_error("ollama", endpoint_, res.status, res.body));
   reply.raw = parse_response("ollama", endpoint_, res.body);
   const Json& j = reply.raw;
-  if (!j.is_object() || !j.contains("message") || !j["message"].is_object() || !j["message"].contains("content") ||
-      !j["message"]["content"].is_string())
+  if (!j.is_object() || !j.contains("message") || !j["message"].is_object() ||
+      !j["message"].contains("content") || !j["message"]["content"].is_string())
     throw Error("ollama: POST " + endpoint_ + ": response has no message.content");
   if (j.contains("done") && j["done"].is_boolean() && !j["done"].get<bool>())
-    throw Error("ollama: POST " + endpoint_ + ": response is not done (the server streamed although stream was false)");
+    throw Error("ollama: POST " + endpoint_ +
+                ": response is not done (the server streamed although stream was false)");
   reply.content = j["message"]["content"].get<std::string>();
   reply.model = j.contains("model") && j["model"].is_string() ? j["model"].get<std::string>() : model_;
   return reply;

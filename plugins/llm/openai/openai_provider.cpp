@@ -14,11 +14,13 @@ ComponentInfo OpenAiProvider::describe() {
   i.kind = kind::kLlmProvider;
   i.summary = "OpenAI-compatible /chat/completions (OpenAI, llama.cpp server, vLLM) with a JSON-schema reply";
   i.params = {
-      ParamSpec::string("base_url", "http://127.0.0.1:8080/v1").describe("API root; /chat/completions is appended"),
+      ParamSpec::string("base_url", "http://127.0.0.1:8080/v1")
+          .describe("API root; /chat/completions is appended"),
       ParamSpec::string("model", "llama3").describe("model name the server expects"),
       ParamSpec::string("api_key_env", "OPENAI_API_KEY")
           .describe("NAME of the environment variable holding the API key (unset = no key)"),
-      ParamSpec::string("response_format", "json_schema").one_of({"json_schema", "json_object"})
+      ParamSpec::string("response_format", "json_schema")
+          .one_of({"json_schema", "json_object"})
           .describe("json_schema (strict) or json_object for servers without schema support"),
       ParamSpec::string("schema_name", "hazard_spec").describe("json_schema.name sent with the schema"),
       ParamSpec::number("connect_timeout_s", 5.0).range(0.1, 600).describe("TCP connect timeout"),
@@ -37,20 +39,19 @@ void OpenAiProvider::open(const Params& p) {
   timeouts_ = {p.get_double("connect_timeout_s"), p.get_double("read_timeout_s")};
 }
 
-std::string OpenAiProvider::describe_backend() const { return "openai " + model_ + " @ " + base_url_; }
+std::string OpenAiProvider::describe_backend() const {
+  return "openai " + model_ + " @ " + base_url_;
+}
 
 LlmReply OpenAiProvider::complete(const LlmRequest& r) {
   Json messages = Json::array();
   for (const LlmMessage& m : r.messages) messages.push_back({{"role", m.role}, {"content", m.content}});
-  Json body = {{"model", model_},
-               {"messages", messages},
-               {"temperature", r.temperature},
-               {"seed", r.seed},
-               {"max_tokens", r.max_tokens},
-               {"stream", false}};
+  Json body = {{"model", model_}, {"messages", messages},       {"temperature", r.temperature},
+               {"seed", r.seed},  {"max_tokens", r.max_tokens}, {"stream", false}};
   if (response_format_ == "json_schema" && !r.response_schema.is_null() && !r.response_schema.empty())
-    body["response_format"] = {{"type", "json_schema"},
-                               {"json_schema", {{"name", schema_name_}, {"schema", r.response_schema}, {"strict", true}}}};
+    body["response_format"] = {
+        {"type", "json_schema"},
+        {"json_schema", {{"name", schema_name_}, {"schema", r.response_schema}, {"strict", true}}}};
   else
     body["response_format"] = {{"type", "json_object"}};
 
