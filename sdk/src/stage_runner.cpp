@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <iostream>
+#include <optional>
 #include <set>
 
 #include "hazardforge/registry.hpp"
@@ -86,7 +87,8 @@ class RunnerOutputs : public Outputs {
 
 struct StageRunner::Impl {
   ComponentRegistry registry;
-  const RegisteredComponent* entry = nullptr;
+  // A copy: the registry's storage moves when more components (providers, templates) are registered later.
+  std::optional<RegisteredComponent> entry;
   std::unique_ptr<Component> component;
   Stage* stage = nullptr;
   RunnerContext ctx;
@@ -118,7 +120,8 @@ Registrar& StageRunner::registrar() { return impl_->registry; }
 
 void StageRunner::build(const std::string& kind, const std::string& name, const std::string& yaml_params) {
   Impl& m = *impl_;
-  m.entry = m.registry.find(kind, name);
+  const RegisteredComponent* found = m.registry.find(kind, name);
+  if (found) m.entry = *found;
   if (!m.entry) throw Error("StageRunner: no registered " + kind + " '" + name + "'");
   YamlDocument doc = parse_yaml(yaml_params.empty() ? "{}" : yaml_params, "<params>");
   ParamLocations locs;

@@ -67,3 +67,27 @@ TEST(StageRunner, WrongPacketTypeRefused) {
 
 }  // namespace
 }  // namespace hf
+
+namespace hf {
+namespace {
+
+class OtherStage : public ScaleBoxes {
+ public:
+  static ComponentInfo describe() {
+    ComponentInfo i = ScaleBoxes::describe();
+    i.name = "other_stage";
+    return i;
+  }
+};
+
+TEST(StageRunner, ComponentsRegisteredAfterBuildDoNotInvalidateTheStage) {
+  auto r = testing::StageRunner::create<ScaleBoxes>("gain: 3");
+  r.registrar().add<OtherStage>();  // grows the registry's storage
+  EXPECT_EQ(r.info().name, "scale_boxes");
+  r.push("detections", one_box(0), 0.0);
+  r.run();
+  EXPECT_FLOAT_EQ(r.collect<Detections>("detections").at(0).items[0].box.width, 30.f);
+}
+
+}  // namespace
+}  // namespace hf
