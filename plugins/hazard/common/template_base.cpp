@@ -1,5 +1,5 @@
-// Shared hazard-template pipeline: spec checks, sampling, constant-speed ego plan, contact cut-off, TTC,
-// limits.
+// Shared hazard-template pipeline: spec checks, ego plan (recorded track or constant speed), sampling in road
+// coordinates, contact cut-off, TTC, limits.
 #include "hazardforge/hazard/template_base.hpp"
 
 #include <algorithm>
@@ -64,6 +64,12 @@ BoxView view_of(const CameraModel& cam, double x, double y, double heading, cons
   return v;
 }
 
+BoxView view_of(const CameraModel& cam, const EgoPath& ego, double s, double d, double rel_heading,
+                const cv::Vec3d& size) {
+  const EgoPath::Mapped m = ego.map(s, d, 0.0, 0.0, rel_heading);
+  return view_of(cam, m.x, m.y, *m.heading, size);
+}
+
 ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
   ComponentInfo i;
   i.name = std::move(name);
@@ -77,6 +83,13 @@ ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
       ParamSpec::number("duration_s", 6.0)
           .range(0.1, 120)
           .describe("planned horizon (s); the trajectory ends earlier if the object touches the ego"),
+      ParamSpec::string("ego_plan", "auto")
+          .one_of({"auto", "recorded", "constant_speed"})
+          .describe(
+              "the ego's motion the hazard is planned against: recorded = the scene's recorded ego track "
+              "(SceneContext.meta ego_track, e.g. from the nuscenes source), the road following it; "
+              "constant_speed = straight ahead at the frame's speed; auto = recorded when the scene "
+              "carries a track"),
   };
   for (auto& p : RoadModel::params()) i.params.push_back(p);
   for (auto& p : TtcConventions::params()) i.params.push_back(p);
@@ -93,6 +106,7 @@ void TemplateBase::open(const Params& params) {
   ttc_ = TtcConventions::from(params);
   rate_hz_ = params.get_double("sample_rate_hz");
   duration_s_ = params.get_double("duration_s");
+  ego_plan_ = params.has("ego_plan") ? params.get_string("ego_plan") : "auto";
 }
 
 std::vector<std::string> TemplateBase::check(const HazardSpec& spec, const SceneContext& scene) const {
@@ -153,6 +167,21 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
     reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " must be positive");
   if (!reasons.empty()) return out;
 
+  // The ego plan: the recorded track when the scene carries one (so the hazard is planned against where the
+  // ego really goes), else straight on at the frame's speed.
+  const bool has_track = scene.meta.is_object() && scene.meta.contains("ego_track");
+  EgoPath ego = EgoPath::straight(*scene.ego_speed_mps);
+  if (ego_plan_ == "recorded" && !has_track) {
+    reasons.push_back(
+        "ego_plan 'recorded' needs the scene's recorded ego track (meta ego_track), which this "
+        "scene does not carry");
+    return out;
+  }
+  if (ego_plan_ != "constant_speed" && has_track) {
+    const std::string where = "scene at t=" + num(scene.timestamp, 3) + " s";
+    ego = EgoPath::recorded(parse_ego_track(scene.meta["ego_track"], where), scene.timestamp, where);
+  }
+
   const ClassSize& prior = sizes_.at(cls);
   PlanRequest req{spec,
                   scene,
@@ -162,11 +191,13 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
                   road_,
                   ttc_,
                   duration_s_,
-                  params_};
+                  params_,
+                  ego};
   Design d = design(req, reasons);
   if (!reasons.empty()) return out;
   if (!d.motion) throw Error("hazard template '" + hazard_kind() + "' designed no motion and gave no reason");
   out.notes = d.notes;
+  out.notes["ego_plan"] = ego.is_recorded() ? "recorded" : "constant_speed";
 
   HazardTrajectory& tr = out.trajectory;
   tr.kind = spec.kind;
@@ -179,20 +210,19 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   for (int k = 0; k <= n; ++k) {
     const double tau = k / rate_hz_;
     const ObjectMotion m = d.motion(tau);
+    const EgoPath::Mapped a = ego.map(m.x, m.y, m.vx, m.vy, m.heading);
     TrajectoryPoint p;
     p.t = scene.timestamp + tau;
-    p.x = m.x;
-    p.y = m.y;
-    p.speed = std::hypot(m.vx, m.vy);
+    p.x = a.x;
+    p.y = a.y;
+    p.speed = std::hypot(a.vx, a.vy);
     p.accel = m.accel;
-    headings.push_back(m.heading
-                           ? m.heading
-                           : (p.speed > 0.05 ? std::optional<double>(std::atan2(m.vy, m.vx)) : std::nullopt));
+    headings.push_back(a.heading
+                           ? a.heading
+                           : (p.speed > 0.05 ? std::optional<double>(std::atan2(a.vy, a.vx)) : std::nullopt));
     tr.points.push_back(p);
-    TrajectoryPoint e;
+    TrajectoryPoint e = ego.at(tau);
     e.t = p.t;
-    e.x = req.ego_speed * tau;
-    e.speed = req.ego_speed;
     tr.ego.push_back(e);
   }
   // Standing objects keep the heading they will move off with (or last moved with).

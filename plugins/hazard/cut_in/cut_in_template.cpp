@@ -64,7 +64,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
                       side_name + " is at " + num(edge) + " m with lanes_" + side_name + "=" +
                       std::to_string(side > 0 ? req.road.lanes_left : req.road.lanes_right) + ")");
   const double x0 = spec.initial_distance_m;
-  const hazard::BoxView start = hazard::view_of(req.scene.camera, x0, y0, 0.0, req.size_lwh);
+  const hazard::BoxView start = hazard::view_of(req.scene.camera, req.ego, x0, y0, 0.0, req.size_lwh);
   if (start.in_front && start.inside_fraction > 0.999)
     reasons.push_back("the vehicle starts fully in view (x=" + num(x0) + " m, y=" + num(y0) +
                       " m): a cut-in starts beside or behind the ego, out of view or at the image edge");
@@ -97,10 +97,26 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
                       " m ahead, beyond the ego's stopping distance " + num(stopping) + " m (reaction " +
                       num(reaction) + " s, braking " + num(ego_decel) + " m/s^2)");
 
-  // Solve the overtaking time t_b so the braking ends exactly gap_end ahead of the ego.
+  // Solve the overtaking time t_b so the braking ends exactly gap_end ahead of the ego. The gap at the end
+  // grows with t_b while the vehicle outpaces the ego (v0 > ego speed), so bisection finds it; on a
+  // constant-speed ego this is the closed form (gap_end + front + l/2 + ve T - x0 - s_slow) / (v0 - ve).
   const hazard::SpeedProfile slow = hazard::SpeedProfile(v0).change_speed(v1, decel, jerk_long);
-  const double t_brake =
-      (gap_end + req.ttc.ego_front + len / 2 + ve * slow.duration() - x0 - slow.end_distance()) / (v0 - ve);
+  auto end_gap = [&](double tb) {
+    return req.gap(x0 + v0 * tb + slow.end_distance(), len, tb + slow.duration()) - gap_end;
+  };
+  double t_brake = 0;
+  if (end_gap(0.0) > 0) {
+    // Negative: how long before the hazard starts it would have had to brake (constant-speed estimate).
+    t_brake = -end_gap(0.0) / (v0 - ve);
+  } else {
+    double lo = 0, hi = std::max(1.0, req.duration);
+    for (int i = 0; i < 40 && end_gap(hi) < 0; ++i) hi *= 2;
+    for (int i = 0; i < 80; ++i) {
+      const double mid = (lo + hi) / 2;
+      (end_gap(mid) < 0 ? lo : hi) = mid;
+    }
+    t_brake = (lo + hi) / 2;
+  }
   if (t_brake < 0)
     reasons.push_back("the vehicle cannot end " + num(gap_end) + " m in front of the ego: from x=" + num(x0) +
                       " m at " + num(v0) + " m/s it would have to start braking " + num(-t_brake) +
@@ -165,7 +181,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
     reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num(gap_enter) +
                       " m at " + num(t_enter) + " s): it has not passed yet");
   const hazard::ObjectMotion end = motion(t_end);
-  if (!hazard::view_of(req.scene.camera, end.x, end.y, 0.0, req.size_lwh).centre_inside)
+  if (!hazard::view_of(req.scene.camera, req.ego, end.x, end.y, 0.0, req.size_lwh).centre_inside)
     reasons.push_back("the cut-in point (x=" + num(end.x) + " m at " + num(t_end) +
                       " s) is out of the camera's view");
   if (!reasons.empty()) return {};

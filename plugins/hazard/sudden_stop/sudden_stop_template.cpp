@@ -73,10 +73,13 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
     // Estimators measure from the camera, the bumper or the rear axle (their distance_origin); the plan works
     // from the rear axle.
     const std::string origin = req.params.get_string("track_distance_origin");
-    x0 = found->distance_m + (origin == "camera"   ? req.scene.camera.t_ego_cam[0]
-                              : origin == "bumper" ? req.ttc.ego_front
-                                                   : 0.0);
-    y0 = found->lateral_m;
+    const double x_anchor = found->distance_m + (origin == "camera"   ? req.scene.camera.t_ego_cam[0]
+                                                 : origin == "bumper" ? req.ttc.ego_front
+                                                                      : 0.0);
+    // Measured in the anchor frame; the plan works in road coordinates along the ego's path.
+    const cv::Vec2d road = req.ego.to_road(x_anchor, found->lateral_m);
+    x0 = road[0];
+    y0 = road[1];
     if (found->length_m > 0) size[0] = found->length_m;
     if (found->width_m > 0) size[1] = found->width_m;
     if (found->velocity_rel)

@@ -103,6 +103,10 @@ ComponentInfo NuScenesSource::describe() {
           .range(0, 1e6)
           .describe("time inserted between consecutive scenes, s"),
       ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = all)"),
+      ParamSpec::boolean("ego_track", true)
+          .describe("attach the scene's whole recorded ego track to every frame (meta ego_track: [{t, x, y, "
+                    "yaw}] in the world frame, t in stream seconds), so planners can plan against where the "
+                    "ego really goes"),
   };
   return i;
 }
@@ -117,6 +121,7 @@ void NuScenesSource::open(StageContext& ctx) {
   for (auto it = label_map.begin(); it != label_map.end(); ++it)
     if (!it->is_string()) throw Error("parameter 'label_map': value of '" + it.key() + "' is not a string");
   images_required_ = p.get_bool("images_required");
+  ego_track_ = p.get_bool("ego_track");
   resize_w_ = static_cast<int>(p.get_int("resize_width"));
   resize_h_ = static_cast<int>(p.get_int("resize_height"));
   const double gap = p.get_double("scene_gap_s");
@@ -302,7 +307,15 @@ void NuScenesSource::open(StageContext& ctx) {
       }
       k.annotations = std::move(ann);
     }
-    for (KeyFrame& k : kfs) frames_.push_back(std::move(k));
+    // The recorded ego track of the whole scene, known in advance from the poses.
+    auto track = std::make_shared<Json>(Json::array());
+    for (const KeyFrame& k : kfs)
+      track->push_back(
+          {{"t", k.t}, {"x", k.t_world_ego[0]}, {"y", k.t_world_ego[1]}, {"yaw", yaw_of(k.R_world_ego)}});
+    for (KeyFrame& k : kfs) {
+      if (ego_track_) k.ego_track = track;
+      frames_.push_back(std::move(k));
+    }
   }
   if (frames_.empty())
     throw Error("nuScenes dataroot '" + dataroot_.string() + "': no scene with " + channel + " images found");
@@ -358,6 +371,7 @@ bool NuScenesSource::next(StageContext& /*ctx*/, Outputs& out) {
             {"sample_data_token", k.sample_data_token},
             {"timestamp_us", k.timestamp_us},
             {"file", k.filename}};
+  if (k.ego_track) f.meta["ego_track"] = *k.ego_track;
   f.annotations = k.annotations;
   const double ts = f.timestamp;
   out.emit_packet("frames", Packet::make<Frame>(std::move(f), ts));

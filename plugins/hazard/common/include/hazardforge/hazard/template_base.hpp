@@ -8,12 +8,14 @@
 #include <vector>
 
 #include "hazardforge/geometry.hpp"
+#include "hazardforge/hazard/ego_path.hpp"
 #include "hazardforge/hazard/kinematics.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::hazard {
 
-// A straight road with the ego lane centred on y = 0 in the anchor frame.
+// The road, in road coordinates (EgoPath): the ego lane is centred on the ego's path (d = 0), lanes and kerbs
+// run parallel to it. With a straight ego path that is a straight road along the anchor frame's x axis.
 struct RoadModel {
   double lane_width = 3.5;
   int lanes_left = 1;
@@ -25,12 +27,15 @@ struct RoadModel {
   static RoadModel from(const Params& p);
 };
 
-// The object's state `tau` seconds after the anchor time, in the anchor frame.
+// The object's state `tau` seconds after the anchor time, in road coordinates: x = arc length along the ego's
+// path from the ego's position at the anchor time, y = offset to the left of that path (on a straight ego
+// path these are the anchor frame's x and y). The base maps it into the anchor frame.
 struct ObjectMotion {
-  double x = 0, y = 0;            // ground-contact centre (m)
-  double vx = 0, vy = 0;          // m/s
-  double accel = 0;               // along the path (m/s^2), for the record
-  std::optional<double> heading;  // rad; default: direction of motion (held while standing)
+  double x = 0, y = 0;    // ground-contact centre (m)
+  double vx = 0, vy = 0;  // dx/dt, dy/dt (m/s)
+  double accel = 0;       // along the path (m/s^2), for the record
+  std::optional<double>
+      heading;  // rad, relative to the road; default: direction of motion (held while standing)
 };
 using MotionFn = std::function<ObjectMotion(double tau)>;
 
@@ -47,20 +52,23 @@ struct PlanRequest {
   const SceneContext& scene;
   const KinematicLimits& limits;  // of spec.object_class
   cv::Vec3d size_lwh;             // class prior (length, width, height)
-  double ego_speed = 0;           // m/s, constant over the plan
+  double ego_speed = 0;           // m/s at the anchor time (the frame's)
   const RoadModel& road;
   const TtcConventions& ttc;
   double duration = 0;   // s
   const Params& params;  // the template's validated params
+  const EgoPath& ego;    // where the ego goes: the recorded track, or straight at ego_speed
 
   // |y| below which an object of this width is in the ego path.
   double path_half_width(double object_width) const {
     return ttc.ego_half_width + ttc.margin + object_width / 2;
   }
-  // Gap (protocol convention) of an object centred at x with length l to the ego at tau.
+  // Gap along the path (protocol convention) of an object centred at road x with length l to the ego at tau.
   double gap(double x, double length, double tau) const {
-    return x - ego_speed * tau - ttc.ego_front - length / 2;
+    return x - ego.s_at(tau) - ttc.ego_front - length / 2;
   }
+  // When the ego's front bumper reaches road x (nullopt: it never does).
+  std::optional<double> ego_front_reaches(double x) const { return ego.time_at(x - ttc.ego_front); }
   // +1 left / -1 right from lateral_offset_m's sign, else from `side`; 0 when neither says.
   int side_sign() const;
 };
@@ -73,6 +81,9 @@ struct BoxView {
   double inside_fraction = 0;  // share of `box` inside the image
 };
 BoxView view_of(const CameraModel& cam, double x, double y, double heading, const cv::Vec3d& size_lwh);
+// The same for an object given in road coordinates (heading relative to the road) at the anchor time.
+BoxView view_of(const CameraModel& cam, const EgoPath& ego, double s, double d, double rel_heading,
+                const cv::Vec3d& size_lwh);
 
 // The planned hazard and, when infeasible, why.
 struct PlanOutcome {
@@ -115,6 +126,7 @@ class TemplateBase : public HazardTemplate {
   TtcConventions ttc_;
   double rate_hz_ = 20;
   double duration_s_ = 6;
+  std::string ego_plan_ = "auto";
 };
 
 }  // namespace hf::hazard

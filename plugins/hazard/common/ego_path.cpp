@@ -1,0 +1,312 @@
+// EgoPath: the recorded ego track as a smooth path in the anchor frame (or a straight constant-speed line),
+// with road coordinates along it.
+#include "hazardforge/hazard/ego_path.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "hazardforge/hazard/kinematics.hpp"
+
+namespace hf::hazard {
+
+namespace {
+
+constexpr double kDenseStep = 0.01;    // s between the path's dense samples
+constexpr double kMovingSpeed = 0.05;  // m/s; slower than this the heading is held, not derived
+
+double wrap(double a) {
+  return std::remainder(a, 2 * std::numbers::pi);
+}
+
+// Second derivatives of the natural cubic spline through (t, v) (tridiagonal system, Thomas algorithm: a
+// dozen lines, no library needed for it).
+std::vector<double> natural_spline(const std::vector<double>& t, const std::vector<double>& v) {
+  const size_t n = t.size();
+  std::vector<double> m(n, 0.0);
+  if (n < 3) return m;
+  std::vector<double> diag(n, 0.0), upper(n, 0.0), rhs(n, 0.0);
+  for (size_t i = 1; i + 1 < n; ++i) {
+    const double h0 = t[i] - t[i - 1], h1 = t[i + 1] - t[i];
+    diag[i] = 2 * (h0 + h1);
+    upper[i] = h1;
+    rhs[i] = 6 * ((v[i + 1] - v[i]) / h1 - (v[i] - v[i - 1]) / h0);
+  }
+  // Forward elimination over the interior rows (m[0] = m[n-1] = 0).
+  for (size_t i = 2; i + 1 < n; ++i) {
+    const double lower = t[i] - t[i - 1];
+    const double f = lower / diag[i - 1];
+    diag[i] -= f * upper[i - 1];
+    rhs[i] -= f * rhs[i - 1];
+  }
+  for (size_t i = n - 2; i >= 1; --i) {
+    m[i] = (rhs[i] - (i + 2 < n ? upper[i] * m[i + 1] : 0.0)) / diag[i];
+    if (i == 1) break;
+  }
+  return m;
+}
+
+struct SplineValue {
+  double p, d1, d2;
+};
+
+SplineValue eval_spline(const std::vector<double>& t, const std::vector<double>& v,
+                        const std::vector<double>& m, double x) {
+  size_t i = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), x) - t.begin());
+  i = std::clamp<size_t>(i, 1, t.size() - 1) - 1;
+  const double h = t[i + 1] - t[i];
+  const double a = (t[i + 1] - x) / h, b = (x - t[i]) / h;
+  SplineValue r;
+  r.p = a * v[i] + b * v[i + 1] + ((a * a * a - a) * m[i] + (b * b * b - b) * m[i + 1]) * h * h / 6;
+  r.d1 = (v[i + 1] - v[i]) / h - (3 * a * a - 1) / 6 * h * m[i] + (3 * b * b - 1) / 6 * h * m[i + 1];
+  r.d2 = a * m[i] + b * m[i + 1];
+  return r;
+}
+
+double number_field(const Json& e, const char* field, const std::string& where, size_t k) {
+  if (!e.contains(field) || !e[field].is_number())
+    throw Error(where + ": ego_track[" + std::to_string(k) + "]: field '" + field +
+                "' is missing or not a number");
+  const double v = e[field].get<double>();
+  if (!std::isfinite(v))
+    throw Error(where + ": ego_track[" + std::to_string(k) + "]: field '" + field + "' is not finite");
+  return v;
+}
+
+}  // namespace
+
+std::vector<EgoTrackSample> parse_ego_track(const Json& track, const std::string& where) {
+  if (!track.is_array())
+    throw Error(where + ": ego_track must be a list of {t, x, y, yaw}, got " + track.dump());
+  std::vector<EgoTrackSample> out;
+  for (size_t k = 0; k < track.size(); ++k) {
+    const Json& e = track[k];
+    if (!e.is_object())
+      throw Error(where + ": ego_track[" + std::to_string(k) + "] must be an object {t, x, y, yaw}");
+    EgoTrackSample s{number_field(e, "t", where, k), number_field(e, "x", where, k),
+                     number_field(e, "y", where, k), number_field(e, "yaw", where, k)};
+    if (!out.empty() && !(s.t > out.back().t))
+      throw Error(where + ": ego_track[" + std::to_string(k) + "]: t=" + num(s.t, 3) +
+                  " s does not come after the previous sample's t=" + num(out.back().t, 3) + " s");
+    out.push_back(s);
+  }
+  return out;
+}
+
+EgoPath EgoPath::straight(double speed) {
+  EgoPath p;
+  p.speed_ = speed;
+  return p;
+}
+
+EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double anchor_time,
+                          const std::string& where) {
+  if (track.size() < 2)
+    throw Error(where + ": ego_track has " + std::to_string(track.size()) +
+                " sample(s); a recorded path needs at least two");
+  if (anchor_time < track.front().t - 1e-6 || anchor_time > track.back().t + 1e-6)
+    throw Error(where + ": the anchor time " + num(anchor_time, 3) + " s is outside the ego_track's span [" +
+                num(track.front().t, 3) + ", " + num(track.back().t, 3) + "] s");
+  std::vector<double> t, x, y;
+  for (const auto& s : track) t.push_back(s.t), x.push_back(s.x), y.push_back(s.y);
+  const std::vector<double> mx = natural_spline(t, x), my = natural_spline(t, y);
+
+  // The anchor frame is the recorded pose at the anchor time (heading interpolated between its samples).
+  const double ta = std::clamp(anchor_time, t.front(), t.back());
+  size_t i = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), ta) - t.begin());
+  i = std::clamp<size_t>(i, 1, t.size() - 1) - 1;
+  const double u = (ta - t[i]) / (t[i + 1] - t[i]);
+  const double yaw0 = track[i].yaw + u * wrap(track[i + 1].yaw - track[i].yaw);
+  const double x0 = eval_spline(t, x, mx, ta).p, y0 = eval_spline(t, y, my, ta).p;
+  const double c = std::cos(yaw0), s = std::sin(yaw0);
+
+  EgoPath p;
+  p.recorded_ = true;
+  const int n = std::max(2, static_cast<int>(std::ceil((t.back() - t.front()) / kDenseStep)) + 1);
+  const double step = (t.back() - t.front()) / (n - 1);
+  std::optional<double> held;  // heading while (nearly) standing
+  for (int k = 0; k < n; ++k) {
+    const double tk = k + 1 == n ? t.back() : t.front() + k * step;
+    const SplineValue sx = eval_spline(t, x, mx, tk), sy = eval_spline(t, y, my, tk);
+    Node nd{};
+    nd.t = tk;
+    const double dx = sx.p - x0, dy = sy.p - y0;
+    nd.x = c * dx + s * dy;
+    nd.y = -s * dx + c * dy;
+    const double vx = c * sx.d1 + s * sy.d1, vy = -s * sx.d1 + c * sy.d1;
+    const double ax = c * sx.d2 + s * sy.d2, ay = -s * sx.d2 + c * sy.d2;
+    nd.speed = std::hypot(vx, vy);
+    if (nd.speed > kMovingSpeed) {
+      nd.heading = std::atan2(vy, vx);
+      nd.accel = (vx * ax + vy * ay) / nd.speed;
+      nd.curvature = (vx * ay - vy * ax) / (nd.speed * nd.speed * nd.speed);
+      held = nd.heading;
+    } else {
+      // Standing: keep the heading it had (or the recorded yaw before it ever moved).
+      size_t j = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), tk) - t.begin());
+      j = std::clamp<size_t>(j, 1, t.size()) - 1;
+      nd.heading = held.value_or(wrap(track[j].yaw - yaw0));
+    }
+    if (!p.nodes_.empty()) {
+      const Node& prev = p.nodes_.back();
+      nd.s = prev.s + std::hypot(nd.x - prev.x, nd.y - prev.y);
+    }
+    p.nodes_.push_back(nd);
+  }
+  // Arc length from the ego's position at the anchor time.
+  p.anchor_t_ = anchor_time;
+  const double s_anchor = p.at_time(0.0).s;
+  for (Node& nd : p.nodes_) nd.s -= s_anchor;
+  return p;
+}
+
+EgoPath::Node EgoPath::extrapolate(const Node& end, double dt) const {
+  Node n = end;
+  n.t = end.t + dt;
+  const double ds = end.speed * dt;
+  n.s = end.s + ds;
+  n.x = end.x + ds * std::cos(end.heading);
+  n.y = end.y + ds * std::sin(end.heading);
+  n.accel = 0;
+  n.curvature = 0;
+  return n;
+}
+
+EgoPath::Node EgoPath::at_time(double tau) const {
+  const double t = anchor_t_ + tau;
+  if (t <= nodes_.front().t) return extrapolate(nodes_.front(), t - nodes_.front().t);
+  if (t >= nodes_.back().t) return extrapolate(nodes_.back(), t - nodes_.back().t);
+  const auto it =
+      std::upper_bound(nodes_.begin(), nodes_.end(), t, [](double v, const Node& n) { return v < n.t; });
+  const Node& b = *it;
+  const Node& a = *(it - 1);
+  const double u = (t - a.t) / (b.t - a.t);
+  Node n;
+  n.t = t;
+  n.s = a.s + u * (b.s - a.s);
+  n.x = a.x + u * (b.x - a.x);
+  n.y = a.y + u * (b.y - a.y);
+  n.heading = a.heading + u * wrap(b.heading - a.heading);
+  n.speed = a.speed + u * (b.speed - a.speed);
+  n.accel = a.accel + u * (b.accel - a.accel);
+  n.curvature = a.curvature + u * (b.curvature - a.curvature);
+  return n;
+}
+
+TrajectoryPoint EgoPath::at(double tau) const {
+  TrajectoryPoint p;
+  if (!recorded_) {
+    p.x = speed_ * tau;
+    p.speed = speed_;
+    return p;
+  }
+  const Node n = at_time(tau);
+  p.x = n.x;
+  p.y = n.y;
+  p.heading = wrap(n.heading);
+  p.speed = n.speed;
+  p.accel = n.accel;
+  return p;
+}
+
+double EgoPath::s_at(double tau) const {
+  return recorded_ ? at_time(tau).s : speed_ * tau;
+}
+
+std::optional<double> EgoPath::time_at(double s) const {
+  if (s <= 0) return 0.0;
+  if (!recorded_) {
+    if (speed_ <= 0) return std::nullopt;
+    return s / speed_;
+  }
+  const Node& last = nodes_.back();
+  if (s > last.s) {
+    if (last.speed <= 1e-6) return std::nullopt;
+    return last.t + (s - last.s) / last.speed - anchor_t_;
+  }
+  const auto it =
+      std::lower_bound(nodes_.begin(), nodes_.end(), s, [](const Node& n, double v) { return n.s < v; });
+  if (it == nodes_.begin()) return std::max(0.0, it->t - anchor_t_);
+  const Node& a = *(it - 1);
+  const Node& b = *it;
+  const double u = b.s > a.s ? (s - a.s) / (b.s - a.s) : 1.0;
+  return std::max(0.0, a.t + u * (b.t - a.t) - anchor_t_);
+}
+
+EgoPath::Pose EgoPath::point(double s) const {
+  Pose p;
+  if (!recorded_) {
+    p.x = s;
+    return p;
+  }
+  auto along = [&](const Node& n, double ds) {
+    Pose q;
+    q.x = n.x + ds * std::cos(n.heading);
+    q.y = n.y + ds * std::sin(n.heading);
+    q.heading = wrap(n.heading);
+    return q;
+  };
+  if (s <= nodes_.front().s) return along(nodes_.front(), s - nodes_.front().s);
+  if (s >= nodes_.back().s) return along(nodes_.back(), s - nodes_.back().s);
+  const auto it =
+      std::lower_bound(nodes_.begin(), nodes_.end(), s, [](const Node& n, double v) { return n.s < v; });
+  const Node& b = *it;
+  const Node& a = *(it - 1);
+  const double u = b.s > a.s ? (s - a.s) / (b.s - a.s) : 1.0;
+  p.x = a.x + u * (b.x - a.x);
+  p.y = a.y + u * (b.y - a.y);
+  p.heading = wrap(a.heading + u * wrap(b.heading - a.heading));
+  p.curvature = a.curvature + u * (b.curvature - a.curvature);
+  return p;
+}
+
+cv::Vec2d EgoPath::to_anchor(double s, double d) const {
+  const Pose p = point(s);
+  return {p.x - d * std::sin(p.heading), p.y + d * std::cos(p.heading)};
+}
+
+cv::Vec2d EgoPath::to_road(double x, double y) const {
+  if (!recorded_) return {x, y};
+  double best = std::numeric_limits<double>::infinity();
+  cv::Vec2d out(x, y);
+  auto consider = [&](double sx, double sy, double heading, double s0, double lo, double hi) {
+    // Nearest point of the segment {(sx, sy) + u (cos h, sin h) : lo <= u <= hi} and the signed offset.
+    const double c = std::cos(heading), sn = std::sin(heading);
+    const double u = std::clamp((x - sx) * c + (y - sy) * sn, lo, hi);
+    const double px = sx + u * c, py = sy + u * sn;
+    const double dist = std::hypot(x - px, y - py);
+    if (dist < best) {
+      best = dist;
+      out = {s0 + u, c * (y - py) - sn * (x - px)};
+    }
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  consider(nodes_.front().x, nodes_.front().y, nodes_.front().heading, nodes_.front().s, -inf, 0.0);
+  for (size_t k = 0; k + 1 < nodes_.size(); ++k) {
+    const Node& a = nodes_[k];
+    const Node& b = nodes_[k + 1];
+    const double len = b.s - a.s;
+    if (len <= 1e-9) continue;
+    consider(a.x, a.y, std::atan2(b.y - a.y, b.x - a.x), a.s, 0.0, len);
+  }
+  consider(nodes_.back().x, nodes_.back().y, nodes_.back().heading, nodes_.back().s, 0.0, inf);
+  return out;
+}
+
+EgoPath::Mapped EgoPath::map(double s, double d, double ds, double dd,
+                             std::optional<double> rel_heading) const {
+  const Pose p = point(s);
+  const double c = std::cos(p.heading), sn = std::sin(p.heading);
+  Mapped m;
+  m.x = p.x - d * sn;
+  m.y = p.y + d * c;
+  // A point at offset d moves (1 - curvature d) times as fast along the path as its centre line.
+  const double along = (1 - p.curvature * d) * ds;
+  m.vx = c * along - sn * dd;
+  m.vy = sn * along + c * dd;
+  if (rel_heading) m.heading = wrap(*rel_heading + p.heading);
+  return m;
+}
+
+}  // namespace hf::hazard

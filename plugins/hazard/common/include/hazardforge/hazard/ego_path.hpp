@@ -1,0 +1,81 @@
+// The ego's planned motion in the anchor frame: its recorded track when the scene carries one, else a
+// straight line at constant speed; and the road coordinates (arc length along that path, offset to its left)
+// templates design in.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazardforge/types.hpp"
+
+namespace hf::hazard {
+
+// One recorded ego pose in the dataset's world frame (ground plane), at a stream time.
+struct EgoTrackSample {
+  double t = 0;  // stream seconds
+  double x = 0, y = 0;
+  double yaw = 0;  // rad
+};
+
+// Parses Frame::meta["ego_track"]: [{t, x, y, yaw}, ...] with increasing t. Throws hf::Error naming `where`
+// and the offending entry/field.
+std::vector<EgoTrackSample> parse_ego_track(const Json& track, const std::string& where);
+
+// Where the ego goes after the anchor time, and the road coordinates along it.
+//
+// A recorded path is a natural cubic spline of the track positions against time (C2, so the curvature of the
+// path and the speed along it are continuous and a hazard that follows the path stays within jerk limits),
+// expressed in the anchor frame: the ego frame at the anchor time, taken from the recorded pose there. Beyond
+// the recorded span the ego keeps going straight at its last speed (before it: backwards along its first
+// heading). Road coordinates (s, d): s = arc length along the path from the ego's position at the anchor
+// time, d = offset to the left of the path; on a straight path they equal the anchor frame's (x, y).
+class EgoPath {
+ public:
+  // A straight line along the anchor frame's x axis at constant `speed`.
+  static EgoPath straight(double speed);
+  // The recorded track (world frame), seen from the ego at `anchor_time`, which must lie within the track's
+  // time span (throws hf::Error naming `where` otherwise, and for fewer than two samples).
+  static EgoPath recorded(const std::vector<EgoTrackSample>& track, double anchor_time,
+                          const std::string& where);
+
+  bool is_recorded() const { return recorded_; }
+  // The ego's state `tau` s after the anchor time (anchor frame): position, heading, speed, acceleration.
+  TrajectoryPoint at(double tau) const;
+  // Distance travelled along the path since the anchor time (negative for tau < 0).
+  double s_at(double tau) const;
+  // Earliest tau >= 0 at which the ego has travelled `s`; nullopt when it never gets there (it stops first).
+  std::optional<double> time_at(double s) const;
+
+  struct Pose {
+    double x = 0, y = 0, heading = 0;
+    double curvature = 0;  // 1/m, positive = turning left
+  };
+  // The path at arc length s (any s; straight beyond the recorded span).
+  Pose point(double s) const;
+  // Road coordinates -> anchor frame.
+  cv::Vec2d to_anchor(double s, double d) const;
+  // Anchor frame -> road coordinates (the nearest point of the path within the recorded span, or of its
+  // straight continuations).
+  cv::Vec2d to_road(double x, double y) const;
+  // Maps a motion designed in road coordinates: position, velocity (ds/dt, dd/dt) and an optional heading
+  // relative to the path. Returns the anchor-frame position, velocity and heading.
+  struct Mapped {
+    double x = 0, y = 0, vx = 0, vy = 0;
+    std::optional<double> heading;
+  };
+  Mapped map(double s, double d, double ds, double dd, std::optional<double> rel_heading) const;
+
+ private:
+  struct Node {
+    double t, s, x, y, heading, speed, accel, curvature;
+  };
+  bool recorded_ = false;
+  double speed_ = 0;         // straight path
+  double anchor_t_ = 0;      // stream time of tau = 0
+  std::vector<Node> nodes_;  // dense samples of the recorded path, increasing t, non-decreasing s
+  Node at_time(double tau) const;
+  Node extrapolate(const Node& end, double dt) const;
+};
+
+}  // namespace hf::hazard
