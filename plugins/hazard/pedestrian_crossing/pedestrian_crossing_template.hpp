@@ -7,9 +7,11 @@ namespace hf {
 
 // Kind hazard_template, name pedestrian_crossing. The person waits at the kerb on `side` (or at
 // lateral_offset_m) at x = initial_distance_m, then accelerates (jerk-limited) to speed_mps and walks
-// straight across. The wait is timed so the ego (constant speed) reaches the crossing point while the person
-// is in its path: with target_ttc_s the person enters the path when the TTC equals it; without, the person is
-// on the lane centre when the ego arrives. Params: the shared template params (see TemplateBase::base_info).
+// straight across (or, with stop_in_path, stops in the ego path and stays there). The wait is timed so the
+// planned ego (its recorded track, else constant speed) reaches the crossing point while the person is in its
+// path: with target_ttc_s the person enters the path when the TTC equals it; without, the person is on the
+// lane centre (at the stop point) when the ego arrives. Params: the shared template params (see
+// TemplateBase::base_info), stop_in_path, stop_offset_m.
 class PedestrianCrossingTemplate : public hazard::TemplateBase {
  public:
   static ComponentInfo describe();
