@@ -120,6 +120,7 @@ int cmd_run(Host& host, const CommonOptions& o) {
 int cmd_validate(Host& host, const CommonOptions& o) {
   try {
     Graph g = load_graph(host, o.config, o.overrides);
+    for (const Diagnostic& w : g.warnings) std::cerr << w.str() << "\n";
     std::cout << o.config << ": ok (" << g.nodes.size() << " nodes)\n";
     return 0;
   } catch (const Error& e) {

@@ -73,6 +73,7 @@ void apply_override(GraphConfig& cfg, const std::string& text, std::vector<Diagn
     if (parts.size() == 1 && (parts[0] == "stage")) {
       target = &n["stage"];
       base += "/stage";
+      cfg.stage_overridden.insert(node_id);
     } else {
       if (!n.contains("params") || !n["params"].is_object()) n["params"] = Json::object();
       target = &n["params"];
@@ -204,6 +205,18 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
     const std::string owner = who + ": stage '" + info.name + "'";
     // params
     Json given = jn.contains("params") ? jn["params"] : Json::object();
+    if (cfg.stage_overridden.count(n.id) && given.is_object()) {
+      for (auto it = given.begin(); it != given.end();) {
+        if (info.param(it.key())) {
+          ++it;
+          continue;
+        }
+        g.warnings.push_back({Severity::kWarning, doc.at(base + "/params/" + ptr_token(it.key()) + "#key"),
+                              who + ": parameter '" + it.key() + "' dropped: stage '" + info.name +
+                                  "' (set on the command line) does not declare it"});
+        it = given.erase(it);
+      }
+    }
     ParamLocations locs;
     if (given.is_object())
       for (auto it = given.begin(); it != given.end(); ++it) {

@@ -114,6 +114,8 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
     return o;
   }
   if (!req.only_nodes.empty()) graph = graph.subgraph(req.only_nodes);
+  if (!req.quiet)
+    for (const Diagnostic& w : graph.warnings) std::cerr << w.str() << "\n";
   o.output_dir = req.output_dir.empty() ? std::filesystem::path("runs") / (graph.name + "-" + utc_stamp())
                                         : req.output_dir;
   std::error_code ec;

@@ -166,3 +166,45 @@ TEST(Graph, AmbiguousStageNameAsksForKind) {
 
 }  // namespace
 }  // namespace hf::core
+
+namespace hf::core {
+namespace {
+
+// A second detector with other params, to swap in.
+class OtherDetector : public hf::test::TestDetector {
+ public:
+  static ComponentInfo describe() {
+    ComponentInfo i = base_info("other_detector", "another detector");
+    i.params = {ParamSpec::number("gain", 1.0)};
+    return i;
+  }
+  void open(StageContext&) override {}
+};
+
+TEST(Graph, StageSwapDropsParamsTheNewStageDoesNotDeclare) {
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  reg.add<OtherDetector>();
+  auto file = write_temp("swap.yaml", R"(name: swap
+nodes:
+  - id: source
+    stage: test_source
+  - id: detector
+    stage: test_detector
+    inputs: {frames: source.frames}
+    params: {conf_threshold: 0.3, mode: accurate}
+)");
+  GraphConfig cfg = load_graph_config(file, {"detector.stage=other_detector", "detector.gain=2"});
+  Graph g = build_graph(cfg, reg);
+  ASSERT_EQ(g.warnings.size(), 2u);
+  EXPECT_EQ(g.warnings[0].str(), file.string() +
+                                     ":8:14: warning: node 'detector': parameter 'conf_threshold' dropped: stage "
+                                     "'other_detector' (set on the command line) does not declare it");
+  EXPECT_DOUBLE_EQ(g.node("detector")->params["gain"].get<double>(), 2.0);
+  // Without a stage swap the same param is an error, as always.
+  GraphConfig plain = load_graph_config(file, {"detector.gain=2"});
+  EXPECT_THROW(build_graph(plain, reg), DiagnosticError);
+}
+
+}  // namespace
+}  // namespace hf::core

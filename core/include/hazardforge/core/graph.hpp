@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -17,9 +18,11 @@ struct GraphConfig {
   YamlDocument doc;           // after overrides and ${VAR} expansion
   std::vector<std::filesystem::path> plugin_paths;
   std::vector<std::string> overrides;
+  std::set<std::string> stage_overridden;  // node ids whose stage a --set NODE.stage=... replaced
 };
 
-// Reads the file, applies `--set node.key[.sub]=value` overrides and expands ${VAR}/${VAR:-default} in every
+// Reads the file, applies `--set node.key[.sub]=value` overrides (`--set node.stage=NAME` swaps the stage; the
+// node's params the new stage does not declare are then dropped with a warning) and expands ${VAR}/${VAR:-default} in every
 // string. Throws hf::DiagnosticError (all problems found) or hf::Error (unreadable file, YAML syntax).
 GraphConfig load_graph_config(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
 
@@ -40,6 +43,7 @@ struct Graph {
   std::filesystem::path dir;
   std::vector<NodeSpec> nodes;  // topological order; the source first
   std::map<std::string, std::pair<std::string, std::string>> producers;  // stream -> (node id, port)
+  std::vector<Diagnostic> warnings;  // e.g. params dropped because --set swapped a node's stage
 
   const NodeSpec* node(const std::string& id) const;
   // Graphviz text: nodes labelled "id\nstage", edges labelled with stream and type.
