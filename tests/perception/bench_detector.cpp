@@ -1,4 +1,7 @@
 // Detector benchmark: bare net.forward() and whole detect (pre + forward + post) per model and input size.
+// "Time" is wall time (for forward/: net.forward() alone, timed by YoloDetector::time_forward); "CPU" is the
+// CPU time of the whole process (all OpenCV threads; for forward/ it includes the per-iteration letterbox),
+// which a busy shared machine inflates far less than wall time.
 //
 //   bench_detector [--image=PATH] [--threads=N] [--benchmark_repetitions=N ...]
 //
@@ -76,6 +79,7 @@ int main(int argc, char** argv) {
                                      for (auto _ : st) st.SetIterationTime(d->time_forward(image));
                                    })
           ->UseManualTime()
+          ->MeasureProcessCPUTime()
           ->Unit(benchmark::kMillisecond)
           ->Iterations(10);
       // What the stage costs per frame: letterbox + blob, forward, decode + NMS.
@@ -85,6 +89,7 @@ int main(int argc, char** argv) {
                                      for (auto _ : st) n += d->detect_image(image).size();
                                      st.counters["detections"] = static_cast<double>(n) / st.iterations();
                                    })
+          ->MeasureProcessCPUTime()
           ->Unit(benchmark::kMillisecond)
           ->Iterations(10);
     }
