@@ -83,13 +83,13 @@ void expect_alpha_respected(const cv::Mat& before, const HazardRenderer::Result&
   int zero_alpha = 0, zero_changed = 0, opaque = 0, opaque_changed = 0;
   for (int y = 0; y < roi.height; ++y)
     for (int x = 0; x < roi.width; ++x) {
-      const float a = r.composite.alpha.at<float>(y, x);
+      const int a = r.composite.alpha.at<uint8_t>(y, x);
       const cv::Vec3b d = diff.at<cv::Vec3b>(y + roi.y, x + roi.x);
       const bool changed = d[0] || d[1] || d[2];
-      if (a == 0.f) {
+      if (a == 0) {
         ++zero_alpha;
         zero_changed += changed;
-      } else if (a > 0.99f) {
+      } else if (a >= 253) {
         ++opaque;
         opaque_changed += changed;
       }
@@ -178,7 +178,7 @@ TEST(Composite, ContactShadowDarkensTheRoadBesideTheObject) {
   // Just below the rear bumper's ground line, outside the object, the road is darker than before.
   const cv::Point2d below = *test_camera().project_ego({12.0 - 2.25 - 0.05, 0.0, 0.0});
   const int y = static_cast<int>(below.y) + 2, x = static_cast<int>(below.x);
-  ASSERT_LT(res.composite.alpha.at<float>(y - res.composite.roi.y, x - res.composite.roi.x), 0.01f);
+  ASSERT_LT(res.composite.alpha.at<uint8_t>(y - res.composite.roi.y, x - res.composite.roi.x), 3);
   EXPECT_LT(res.frame.image.at<cv::Vec3b>(y, x)[1], 110);
 }
 
@@ -195,7 +195,7 @@ TEST(Composite, HarmonisationMovesLightnessTowardsTheSurroundings) {
     const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
     cv::Mat gray;
     cv::cvtColor(res.frame.image(res.composite.roi), gray, cv::COLOR_BGR2GRAY);
-    return cv::mean(gray, res.composite.alpha > 0.99f)[0];
+    return cv::mean(gray, res.composite.alpha >= 253)[0];
   };
   const double dark0 = mean_inside(30, 0.0), bright0 = mean_inside(220, 0.0);
   EXPECT_NEAR(dark0, bright0, 0.5);  // without harmonisation the object ignores the scene

@@ -166,10 +166,10 @@ TEST(AssetHarvester, HarvestedAssetsCompositeWithCorrectAlpha) {
   cv::Mat outside = changed.clone();
   outside(roi).setTo(0);
   EXPECT_EQ(cv::countNonZero(outside), 0);
-  EXPECT_EQ(cv::countNonZero(changed(roi) & (a == 0.f)), 0);
-  const int opaque = cv::countNonZero(a > 0.99f);
+  EXPECT_EQ(cv::countNonZero(changed(roi) & (a == 0)), 0);
+  const int opaque = cv::countNonZero(a >= 253);
   ASSERT_GT(opaque, 1000);
-  EXPECT_GT(cv::countNonZero(changed(roi) & (a > 0.99f)), 0.97 * opaque);
+  EXPECT_GT(cv::countNonZero(changed(roi) & (a >= 253)), 0.97 * opaque);
 }
 
 TEST(AssetHarvester, StreamWithoutAnnotationsIsAnError) {

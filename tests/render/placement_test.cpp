@@ -49,7 +49,9 @@ std::pair<int, int> changed_rows(const cv::Mat& a, const cv::Mat& b) {
 }
 
 // Sub-pixel height of an outline: per row, the strongest coverage; summed over rows.
-double outline_height(const cv::Mat& alpha32) {
+double outline_height(const cv::Mat& alpha) {
+  cv::Mat alpha32;
+  alpha.convertTo(alpha32, CV_32F, alpha.depth() == CV_8U ? 1.0 / 255 : 1.0);
   double h = 0;
   for (int y = 0; y < alpha32.rows; ++y) {
     double mx = 0;

@@ -59,7 +59,7 @@ void HazardRenderer::start_hazard(const HazardTrajectory& t) {
       throw Error(what + ": point " + std::to_string(i) + " does not increase in time");
   }
   identity_.clear();
-  exposure_ = ExposureState{};
+  compositor_ = CompositorState{};
   prev_center_px_.reset();
   warned_future_anchor_ = false;
 }
@@ -176,7 +176,7 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_
   }
 
   cv::Mat out = f.image.clone();
-  res.composite = composite(out, pl, opt_.composite, exposure_);
+  res.composite = composite(out, pl, opt_.composite, compositor_);
   if (res.composite.drawn) res.frame.image = out;
   res.hazard.occluded_fraction = std::clamp(res.composite.occluded_fraction(), 0.0, 1.0);
   res.hazard.visible = res.composite.drawn && res.hazard.occluded_fraction < 0.999;
@@ -230,10 +230,11 @@ ComponentInfo ArRenderer::describe() {
       ParamSpec::number("harmonize_luma", 0.6)
           .range(0.0, 1.0)
           .describe("how far the asset's lightness mean/std move to the surroundings' (Lab)"),
-      ParamSpec::number("harmonize_chroma", 0.2).range(0.0, 1.0).describe("same for the colour channels"),
+      ParamSpec::number("harmonize_chroma", 0.4).range(0.0, 1.0).describe("same for the colour channels"),
       ParamSpec::number("exposure_smoothing", 0.7)
           .range(0.0, 0.99)
           .describe("temporal smoothing of the surroundings' statistics (no flicker)"),
+      ParamSpec::boolean("grain", true).describe("add sensor noise at the level measured beside the object"),
       ParamSpec::number("feather_px", 0.8).range(0.0, 5.0).describe("Gaussian sigma of the alpha edge, px"),
       ParamSpec::number("exposure_s", 0.01)
           .range(0.0, 0.1)
@@ -256,6 +257,7 @@ RendererOptions renderer_options(const Params& p) {
   o.composite.harmonize_chroma = p.get_double("harmonize_chroma");
   o.composite.exposure_smoothing = p.get_double("exposure_smoothing");
   o.composite.feather_px = p.get_double("feather_px");
+  o.composite.grain = p.get_bool("grain");
   o.composite.exposure_s = p.get_double("exposure_s");
   o.ego.mode = parse_ego_motion_mode(p.get_string("ego_motion"));
   o.ego.speed_mps = p.get_double("ego_speed_mps");

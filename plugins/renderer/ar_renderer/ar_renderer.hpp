@@ -60,7 +60,7 @@ class HazardRenderer {
   EgoTrajectory ego_;
   std::shared_ptr<const HazardTrajectory> traj_;
   std::string identity_;  // asset instance kept through one hazard
-  ExposureState exposure_;
+  CompositorState compositor_;
   std::optional<cv::Point2d> prev_center_px_;
   double prev_t_ = 0;
   bool warned_future_anchor_ = false;
@@ -76,7 +76,7 @@ class HazardRenderer {
 //           pass through unchanged (hazard.visible = false).
 //  params:  assets_dir, fallback_assets, ego_motion (auto|poses|flow|constant_speed), ego_speed_mps,
 //           motion_smoothing, flow_*, max_view_error_deg, shadow, shadow_strength, harmonize_luma,
-//           harmonize_chroma, exposure_smoothing, feather_px, exposure_s, occlusion, occluder_min_score,
+//           harmonize_chroma, exposure_smoothing, grain, feather_px, exposure_s, occlusion, occluder_min_score,
 //           ego_front_m, corridor_half_width, corridor_margin (see describe()).
 class ArRenderer : public Stage {
  public:

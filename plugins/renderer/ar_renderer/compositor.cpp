@@ -24,14 +24,16 @@ int odd(double v) {
   return k | 1;
 }
 
-// Adds `src` shifted by (dx, dy) into `dst` (same size; the part shifted out is dropped).
-void add_shifted(const cv::Mat& src, cv::Mat& dst, int dx, int dy) {
-  const int w = src.cols - std::abs(dx), h = src.rows - std::abs(dy);
-  if (w <= 0 || h <= 0) return;
-  const cv::Rect from(std::max(0, -dx), std::max(0, -dy), w, h);
-  const cv::Rect to(std::max(0, dx), std::max(0, dy), w, h);
-  cv::Mat d = dst(to);
-  cv::add(d, src(from), d);
+// img = (img + img shifted by (dx, dy)) / 2; `tmp` is a buffer of the same size and type.
+void shift_average(cv::Mat& img, cv::Mat& tmp, int dx, int dy) {
+  tmp.setTo(cv::Scalar::all(0));
+  const int w = img.cols - std::abs(dx), h = img.rows - std::abs(dy);
+  if (w > 0 && h > 0) {
+    const cv::Rect from(std::max(0, -dx), std::max(0, -dy), w, h);
+    const cv::Rect to(std::max(0, dx), std::max(0, dy), w, h);
+    img(from).copyTo(tmp(to));
+  }
+  cv::addWeighted(img, 0.5, tmp, 0.5, 0.0, img);
 }
 
 // Statistics of the surroundings in 8-bit Lab: a rectangle around the object, minus the object's box hull,
@@ -59,8 +61,34 @@ bool ring_statistics(const cv::Mat& image, const cv::Rect& around, const std::ve
   return true;
 }
 
+// Sensor noise level of a grey patch: robust deviation of the Laplacian (white noise of sigma s gives a
+// Laplacian of deviation s * sqrt(20)); texture inflates it, so the estimate is capped.
+double noise_level(const cv::Mat& bgr_patch) {
+  if (bgr_patch.rows < 8 || bgr_patch.cols < 8) return 0.0;
+  cv::Mat g, lap;
+  cv::cvtColor(bgr_patch, g, cv::COLOR_BGR2GRAY);
+  cv::Laplacian(g, lap, CV_32F, 1);
+  const cv::Mat a = cv::abs(lap);
+  std::vector<float> v(a.begin<float>(), a.end<float>());
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return std::min(1.4826 * v[v.size() / 2] / std::sqrt(20.0), 6.0);
+}
+
+// A fixed tile of unit Gaussian noise in 1/1024 units; frames read it at shifting offsets so the grain changes
+// every frame.
+const cv::Mat& noise_tile_q10() {
+  static const cv::Mat tile = [] {
+    cv::Mat t(256, 256, CV_32F), q;
+    cv::RNG rng(0x5eed);
+    rng.fill(t, cv::RNG::NORMAL, 0.0, 1.0);
+    t.convertTo(q, CV_16S, 1024.0);
+    return q;
+  }();
+  return tile;
+}
+
 // Per-channel affine map in Lab moving the asset's statistics part of the way to the surroundings'.
-cv::Mat harmonisation_lut(const LoadedAsset& a, const ExposureState& ex, const CompositeOptions& o) {
+cv::Mat harmonisation_lut(const LoadedAsset& a, const CompositorState& ex, const CompositeOptions& o) {
   cv::Mat lut(1, 256, CV_8UC3);
   double gain[3], off[3];
   for (int c = 0; c < 3; ++c) {
@@ -106,7 +134,8 @@ cv::Matx33d asset_homography(const LoadedAsset& a, const std::array<cv::Point2d,
   return out;
 }
 
-CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, ExposureState& ex) {
+CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, CompositorState& st) {
+  CompositorState& ex = st;
   CompositeResult r;
   const LoadedAsset& a = *p.asset;
   const cv::Matx33d H0 = asset_homography(a, p.corners_px, p.view_azimuth_deg);
@@ -175,67 +204,109 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   cv::Scalar mean, sd;
   std::vector<cv::Point2d> hull_d(hull.begin(), hull.end());
   if (ring_statistics(image, around, hull_d, mean, sd)) {
+    // Noise from a full-resolution strip just below the object (road, rarely textured at that scale).
+    const int sh = std::clamp(static_cast<int>(0.1 * obj_h), 8, 32);
+    const cv::Rect strip = cv::Rect(static_cast<int>(bx0), static_cast<int>(by1) + 2, std::max(8, static_cast<int>(bx1 - bx0)), sh) & img_rect;
+    const double noise = o.grain && strip.area() >= 64 ? noise_level(image(strip)) : 0.0;
     if (!ex.valid) {
       ex.mean = mean;
       ex.stddev = sd;
+      ex.noise_sigma = noise;
       ex.valid = true;
     } else {
       const double k = o.exposure_smoothing;
       ex.mean = ex.mean * k + mean * (1 - k);
       ex.stddev = ex.stddev * k + sd * (1 - k);
+      ex.noise_sigma = ex.noise_sigma * k + noise * (1 - k);
     }
   }
-  cv::Mat colour = a.bgr[static_cast<size_t>(r.level)];
-  if (ex.valid && (o.harmonize_luma > 0 || o.harmonize_chroma > 0)) {
-    cv::Mat lab;
-    cv::LUT(a.lab[static_cast<size_t>(r.level)], harmonisation_lut(a, ex, o), lab);
-    cv::cvtColor(lab, colour, cv::COLOR_Lab2BGR);
+  ++ex.frame;
+  // The harmonised, premultiplied, feathered picture at this level. It is rebuilt only when the asset or level
+  // changes, when the (smoothed, so settling) harmonisation moves by more than two grey levels, or when the
+  // feather width in picture pixels drifts by a quarter as the object's size changes.
+  const cv::Mat lut = ex.valid && (o.harmonize_luma > 0 || o.harmonize_chroma > 0) ? harmonisation_lut(a, ex, o)
+                                                                                  : cv::Mat();
+  const double level_face_h = (sy1 - sy0) * f;
+  const double feather = o.feather_px > 0.05 ? o.feather_px * level_face_h / std::max(iy1 - iy0, 1.0) : 0.0;
+  bool rebuild = st.sprite_asset != &a || st.sprite_level != r.level || lut.empty() != st.sprite_lut.empty() ||
+                 std::abs(feather - st.sprite_feather) > 0.25 * std::max(st.sprite_feather, 0.2);
+  if (!rebuild && !lut.empty()) {
+    cv::Mat d;
+    cv::absdiff(lut, st.sprite_lut, d);
+    double mx = 0;
+    cv::minMaxLoc(d.reshape(1), nullptr, &mx);
+    rebuild = mx > 2.0;
+  }
+  if (rebuild) {
+    cv::Mat colour = a.bgr[static_cast<size_t>(r.level)];
+    if (!lut.empty()) {
+      cv::Mat lab;
+      cv::LUT(a.lab[static_cast<size_t>(r.level)], lut, lab);
+      cv::cvtColor(lab, colour, cv::COLOR_Lab2BGR);
+    }
+    // Premultiply: (b, g, r, a) * (a, a, a, 255) / 255.
+    cv::Mat bgra, weights;
+    cv::Mat opaque(lvl_alpha.size(), CV_8U, cv::Scalar(255));
+    cv::merge(std::vector<cv::Mat>{colour, lvl_alpha}, bgra);
+    cv::merge(std::vector<cv::Mat>{lvl_alpha, lvl_alpha, lvl_alpha, opaque}, weights);
+    cv::multiply(bgra, weights, st.sprite, 1.0 / 255);
+    if (feather > 0.05) cv::GaussianBlur(st.sprite, st.sprite, cv::Size(), feather);
+    st.sprite_asset = &a;
+    st.sprite_level = r.level;
+    st.sprite_lut = lut.clone();
+    st.sprite_feather = feather;
   }
 
-  // Warp colour and alpha together onto the ROI.
-  cv::Mat src4, warped;
-  cv::merge(std::vector<cv::Mat>{colour, lvl_alpha}, src4);
-  const cv::Matx33d T(1, 0, -roi.x, 0, 1, -roi.y, 0, 0, 1);
-  cv::warpPerspective(src4, warped, cv::Mat(T * H), roi.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+  // Warp the premultiplied picture onto its part of the ROI (8-bit throughout: blurring and blending
+  // premultiplied colour never bleeds the transparent surroundings in). Buffers are reused across frames.
+  auto area = [](cv::Mat& buf, cv::Size sz, int type) {
+    if (buf.type() != type || buf.rows < sz.height || buf.cols < sz.width)
+      buf.create(std::max(buf.rows, sz.height), std::max(buf.cols, sz.width), type);
+    return buf(cv::Rect(cv::Point(0, 0), sz));
+  };
+  cv::Mat pre = area(st.warped, roi.size(), CV_8UC4);
+  pre.setTo(cv::Scalar::all(0));
+  const cv::Rect spr = cv::Rect(static_cast<int>(std::floor(x0)) - roi.x - 1, static_cast<int>(std::floor(y0)) - roi.y - 1,
+                                static_cast<int>(std::ceil(x1 - x0)) + 3, static_cast<int>(std::ceil(y1 - y0)) + 3) &
+                       cv::Rect(0, 0, roi.width, roi.height);
+  if (spr.area() <= 0) return r;
+  const cv::Matx33d T(1, 0, -(roi.x + spr.x), 0, 1, -(roi.y + spr.y), 0, 0, 1);
+  cv::Mat pre_spr = pre(spr);
+  cv::warpPerspective(st.sprite, pre_spr, cv::Mat(T * H), spr.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
                       cv::Scalar::all(0));
-  cv::Mat w32;
-  warped.convertTo(w32, CV_32FC4, 1.0 / 255);
-  // Premultiplied colour: blurring and blending in this form never bleeds the transparent colour in.
-  cv::Mat pre(roi.size(), CV_32FC4);
-  for (int y = 0; y < roi.height; ++y) {
-    const auto* s = w32.ptr<cv::Vec4f>(y);
-    auto* d = pre.ptr<cv::Vec4f>(y);
-    for (int x = 0; x < roi.width; ++x) d[x] = cv::Vec4f(s[x][0] * s[x][3], s[x][1] * s[x][3], s[x][2] * s[x][3], s[x][3]);
-  }
-  if (o.feather_px > 0.05) cv::GaussianBlur(pre, pre, cv::Size(), o.feather_px);
-  // Motion blur: the line integral of the object over the exposure, as shifted copies one pixel apart.
-  if (blur_len >= 1.0) {
-    const int n = static_cast<int>(std::ceil(blur_len)) + 1;
-    cv::Mat acc(pre.size(), pre.type(), cv::Scalar::all(0));
-    const cv::Point2d step = blur * (blur_len / std::max(cv::norm(blur), 1e-9));
-    for (int i = 0; i < n; ++i) {
-      const double u = static_cast<double>(i) / (n - 1) - 0.5;
-      add_shifted(pre, acc, static_cast<int>(std::lround(step.x * u)), static_cast<int>(std::lround(step.y * u)));
+  // Motion blur over the exposure: a box along the motion built by repeated halving-averages with a copy
+  // shifted by 1, 2, 4 ... pixels (length 2^k, the nearest to the blur length).
+  const int passes = blur_len >= 1.5 ? static_cast<int>(std::lround(std::log2(blur_len))) : 0;
+  if (passes > 0) {
+    const cv::Point2d dir = blur / std::max(cv::norm(blur), 1e-9);
+    const int reach = static_cast<int>(std::ceil(blur_len)) + 1;
+    const cv::Rect moved = cv::Rect(spr.x - reach, spr.y - reach, spr.width + 2 * reach, spr.height + 2 * reach) &
+                           cv::Rect(0, 0, roi.width, roi.height);
+    cv::Mat part = pre(moved);
+    cv::Mat tmp = area(st.acc, moved.size(), CV_8UC4);
+    for (int i = 0; i < passes; ++i) {
+      const double len = std::ldexp(1.0, i);
+      const int dx = static_cast<int>(std::lround(dir.x * len)), dy = static_cast<int>(std::lround(dir.y * len));
+      shift_average(part, tmp, dx, dy);
     }
-    pre = acc / n;
   }
-  std::vector<cv::Mat> ch;
-  cv::split(pre, ch);
-  r.coverage_before = cv::sum(ch[3])[0];
   // Nearer objects stay in front: the hazard (and its shadow) is removed under their boxes.
   std::vector<cv::Rect> occ;
+  double removed = 0;
   for (const cv::Rect2f& b : p.occluders) {
     const cv::Rect ib(static_cast<int>(std::floor(b.x)) - roi.x, static_cast<int>(std::floor(b.y)) - roi.y,
                       static_cast<int>(std::ceil(b.x + b.width) - std::floor(b.x)),
                       static_cast<int>(std::ceil(b.y + b.height) - std::floor(b.y)));
     const cv::Rect cl = ib & cv::Rect(0, 0, roi.width, roi.height);
     if (cl.area() > 0) {
+      removed += cv::sum(pre(cl))[3] / 255.0;
       pre(cl).setTo(cv::Scalar::all(0));
       occ.push_back(cl);
     }
   }
-  if (!occ.empty()) cv::split(pre, ch);
-  r.coverage_after = cv::sum(ch[3])[0];
+  cv::extractChannel(pre, r.alpha, 3);
+  r.coverage_after = cv::sum(r.alpha)[0] / 255.0;
+  r.coverage_before = r.coverage_after + removed;
 
   // Soft contact shadow: the footprint, a little larger, blurred, darkening the road under the object.
   cv::Mat shadow;
@@ -248,29 +319,54 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       poly.emplace_back(static_cast<int>(std::lround((q.x - roi.x) * 16)),
                         static_cast<int>(std::lround((q.y - roi.y) * 16)));
     }
-    shadow = cv::Mat(roi.size(), CV_32F, cv::Scalar(0));
+    shadow = area(st.shadow, roi.size(), CV_8U);
+    shadow.setTo(0);
     std::vector<cv::Point> hull_i;
     cv::convexHull(poly, hull_i);
-    cv::fillConvexPoly(shadow, hull_i, cv::Scalar(o.shadow_strength), cv::LINE_AA, 4);
-    cv::blur(shadow, shadow, cv::Size(shadow_k, shadow_k));
-    cv::blur(shadow, shadow, cv::Size(shadow_k, shadow_k));
+    // Only the footprint's neighbourhood is filled and blurred.
+    cv::Rect fb = cv::boundingRect(hull_i);
+    fb = cv::Rect(fb.x / 16 - shadow_k - 1, fb.y / 16 - shadow_k - 1, fb.width / 16 + 2 * shadow_k + 3,
+                  fb.height / 16 + 2 * shadow_k + 3) &
+         cv::Rect(0, 0, roi.width, roi.height);
+    if (fb.area() > 0) {
+      cv::Mat part = shadow(fb);
+      for (auto& q : hull_i) q -= cv::Point(fb.x * 16, fb.y * 16);
+      cv::fillConvexPoly(part, hull_i, cv::Scalar(std::lround(255 * o.shadow_strength)), cv::LINE_AA, 4);
+      cv::blur(part, part, cv::Size(shadow_k, shadow_k), cv::Point(-1, -1), cv::BORDER_CONSTANT);
+      cv::blur(part, part, cv::Size(shadow_k, shadow_k), cv::Point(-1, -1), cv::BORDER_CONSTANT);
+    }
     for (const cv::Rect& cl : occ) shadow(cl).setTo(0);
   }
 
-  // Blend: out = background * (1 - shadow) * (1 - alpha) + premultiplied colour.
+  // Blend: out = background * (1 - shadow) * (1 - alpha) + premultiplied colour (+ grain on the object, as the
+  // camera would have added it).
   cv::Mat dst = image(roi);
+  // Integer arithmetic: background * (255 - a)(255 - s) / 255^2 via * 258 >> 24 (65025 * 258 ~ 2^24, exact to
+  // 2e-5); grain = alpha * sigma * unit noise, from a fixed-point tile.
+  const cv::Mat& tile = noise_tile_q10();
+  const int ox = static_cast<int>((ex.frame * 97) % tile.cols), oy = static_cast<int>((ex.frame * 61) % tile.rows);
+  const int grain_q = o.grain ? static_cast<int>(std::lround(ex.noise_sigma * 256.0 / 255.0)) : 0;
   for (int y = 0; y < roi.height; ++y) {
     auto* d = dst.ptr<cv::Vec3b>(y);
-    const auto* s = pre.ptr<cv::Vec4f>(y);
-    const float* sh = shadow.empty() ? nullptr : shadow.ptr<float>(y);
-    for (int x = 0; x < roi.width; ++x) {
-      const float al = s[x][3];
-      const float keep = (1.f - al) * (sh ? 1.f - sh[x] : 1.f);
-      if (al <= 0.f && (!sh || sh[x] <= 0.f)) continue;
-      for (int k = 0; k < 3; ++k) d[x][k] = cv::saturate_cast<uint8_t>(d[x][k] * keep + 255.f * s[x][k]);
+    const auto* s = pre.ptr<cv::Vec4b>(y);
+    const uint8_t* sh = shadow.empty() ? nullptr : shadow.ptr<uint8_t>(y);
+    const int16_t* nz = tile.ptr<int16_t>((y + oy) % tile.rows);
+    for (int x = 0, nx = ox; x < roi.width; ++x, nx = nx + 1 == tile.cols ? 0 : nx + 1) {
+      const uint32_t al = s[x][3];
+      const uint32_t sv = sh ? sh[x] : 0u;
+      if ((al | sv) == 0) continue;
+      const int n = grain_q ? (static_cast<int>(al) * grain_q * nz[nx]) >> 18 : 0;
+      if (al == 255) {
+        for (int k = 0; k < 3; ++k) d[x][k] = cv::saturate_cast<uint8_t>(s[x][k] + n);
+        continue;
+      }
+      const uint32_t keep = (255 - al) * (255 - sv);
+      for (int k = 0; k < 3; ++k) {
+        const int bg = static_cast<int>(((d[x][k] * keep + 32512u) * 258u) >> 24);
+        d[x][k] = cv::saturate_cast<uint8_t>(bg + s[x][k] + n);
+      }
     }
   }
-  r.alpha = ch[3];
   r.drawn = true;
   return r;
 }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -15,10 +16,11 @@ struct CompositeOptions {
   bool shadow = true;
   double shadow_strength = 0.5;   // darkening at the shadow's core, 0..1
   double harmonize_luma = 0.6;    // 0 = keep the asset's lightness statistics, 1 = match the surroundings'
-  double harmonize_chroma = 0.2;  // same for the a/b colour channels
+  double harmonize_chroma = 0.4;  // same for the a/b colour channels
   double feather_px = 0.8;        // Gaussian sigma of the alpha edge
   double exposure_s = 0.01;       // camera exposure time for motion blur (0 = none)
   double exposure_smoothing = 0.7;  // exponential smoothing of the surroundings' statistics across frames
+  bool grain = true;                // add sensor noise at the level measured around the object
 };
 
 // Where and how one object is drawn in this frame.
@@ -30,10 +32,18 @@ struct Placement {
   std::vector<cv::Rect2f> occluders;      // boxes of nearer objects, drawn in front of the hazard
 };
 
-// Colour statistics of the surroundings, smoothed across frames (no exposure flicker).
-struct ExposureState {
+// What the compositor keeps from frame to frame for one hazard: the surroundings' colour statistics and noise,
+// smoothed (no exposure flicker), the harmonised picture (rebuilt only when it changes), and reused buffers.
+struct CompositorState {
   cv::Scalar mean, stddev;
   bool valid = false;
+  double noise_sigma = 0.0;  // sensor noise around the object (8-bit grey levels)
+  int64_t frame = 0;         // moves the grain pattern every frame
+  const LoadedAsset* sprite_asset = nullptr;
+  int sprite_level = -1;
+  double sprite_feather = -1.0;
+  cv::Mat sprite_lut, sprite;    // harmonisation LUT and premultiplied, feathered BGRA picture it produced
+  cv::Mat warped, acc, shadow;  // work buffers (grown, never shrunk)
 };
 
 struct CompositeResult {
@@ -41,7 +51,7 @@ struct CompositeResult {
   cv::Rect roi;                // the part of the image that was modified
   double coverage_before = 0;  // sum of alpha before occlusion
   double coverage_after = 0;   // after occlusion
-  cv::Mat alpha;               // final alpha over `roi` (CV_32F), for tests and debugging
+  cv::Mat alpha;               // final alpha over `roi` (CV_8U), for tests and debugging
   int level = 0;               // pyramid level of the asset used
   double occluded_fraction() const {
     return coverage_before > 1e-9 ? 1.0 - coverage_after / coverage_before : 0.0;
@@ -57,6 +67,6 @@ cv::Matx33d asset_homography(const LoadedAsset& asset, const std::array<cv::Poin
                              double view_azimuth_deg);
 
 // Draws the object into `image` (BGR 8-bit, modified in place).
-CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, ExposureState& exposure);
+CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, CompositorState& state);
 
 }  // namespace hf::render

@@ -73,55 +73,89 @@ EgoMotionMode parse_ego_motion_mode(const std::string& s) {
 
 // ---- FlowEgoMotion ---------------------------------------------------------------------------------------------
 
-cv::Mat FlowEgoMotion::prepare(const cv::Mat& img) const {
-  cv::Mat gray;
-  if (img.channels() == 3) {
-    cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY);
+namespace {
+constexpr int kLkLevels = 3;
+// Full-resolution rows of the road between the two ranges (nullopt when there is none in view).
+std::optional<std::pair<int, int>> road_rows(const CameraModel& cam, const FlowOptions& o) {
+  const int top = static_cast<int>(horizon_row(cam) + o.horizon_margin_px);
+  int far_row = top, near_row = cam.height;
+  if (auto p = cam.project_ego(cam.t_ego_cam + cv::Vec3d(o.max_range_m, 0, -cam.t_ego_cam[2])))
+    far_row = std::max(top, static_cast<int>(p->y));
+  if (auto p = cam.project_ego(cam.t_ego_cam + cv::Vec3d(o.min_range_m, 0, -cam.t_ego_cam[2])))
+    near_row = std::min(cam.height, static_cast<int>(std::ceil(p->y)));
+  if (near_row - far_row < 16) return std::nullopt;
+  return std::make_pair(far_row, near_row);
+}
+}  // namespace
+
+FlowFrame FlowEgoMotion::prepare(const cv::Mat& img, const CameraModel& cam) const {
+  FlowFrame ff;
+  const auto rows = road_rows(cam, opt_);
+  if (!rows || img.empty()) return ff;
+  // Margin so features keep their LK window while they move towards the bottom of the band.
+  const int margin = static_cast<int>(std::ceil(4 * opt_.win_px / opt_.scale));
+  ff.row0 = std::max(0, rows->first - margin);
+  const int row1 = std::min(img.rows, rows->second + margin);
+  cv::Mat band = img.rowRange(ff.row0, row1), gray;
+  if (band.channels() == 3) {
+    cv::cvtColor(band, gray, cv::COLOR_BGR2GRAY);
   } else {
-    gray = img;
+    gray = band;
   }
-  if (std::abs(opt_.scale - 1.0) < 1e-9) return gray.clone();
   cv::Mat small;
-  cv::resize(gray, small, cv::Size(), opt_.scale, opt_.scale, cv::INTER_AREA);
-  return small;
+  if (std::abs(opt_.scale - 1.0) < 1e-9) {
+    small = gray.clone();
+  } else {
+    cv::resize(gray, small, cv::Size(), opt_.scale, opt_.scale, cv::INTER_AREA);
+  }
+  ff.sx = static_cast<double>(small.cols) / gray.cols;
+  ff.sy = static_cast<double>(small.rows) / gray.rows;
+  ff.far_row = static_cast<int>((rows->first - ff.row0) * ff.sy);
+  ff.near_row = std::min(small.rows, static_cast<int>(std::ceil((rows->second - ff.row0) * ff.sy)));
+  cv::buildOpticalFlowPyramid(small, ff.pyramid, cv::Size(opt_.win_px, opt_.win_px), kLkLevels);
+  return ff;
 }
 
-PlanarMotion FlowEgoMotion::estimate(const cv::Mat& prev_gray, const cv::Mat& cur_gray, const CameraModel& cam,
+PlanarMotion FlowEgoMotion::estimate(const cv::Mat& prev, const cv::Mat& cur, const CameraModel& cam,
                                      const std::vector<cv::Rect2f>& exclude) const {
-  return estimate_scaled(prepare(prev_gray), prepare(cur_gray), cam, exclude);
+  return estimate(prepare(prev, cam), prepare(cur, cam), cam, exclude, nullptr);
 }
 
-PlanarMotion FlowEgoMotion::estimate_scaled(const cv::Mat& prev, const cv::Mat& cur, const CameraModel& cam,
-                                            const std::vector<cv::Rect2f>& exclude) const {
+PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur, const CameraModel& cam,
+                                     const std::vector<cv::Rect2f>& exclude, std::vector<cv::Point2f>* carry) const {
   PlanarMotion pm;
-  const double s = static_cast<double>(prev.cols) / cam.width;
-  // Road region: below the horizon, outside detected objects (they move on their own).
-  cv::Mat mask(prev.size(), CV_8U, cv::Scalar(0));
-  const int top = static_cast<int>((horizon_row(cam) + opt_.horizon_margin_px) * s);
-  if (top >= prev.rows - 8) {
-    pm.why = "no road below the horizon";
+  if (prev.empty() || cur.empty()) {
+    pm.why = "no road between flow_min_range_m and flow_max_range_m below the horizon";
+    if (carry) carry->clear();
     return pm;
   }
-  // Only rows whose road lies in the useful range: nearer rows move too fast to track, farther ones measure
-  // metres per pixel too coarsely.
-  int far_row = top, near_row = prev.rows;
-  if (auto p = cam.project_ego(cam.t_ego_cam + cv::Vec3d(opt_.max_range_m, 0, -cam.t_ego_cam[2])))
-    far_row = std::max(top, static_cast<int>(p->y * s));
-  if (auto p = cam.project_ego(cam.t_ego_cam + cv::Vec3d(opt_.min_range_m, 0, -cam.t_ego_cam[2])))
-    near_row = std::clamp(static_cast<int>(std::ceil(p->y * s)), far_row, prev.rows);
-  if (near_row - far_row < 8) {
-    pm.why = "no road rows between flow_min_range_m and flow_max_range_m";
-    return pm;
-  }
-  mask.rowRange(far_row, near_row).setTo(255);
+  const cv::Mat& img0 = prev.pyramid[0];
+  // Where features may be: road rows in range, outside detected objects (they move on their own).
+  cv::Mat mask(img0.size(), CV_8U, cv::Scalar(0));
+  mask.rowRange(prev.far_row, prev.near_row).setTo(255);
   for (const cv::Rect2f& b : exclude) {
-    cv::Rect r(static_cast<int>(std::floor(b.x * s)) - 3, static_cast<int>(std::floor(b.y * s)) - 3,
-               static_cast<int>(std::ceil(b.width * s)) + 6, static_cast<int>(std::ceil(b.height * s)) + 6);
+    cv::Rect r(static_cast<int>(std::floor(b.x * prev.sx)) - 3,
+               static_cast<int>(std::floor((b.y - prev.row0) * prev.sy)) - 3,
+               static_cast<int>(std::ceil(b.width * prev.sx)) + 6, static_cast<int>(std::ceil(b.height * prev.sy)) + 6);
     r &= cv::Rect(0, 0, mask.cols, mask.rows);
     if (r.area() > 0) mask(r).setTo(0);
   }
   std::vector<cv::Point2f> p0;
-  cv::goodFeaturesToTrack(prev, p0, opt_.max_corners, opt_.quality, opt_.min_distance_px, mask, 7);
+  if (carry)
+    for (const cv::Point2f& q : *carry) {
+      const cv::Point qi(cvRound(q.x), cvRound(q.y));
+      if (qi.inside(cv::Rect(0, 0, mask.cols, mask.rows)) && mask.at<uint8_t>(qi)) p0.push_back(q);
+    }
+  if (static_cast<int>(p0.size()) < opt_.max_corners / 2) {
+    // Replenish away from the features kept.
+    cv::Mat free = mask.clone();
+    for (const auto& q : p0) cv::circle(free, q, opt_.min_distance_px, cv::Scalar(0), cv::FILLED);
+    std::vector<cv::Point2f> fresh;
+    cv::goodFeaturesToTrack(img0, fresh, opt_.max_corners - static_cast<int>(p0.size()), opt_.quality,
+                            opt_.min_distance_px, free, 7);
+    p0.insert(p0.end(), fresh.begin(), fresh.end());
+  }
+  if (carry) carry->clear();
   if (static_cast<int>(p0.size()) < opt_.min_inliers) {
     pm.why = "only " + std::to_string(p0.size()) + " road features";
     return pm;
@@ -131,19 +165,21 @@ PlanarMotion FlowEgoMotion::estimate_scaled(const cv::Mat& prev, const cv::Mat& 
   std::vector<float> err;
   const cv::Size win(opt_.win_px, opt_.win_px);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
-  cv::calcOpticalFlowPyrLK(prev, cur, p0, p1, st, err, win, 3, term);
+  cv::calcOpticalFlowPyrLK(prev.pyramid, cur.pyramid, p0, p1, st, err, win, kLkLevels, term);
   // Forward-backward check: a track that does not come back to where it started is unreliable.
   const bool fb = opt_.fb_max_px > 0;
-  if (fb) cv::calcOpticalFlowPyrLK(cur, prev, p1, pb, st_b, err, win, 3, term);
+  if (fb) cv::calcOpticalFlowPyrLK(cur.pyramid, prev.pyramid, p1, pb, st_b, err, win, kLkLevels, term);
   std::vector<cv::Point2d> a, b;
-  auto full = [s](const cv::Point2f& q) {  // tracking-scale pixel centre -> full-resolution pixel
-    return cv::Point2d((q.x + 0.5) / s - 0.5, (q.y + 0.5) / s - 0.5);
+  std::vector<cv::Point2f> b_band;
+  auto full = [](const FlowFrame& f, const cv::Point2f& q) {  // band pixel centre -> full-resolution pixel
+    return cv::Point2d((q.x + 0.5) / f.sx - 0.5, (q.y + 0.5) / f.sy - 0.5 + f.row0);
   };
   for (size_t i = 0; i < p0.size(); ++i) {
     if (!st[i]) continue;
-    if (fb && (!st_b[i] || cv::norm(pb[i] - p0[i]) > opt_.fb_max_px * s)) continue;
-    a.push_back(full(p0[i]));
-    b.push_back(full(p1[i]));
+    if (fb && (!st_b[i] || cv::norm(pb[i] - p0[i]) > opt_.fb_max_px * prev.sx)) continue;
+    a.push_back(full(prev, p0[i]));
+    b.push_back(full(cur, p1[i]));
+    b_band.push_back(p1[i]);
   }
   pm.tracked = static_cast<int>(a.size());
   if (pm.tracked < opt_.min_inliers) {
@@ -160,6 +196,7 @@ PlanarMotion FlowEgoMotion::estimate_scaled(const cv::Mat& prev, const cv::Mat& 
   // homography's planar part is the rigid motion between them.
   std::vector<cv::Vec2d> P, Q;
   std::vector<double> W;
+  std::vector<size_t> src;  // index into a/b of each ground pair
   for (size_t i = 0; i < a.size(); ++i) {
     if (!inl[i]) continue;
     auto ga = ground_of(cam, a[i]), gb = ground_of(cam, b[i]);
@@ -170,6 +207,7 @@ PlanarMotion FlowEgoMotion::estimate_scaled(const cv::Mat& prev, const cv::Mat& 
     P.emplace_back((*ga)[0], (*ga)[1]);
     Q.emplace_back((*gb)[0], (*gb)[1]);
     W.push_back(std::pow(std::max(ra, 1.0), -opt_.weight_power));
+    src.push_back(i);
   }
   // Weighted least-squares rigid motion (2D Kabsch): a pixel of error costs X^2 / (f h) metres at range X, so
   // near points are trusted more.
@@ -218,6 +256,9 @@ PlanarMotion FlowEgoMotion::estimate_scaled(const cv::Mat& prev, const cv::Mat& 
   for (size_t i = 0; i < P.size(); ++i) kept += (use[i] = res[i] <= cut) ? 1 : 0;
   if (kept >= opt_.min_inliers) fit(P, Q, use, th, t);
   pm.inliers = kept >= opt_.min_inliers ? kept : static_cast<int>(P.size());
+  if (carry)
+    for (size_t i = 0; i < P.size(); ++i)
+      if (use[i] || kept < opt_.min_inliers) carry->push_back(b_band[src[i]]);
   pm.dx = t[0];
   pm.dy = t[1];
   pm.dyaw = th;
@@ -256,9 +297,9 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
     bool have = false;
     if (*resolved_ == EgoMotionMode::kFlow) {
       if (!f.camera.valid()) throw Error(frame_name(f) + ": ego_motion 'flow' needs the frame's camera model");
-      cv::Mat cur_small = flow_.prepare(f.image);
-      last_flow_ = dt > 0 ? flow_.estimate_scaled(prev_small_, cur_small, f.camera, exclude) : PlanarMotion{};
-      prev_small_ = cur_small;
+      FlowFrame cur = flow_.prepare(f.image, f.camera);
+      last_flow_ = dt > 0 ? flow_.estimate(prev_flow_, cur, f.camera, exclude, &carry_) : PlanarMotion{};
+      prev_flow_ = std::move(cur);
       if (last_flow_.ok) {
         // Ego displacement in the previous frame: the inverse of the world points' apparent motion.
         const double th = last_flow_.dyaw, c = std::cos(th), s = std::sin(th);
@@ -305,7 +346,7 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
     const double cp = std::cos(psi), sp = std::sin(psi);
     current_ = prev_pose * compose(cv::Matx33d(cp, -sp, 0, sp, cp, 0, 0, 0, 1), step);
   }
-  if (*resolved_ == EgoMotionMode::kFlow && !have_prev_) prev_small_ = flow_.prepare(f.image);
+  if (*resolved_ == EgoMotionMode::kFlow && !have_prev_) prev_flow_ = flow_.prepare(f.image, f.camera);
 
   // Velocity in the current ego axes: dataset velocity when given, else the pose difference.
   const cv::Matx33d Rt = rot_of(current_).t();

@@ -39,20 +39,32 @@ struct FlowOptions {
   double max_speed_mps = 70.0;
 };
 
+// The part of one frame the flow works on: the road band (rows whose road lies between min_range_m and
+// max_range_m, plus a margin), grey, at the tracking scale, as an LK pyramid.
+struct FlowFrame {
+  std::vector<cv::Mat> pyramid;
+  int row0 = 0;             // first full-resolution row of the band
+  double sx = 1, sy = 1;    // tracking scale (band pixels per full-resolution pixel)
+  int far_row = 0, near_row = 0;  // rows of the band (tracking scale) where features are taken
+  bool empty() const { return pyramid.empty(); }
+};
+
 // Road-plane ego motion from sparse LK flow: features below the horizon and outside detected objects are tracked
 // between the two frames, a RANSAC homography keeps those on the road plane, and the plane's known geometry
 // (camera height and mounting) turns the inliers into metric ground points whose rigid 2D motion is the ego's.
 class FlowEgoMotion {
  public:
   explicit FlowEgoMotion(FlowOptions o = {}) : opt_(o) {}
-  // Grayscale images at full resolution; `exclude` boxes (full-resolution pixels) are left out.
-  PlanarMotion estimate(const cv::Mat& prev_gray, const cv::Mat& cur_gray, const CameraModel& cam,
+  // Grey road band and its pyramid (empty when the camera sees no road in range).
+  FlowFrame prepare(const cv::Mat& bgr_or_gray, const CameraModel& cam) const;
+  // Motion between two prepared frames. `exclude` boxes (full-resolution pixels) are left out. With `carry`,
+  // features are reused across frames (KLT): on input the points to track in `prev` (band pixels), on output the
+  // inliers' positions in `cur`; new features are detected only when fewer than half remain.
+  PlanarMotion estimate(const FlowFrame& prev, const FlowFrame& cur, const CameraModel& cam,
+                        const std::vector<cv::Rect2f>& exclude, std::vector<cv::Point2f>* carry = nullptr) const;
+  // Same, from two full images.
+  PlanarMotion estimate(const cv::Mat& prev, const cv::Mat& cur, const CameraModel& cam,
                         const std::vector<cv::Rect2f>& exclude) const;
-  // Same, from the tracking-scale pyramids/images kept between frames (the renderer's path).
-  PlanarMotion estimate_scaled(const cv::Mat& prev_small, const cv::Mat& cur_small, const CameraModel& cam,
-                               const std::vector<cv::Rect2f>& exclude) const;
-  // Grayscale, scaled, road rows only — what estimate_scaled() wants.
-  cv::Mat prepare(const cv::Mat& bgr_or_gray) const;
   const FlowOptions& options() const { return opt_; }
 
  private:
@@ -102,7 +114,8 @@ class EgoTrajectory {
   cv::Matx44d current_ = cv::Matx44d::eye();
   cv::Vec3d velocity_ego_{0, 0, 0};
   std::optional<EgoMotionMode> resolved_;
-  cv::Mat prev_small_;
+  FlowFrame prev_flow_;
+  std::vector<cv::Point2f> carry_;
   double prev_t_ = 0.0;
   bool have_prev_ = false;
   cv::Vec3d smoothed_rate_{0, 0, 0};  // (vx, vy, yaw rate) in the previous ego frame

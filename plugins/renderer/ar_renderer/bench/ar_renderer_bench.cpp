@@ -1,0 +1,138 @@
+// Cost of the ar_renderer per 1600x900 frame (Google Benchmark): pass-through, compositing at several
+// distances, and flow-based ego motion. Single OpenCV thread, so the numbers are per-core work.
+//
+//   build/bin/hf_ar_renderer_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "ar_renderer.hpp"
+#include "ego_motion.hpp"
+
+namespace {
+
+using namespace hf;
+using namespace hf::render;
+
+CameraModel camera() { return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.02, 1.5); }
+
+// A road-like frame: noise texture (the compositing cost does not depend on content, the flow's does).
+const cv::Mat& background() {
+  static const cv::Mat img = [] {
+    cv::Mat n(900, 1600, CV_32F), acc(900, 1600, CV_32F, cv::Scalar(0));
+    cv::RNG rng(3);
+    for (double s : {1.5, 4.0, 12.0}) {
+      rng.fill(n, cv::RNG::NORMAL, 0.0, 1.0);
+      cv::GaussianBlur(n, n, cv::Size(), s);
+      cv::Scalar m, sd;
+      cv::meanStdDev(n, m, sd);
+      acc += n / sd[0];
+    }
+    cv::Mat g, bgr;
+    acc.convertTo(g, CV_8U, 20.0, 110);
+    cv::cvtColor(g, bgr, cv::COLOR_GRAY2BGR);
+    return bgr;
+  }();
+  return img;
+}
+
+std::shared_ptr<const AssetLibrary> assets() {
+  static auto lib =
+      std::make_shared<const AssetLibrary>(AssetLibrary::load(std::filesystem::path(share_dir()) / "assets"));
+  return lib;
+}
+
+// Ego and hazard both drive forward at 10 m/s; the hazard also weaves sideways, so it keeps its distance,
+// changes its view and moves in the image (motion blur on) in every frame.
+std::shared_ptr<const HazardTrajectory> weaving(const std::string& cls, double distance) {
+  auto t = std::make_shared<HazardTrajectory>();
+  t->kind = "bench";
+  t->object_class = cls;
+  t->size_lwh = cls == "person" ? cv::Vec3d(0.5, 0.6, 1.7) : cv::Vec3d(4.5, 1.85, 1.52);
+  for (int k = 0; k <= 40000; ++k) {
+    const double s = k * 0.04;
+    t->points.push_back({s, distance + 10.0 * s, 1.5 * std::sin(s), 0.3 * std::cos(s), 10.0, 0.0});
+  }
+  return t;
+}
+
+void run_frames(benchmark::State& state, const std::shared_ptr<const HazardTrajectory>& traj) {
+  cv::setNumThreads(1);
+  RendererOptions o;
+  o.ego.mode = EgoMotionMode::kPoses;
+  HazardRenderer r(o, assets());
+  Frame f;
+  f.image = background();
+  f.camera = camera();
+  int64_t k = 0;
+  double composite = 0;
+  for (auto _ : state) {
+    f.index = k;
+    f.timestamp = 0.04 * static_cast<double>(k);
+    f.ego.T_world_ego = planar_pose(10.0 * f.timestamp, 0.0, 0.0);
+    auto res = r.render(f, traj, {});
+    composite += res.composite_seconds;
+    benchmark::DoNotOptimize(res.frame.image.data);
+    ++k;
+  }
+  state.counters["composite_ms"] = benchmark::Counter(1e3 * composite / static_cast<double>(k));
+}
+
+void BM_PassThrough(benchmark::State& state) { run_frames(state, nullptr); }
+BENCHMARK(BM_PassThrough)->Unit(benchmark::kMillisecond);
+
+void BM_Car(benchmark::State& state) { run_frames(state, weaving("car", static_cast<double>(state.range(0)))); }
+BENCHMARK(BM_Car)->Arg(8)->Arg(15)->Arg(30)->Arg(60)->Unit(benchmark::kMillisecond);
+
+void BM_Person(benchmark::State& state) {
+  run_frames(state, weaving("person", static_cast<double>(state.range(0))));
+}
+BENCHMARK(BM_Person)->Arg(6)->Arg(15)->Unit(benchmark::kMillisecond);
+
+// Flow-based ego motion per frame as the renderer runs it (features carried from frame to frame): grey road band
+// and pyramid of the new frame, LK, RANSAC homography and the rigid ground-plane fit. The frames are the road
+// seen 0.4 m further on each time (ground homography of the forward step).
+void BM_FlowEgoMotion(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const CameraModel cam = camera();
+  std::vector<cv::Mat> frames;
+  for (int k = 0; k < 12; ++k) {
+    std::vector<cv::Point2f> src, dst;
+    for (double x : {6.0, 25.0})
+      for (double y : {-4.0, 4.0}) {
+        src.emplace_back(*cam.project_ego({x, y, 0}));
+        dst.emplace_back(*cam.project_ego({x - 0.4 * k, y, 0}));
+      }
+    cv::Mat f;
+    cv::warpPerspective(background(), f, cv::getPerspectiveTransform(src, dst), background().size());
+    frames.push_back(f);
+  }
+  FlowEgoMotion flow;
+  std::vector<cv::Point2f> carry;
+  FlowFrame prev = flow.prepare(frames[0], cam);
+  size_t k = 1;
+  int failed = 0;
+  for (auto _ : state) {
+    if (k == frames.size()) {  // start the sequence again (not timed as a motion)
+      state.PauseTiming();
+      prev = flow.prepare(frames[0], cam);
+      carry.clear();
+      k = 1;
+      state.ResumeTiming();
+    }
+    FlowFrame cur = flow.prepare(frames[k++], cam);
+    const PlanarMotion m = flow.estimate(prev, cur, cam, {}, &carry);
+    failed += m.ok ? 0 : 1;
+    prev = std::move(cur);
+  }
+  state.counters["failed"] = failed;
+}
+BENCHMARK(BM_FlowEgoMotion)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
