@@ -151,19 +151,25 @@ TEST_F(KittiTracking, SortKeepsIdentitiesButFragments) {
 
 // The centroid tracker's default gate, 0.1 x the image diagonal (129.7 px at 1242x375), against how far the
 // labelled box centres move between consecutive frames. Measured: median 7.4 px, 99th percentile 62.8 px,
-// 99.9th 109.1 px, largest 174.5 px (3 of 17341 steps exceed the gate).
+// 99.9th 109.1 px, largest 174.5 px (3 of 17341 steps exceed the gate). Also counts the steps whose boxes
+// overlap by less than SORT's IoU threshold: 459.
 TEST_F(KittiTracking, DefaultGateCoversFrameToFrameMotion) {
   std::vector<double> steps;
+  int low_overlap = 0;  // consecutive boxes of one object with IoU < 0.3 (SORT's default threshold)
   for (int seq = 0; seq <= 10; ++seq) {
     char name[32];
     std::snprintf(name, sizeof name, "%04d.txt", seq);
-    std::map<int, std::pair<int, cv::Point2f>> last;  // KITTI track -> (frame, centre)
+    std::map<int, std::pair<int, cv::Rect2f>> last;  // KITTI track -> (frame, box)
     for (const LabelLine& l : read_labels(test::shared_data("kitti-tracking/training/label_02") / name)) {
-      const cv::Point2f c(l.box.x + l.box.width / 2, l.box.y + l.box.height / 2);
       auto it = last.find(l.track);
-      if (it != last.end() && it->second.first == l.frame - 1)
-        steps.push_back(cv::norm(c - it->second.second));
-      last[l.track] = {l.frame, c};
+      if (it != last.end() && it->second.first == l.frame - 1) {
+        const cv::Rect2f& p = it->second.second;
+        const cv::Point2f c(l.box.x + l.box.width / 2, l.box.y + l.box.height / 2);
+        steps.push_back(cv::norm(c - cv::Point2f(p.x + p.width / 2, p.y + p.height / 2)));
+        const double inter = (p & l.box).area();
+        low_overlap += inter / (double(p.area()) + l.box.area() - inter) < 0.3 ? 1 : 0;
+      }
+      last[l.track] = {l.frame, l.box};
     }
   }
   ASSERT_EQ(steps.size(), 17341u);
@@ -173,8 +179,10 @@ TEST_F(KittiTracking, DefaultGateCoversFrameToFrameMotion) {
   std::cout << "[ measured ] KITTI box-centre step per frame: median " << steps[steps.size() / 2]
             << " px, p99 " << p99 << " px, p99.9 " << p999 << " px, max " << steps.back() << " px; gate "
             << gate << " px\n";
+  std::cout << "[ measured ] consecutive label boxes with IoU < 0.3: " << low_overlap << "\n";
   EXPECT_LT(p999, gate);
   EXPECT_LT(std::count_if(steps.begin(), steps.end(), [&](double d) { return d > gate; }), 10);
+  EXPECT_EQ(low_overlap, 459);  // the floor under SORT's fragmentation (SortKeepsIdentitiesButFragments)
 }
 
 }  // namespace
