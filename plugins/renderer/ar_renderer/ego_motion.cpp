@@ -239,6 +239,12 @@ PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur
     pm.why = "only " + std::to_string(P.size()) + " road-plane inliers in range";
     return pm;
   }
+  // Few tracks agreeing on one plane motion means the tracks are mostly wrong (large motion, smooth asphalt).
+  if (P.size() < opt_.min_inlier_ratio * pm.tracked) {
+    pm.why = "only " + std::to_string(P.size()) + " of " + std::to_string(pm.tracked) +
+             " tracks agree on a road-plane motion";
+    return pm;
+  }
   double th = 0;
   cv::Vec2d t;
   fit(P, Q, use, th, t);
@@ -320,9 +326,14 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
     }
     if (!have) {
       std::optional<double> v = f.ego.speed_mps;
+      double w = f.ego.yaw_rate.value_or(0.0);
+      if (v && prev_speed_) {  // the interval's mean (trapezoid), when both ends carry a speed
+        v = 0.5 * (*v + *prev_speed_);
+        w = 0.5 * (w + prev_yaw_rate_.value_or(w));
+      }
       if (!v && opt_.speed_mps >= 0) v = opt_.speed_mps;
       if (v) {
-        rate = cv::Vec3d(*v, 0.0, f.ego.yaw_rate.value_or(0.0));
+        rate = cv::Vec3d(*v, 0.0, w);
         last_source_ = "constant_speed";
       } else if (have_rate_) {
         rate = smoothed_rate_;  // hold the last estimate through a short degenerate stretch
@@ -362,6 +373,8 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
     velocity_ego_ = cv::Vec3d(opt_.speed_mps, 0, 0);
   }
   history_[t] = current_;
+  prev_speed_ = f.ego.speed_mps;
+  prev_yaw_rate_ = f.ego.yaw_rate;
   prev_t_ = t;
   have_prev_ = true;
 }

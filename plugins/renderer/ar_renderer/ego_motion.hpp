@@ -32,6 +32,7 @@ struct FlowOptions {
   double min_range_m = 3.0;  // road points used, by ground distance ahead of the camera
   double max_range_m = 35.0;
   int min_inliers = 25;
+  double min_inlier_ratio = 0.3;  // road-plane inliers / tracked features below this = degenerate
   double ransac_px = 3.0;   // RANSAC reprojection threshold (full-resolution pixels)
   double fb_max_px = 0.0;   // forward-backward tracking disagreement allowed (full-resolution px); 0 = no check
   int win_px = 15;          // LK window at the tracking scale (small: road texture shears as the ego advances)
@@ -117,6 +118,7 @@ class EgoTrajectory {
   FlowFrame prev_flow_;
   std::vector<cv::Point2f> carry_;
   double prev_t_ = 0.0;
+  std::optional<double> prev_speed_, prev_yaw_rate_;
   bool have_prev_ = false;
   cv::Vec3d smoothed_rate_{0, 0, 0};  // (vx, vy, yaw rate) in the previous ego frame
   bool have_rate_ = false;
