@@ -75,7 +75,8 @@ hazard::TtcSample seen_by(const EgoPath& ego, const HazardTrajectory& tr, size_t
 TEST(EgoPath, FollowsACircularTrackInTheAnchorFrame) {
   const double r = 20, v = 5;
   const auto track = hazard::parse_ego_track(circle_track(r, v), "test");
-  const EgoPath ego = EgoPath::recorded(track, 2.0, "test");
+  // Unsmoothed: the interpolating spline of the poses.
+  const EgoPath ego = EgoPath::recorded(track, 2.0, "test", 0.0);
   ASSERT_TRUE(ego.is_recorded());
   const TrajectoryPoint start = ego.at(0);
   EXPECT_NEAR(start.x, 0, 1e-9);
@@ -100,6 +101,17 @@ TEST(EgoPath, FollowsACircularTrackInTheAnchorFrame) {
   const cv::Vec2d back = ego.to_road(a[0], a[1]);
   EXPECT_NEAR(back[0], 12, 0.01);
   EXPECT_NEAR(back[1], 4, 0.01);
+  // The default smoothing (a 0.25 s Gaussian against pose noise) cuts this 20 m circle by a few centimetres
+  // only, and still passes through the anchor pose.
+  const EgoPath smooth = EgoPath::recorded(track, 2.0, "test");
+  EXPECT_NEAR(smooth.at(0).x, 0, 1e-9);
+  EXPECT_NEAR(smooth.at(0).y, 0, 1e-9);
+  for (double tau : {1.0, 3.0, 5.0}) {
+    const cv::Vec3d want = on_circle(r, v, tau);
+    EXPECT_NEAR(smooth.at(tau).x, want[0], 0.06) << tau;
+    EXPECT_NEAR(smooth.at(tau).y, want[1], 0.06) << tau;
+    EXPECT_NEAR(smooth.point(10).curvature, 1 / r, 0.002);
+  }
   // Beyond the recorded 12 s the ego goes straight on at its last speed.
   const TrajectoryPoint end = ego.at(10), later = ego.at(11);
   EXPECT_NEAR(later.heading, end.heading, 1e-9);
@@ -299,6 +311,33 @@ TEST(RecordedEgoTrack, CutInEndsInTheCurvingLaneAtTheTargetGap) {
   EXPECT_LT(std::abs(car[1]), 0.05);
   EXPECT_TRUE(seen_by(real, o.trajectory, k).in_path);
   EXPECT_TRUE(hazard::exceeded_limits(o.stats, tpl->limits().at("car")).empty());
+}
+
+TEST(RecordedEgoTrack, PoseNoiseIsSmoothedAwayForAnAdjacentLane) {
+  // A straight drive at 8 m/s whose recorded positions wobble by up to 1.5 cm sideways (localisation noise):
+  // the interpolating spline's curvature then wiggles, and a vehicle a lane to the side, following the road
+  // at 12 m/s, gets jerk spikes the car limit refuses. The default 0.25 s smoothing removes them.
+  Json track = Json::array();
+  for (int k = 0; k <= 24; ++k) {
+    const double wobble = 0.015 * ((k * 7) % 5 - 2) / 2.0;
+    track.push_back({{"t", 0.5 * k}, {"x", 4.0 * k}, {"y", wobble}, {"yaw", 0.0}});
+  }
+  SceneContext scene = turning_scene(60, 8);
+  scene.meta = {{"ego_track", track}};
+  HazardSpec spec;
+  spec.kind = "cut_in";
+  spec.object_class = "car";
+  spec.initial_distance_m = -6;
+  spec.lateral_offset_m = 3.5;
+  spec.side = "left";
+  spec.speed_mps = 12;
+  spec.target_ttc_s = 1.2;
+  spec.extra = {{"final_speed_mps", 6.0}};
+  const auto raw = make("cut_in", {{"duration_s", 8.0}, {"ego_smoothing_s", 0.0}})->check(spec, scene);
+  ASSERT_EQ(raw.size(), 1u);
+  EXPECT_EQ(raw[0].rfind("peak jerk ", 0), 0u) << raw[0];
+  const auto smooth = make("cut_in", {{"duration_s", 8.0}})->check(spec, scene);
+  EXPECT_TRUE(smooth.empty()) << smooth.front();
 }
 
 TEST(RecordedEgoTrack, RecordedPlanWithoutATrackIsRefused) {

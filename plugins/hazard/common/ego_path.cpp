@@ -48,7 +48,7 @@ std::vector<double> natural_spline(const std::vector<double>& t, const std::vect
 }
 
 struct SplineValue {
-  double p, d1, d2;
+  double p;
 };
 
 SplineValue eval_spline(const std::vector<double>& t, const std::vector<double>& v,
@@ -59,8 +59,6 @@ SplineValue eval_spline(const std::vector<double>& t, const std::vector<double>&
   const double a = (t[i + 1] - x) / h, b = (x - t[i]) / h;
   SplineValue r;
   r.p = a * v[i] + b * v[i + 1] + ((a * a * a - a) * m[i] + (b * b * b - b) * m[i + 1]) * h * h / 6;
-  r.d1 = (v[i + 1] - v[i]) / h - (3 * a * a - 1) / 6 * h * m[i] + (3 * b * b - 1) / 6 * h * m[i + 1];
-  r.d2 = a * m[i] + b * m[i + 1];
   return r;
 }
 
@@ -101,7 +99,7 @@ EgoPath EgoPath::straight(double speed) {
 }
 
 EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double anchor_time,
-                          const std::string& where) {
+                          const std::string& where, double smoothing_s) {
   if (track.size() < 2)
     throw Error(where + ": ego_track has " + std::to_string(track.size()) +
                 " sample(s); a recorded path needs at least two");
@@ -125,17 +123,51 @@ EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double ancho
   p.recorded_ = true;
   const int n = std::max(2, static_cast<int>(std::ceil((t.back() - t.front()) / kDenseStep)) + 1);
   const double step = (t.back() - t.front()) / (n - 1);
+  std::vector<double> tk(n), wx(n), wy(n);
+  for (int k = 0; k < n; ++k) {
+    tk[k] = k + 1 == n ? t.back() : t.front() + k * step;
+    wx[k] = eval_spline(t, x, mx, tk[k]).p;
+    wy[k] = eval_spline(t, y, my, tk[k]).p;
+  }
+  // Pose noise of a few centimetres makes the interpolating spline's curvature wiggle between the samples; a
+  // path offset sideways (an adjacent lane) turns that into jerk spikes. A Gaussian along time removes it;
+  // the path is then shifted back through the recorded pose at the anchor.
+  if (smoothing_s > 0) {
+    const int half = static_cast<int>(std::ceil(3 * smoothing_s / step));
+    std::vector<double> kernel(2 * half + 1);
+    for (int j = -half; j <= half; ++j)
+      kernel[j + half] = std::exp(-0.5 * std::pow(j * step / smoothing_s, 2));
+    std::vector<double> sx(n), sy(n);
+    for (int k = 0; k < n; ++k) {
+      double sum = 0, ax = 0, ay = 0;
+      for (int j = std::max(0, k - half); j <= std::min(n - 1, k + half); ++j) {
+        const double w = kernel[j - k + half];
+        sum += w, ax += w * wx[j], ay += w * wy[j];
+      }
+      sx[k] = ax / sum, sy[k] = ay / sum;
+    }
+    const int ka = std::clamp(static_cast<int>((ta - t.front()) / step), 0, n - 2);
+    const double ua = (ta - tk[ka]) / step;
+    const double shift_x = x0 - (sx[ka] + ua * (sx[ka + 1] - sx[ka]));
+    const double shift_y = y0 - (sy[ka] + ua * (sy[ka + 1] - sy[ka]));
+    for (int k = 0; k < n; ++k) wx[k] = sx[k] + shift_x, wy[k] = sy[k] + shift_y;
+  }
   std::optional<double> held;  // heading while (nearly) standing
   for (int k = 0; k < n; ++k) {
-    const double tk = k + 1 == n ? t.back() : t.front() + k * step;
-    const SplineValue sx = eval_spline(t, x, mx, tk), sy = eval_spline(t, y, my, tk);
+    // Velocity and acceleration by central differences (one-sided at the ends) of the dense positions.
+    const int a0 = std::max(0, k - 1), a1 = std::min(n - 1, k + 1);
+    const double dt1 = (a1 - a0) * step;
+    const double gvx = (wx[a1] - wx[a0]) / dt1, gvy = (wy[a1] - wy[a0]) / dt1;
+    const int b = std::clamp(k, 1, n - 2);
+    const double gax = (wx[b + 1] - 2 * wx[b] + wx[b - 1]) / (step * step),
+                 gay = (wy[b + 1] - 2 * wy[b] + wy[b - 1]) / (step * step);
     Node nd{};
-    nd.t = tk;
-    const double dx = sx.p - x0, dy = sy.p - y0;
+    nd.t = tk[k];
+    const double dx = wx[k] - x0, dy = wy[k] - y0;
     nd.x = c * dx + s * dy;
     nd.y = -s * dx + c * dy;
-    const double vx = c * sx.d1 + s * sy.d1, vy = -s * sx.d1 + c * sy.d1;
-    const double ax = c * sx.d2 + s * sy.d2, ay = -s * sx.d2 + c * sy.d2;
+    const double vx = c * gvx + s * gvy, vy = -s * gvx + c * gvy;
+    const double ax = c * gax + s * gay, ay = -s * gax + c * gay;
     nd.speed = std::hypot(vx, vy);
     if (nd.speed > kMovingSpeed) {
       nd.heading = std::atan2(vy, vx);
@@ -144,7 +176,7 @@ EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double ancho
       held = nd.heading;
     } else {
       // Standing: keep the heading it had (or the recorded yaw before it ever moved).
-      size_t j = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), tk) - t.begin());
+      size_t j = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), tk[k]) - t.begin());
       j = std::clamp<size_t>(j, 1, t.size()) - 1;
       nd.heading = held.value_or(wrap(track[j].yaw - yaw0));
     }

@@ -90,6 +90,9 @@ ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
               "(SceneContext.meta ego_track, e.g. from the nuscenes source), the road following it; "
               "constant_speed = straight ahead at the frame's speed; auto = recorded when the scene "
               "carries a track"),
+      ParamSpec::number("ego_smoothing_s", 0.25)
+          .range(0, 2)
+          .describe("sigma of the Gaussian (s) that smooths the recorded ego path against pose noise"),
   };
   for (auto& p : RoadModel::params()) i.params.push_back(p);
   for (auto& p : TtcConventions::params()) i.params.push_back(p);
@@ -107,6 +110,7 @@ void TemplateBase::open(const Params& params) {
   rate_hz_ = params.get_double("sample_rate_hz");
   duration_s_ = params.get_double("duration_s");
   ego_plan_ = params.has("ego_plan") ? params.get_string("ego_plan") : "auto";
+  ego_smoothing_s_ = params.has("ego_smoothing_s") ? params.get_double("ego_smoothing_s") : 0.25;
 }
 
 std::vector<std::string> TemplateBase::check(const HazardSpec& spec, const SceneContext& scene) const {
@@ -179,7 +183,8 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   }
   if (ego_plan_ != "constant_speed" && has_track) {
     const std::string where = "scene at t=" + num(scene.timestamp, 3) + " s";
-    ego = EgoPath::recorded(parse_ego_track(scene.meta["ego_track"], where), scene.timestamp, where);
+    ego = EgoPath::recorded(parse_ego_track(scene.meta["ego_track"], where), scene.timestamp, where,
+                            ego_smoothing_s_);
   }
 
   const ClassSize& prior = sizes_.at(cls);

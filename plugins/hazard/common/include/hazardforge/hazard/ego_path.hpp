@@ -24,9 +24,10 @@ std::vector<EgoTrackSample> parse_ego_track(const Json& track, const std::string
 
 // Where the ego goes after the anchor time, and the road coordinates along it.
 //
-// A recorded path is a natural cubic spline of the track positions against time (C2, so the curvature of the
-// path and the speed along it are continuous and a hazard that follows the path stays within jerk limits),
-// expressed in the anchor frame: the ego frame at the anchor time, taken from the recorded pose there. Beyond
+// A recorded path is a natural cubic spline of the track positions against time, smoothed with a Gaussian
+// along time (pose noise would make its curvature wiggle; smoothed, the curvature and its rate are continuous
+// and a hazard that follows the path, even a lane to the side, stays within jerk limits), expressed in the
+// anchor frame: the ego frame at the anchor time, taken from the recorded pose there. Beyond
 // the recorded span the ego keeps going straight at its last speed (before it: backwards along its first
 // heading). Road coordinates (s, d): s = arc length along the path from the ego's position at the anchor
 // time, d = offset to the left of the path; on a straight path they equal the anchor frame's (x, y).
@@ -35,9 +36,10 @@ class EgoPath {
   // A straight line along the anchor frame's x axis at constant `speed`.
   static EgoPath straight(double speed);
   // The recorded track (world frame), seen from the ego at `anchor_time`, which must lie within the track's
-  // time span (throws hf::Error naming `where` otherwise, and for fewer than two samples).
+  // time span (throws hf::Error naming `where` otherwise, and for fewer than two samples). `smoothing_s` is
+  // the sigma (s) of the Gaussian that removes pose noise from the path (0 = the interpolating spline as is).
   static EgoPath recorded(const std::vector<EgoTrackSample>& track, double anchor_time,
-                          const std::string& where);
+                          const std::string& where, double smoothing_s = 0.25);
 
   bool is_recorded() const { return recorded_; }
   // The ego's state `tau` s after the anchor time (anchor frame): position, heading, speed, acceleration.

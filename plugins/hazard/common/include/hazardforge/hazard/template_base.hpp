@@ -127,6 +127,7 @@ class TemplateBase : public HazardTemplate {
   double rate_hz_ = 20;
   double duration_s_ = 6;
   std::string ego_plan_ = "auto";
+  double ego_smoothing_s_ = 0.25;
 };
 
 }  // namespace hf::hazard
