@@ -47,11 +47,11 @@ class Shape {
   virtual bool intersect(const Vec3d& o, const Vec3d& d, Hit& hit) const = 0;
 
  protected:
-  bool accept(double t, const Vec3d& n, Hit& hit) const {
+  bool accept(double t, const Vec3d& n, Hit& hit, int material = -1) const {
     if (t <= 1e-6 || t >= hit.t) return false;
     hit.t = t;
     hit.n = n;
-    hit.material = material_;
+    hit.material = material >= 0 ? material : material_;
     return true;
   }
   int material_;
@@ -132,7 +132,9 @@ class Capsule : public Shape {
 // A wheel: a cylinder around the y axis.
 class Wheel : public Shape {
  public:
-  Wheel(Vec3d c, double r, double half_width, int m) : Shape(m), c_(c), r_(r), hw_(half_width) {}
+  // `zmin` clips the disc from below (wheel arches end at the sill).
+  Wheel(Vec3d c, double r, double half_width, int m, double zmin = -1e9)
+      : Shape(m), c_(c), r_(r), hw_(half_width), zmin_(zmin) {}
   bool intersect(const Vec3d& o, const Vec3d& d, Hit& hit) const override {
     bool any = false;
     const double ox = o[0] - c_[0], oz = o[2] - c_[2];
@@ -143,21 +145,78 @@ class Wheel : public Shape {
       if (h >= 0) {
         const double t = (-b - std::sqrt(h)) / a;
         const double y = o[1] + t * d[1] - c_[1];
-        if (std::abs(y) <= hw_) any |= accept(t, Vec3d((ox + t * d[0]) / r_, 0, (oz + t * d[2]) / r_), hit);
+        if (std::abs(y) <= hw_ && o[2] + t * d[2] >= zmin_)
+          any |= accept(t, Vec3d((ox + t * d[0]) / r_, 0, (oz + t * d[2]) / r_), hit);
       }
     }
     if (std::abs(d[1]) > 1e-12)
       for (double s : {-1.0, 1.0}) {
         const double t = (c_[1] + s * hw_ - o[1]) / d[1];
         const double x = ox + t * d[0], z = oz + t * d[2];
-        if (x * x + z * z <= r_ * r_) any |= accept(t, Vec3d(0, s, 0), hit);
+        if (x * x + z * z <= r_ * r_ && z + c_[2] >= zmin_) any |= accept(t, Vec3d(0, s, 0), hit);
       }
     return any;
   }
 
  private:
   Vec3d c_;
-  double r_, hw_;
+  double r_, hw_, zmin_;
+};
+
+// A convex polyhedron: the points with n . p <= d for every plane; each face has its own material, so one body
+// carries paint, glass and lamps.
+struct Plane {
+  Vec3d n;
+  double d = 0;
+  int material = -1;  // -1 = the body's material
+};
+
+class Convex : public Shape {
+ public:
+  Convex(std::vector<Plane> planes, int m) : Shape(m), planes_(std::move(planes)) {
+    for (auto& p : planes_) {
+      const double len = cv::norm(p.n);
+      p.n /= len;
+      p.d /= len;
+    }
+  }
+  bool intersect(const Vec3d& o, const Vec3d& dir, Hit& hit) const override {
+    double t0 = -1e30, t1 = 1e30;
+    int enter = -1;
+    for (size_t i = 0; i < planes_.size(); ++i) {
+      const Plane& p = planes_[i];
+      const double den = p.n.dot(dir), dist = p.d - p.n.dot(o);
+      if (std::abs(den) < 1e-12) {
+        if (dist < 0) return false;
+        continue;
+      }
+      const double t = dist / den;
+      if (den < 0) {
+        if (t > t0) {
+          t0 = t;
+          enter = static_cast<int>(i);
+        }
+      } else {
+        t1 = std::min(t1, t);
+      }
+      if (t0 > t1) return false;
+    }
+    if (enter < 0) return false;
+    const Plane& e = planes_[static_cast<size_t>(enter)];
+    return accept(t0, e.n, hit, e.material);
+  }
+  // The same body grown by `by` metres on every face (trim and lamps sit on top of the paint).
+  std::vector<Plane> grown(double by) const {
+    std::vector<Plane> g = planes_;
+    for (auto& p : g) {
+      p.d += by;
+      p.material = -1;
+    }
+    return g;
+  }
+
+ private:
+  std::vector<Plane> planes_;
 };
 
 struct Model {
@@ -174,7 +233,14 @@ struct Model {
   }
   void box(Vec3d lo, Vec3d hi, int m) { shapes.push_back(std::make_shared<Box>(lo, hi, m)); }
   void capsule(Vec3d a, Vec3d b, double r, int m) { shapes.push_back(std::make_shared<Capsule>(a, b, r, m)); }
-  void wheel(Vec3d c, double r, double hw, int m) { shapes.push_back(std::make_shared<Wheel>(c, r, hw, m)); }
+  void wheel(Vec3d c, double r, double hw, int m, double zmin = -1e9) {
+    shapes.push_back(std::make_shared<Wheel>(c, r, hw, m, zmin));
+  }
+  const Convex& convex(std::vector<Plane> planes, int m) {
+    auto c = std::make_shared<Convex>(std::move(planes), m);
+    shapes.push_back(c);
+    return *c;
+  }
 };
 
 // Four wheels with lighter hubs; the tyres touch the ground and stay inside the box's width.
@@ -198,34 +264,80 @@ void add_lamps(Model& m, double s, double x_face, double y_in, double y_out, dou
   }
 }
 
+// A plane n . p <= d with n normalised (so offsets are in metres); `mat` -1 = the body's material.
+Plane pl(Vec3d n, double d, int mat = -1) {
+  const double len = cv::norm(n);
+  return {n / len, d / len, mat};
+}
+// The slab of points within `w` metres inside plane `q` (for trim bands along a face).
+Plane near(const Plane& q, double w) { return {-q.n, -(q.d - w), -1}; }
+std::vector<Plane> operator+(std::vector<Plane> a, const std::vector<Plane>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+// A saloon car from convex pieces: a body with sloping hood and trunk and rounded corners, a glasshouse with
+// raked windscreen and rear window and tumblehome sides, pillars, wrap-around lamps, bumpers, plates, arches.
 Model make_car() {
   Model m;
   m.object_class = "car";
   m.instance = "car_default";
   m.size_lwh = {4.50, 1.85, 1.52};
-  const double hl = 2.25, hw = 0.925;
-  const int paint = m.material({0.62, 0.36, 0.16}, 0.25);  // metallic blue
-  const int glass = m.material({0.16, 0.12, 0.10}, 0.55);
-  const int trim = m.material({0.10, 0.10, 0.11}, 0.05);
-  const int tail = m.material({0.10, 0.08, 0.80}, 0.2, 0.45);
-  const int head = m.material({0.80, 0.92, 0.95}, 0.3, 0.45);
-  const int plate = m.material({0.90, 0.90, 0.90}, 0.05);
-  add_wheels(m, {1.42, -1.38}, 0.33, hw, 0.22);
-  m.box({-2.22, -0.90, 0.30}, {2.22, 0.90, 0.95}, paint);   // lower body
-  m.box({2.12, -0.88, 0.24}, {hl, 0.88, 0.48}, trim);       // front bumper
-  m.box({-hl, -0.88, 0.24}, {-2.12, 0.88, 0.48}, trim);     // rear bumper
-  m.box({-1.35, -0.78, 1.44}, {0.65, 0.78, 1.52}, paint);   // roof
-  for (double s : {-1.0, 1.0}) {                            // pillars
-    m.box({0.62, std::min(s * 0.72, s * 0.81), 0.95}, {0.78, std::max(s * 0.72, s * 0.81), 1.46}, paint);
-    m.box({-1.50, std::min(s * 0.72, s * 0.81), 0.95}, {-1.28, std::max(s * 0.72, s * 0.81), 1.46}, paint);
-    m.box({-0.42, std::min(s * 0.76, s * 0.81), 0.95}, {-0.32, std::max(s * 0.76, s * 0.81), 1.46}, paint);
+  const int paint = m.material({0.14, 0.11, 0.55}, 0.35);  // metallic red
+  const int glass = m.material({0.15, 0.13, 0.12}, 0.6);
+  const int trim = m.material({0.10, 0.10, 0.11}, 0.08);
+  const int tail = m.material({0.12, 0.10, 0.85}, 0.3, 0.45);
+  const int head = m.material({0.82, 0.92, 0.95}, 0.4, 0.45);
+  const int plate = m.material({0.92, 0.92, 0.92}, 0.05);
+  const int arch = m.material({0.03, 0.03, 0.03}, 0.0);
+
+  const double side = 0.915;
+  const std::vector<Plane> body_planes = {
+      pl({0, 0, -1}, -0.28),                                    // underside
+      pl({0, 1, 0}, side), pl({0, -1, 0}, side),                // flanks
+      pl({1, 0, 0}, 2.25), pl({-1, 0, 0}, 2.25),                // nose, tail
+      pl({0, 0, 1}, 0.98),                                      // belt line
+      pl({0.16, 0, 1}, 1.14), pl({-0.1067, 0, 1}, 1.14),        // hood and trunk lid slope down
+      pl({1, 1, 0}, 2.95), pl({1, -1, 0}, 2.95),                // rounded front corners
+      pl({-1, 1, 0}, 2.97), pl({-1, -1, 0}, 2.97),              // rounded rear corners
+      pl({0, 0.6, 0.8}, 0.6 * side + 0.8 * 0.90), pl({0, -0.6, 0.8}, 0.6 * side + 0.8 * 0.90),  // shoulders
+      pl({0, 0.6, -0.8}, 0.6 * side - 0.8 * 0.36), pl({0, -0.6, -0.8}, 0.6 * side - 0.8 * 0.36),  // sills
+      pl({0.6, 0, 0.8}, 0.6 * 2.25 + 0.8 * 0.72),              // nose top edge
+      pl({-0.6, 0, 0.8}, 0.6 * 2.25 + 0.8 * 0.84),             // tail top edge
+  };
+  const Convex& body = m.convex(body_planes, paint);
+
+  const Plane windscreen = pl({0.53, 0, 1}, 1.5265, glass), rear_window = pl({-0.8, 0, 1}, 2.38, glass);
+  const Plane left = pl({0, 1, 0.327}, 1.171, glass), right = pl({0, -1, 0.327}, 1.171, glass);
+  const std::vector<Plane> cabin_planes = {pl({0, 0, -1}, -0.95), pl({0, 0, 1}, 1.52, paint), windscreen,
+                                           rear_window, left, right};
+  const Convex& cabin = m.convex(cabin_planes, glass);
+  const auto shell = cabin.grown(0.012);
+  for (const Plane& s : {left, right}) {
+    m.convex(shell + std::vector<Plane>{near(windscreen, 0.10), near(s, 0.10)}, paint);      // A pillars
+    m.convex(shell + std::vector<Plane>{near(rear_window, 0.12), near(s, 0.18)}, paint);    // C pillars
+    m.convex(shell + std::vector<Plane>{near(s, 0.05), pl({0, 0, -1}, -1.45)}, paint);      // roof rails
   }
-  m.box({-1.45, -0.78, 0.95}, {0.75, 0.78, 1.47}, glass);  // glasshouse
-  add_lamps(m, -1, hl - 0.005, 0.55, 0.86, 0.72, 0.88, tail);
-  add_lamps(m, 1, hl - 0.005, 0.55, 0.86, 0.70, 0.82, head);
-  m.box({2.22, -0.45, 0.52}, {2.235, 0.45, 0.68}, trim);          // grille
-  m.box({2.235, -0.26, 0.29}, {hl, 0.26, 0.41}, plate);            // front plate
-  m.box({-hl, -0.26, 0.56}, {-2.22, 0.26, 0.68}, plate);           // rear plate
+  m.convex(shell + std::vector<Plane>{pl({1, 0, 0}, -0.36), pl({-1, 0, 0}, 0.46)}, paint);  // B pillars
+
+  auto band = [&](double grow, std::vector<Plane> limits, int mat) { m.convex(body.grown(grow) + limits, mat); };
+  band(0.010, {pl({-1, 0, 0}, 1.95), pl({0, 0, 1}, 0.50)}, trim);                              // front bumper
+  band(0.010, {pl({1, 0, 0}, -1.95), pl({0, 0, 1}, 0.50)}, trim);                              // rear bumper
+  band(0.005, {pl({0, 0, 1}, 0.36)}, trim);                                                    // sills
+  for (double sy : {1.0, -1.0}) {
+    band(0.014, {pl({1, 0, 0}, -2.02), pl({0, 0, -1}, -0.70), pl({0, 0, 1}, 0.86), pl({0, -sy, 0}, -0.45)}, tail);
+    band(0.014, {pl({-1, 0, 0}, -2.00), pl({0, 0, -1}, -0.62), pl({0, 0, 1}, 0.74), pl({0, -sy, 0}, -0.47)}, head);
+  }
+  band(0.012, {pl({-1, 0, 0}, -2.15), pl({0, 0, -1}, -0.50), pl({0, 0, 1}, 0.61), pl({0, 1, 0}, 0.40),
+               pl({0, -1, 0}, 0.40)}, trim);                                                   // grille
+  band(0.018, {pl({1, 0, 0}, -2.20), pl({0, 0, -1}, -0.54), pl({0, 0, 1}, 0.66), pl({0, 1, 0}, 0.26),
+               pl({0, -1, 0}, 0.26)}, plate);
+  band(0.022, {pl({-1, 0, 0}, -2.20), pl({0, 0, -1}, -0.33), pl({0, 0, 1}, 0.44), pl({0, 1, 0}, 0.26),
+               pl({0, -1, 0}, 0.26)}, plate);
+  for (double x : {0.79, -0.42})  // door shut lines
+    band(0.003, {pl({1, 0, 0}, x + 0.012), pl({-1, 0, 0}, -(x - 0.012)), pl({0, 0, -1}, -0.37)}, trim);
+  for (double x : {1.42, -1.38}) m.wheel({x, 0, 0.33}, 0.41, 0.920, arch, 0.28);  // arches
+  add_wheels(m, {1.42, -1.38}, 0.33, 0.925, 0.22);
   return m;
 }
 
@@ -276,31 +388,39 @@ Model make_bus() {
   return m;
 }
 
+// A pedestrian from capsules: legs mid-stride (thigh and shin), pelvis, a torso wider than deep, shoulders,
+// arms swinging against the legs, hands, neck, head with hair.
 Model make_person() {
   Model m;
   m.object_class = "person";
   m.instance = "person_default";
   m.size_lwh = {0.50, 0.60, 1.70};
   m.target_height_px = 320;
-  const int skin = m.material({0.52, 0.62, 0.80}, 0.05);
-  const int hair = m.material({0.08, 0.10, 0.14}, 0.05);
-  const int jacket = m.material({0.16, 0.18, 0.70}, 0.08);  // red jacket
-  const int jeans = m.material({0.45, 0.28, 0.18}, 0.05);
-  const int shoes = m.material({0.10, 0.10, 0.10}, 0.05);
-  // Mid-stride: one leg forward, one back, so side views read as walking.
-  m.capsule({0.02, 0.10, 0.86}, {0.16, 0.11, 0.12}, 0.075, jeans);
-  m.capsule({-0.02, -0.10, 0.86}, {-0.14, -0.11, 0.12}, 0.075, jeans);
-  m.capsule({0.16, 0.11, 0.05}, {0.20, 0.11, 0.05}, 0.05, shoes);
-  m.capsule({-0.14, -0.11, 0.05}, {-0.10, -0.11, 0.05}, 0.05, shoes);
-  m.box({-0.12, -0.18, 0.84}, {0.12, 0.18, 1.36}, jacket);  // torso
-  m.capsule({0.0, -0.17, 1.36}, {0.0, 0.17, 1.36}, 0.085, jacket);  // shoulders
-  m.capsule({0.0, 0.235, 1.36}, {-0.10, 0.245, 0.90}, 0.055, jacket);  // arms swing opposite to the legs
-  m.capsule({0.0, -0.235, 1.36}, {0.11, -0.245, 0.90}, 0.055, jacket);
-  m.capsule({-0.11, 0.245, 0.86}, {-0.11, 0.245, 0.86}, 0.048, skin);
-  m.capsule({0.12, -0.245, 0.86}, {0.12, -0.245, 0.86}, 0.048, skin);
-  m.capsule({0.0, 0.0, 1.40}, {0.0, 0.0, 1.50}, 0.05, skin);  // neck
-  m.capsule({0.0, 0.0, 1.575}, {0.0, 0.0, 1.575}, 0.11, skin);  // head
-  m.capsule({-0.015, 0.0, 1.585}, {-0.015, 0.0, 1.585}, 0.115, hair);
+  const int skin = m.material({0.50, 0.60, 0.78}, 0.05);
+  const int hair = m.material({0.07, 0.08, 0.11}, 0.1);
+  const int jacket = m.material({0.20, 0.22, 0.52}, 0.08);  // dark red jacket
+  const int jeans = m.material({0.42, 0.27, 0.17}, 0.05);
+  const int shoes = m.material({0.09, 0.09, 0.10}, 0.1);
+  for (double s : {1.0, -1.0}) {
+    const double stride = 0.15 * s;  // left leg forward, right leg back
+    const Vec3d hip(0.0, 0.105 * s, 0.90), knee(0.55 * stride, 0.11 * s, 0.49), ankle(stride, 0.115 * s, 0.10);
+    m.capsule(hip, knee, 0.083, jeans);
+    m.capsule(knee, ankle, 0.062, jeans);
+    m.capsule(ankle + Vec3d(-0.03, 0, -0.05), ankle + Vec3d(0.05, 0, -0.05), 0.048, shoes);
+    // Arms swing opposite to the legs.
+    const Vec3d shoulder(0.0, 0.205 * s, 1.37), elbow(-0.35 * stride, 0.235 * s, 1.10),
+        wrist(-0.75 * stride, 0.245 * s, 0.88);
+    m.capsule(shoulder, elbow, 0.052, jacket);
+    m.capsule(elbow, wrist, 0.044, jacket);
+    m.capsule(wrist + Vec3d(0, 0, -0.04), wrist + Vec3d(0, 0, -0.04), 0.045, skin);
+  }
+  m.capsule({0, -0.10, 0.93}, {0, 0.10, 0.93}, 0.11, jeans);       // pelvis
+  m.capsule({0, -0.085, 1.00}, {0, -0.085, 1.30}, 0.125, jacket);  // torso: two columns, wider than deep
+  m.capsule({0, 0.085, 1.00}, {0, 0.085, 1.30}, 0.125, jacket);
+  m.capsule({0, -0.15, 1.36}, {0, 0.15, 1.36}, 0.075, jacket);     // shoulders
+  m.capsule({0, 0, 1.40}, {0, 0, 1.50}, 0.05, skin);               // neck
+  m.capsule({0.005, 0, 1.585}, {0.005, 0, 1.585}, 0.105, skin);    // head
+  m.capsule({-0.012, 0, 1.595}, {-0.012, 0, 1.595}, 0.105, hair);  // hair, set back from the face
   return m;
 }
 

@@ -152,7 +152,6 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_
   Placement pl;
   pl.asset = &asset;
   pl.corners_px = proj->px;
-  pl.view_azimuth_deg = az;
   const cv::Point2d cen_px((proj->bounds.x + proj->bounds.width / 2), (proj->bounds.y + proj->bounds.height / 2));
   if (prev_center_px_ && f.timestamp > prev_t_) pl.velocity_px_s = (cen_px - *prev_center_px_) / (f.timestamp - prev_t_);
   prev_center_px_ = cen_px;

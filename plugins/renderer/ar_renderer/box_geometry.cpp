@@ -99,13 +99,44 @@ std::vector<Face> visible_faces(double az) {
   return out;
 }
 
-std::vector<int> visible_corners(double az) {
+std::vector<int> corners_of(const std::vector<Face>& faces) {
   std::vector<int> idx;
-  for (Face f : visible_faces(az))
+  for (Face f : faces)
     for (int c : face_corners(f)) idx.push_back(c);
   std::sort(idx.begin(), idx.end());
   idx.erase(std::unique(idx.begin(), idx.end()), idx.end());
   return idx;
+}
+
+std::vector<int> visible_corners(double az) { return corners_of(visible_faces(az)); }
+
+std::array<double, 4> face_shares(const std::array<cv::Point2d, 8>& px) {
+  std::array<double, 4> share{};
+  double total = 0;
+  const Face order[4] = {Face::kFront, Face::kLeft, Face::kRear, Face::kRight};
+  for (int k = 0; k < 4; ++k) {
+    const auto c = face_corners(order[k]);
+    double a = 0;  // shoelace in image axes (y down): positive = counter-clockwise from outside = facing us
+    for (int i = 0; i < 4; ++i) {
+      const cv::Point2d& p = px[c[i]];
+      const cv::Point2d& q = px[c[(i + 1) % 4]];
+      a += p.x * q.y - q.x * p.y;
+    }
+    share[k] = std::max(a, 0.0);
+    total += share[k];
+  }
+  if (total > 0)
+    for (double& v : share) v /= total;
+  return share;
+}
+
+std::vector<Face> facing_faces(const std::array<cv::Point2d, 8>& px, double min_share) {
+  const auto share = face_shares(px);
+  const Face order[4] = {Face::kFront, Face::kLeft, Face::kRear, Face::kRight};
+  std::vector<Face> out;
+  for (int k = 0; k < 4; ++k)
+    if (share[k] > 0 && share[k] >= min_share) out.push_back(order[k]);
+  return out;
 }
 
 std::optional<cv::Point2d> project_point(const CameraModel& cam, const cv::Vec3d& p_ego) {

@@ -42,6 +42,15 @@ std::vector<Face> visible_faces(double azimuth_deg);
 // Corner indices of those faces, without repeats, in ascending order.
 std::vector<int> visible_corners(double azimuth_deg);
 
+// Vertical faces turned towards the camera in a picture of the box, from the winding of their projected corners
+// (each face's corners are listed counter-clockwise seen from outside); faces whose projected area is below
+// `min_share` of the visible total are slivers and left out.
+std::vector<Face> facing_faces(const std::array<cv::Point2d, 8>& px, double min_share = 0.05);
+// Share of each vertical face (front, left, rear, right) in the projected area of the faces turned to the camera.
+std::array<double, 4> face_shares(const std::array<cv::Point2d, 8>& px);
+// Corner indices of some faces, without repeats, ascending.
+std::vector<int> corners_of(const std::vector<Face>& faces);
+
 // Wraps an angle in degrees to (-180, 180].
 double wrap_deg(double a);
 double angle_diff_deg(double a, double b);  // |a - b| on the circle, in [0, 180]

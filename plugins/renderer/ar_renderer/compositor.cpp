@@ -13,6 +13,9 @@ namespace hf::render {
 
 namespace {
 
+// Sum over faces of |picture share - frame share| up to which the whole outline is fitted (0 = same view).
+constexpr double kMaxShareMismatch = 0.35;
+
 cv::Point2d apply(const cv::Matx33d& H, const cv::Point2d& p, double* w_out = nullptr) {
   const cv::Vec3d q = H * cv::Vec3d(p.x, p.y, 1.0);
   if (w_out) *w_out = q[2];
@@ -108,20 +111,25 @@ cv::Mat harmonisation_lut(const LoadedAsset& a, const CompositorState& ex, const
 
 }  // namespace
 
-std::vector<int> mapping_corners(double asset_az, double view_az) {
-  std::vector<int> ids;
-  const auto faces = visible_faces(view_az);
-  for (Face f : visible_faces(asset_az))
-    if (std::find(faces.begin(), faces.end(), f) != faces.end())
-      for (int c : face_corners(f)) ids.push_back(c);
-  if (ids.empty()) return visible_corners(asset_az);
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  return ids;
+std::vector<int> mapping_corners(const AssetSpec& asset, const std::array<cv::Point2d, 8>& image_px) {
+  // When the picture shows the box's faces in about the proportions the frame does, its whole outline goes onto
+  // those faces (least squares), so the object fills its projected box. Otherwise only the faces both show are
+  // matched: the picture is not squeezed onto faces it shows much more (or less) of than the frame.
+  const std::vector<Face> shown = facing_faces(asset.box_corners_px);
+  if (shown.empty()) return visible_corners(asset.azimuth_deg);
+  const auto a = face_shares(asset.box_corners_px), b = face_shares(image_px);
+  double mismatch = 0;
+  for (int k = 0; k < 4; ++k) mismatch += std::abs(a[k] - b[k]);
+  if (mismatch <= kMaxShareMismatch) return corners_of(shown);
+  const std::vector<Face> seen = facing_faces(image_px);
+  std::vector<Face> both;
+  for (Face f : shown)
+    if (std::find(seen.begin(), seen.end(), f) != seen.end()) both.push_back(f);
+  return corners_of(both.empty() ? shown : both);
 }
 
-cv::Matx33d asset_homography(const LoadedAsset& a, const std::array<cv::Point2d, 8>& img, double view_az) {
-  const std::vector<int> ids = mapping_corners(a.spec.azimuth_deg, view_az);
+cv::Matx33d asset_homography(const LoadedAsset& a, const std::array<cv::Point2d, 8>& img) {
+  const std::vector<int> ids = mapping_corners(a.spec, img);
   std::vector<cv::Point2f> src, dst;
   for (int i : ids) {
     src.emplace_back(a.spec.box_corners_px[i]);
@@ -138,11 +146,11 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   CompositorState& ex = st;
   CompositeResult r;
   const LoadedAsset& a = *p.asset;
-  const cv::Matx33d H0 = asset_homography(a, p.corners_px, p.view_azimuth_deg);
+  const cv::Matx33d H0 = asset_homography(a, p.corners_px);
   if (cv::norm(H0) < 1e-12) return r;
 
   // Pyramid level: the coarsest one still as tall as the object will be drawn (no aliasing, least work).
-  const std::vector<int> ids = mapping_corners(a.spec.azimuth_deg, p.view_azimuth_deg);
+  const std::vector<int> ids = mapping_corners(a.spec, p.corners_px);
   double sy0 = 1e9, sy1 = -1e9, iy0 = 1e9, iy1 = -1e9;
   for (int i : ids) {
     sy0 = std::min(sy0, a.spec.box_corners_px[i].y);

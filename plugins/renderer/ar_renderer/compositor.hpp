@@ -27,7 +27,6 @@ struct CompositeOptions {
 struct Placement {
   const LoadedAsset* asset = nullptr;
   std::array<cv::Point2d, 8> corners_px;  // the object's projected 3D box (order of box_geometry.hpp)
-  double view_azimuth_deg = 0.0;          // where the camera really is, seen from the object (box_geometry.hpp)
   cv::Point2d velocity_px_s{0, 0};        // image-plane velocity of the object, px/s
   std::vector<cv::Rect2f> occluders;      // boxes of nearer objects, drawn in front of the hazard
 };
@@ -58,13 +57,13 @@ struct CompositeResult {
   }
 };
 
-// The box corners a picture is mapped by: those of the faces both the asset's view and the camera's actual view
-// show (the asset's own faces when they share none).
-std::vector<int> mapping_corners(double asset_azimuth_deg, double view_azimuth_deg);
+// The box corners a picture is mapped by: all faces the picture shows when it shows them in about the proportions
+// the frame does (the faces' shares of the projected area, from the winding of the projected corners, so
+// perspective counts), else the faces both show (the picture's own when they share none).
+std::vector<int> mapping_corners(const AssetSpec& asset, const std::array<cv::Point2d, 8>& image_px);
 // The homography from an asset's level-0 pixels to image pixels, fitted on those corners (4 corners: exact;
 // 6: least squares).
-cv::Matx33d asset_homography(const LoadedAsset& asset, const std::array<cv::Point2d, 8>& corners_px,
-                             double view_azimuth_deg);
+cv::Matx33d asset_homography(const LoadedAsset& asset, const std::array<cv::Point2d, 8>& corners_px);
 
 // Draws the object into `image` (BGR 8-bit, modified in place).
 CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, CompositorState& state);

@@ -1,0 +1,128 @@
+// How often an off-the-shelf detector finds the inserted object: hazards of each class are composited into
+// nuScenes keyframes at several distances and headings, YOLO runs on the augmented frames, and an insertion counts
+// as found when a detection of its class overlaps the inserted box with IoU >= 0.5. Placements whose box already
+// overlaps a real detection of that class in the original frame are skipped, so real objects are not counted.
+//
+//   hf_ar_renderer_detectability [--assets DIR] [--frames N]   (needs $HAZARDFORGE_SHARED)
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <string>
+
+#include "ar_renderer.hpp"
+#include "hazardforge/testing/stage_runner.hpp"
+#include "nuscenes_source.hpp"
+#include "yolo_detector.hpp"
+
+namespace {
+
+using namespace hf;
+using namespace hf::render;
+namespace fs = std::filesystem;
+
+double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
+  const double i = (a & b).area();
+  return i > 0 ? i / (a.area() + b.area() - i) : 0.0;
+}
+
+bool same_class(const std::string& hazard, const std::string& label) {
+  if (hazard == "person") return label == "person";
+  return label == "car" || label == "truck" || label == "bus";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fs::path assets;
+  int n_frames = 6;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--assets" && i + 1 < argc) {
+      assets = argv[++i];
+    } else if (a == "--frames" && i + 1 < argc) {
+      n_frames = std::atoi(argv[++i]);
+    } else {
+      std::cerr << "usage: hf_ar_renderer_detectability [--assets DIR] [--frames N]\n";
+      return 2;
+    }
+  }
+  try {
+    const std::string shared = shared_root();
+    if (shared.empty()) throw Error("set HAZARDFORGE_SHARED to the shared data folder");
+    auto src = testing::StageRunner::create<source::NuScenesSource>("dataroot: " + shared +
+                                                                    "/data/nuscenes\nscenes: [scene-0916]");
+    src.run();
+    const auto frames = src.collect<Frame>("frames");
+    auto yolo = testing::StageRunner::create<YoloDetector>(
+        "model: " + shared + "/models/yolov8n/yolov8n_deq_640x384.onnx\nconf_threshold: 0.3");
+    double clock = 0;  // the harness wants increasing timestamps
+    auto detect = [&](const Frame& f) {
+      yolo.push("frames", f, clock += 1.0);
+      yolo.run(false);
+      return yolo.outputs("detections").back().get<Detections>();
+    };
+    const fs::path defaults = fs::path(share_dir()) / "assets";
+    auto lib = std::make_shared<const AssetLibrary>(
+        AssetLibrary::load(assets.empty() ? defaults : assets, assets.empty() ? fs::path() : defaults));
+    struct Cell {
+      int tried = 0, found = 0;
+      double iou_sum = 0;
+    };
+    std::map<std::string, Cell> table;
+    const double headings[3] = {0.0, CV_PI, CV_PI / 2};
+    const char* heading_names[3] = {"away", "oncoming", "crossing"};
+    for (int fi = 0; fi < n_frames; ++fi) {
+      const Frame& f = frames[static_cast<size_t>(fi) * (frames.size() - 1) / std::max(1, n_frames - 1)];
+      const Detections original = detect(f);
+      for (const std::string cls : {"car", "person"})
+        for (double dist : {8.0, 12.0, 20.0, 30.0})
+          for (int h = 0; h < 3; ++h) {
+            HazardTrajectory t;
+            t.kind = "detectability";
+            t.object_class = cls;
+            t.size_lwh = cls == "person" ? cv::Vec3d(0.5, 0.6, 1.7) : cv::Vec3d(4.5, 1.85, 1.52);
+            t.anchor_time = f.timestamp;
+            t.points = {{f.timestamp - 1, dist, 0.5, headings[h], 0, 0}, {f.timestamp + 1, dist, 0.5, headings[h], 0, 0}};
+            RendererOptions o;
+            o.ego.mode = EgoMotionMode::kPoses;
+            HazardRenderer r(o, lib);
+            const auto res = r.render(f, std::make_shared<const HazardTrajectory>(t), {});
+            if (!res.hazard.visible) continue;
+            bool real = false;
+            for (const auto& d : original.items)
+              real |= same_class(cls, d.label) && iou(d.box, res.hazard.box) > 0.3;
+            if (real) continue;
+            Frame aug = f;
+            aug.image = res.frame.image;
+            double best = 0;
+            for (const auto& d : detect(aug).items)
+              if (same_class(cls, d.label)) best = std::max(best, iou(d.box, res.hazard.box));
+            char key[64];
+            std::snprintf(key, sizeof key, "%-6s %-8s %4.0f m", cls.c_str(), heading_names[h], dist);
+            Cell& c = table[key];
+            ++c.tried;
+            c.found += best >= 0.5;
+            c.iou_sum += best;
+          }
+      std::cerr << "frame " << f.index << " done\n";
+    }
+    std::printf("| class | heading | distance | insertions | found (IoU >= 0.5) | mean best IoU |\n|---|---|---:|---:|---:|---:|\n");
+    int tried = 0, found = 0;
+    for (const auto& [k, c] : table) {
+      char cls[8], head[10];
+      double d = 0;
+      std::sscanf(k.c_str(), "%7s %9s %lf", cls, head, &d);
+      std::printf("| %s | %s | %.0f m | %d | %d | %.2f |\n", cls, head, d, c.tried, c.found, c.iou_sum / c.tried);
+      tried += c.tried;
+      found += c.found;
+    }
+    std::printf("| all | | | %d | %d (%.0f %%) | |\n", tried, found, tried ? 100.0 * found / tried : 0.0);
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "hf_ar_renderer_detectability: " << e.what() << "\n";
+    return 1;
+  }
+}
