@@ -80,7 +80,8 @@ TEST(PaperEndToEnd, Scene0916ScenarioPassesVerification) {
   EXPECT_TRUE(v["unsafe"]["reached"].get<bool>());
   EXPECT_LT(v["ttc"]["achieved_min_ttc_s"].get<double>(), 1.5);
   // The Unsafe verdict comes from the inserted object, not from something else in the scene.
-  EXPECT_GE(v["hazard_critical_frames"].get<int>(), 1);
+  EXPECT_TRUE(v["criteria"]["require_hazard_critical"].get<bool>());
+  EXPECT_GE(v["unsafe"]["hazard_critical_frames"].get<int>(), 1);
   EXPECT_GE(v["distance"]["matched_frames"].get<int>(), 1);
   EXPECT_TRUE(std::isfinite(v["distance"]["median_abs_error_m"].get<double>()));
 

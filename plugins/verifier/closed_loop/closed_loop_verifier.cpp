@@ -79,6 +79,9 @@ ComponentInfo ClosedLoopVerifier::describe() {
           .describe("pass: share of visible frames in which the object is re-detected"),
       ParamSpec::boolean("require_unsafe", true)
           .describe("pass: some frame is Unsafe while the hazard is visible"),
+      ParamSpec::boolean("require_hazard_critical", false)
+          .describe("pass: in some visible Unsafe frame the inserted object is the TTC metric's critical "
+                    "track (the Unsafe verdict is caused by the hazard, not by another road user)"),
       ParamSpec::boolean("require_class_match", true)
           .describe("a re-detection must have the inserted class (car/truck/bus and bicycle/motorcycle "
                     "interchangeable)"),
@@ -112,6 +115,7 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
   min_iou_ = p.get_double("min_iou");
   min_rate_ = p.get_double("min_redetection_rate");
   require_unsafe_ = p.get_bool("require_unsafe");
+  require_critical_ = p.get_bool("require_hazard_critical");
   require_class_match_ = p.get_bool("require_class_match");
   ttc_metric_ = p.get_string("ttc_metric");
   unsafe_metrics_ = p.get_strings("unsafe_metrics");
@@ -250,7 +254,13 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
       ++unsafe_frames_;
       if (!first_unsafe_frame_) first_unsafe_frame_ = frame;
     }
-    if (rec["hazard_is_critical"].get<bool>()) ++critical_frames_;
+    if (rec["hazard_is_critical"].get<bool>()) {
+      ++critical_frames_;
+      if (unsafe) {
+        ++unsafe_critical_frames_;
+        if (!first_unsafe_critical_frame_) first_unsafe_critical_frame_ = frame;
+      }
+    }
   }
   out.emit("records", Record{"verification", std::move(rec)});
 }
@@ -273,6 +283,15 @@ Json ClosedLoopVerifier::summary() const {
                                                    : "minimum scene TTC " + num(achieved_min_ttc_) + " s";
     reasons.push_back("the scene never becomes Unsafe while the hazard is visible (" + why + ")");
   }
+  if (require_critical_ && visible_ > 0 && first_unsafe_frame_ && !first_unsafe_critical_frame_)
+    reasons.push_back("the inserted object is the critical track in none of the " +
+                      std::to_string(unsafe_frames_) +
+                      " Unsafe visible frames (another road user made them Unsafe)");
+  else if (require_critical_ && visible_ > 0 && !first_unsafe_frame_ && !require_unsafe_)
+    reasons.push_back(
+        "the scene never becomes Unsafe while the hazard is visible, so the inserted object is never "
+        "the cause (minimum scene TTC " +
+        num(achieved_min_ttc_) + " s)");
   const double ttc_err = std::abs(achieved_min_ttc_ - intended);
   if (max_ttc_error_ >= 0 && visible_ > 0) {
     if (!std::isfinite(achieved_min_ttc_) || !std::isfinite(intended))
@@ -299,6 +318,9 @@ Json ClosedLoopVerifier::summary() const {
   j["unsafe"] = {{"reached", first_unsafe_frame_.has_value()},
                  {"first_frame", first_unsafe_frame_ ? Json(*first_unsafe_frame_) : Json()},
                  {"frames", unsafe_frames_},
+                 {"hazard_critical_frames", unsafe_critical_frames_},
+                 {"first_hazard_critical_frame",
+                  first_unsafe_critical_frame_ ? Json(*first_unsafe_critical_frame_) : Json()},
                  {"metrics", unsafe_by_}};
   j["redetection"] = {{"min_iou", min_iou_},
                       {"redetected_frames", redetected_},
@@ -318,6 +340,7 @@ Json ClosedLoopVerifier::summary() const {
   j["criteria"] = {{"min_iou", min_iou_},
                    {"min_redetection_rate", min_rate_},
                    {"require_unsafe", require_unsafe_},
+                   {"require_hazard_critical", require_critical_},
                    {"require_class_match", require_class_match_},
                    {"max_ttc_error_s", max_ttc_error_}};
   if (near_face_ && !length_ && !dist_abs_.empty())

@@ -19,8 +19,9 @@ namespace hf {
 // Output: `records` (Record "verification" per frame with a hazard packet, stamped with that frame; and one
 // "verification_summary" at finish, stamped with the last frame). Writes <output>/verification.json at finish
 // (atomic). A scenario counts as generated only when `passed` is true; `reasons` says why not.
-// Params: min_iou, min_redetection_rate, require_unsafe, require_class_match, ttc_metric, unsafe_metrics,
-// max_ttc_error_s, state_distance_origin, ego_front_m, intended_distance_at, file.
+// Params: min_iou, min_redetection_rate, require_unsafe, require_hazard_critical, require_class_match,
+// ttc_metric, unsafe_metrics, max_ttc_error_s, state_distance_origin, ego_front_m, intended_distance_at,
+// file.
 class ClosedLoopVerifier : public Stage {
  public:
   static ComponentInfo describe();
@@ -36,7 +37,7 @@ class ClosedLoopVerifier : public Stage {
   double origin_offset(StageContext& ctx, const Inputs& in) const;
   // Params
   double min_iou_ = 0.5, min_rate_ = 0.5, max_ttc_error_ = -1;
-  bool require_unsafe_ = true, require_class_match_ = true;
+  bool require_unsafe_ = true, require_class_match_ = true, require_critical_ = false;
   std::string ttc_metric_;
   std::vector<std::string> unsafe_metrics_;
   std::string file_, state_origin_;
@@ -44,6 +45,8 @@ class ClosedLoopVerifier : public Stage {
   bool near_face_ = true;
   // Accumulated over the run
   int frames_ = 0, visible_ = 0, redetected_ = 0, unsafe_frames_ = 0, critical_frames_ = 0;
+  int unsafe_critical_frames_ = 0;  // visible, Unsafe, and the inserted object is the TTC's critical track
+  std::optional<int64_t> first_unsafe_critical_frame_;
   std::vector<double> ious_, scores_, dist_abs_, dist_rel_;
   double achieved_min_ttc_ = kInf, intended_visible_min_ = kInf;
   std::optional<int64_t> achieved_at_frame_, first_unsafe_frame_;

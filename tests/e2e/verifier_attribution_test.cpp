@@ -1,0 +1,80 @@
+// The verifier's attribution of an Unsafe verdict: counted only when the inserted object is the TTC metric's
+// critical track, and required with require_hazard_critical.
+#include <gtest/gtest.h>
+
+#include "closed_loop_verifier.hpp"
+#include "hazardforge/testing/stage_runner.hpp"
+
+namespace hf {
+namespace {
+
+// Three visible frames: the inserted person is re-detected and tracked as track 4 at the box; frame 2 is
+// Unsafe (TTC 1.1 s) with `critical` as the metric's critical track.
+Json run_verifier(const std::string& params, int64_t critical) {
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>(params);
+  HazardTrajectory tr;
+  tr.kind = "pedestrian_crossing";
+  tr.object_class = "person";
+  tr.intended_min_ttc_s = 0.1;
+  r.push("trajectory", tr, 0.0);
+  const cv::Rect2f box(100, 100, 50, 100);
+  for (int i = 0; i < 3; ++i) {
+    const double t = 0.5 * i;
+    HazardInstance h;
+    h.frame_index = i;
+    h.visible = true;
+    h.kind = "pedestrian_crossing";
+    h.object_class = "person";
+    h.box = box;
+    h.distance_m = 10.0 - 2 * i;
+    h.intended_ttc_s = 2.0 - 0.5 * i;
+    r.push("hazard", h, t);
+    Detections d;
+    d.frame_index = i;
+    d.items.push_back(Detection{box, 0, "person", 0.8f});
+    r.push("detections", d, t);
+    ObjectStates s;
+    s.frame_index = i;
+    ObjectState o;
+    o.track_id = 4;
+    o.label = "person";
+    o.box = box;
+    o.distance_m = h.distance_m;
+    s.objects.push_back(o);
+    r.push("states", s, t);
+    RiskAssessment risk;
+    risk.frame_index = i;
+    risk.metric = "ttc";
+    risk.unit = "s";
+    risk.scene_value = i == 2 ? 1.1 : 3.0;
+    risk.critical_track = i == 2 ? critical : 4;
+    risk.label = i == 2 ? SafetyLabel::kUnsafe : SafetyLabel::kSafe;
+    r.push("risk", risk, t, "ttc");
+  }
+  r.run();
+  return r.collect<Record>("records").back().data;
+}
+
+TEST(VerifierAttribution, UnsafeCausedByTheInsertedObjectIsCounted) {
+  const Json s = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 4);
+  EXPECT_TRUE(s["passed"].get<bool>()) << s.dump(2);
+  EXPECT_EQ(s["unsafe"]["frames"], 1);
+  EXPECT_EQ(s["unsafe"]["hazard_critical_frames"], 1);
+  EXPECT_EQ(s["unsafe"]["first_hazard_critical_frame"], 2);
+  EXPECT_EQ(s["criteria"]["require_hazard_critical"], true);
+}
+
+TEST(VerifierAttribution, UnsafeCausedBySomeoneElseFailsWhenRequired) {
+  // Another road user (track 9) is critical in the only Unsafe frame.
+  const Json lenient = run_verifier("{state_distance_origin: ego_origin}", 9);
+  EXPECT_TRUE(lenient["passed"].get<bool>());                 // the default does not ask who caused it ...
+  EXPECT_EQ(lenient["unsafe"]["hazard_critical_frames"], 0);  // ... but reports it
+  const Json strict = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 9);
+  EXPECT_FALSE(strict["passed"].get<bool>());
+  EXPECT_EQ(strict["reasons"],
+            Json::array({"the inserted object is the critical track in none of the 1 Unsafe visible frames "
+                         "(another road user made them Unsafe)"}));
+}
+
+}  // namespace
+}  // namespace hf
