@@ -3,6 +3,7 @@
 // rate, which stays close to the dataset's poses over a hazard's typical lifetime.
 #include <gtest/gtest.h>
 
+#include <iostream>
 #include <map>
 
 #include "ego_motion.hpp"

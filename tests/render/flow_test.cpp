@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 
 #include "ar_renderer.hpp"
 #include "ego_motion.hpp"
@@ -50,6 +51,8 @@ TEST(FlowEgoMotion, RecoversAKnownForwardTranslation) {
   ASSERT_TRUE(m.ok) << m.why;
   EXPECT_GT(m.inliers, 100);
   const cv::Vec3d step = ego_step(m);
+  std::cout << "forward 1 m: estimated (" << step[0] << ", " << step[1] << ") m, yaw " << step[2] * 180 / CV_PI
+            << " deg, " << m.inliers << " inliers of " << m.tracked << " tracks\n";
   EXPECT_NEAR(step[0], 1.0, kTransTol);
   EXPECT_NEAR(step[1], 0.0, kTransTol);
   EXPECT_NEAR(step[2] * 180 / CV_PI, 0.0, kYawTolDeg);
@@ -63,6 +66,8 @@ TEST(FlowEgoMotion, RecoversTranslationWithYawOnAPitchedCamera) {
   const PlanarMotion m = flow.estimate(a, b, cam, {});
   ASSERT_TRUE(m.ok) << m.why;
   const cv::Vec3d step = ego_step(m);
+  std::cout << "0.8 m + 0.05 m left + 1.5 deg: estimated (" << step[0] << ", " << step[1] << ") m, yaw "
+            << step[2] * 180 / CV_PI << " deg, " << m.inliers << " inliers of " << m.tracked << " tracks\n";
   // Expected: the displacement (0.8, 0.05) expressed in the previous ego frame (yaw 0 there), and the turn.
   EXPECT_NEAR(step[0], 0.8, kTransTol);
   EXPECT_NEAR(step[1], 0.05, kTransTol);
@@ -106,6 +111,8 @@ TEST(FlowEgoMotion, AnchorsAHazardWithoutPoses) {
     auto res = r.render(hf::test::make_frame(k, k * 0.1, road().at(cam, k * 1.0, 0.0, 0.0), cam), traj, {});
     EXPECT_EQ(r.ego().last_source(), "flow") << "frame " << k;
     ASSERT_TRUE(res.hazard.visible);
+    std::cout << "frame " << k << ": distance " << res.hazard.distance_m << " m (true " << 30.0 - k
+              << "), lateral " << res.hazard.lateral_m << " m (true 2)\n";
     // Errors accumulate like a random walk of the per-frame tolerance.
     EXPECT_NEAR(res.hazard.distance_m, 30.0 - k, kTransTol * std::max(1, k)) << "frame " << k;
     EXPECT_NEAR(res.hazard.lateral_m, 2.0, kTransTol * std::max(1, k)) << "frame " << k;

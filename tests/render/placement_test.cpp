@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 
 #include "ar_renderer.hpp"
 #include "box_geometry.hpp"
@@ -130,6 +131,8 @@ TEST(Placement, PixelHeightScalesExactlyWithInverseDistance) {
     // h = f * (share * H) / Z: the drawn outline is the real height's projection, to a fraction of a pixel
     // (bilinear resampling and the pyramid level blur the outline's edge rows a little).
     const double expected = 1266 * 1.52 * share / depth[i];
+    std::cout << "rear face at " << depth[i] << " m: drawn height " << height[i] << " px, f*H/Z " << expected
+              << " px\n";
     EXPECT_NEAR(height[i], expected, 0.3) << "depth " << depth[i];
   }
   // So h * Z is the same constant at every distance.
