@@ -47,19 +47,14 @@ std::vector<double> natural_spline(const std::vector<double>& t, const std::vect
   return m;
 }
 
-struct SplineValue {
-  double p;
-};
-
-SplineValue eval_spline(const std::vector<double>& t, const std::vector<double>& v,
-                        const std::vector<double>& m, double x) {
+// Value of that spline at x (clamped to the end segments).
+double eval_spline(const std::vector<double>& t, const std::vector<double>& v, const std::vector<double>& m,
+                   double x) {
   size_t i = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), x) - t.begin());
   i = std::clamp<size_t>(i, 1, t.size() - 1) - 1;
   const double h = t[i + 1] - t[i];
   const double a = (t[i + 1] - x) / h, b = (x - t[i]) / h;
-  SplineValue r;
-  r.p = a * v[i] + b * v[i + 1] + ((a * a * a - a) * m[i] + (b * b * b - b) * m[i + 1]) * h * h / 6;
-  return r;
+  return a * v[i] + b * v[i + 1] + ((a * a * a - a) * m[i] + (b * b * b - b) * m[i + 1]) * h * h / 6;
 }
 
 double number_field(const Json& e, const char* field, const std::string& where, size_t k) {
@@ -116,7 +111,7 @@ EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double ancho
   i = std::clamp<size_t>(i, 1, t.size() - 1) - 1;
   const double u = (ta - t[i]) / (t[i + 1] - t[i]);
   const double yaw0 = track[i].yaw + u * wrap(track[i + 1].yaw - track[i].yaw);
-  const double x0 = eval_spline(t, x, mx, ta).p, y0 = eval_spline(t, y, my, ta).p;
+  const double x0 = eval_spline(t, x, mx, ta), y0 = eval_spline(t, y, my, ta);
   const double c = std::cos(yaw0), s = std::sin(yaw0);
 
   EgoPath p;
@@ -126,8 +121,8 @@ EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double ancho
   std::vector<double> tk(n), wx(n), wy(n);
   for (int k = 0; k < n; ++k) {
     tk[k] = k + 1 == n ? t.back() : t.front() + k * step;
-    wx[k] = eval_spline(t, x, mx, tk[k]).p;
-    wy[k] = eval_spline(t, y, my, tk[k]).p;
+    wx[k] = eval_spline(t, x, mx, tk[k]);
+    wy[k] = eval_spline(t, y, my, tk[k]);
   }
   // Pose noise of a few centimetres makes the interpolating spline's curvature wiggle between the samples; a
   // path offset sideways (an adjacent lane) turns that into jerk spikes. A Gaussian along time removes it;
