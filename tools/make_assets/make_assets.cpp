@@ -284,7 +284,7 @@ Model make_car() {
   m.instance = "car_default";
   m.size_lwh = {4.50, 1.85, 1.52};
   const int paint = m.material({0.14, 0.11, 0.55}, 0.35);  // metallic red
-  const int glass = m.material({0.15, 0.13, 0.12}, 0.6);
+  const int glass = m.material({0.06, 0.06, 0.06}, 0.7);
   const int trim = m.material({0.10, 0.10, 0.11}, 0.08);
   const int tail = m.material({0.12, 0.10, 0.85}, 0.3, 0.45);
   const int head = m.material({0.82, 0.92, 0.95}, 0.4, 0.45);
@@ -307,8 +307,10 @@ Model make_car() {
   };
   const Convex& body = m.convex(body_planes, paint);
 
-  const Plane windscreen = pl({0.53, 0, 1}, 1.5265, glass), rear_window = pl({-0.8, 0, 1}, 2.38, glass);
-  const Plane left = pl({0, 1, 0.327}, 1.171, glass), right = pl({0, -1, 0.327}, 1.171, glass);
+  // Windscreen from (x 1.15, z 0.97) to (0.30, 1.50); rear window from (-1.45, 0.98) to (-0.85, 1.50), leaving a
+  // trunk deck; side glass leaning in from |y| 0.86 at the belt to 0.62 at the roof.
+  const Plane windscreen = pl({0.624, 0, 1}, 1.6876, glass), rear_window = pl({-0.867, 0, 1}, 2.237, glass);
+  const Plane left = pl({0, 1, 0.436}, 1.274, glass), right = pl({0, -1, 0.436}, 1.274, glass);
   const std::vector<Plane> cabin_planes = {pl({0, 0, -1}, -0.95), pl({0, 0, 1}, 1.52, paint), windscreen,
                                            rear_window, left, right};
   const Convex& cabin = m.convex(cabin_planes, glass);
@@ -324,6 +326,7 @@ Model make_car() {
   band(0.010, {pl({-1, 0, 0}, 1.95), pl({0, 0, 1}, 0.50)}, trim);                              // front bumper
   band(0.010, {pl({1, 0, 0}, -1.95), pl({0, 0, 1}, 0.50)}, trim);                              // rear bumper
   band(0.005, {pl({0, 0, 1}, 0.36)}, trim);                                                    // sills
+  band(0.004, {pl({1, 0, 0}, -2.05), pl({0, 0, -1}, -0.875), pl({0, 0, 1}, 0.89)}, trim);      // trunk lid gap
   for (double sy : {1.0, -1.0}) {
     band(0.014, {pl({1, 0, 0}, -2.02), pl({0, 0, -1}, -0.70), pl({0, 0, 1}, 0.86), pl({0, -sy, 0}, -0.45)}, tail);
     band(0.014, {pl({-1, 0, 0}, -2.00), pl({0, 0, -1}, -0.62), pl({0, 0, 1}, 0.74), pl({0, -sy, 0}, -0.47)}, head);
@@ -464,7 +467,7 @@ Camera view_camera(const Model& m, double azimuth_deg, cv::Size& size) {
 
 // Sky light from above, a fill light from the viewer's side and a key light from the front-left, so every
 // visible face is readable; glass and paint reflect the sky.
-Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray) {
+Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray, double z) {
   const Material& mat = m.materials[static_cast<size_t>(h.material)];
   Vec3d n = h.n;
   if (n.dot(ray) > 0) n = -n;
@@ -472,11 +475,15 @@ Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray) {
   const double sky = 0.5 + 0.5 * n[2];
   const double fill = std::max(0.0, -n.dot(ray));
   const double lambert = std::max(0.0, n.dot(key));
-  const double light = 0.22 + 0.30 * sky + 0.25 * fill + 0.35 * lambert;
+  // Ambient occlusion by height: surfaces near the ground see less sky.
+  const double ao = 0.65 + 0.35 * std::clamp(z / 0.9, 0.0, 1.0);
+  const double light = ao * (0.22 + 0.30 * sky + 0.25 * fill + 0.35 * lambert);
   Vec3d col = mat.albedo * (light * (1 - mat.emissive) + mat.emissive);
+  // Sky reflection, stronger at grazing angles (Schlick's Fresnel term).
   const Vec3d refl = ray - 2 * ray.dot(n) * n;
-  const double sky_refl = std::pow(std::max(0.0, refl[2]), 2.0);
-  col += Vec3d(0.95, 0.85, 0.78) * (mat.specular * 0.45 * sky_refl);
+  const double sky_refl = std::pow(std::max(0.0, refl[2]), 1.5);
+  const double fresnel = 0.25 + 0.75 * std::pow(1.0 - std::max(0.0, -n.dot(ray)), 5.0);
+  col += Vec3d(0.95, 0.88, 0.82) * (mat.specular * 0.5 * fresnel * sky_refl);
   for (int k = 0; k < 3; ++k) col[k] = std::clamp(col[k], 0.0, 1.0);
   return col;
 }
@@ -496,7 +503,7 @@ cv::Mat render(const Model& m, const Camera& cam, cv::Size size) {
           Hit hit;
           for (const auto& s : m.shapes) s->intersect(cam.pos, d, hit);
           if (hit.material < 0) continue;
-          const Vec3d c = shade(m, hit, d);
+          const Vec3d c = shade(m, hit, d, cam.pos[2] + hit.t * d[2]);
           sum += cv::Vec4d(c[0], c[1], c[2], 1.0);
         }
       acc.at<cv::Vec4d>(y, x) = sum / double(kSuper * kSuper);

@@ -84,7 +84,13 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_
   res.ego_seconds = seconds_since(t0);
 
   if (traj != traj_) {
-    if (traj) start_hazard(*traj);
+    if (traj) {
+      const auto tp = std::chrono::steady_clock::now();
+      start_hazard(*traj);
+      // All views of the class now, so no frame of the hazard pays for preparing a picture.
+      if (!assets_->classes().empty()) assets_->prepare_class(traj->object_class);
+      res.prepare_seconds = seconds_since(tp);
+    }
     traj_ = traj;
   }
   if (!traj_) return res;
@@ -306,6 +312,7 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   HazardRenderer::Result r = renderer_->render(f, traj, occ);
   for (const auto& w : renderer_->take_warnings()) ctx.log(LogLevel::kWarning, w);
   ctx.record_timing("ego_motion", r.ego_seconds);
+  if (r.prepare_seconds > 0) ctx.record_timing("asset_prepare", r.prepare_seconds);
   if (r.hazard.visible || r.composite_seconds > 0) ctx.record_timing("composite", r.composite_seconds);
   out.emit("frames", std::move(r.frame));
   out.emit("hazard", std::move(r.hazard));

@@ -42,6 +42,7 @@ class HazardRenderer {
     HazardInstance hazard;   // where the hazard is in this frame
     CompositeResult composite;
     std::string asset_file;  // the picture used, empty when nothing was drawn
+    double prepare_seconds = 0;    // time spent preparing a new hazard's pictures (once per hazard)
     double ego_seconds = 0;        // time spent on ego motion
     double composite_seconds = 0;  // time spent placing and drawing
   };

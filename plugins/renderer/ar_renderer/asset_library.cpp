@@ -358,15 +358,23 @@ const LoadedAsset& AssetLibrary::select(const std::string& cls, double az, const
     throw Error("no appearance asset for class '" + cls + "' in " + describe_folders() + " (classes available: " +
                 (have.empty() ? "none" : have) + ")");
   }
+  return prepared(static_cast<size_t>(pick));
+}
+
+const LoadedAsset& AssetLibrary::prepared(size_t i) const {
   std::lock_guard<std::mutex> lock(cache_->mutex);
-  auto& slot = cache_->prepared[static_cast<size_t>(pick)];
+  auto& slot = cache_->prepared[i];
   if (!slot) {
-    const size_t i = static_cast<size_t>(pick);
     slot = std::make_unique<LoadedAsset>(prepare_asset(specs_[i], pictures_[i]));
     slot->dir = dirs_[i];
     slot->from_fallback = fallback_[i];
   }
   return *slot;
+}
+
+void AssetLibrary::prepare_class(const std::string& cls) const {
+  for (size_t i = 0; i < specs_.size(); ++i)
+    if (specs_[i].object_class == cls) (void)prepared(i);
 }
 
 }  // namespace hf::render

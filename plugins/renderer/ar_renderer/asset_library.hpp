@@ -81,12 +81,15 @@ class AssetLibrary {
   // Throws hf::Error naming the class and the classes available when there is none. Thread-safe.
   const LoadedAsset& select(const std::string& object_class, double azimuth_deg, const std::string& instance,
                             double max_view_error_deg) const;
+  // Prepares every asset of a class now (otherwise each is prepared when first selected). Thread-safe.
+  void prepare_class(const std::string& object_class) const;
   std::vector<std::string> classes() const;
   const std::vector<AssetSpec>& specs() const { return specs_; }
   std::string describe_folders() const;
 
  private:
   struct Cache;
+  const LoadedAsset& prepared(size_t i) const;
   std::vector<AssetSpec> specs_;
   std::vector<std::filesystem::path> dirs_;
   std::vector<bool> fallback_;
