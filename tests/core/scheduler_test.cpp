@@ -1,6 +1,8 @@
 // The threaded scheduler: order, timestamps, sparse and sticky streams, failures and interruption.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <fstream>
 
 #include "hazardforge/core/host.hpp"
@@ -10,8 +12,15 @@
 namespace hf::core {
 namespace {
 
+// Each test gets its own folder: ctest runs the tests as concurrent processes.
+std::filesystem::path test_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  return std::filesystem::temp_directory_path() / "hf_sched_test" /
+         (std::string(info->name()) + "_" + std::to_string(::getpid()));
+}
+
 Graph graph_of(ComponentRegistry& reg, const std::string& yaml) {
-  auto dir = std::filesystem::temp_directory_path() / "hf_sched_test";
+  auto dir = test_dir();
   std::filesystem::create_directories(dir);
   auto p = dir / "g.yaml";
   std::ofstream(p) << yaml;
@@ -20,7 +29,7 @@ Graph graph_of(ComponentRegistry& reg, const std::string& yaml) {
 
 RunOptions quiet_options(const std::string& name) {
   RunOptions o;
-  o.output_dir = std::filesystem::temp_directory_path() / "hf_sched_test" / name;
+  o.output_dir = test_dir() / name;
   o.quiet = true;
   return o;
 }
