@@ -5,8 +5,7 @@
 #include <string>
 #include <vector>
 
-#include <opencv2/videoio.hpp>
-
+#include "hazardforge/sink/video_file_writer.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::sink {
@@ -15,8 +14,9 @@ namespace hf::sink {
 // `risk` (RiskAssessment), optional `detections` (Detections). No outputs.
 // Timestamps: the video's frame rate is `fps`, or the median spacing of the first frames' timestamps.
 // The file is written as <stem>.partial<ext> and renamed in finish(), so a finished run never leaves a
-// half-written video under the final name. H.264 (avc1) is tried first, then MPEG-4 Part 2 (mp4v).
-// Params: file, fps, codec, png_every, png_dir, thickness.
+// half-written video under the final name. H.264 (avc1) is tried first, then MPEG-4 Part 2 (mp4v); H.264 goes
+// through the ffmpeg program (VideoFileWriter) so encoding is cheap, bounded per frame and controllable.
+// Params: file, fps, codec, png_every, png_dir, thickness, encoder, preset, threads, crf.
 class AnnotatedVideoSink : public Stage {
  public:
   static ComponentInfo describe();
@@ -28,14 +28,16 @@ class AnnotatedVideoSink : public Stage {
 
  private:
   void start_writer(StageContext& ctx);
-  void write(const cv::Mat& img);
+  void write(StageContext& ctx, const cv::Mat& img);
 
-  std::filesystem::path file_, partial_, png_dir_;
+  std::filesystem::path file_, png_dir_;
   double fps_param_ = 0;
   std::string codec_param_, codec_;
   int png_every_ = 0;
   int thickness_ = 2;
-  cv::VideoWriter writer_;
+  std::string encoder_, preset_;
+  int threads_ = 1, crf_ = 23;
+  VideoFileWriter writer_;
   cv::Size size_;
   // Frames held back until the frame rate is known from their timestamps.
   std::vector<cv::Mat> pending_;

@@ -1,6 +1,7 @@
 // The side_by_side sink: original | augmented composites written as H.264 (or MPEG-4) video and PNG stills.
 #include "side_by_side_sink.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 
@@ -39,8 +40,10 @@ ComponentInfo SideBySideSink::describe() {
   i.summary = "writes original and augmented frames side by side (before_after.mp4) and PNG stills";
   i.doc =
       "Each frame pair becomes one labelled picture (original left or top, augmented right or bottom). The video "
-      "is H.264 ('avc1') when OpenCV's FFmpeg backend has an encoder for it, else MPEG-4 ('mp4v'); it is written "
-      "under a temporary name and renamed when the stream ends, so an interrupted run keeps a playable file.";
+      "is H.264 ('avc1'), written by piping the frames to the `ffmpeg` program (libx264, `preset`, `threads`, "
+      "`crf`, no lookahead) or, when ffmpeg is missing, by OpenCV's VideoWriter (with a warning); MPEG-4 "
+      "('mp4v') when no H.264 encoder exists. It is written under a temporary name and renamed when the stream "
+      "ends, so an interrupted run keeps a playable file.";
   i.inputs = {port<Frame>("original", "frames before augmentation"),
               port<Frame>("augmented", "the same frames after augmentation"),
               optional(port<HazardInstance>("hazard", "where the hazard is (outlined when draw_hazard_box)"))};
@@ -55,6 +58,15 @@ ComponentInfo SideBySideSink::describe() {
       ParamSpec::string("stills_dir", "stills").describe("folder for stills; relative = below the run's output folder"),
       ParamSpec::number("stills_scale", 0.5).range(0.05, 2.0).describe("scale of each half in the stills"),
       ParamSpec::boolean("draw_hazard_box", false).describe("outline the inserted object on the augmented half"),
+      ParamSpec::string("encoder", "ffmpeg")
+          .one_of({"ffmpeg", "opencv"})
+          .describe("H.264 writer: the ffmpeg program (falls back to opencv with a warning when missing) or "
+                    "OpenCV's VideoWriter"),
+      ParamSpec::string("preset", "ultrafast")
+          .one_of(sink::x264_presets())
+          .describe("x264 preset (ffmpeg encoder): slower presets make smaller files and cost more CPU per frame"),
+      ParamSpec::integer("threads", 1).range(0, 64).describe("x264 encoder threads (ffmpeg encoder; 0 = one per core)"),
+      ParamSpec::integer("crf", 23).range(0, 51).describe("x264 constant rate factor (ffmpeg encoder): lower = better"),
   };
   return i;
 }
@@ -64,7 +76,6 @@ void SideBySideSink::open(StageContext& ctx) {
   const fs::path file = p.get_string("file");
   if (file.empty() || file.extension() != ".mp4") throw Error("file '" + file.string() + "' must end in .mp4");
   file_ = below(ctx.output_dir(), file);
-  tmp_file_ = file_.parent_path() / (file_.stem().string() + ".partial.mp4");
   stills_dir_ = below(ctx.output_dir(), p.get_string("stills_dir"));
   fps_ = p.get_double("fps");
   fourcc_ = p.get_string("fourcc");
@@ -76,6 +87,10 @@ void SideBySideSink::open(StageContext& ctx) {
   if (labels_.size() != 2) throw Error("labels must list two captions (original, augmented)");
   for (long long s : p.get_ints("stills")) stills_.insert(s);
   draw_box_ = p.get_bool("draw_hazard_box");
+  encoder_ = p.get_string("encoder");
+  preset_ = p.get_string("preset");
+  threads_ = static_cast<int>(p.get_int("threads"));
+  crf_ = static_cast<int>(p.get_int("crf"));
 }
 
 cv::Mat SideBySideSink::compose(const Frame& a, const Frame& b, const HazardInstance* hz, double scale) const {
@@ -113,17 +128,26 @@ cv::Mat SideBySideSink::compose(const Frame& a, const Frame& b, const HazardInst
 }
 
 void SideBySideSink::open_writer(StageContext& ctx, double fps, cv::Size size) {
-  fs::create_directories(file_.parent_path());
-  for (const std::string& cc : {fourcc_, std::string("mp4v")}) {
-    writer_.open(tmp_file_.string(), cv::VideoWriter::fourcc(cc[0], cc[1], cc[2], cc[3]), fps, size);
-    if (writer_.isOpened()) {
-      codec_ = cc;
-      if (cc != fourcc_)
-        ctx.log(LogLevel::kWarning, "side_by_side: no '" + fourcc_ + "' encoder, writing '" + cc + "' instead");
-      return;
-    }
-  }
-  throw Error("cannot open a video writer for '" + tmp_file_.string() + "' with '" + fourcc_ + "' or 'mp4v'");
+  sink::VideoWriterOptions o;
+  o.file = file_;
+  o.fps = fps;
+  o.size = size;
+  o.codecs = {fourcc_};
+  if (fourcc_ != "mp4v") o.codecs.push_back("mp4v");
+  o.encoder = encoder_;
+  o.preset = preset_;
+  o.threads = threads_;
+  o.crf = crf_;
+  writer_.open(o, [&](const std::string& w) { ctx.log(LogLevel::kWarning, "side_by_side: " + w); });
+  codec_ = writer_.codec();
+  ctx.log(LogLevel::kInfo, "side_by_side: " + writer_.description());
+}
+
+void SideBySideSink::write(StageContext& ctx, const cv::Mat& img) {
+  const auto t0 = std::chrono::steady_clock::now();
+  writer_.write(img);
+  ctx.record_timing("encode", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  ++written_;
 }
 
 void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
@@ -141,7 +165,7 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
     fs::rename(tmp, still);
   }
   cv::Mat img = compose(a, b, hz, scale_);
-  if (!writer_.isOpened()) {
+  if (!writer_.is_open()) {
     if (fps_ > 0) {
       open_writer(ctx, fps_, img.size());
     } else if (!pending_) {
@@ -153,25 +177,21 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
       open_writer(ctx, dt > 1e-6 ? 1.0 / dt : 1.0, img.size());
     }
     if (pending_) {
-      writer_.write(*pending_);
-      ++written_;
+      write(ctx, *pending_);
       pending_.reset();
     }
   }
-  writer_.write(img);
-  ++written_;
+  write(ctx, img);
 }
 
 void SideBySideSink::finish(StageContext& ctx, Outputs& /*out*/) {
   if (pending_) {  // a single frame: no interval to derive the rate from
     open_writer(ctx, fps_ > 0 ? fps_ : 1.0, pending_->size());
-    writer_.write(*pending_);
-    ++written_;
+    write(ctx, *pending_);
     pending_.reset();
   }
-  if (!writer_.isOpened()) return;
-  writer_.release();
-  fs::rename(tmp_file_, file_);
+  if (!writer_.is_open()) return;
+  writer_.close();
   ctx.log(LogLevel::kInfo, "side_by_side: " + std::to_string(written_) + " frames written to " + file_.string() +
                                " (" + codec_ + ")");
 }

@@ -8,8 +8,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
-#include <opencv2/videoio.hpp>
-
+#include "hazardforge/sink/video_file_writer.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::render {
@@ -17,11 +16,13 @@ namespace hf::render {
 // Stage "side_by_side" (kind sink).
 //  inputs:  original (Frame), augmented (Frame) — the same frame before and after augmentation; hazard
 //           (HazardInstance, optional) — outlined on the augmented half when draw_hazard_box is set.
-//  outputs: none; writes <output_dir>/<file> (H.264 'avc1', falling back to MPEG-4 'mp4v' when the encoder is
-//           missing; written under a temporary name and renamed in finish()) and, for the frame indices in `stills`,
+//  outputs: none; writes <output_dir>/<file> (H.264 'avc1' through the ffmpeg program or OpenCV, falling back to
+//           MPEG-4 'mp4v' when no encoder exists; written under a temporary name and renamed in finish()) and, for
+//           the frame indices in `stills`,
 //           PNGs <stills_dir>/before_after_<index>.png. Timestamps: the video's rate is `fps`, or the first two
 //           frames' interval when fps is 0.
-//  params:  file, fps, fourcc, scale, layout, labels, stills, stills_dir, stills_scale, draw_hazard_box.
+//  params:  file, fps, fourcc, scale, layout, labels, stills, stills_dir, stills_scale, draw_hazard_box, encoder,
+//           preset, threads, crf.
 class SideBySideSink : public Stage {
  public:
   static ComponentInfo describe();
@@ -36,14 +37,17 @@ class SideBySideSink : public Stage {
 
  private:
   void open_writer(StageContext& ctx, double fps, cv::Size size);
+  void write(StageContext& ctx, const cv::Mat& img);
 
-  std::filesystem::path file_, tmp_file_, stills_dir_;
+  std::filesystem::path file_, stills_dir_;
   double fps_ = 0, scale_ = 0.5, stills_scale_ = 0.5;
   std::string fourcc_, layout_;
   std::vector<std::string> labels_;
   std::set<long long> stills_;
   bool draw_box_ = false;
-  cv::VideoWriter writer_;
+  std::string encoder_, preset_;
+  int threads_ = 1, crf_ = 23;
+  sink::VideoFileWriter writer_;
   std::string codec_;
   std::optional<cv::Mat> pending_;  // first composite, held until the second frame gives the rate
   std::optional<double> first_t_;
