@@ -47,6 +47,38 @@ RiskAssessment GroundTruthProtocol::assess(const Annotations& ann, const std::st
   return r;
 }
 
+std::vector<ParamSpec> GroundTruthProtocol::params(const DatasetParams& d) {
+  return {
+      ParamSpec::number("threshold", 1.5)
+          .range(0, 1000)
+          .describe("Unsafe when the scene TTC is below this (s)"),
+      ParamSpec::number("corridor_half_width", 1.0).range(0, 10).describe("ego half-width (m)"),
+      ParamSpec::number("corridor_margin", 0.5)
+          .range(0, 10)
+          .describe("extra lateral margin (m); in path when |y| < half_width + margin + w/2"),
+      ParamSpec::number("front_overhang", d.front_overhang).range(-10, 20).describe(d.front_overhang_doc),
+      ParamSpec::number("min_closing_mps", 0.1)
+          .range(0, 100)
+          .describe("closing speeds at or below this (m/s) give an infinite TTC"),
+      ParamSpec::string_list("categories", d.categories).describe(d.categories_doc),
+      ParamSpec::string("missing_object_velocity", "ignore")
+          .one_of({"ignore", "static"})
+          .describe(d.missing_velocity_doc),
+  };
+}
+
+GroundTruthProtocol GroundTruthProtocol::from(const Params& p) {
+  GroundTruthProtocol g;
+  g.category_prefixes = p.get_strings("categories");
+  g.ego_half_width = p.get_double("corridor_half_width");
+  g.margin = p.get_double("corridor_margin");
+  g.front_overhang = p.get_double("front_overhang");
+  g.min_closing_mps = p.get_double("min_closing_mps");
+  g.threshold = p.get_double("threshold");
+  g.static_when_unknown = p.get_string("missing_object_velocity") == "static";
+  return g;
+}
+
 ComponentInfo GroundTruthRiskMetric::describe() {
   ComponentInfo i;
   i.name = "ground_truth";
@@ -64,40 +96,19 @@ ComponentInfo GroundTruthRiskMetric::describe() {
       port<Frame>("frames", "frames carrying dataset annotations with ego and object velocities"),
       optional(port<ObjectStates>("states", "unused; lets the node stand where a risk metric is expected"))};
   i.outputs = {port<RiskAssessment>("risk", "per-annotation TTC, scene TTC and the reference label")};
-  i.params = {
-      ParamSpec::number("threshold", 1.5)
-          .range(0, 1000)
-          .describe("Unsafe when the scene TTC is below this (s)"),
-      ParamSpec::number("corridor_half_width", 1.0).range(0, 10).describe("ego half-width (m)"),
-      ParamSpec::number("corridor_margin", 0.5)
-          .range(0, 10)
-          .describe("extra lateral margin (m); in path when |y| < half_width + margin + w/2"),
-      ParamSpec::number("front_overhang", 3.4)
-          .range(0, 20)
-          .describe("rear axle (ego origin) to front bumper (m); gap = x - front_overhang - l/2"),
-      ParamSpec::number("min_closing_mps", 0.1)
-          .range(0, 100)
-          .describe("closing speeds at or below this (m/s) give an infinite TTC"),
-      ParamSpec::string_list("categories", {"vehicle.", "human."})
-          .describe("category prefixes of the objects that count (nuScenes category names)"),
-      ParamSpec::string("missing_object_velocity", "ignore")
-          .one_of({"ignore", "static"})
-          .describe(
-              "objects whose velocity cannot be derived (a single annotation): ignore = unknown TTC, not "
-              "counted (as the devkit's NaN); static = treated as not moving"),
-  };
+  i.params = GroundTruthProtocol::params(
+      {3.4,
+       "rear axle (ego origin) to front bumper (m); gap = x - front_overhang - l/2",
+       {"vehicle.", "human."},
+       "category prefixes of the objects that count (nuScenes category names)",
+       "objects whose velocity cannot be derived (a single annotation): ignore = unknown TTC, not counted "
+       "(as the "
+       "devkit's NaN); static = treated as not moving"});
   return i;
 }
 
 void GroundTruthRiskMetric::open(StageContext& ctx) {
-  const Params& p = ctx.params();
-  protocol_.category_prefixes = p.get_strings("categories");
-  protocol_.ego_half_width = p.get_double("corridor_half_width");
-  protocol_.margin = p.get_double("corridor_margin");
-  protocol_.front_overhang = p.get_double("front_overhang");
-  protocol_.min_closing_mps = p.get_double("min_closing_mps");
-  protocol_.threshold = p.get_double("threshold");
-  protocol_.static_when_unknown = p.get_string("missing_object_velocity") == "static";
+  protocol_ = GroundTruthProtocol::from(ctx.params());
 }
 
 void GroundTruthRiskMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) {

@@ -21,6 +21,19 @@ struct GroundTruthProtocol {
   // Fills objects, scene value, critical object and label. Throws hf::Error naming `what` when the ego
   // velocity is missing.
   RiskAssessment assess(const Annotations& ann, const std::string& what) const;
+
+  // The protocol's params, shared by every metric built on it; the dataset-specific ones (the bumper offset,
+  // the category names and what an object without a velocity means there) come with their own default and
+  // doc.
+  struct DatasetParams {
+    double front_overhang;
+    std::string front_overhang_doc;
+    std::vector<std::string> categories;
+    std::string categories_doc;
+    std::string missing_velocity_doc;
+  };
+  static std::vector<ParamSpec> params(const DatasetParams& d);
+  static GroundTruthProtocol from(const Params& p);
 };
 
 // Risk metric "ground_truth" (kind risk_metric, not a RiskMetric subclass: its objects are annotations, not

@@ -23,41 +23,18 @@ ComponentInfo LabelTtcMetric::describe() {
       port<Frame>("frames", "frames carrying camera-relative label annotations (kitti source)"),
       optional(port<ObjectStates>("states", "unused; lets the node stand where a risk metric is expected"))};
   i.outputs = {port<RiskAssessment>("risk", "per-track TTC, scene TTC and the reference label")};
-  i.params = {
-      ParamSpec::number("threshold", 1.5)
-          .range(0, 1000)
-          .describe("Unsafe when the scene TTC is below this (s)"),
-      ParamSpec::number("corridor_half_width", 1.0).range(0, 10).describe("ego half-width (m)"),
-      ParamSpec::number("corridor_margin", 0.5)
-          .range(0, 10)
-          .describe("extra lateral margin (m); in path when |y| < half_width + margin + w/2"),
-      ParamSpec::number("front_overhang", 0.0)
-          .range(-10, 20)
-          .describe("ego origin (below camera 2) to the reference the gap is measured from (m); 0 = camera"),
-      ParamSpec::number("min_closing_mps", 0.1)
-          .range(0, 100)
-          .describe("closing speeds at or below this (m/s) give an infinite TTC"),
-      ParamSpec::string_list("categories",
-                             {"Car", "Van", "Truck", "Pedestrian", "Person_sitting", "Cyclist", "Tram"})
-          .describe("KITTI types (category prefixes) that count; Misc and DontCare are left out by default"),
-      ParamSpec::string("missing_object_velocity", "ignore")
-          .one_of({"ignore", "static"})
-          .describe(
-              "tracks labelled in one frame only: ignore = unknown TTC; static = not moving relative to "
-              "the camera"),
-  };
+  i.params = GroundTruthProtocol::params(
+      {0.0,
+       "ego origin (below camera 2) to the reference the gap is measured from (m); 0 = camera",
+       {"Car", "Van", "Truck", "Pedestrian", "Person_sitting", "Cyclist", "Tram"},
+       "KITTI types (category prefixes) that count; Misc and DontCare are left out by default",
+       "tracks labelled in one frame only: ignore = unknown TTC; static = not moving relative to the "
+       "camera"});
   return i;
 }
 
 void LabelTtcMetric::open(StageContext& ctx) {
-  const Params& p = ctx.params();
-  protocol_.category_prefixes = p.get_strings("categories");
-  protocol_.ego_half_width = p.get_double("corridor_half_width");
-  protocol_.margin = p.get_double("corridor_margin");
-  protocol_.front_overhang = p.get_double("front_overhang");
-  protocol_.min_closing_mps = p.get_double("min_closing_mps");
-  protocol_.threshold = p.get_double("threshold");
-  protocol_.static_when_unknown = p.get_string("missing_object_velocity") == "static";
+  protocol_ = GroundTruthProtocol::from(ctx.params());
 }
 
 void LabelTtcMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) {
