@@ -1,6 +1,8 @@
 // Chessboard calibration (OpenCV findChessboardCorners + cornerSubPix + calibrateCamera) and its YAML file.
 #include "hazardforge/core/calibration.hpp"
 
+#include "hazardforge/calibration_file.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -159,23 +161,20 @@ void write_calibration(const CalibrationResult& r, const fs::path& yaml) {
 }
 
 CalibrationResult read_calibration(const fs::path& yaml) {
+  const CalibrationFile f = read_calibration_file(yaml);  // checks the file and the intrinsics
+  CalibrationResult r;
+  r.image_width = f.width;
+  r.image_height = f.height;
+  r.fx = f.fx;
+  r.fy = f.fy;
+  r.cx = f.cx;
+  r.cy = f.cy;
+  r.distortion = f.distortion;
+  // The calibration's own record (board, error, images) is optional in the file.
   const std::string file = yaml.string();
-  if (!fs::exists(yaml)) throw Error("calibration file '" + file + "' does not exist");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::Exception& ex) {
-    throw Error(file + ":" + std::to_string(ex.mark.line + 1) + ":" + std::to_string(ex.mark.column + 1) +
-                ": error: " + ex.msg);
-  }
-  if (!root.IsMap()) throw Error(file + ": error: calibration file is not a YAML mapping");
-  auto field = [&](const char* name) -> YAML::Node {
-    YAML::Node n = root[name];
-    if (!n) throw Error(file + ": error: calibration field '" + std::string(name) + "' is missing");
-    return n;
-  };
+  const YAML::Node root = YAML::LoadFile(file);
   auto number = [&](const char* name) -> double {
-    YAML::Node n = field(name);
+    const YAML::Node n = root[name];
     try {
       return n.as<double>();
     } catch (const YAML::Exception&) {
@@ -183,23 +182,6 @@ CalibrationResult read_calibration(const fs::path& yaml) {
                   "' is not a number");
     }
   };
-  CalibrationResult r;
-  r.image_width = static_cast<int>(number("image_width"));
-  r.image_height = static_cast<int>(number("image_height"));
-  r.fx = number("fx");
-  r.fy = number("fy");
-  r.cx = number("cx");
-  r.cy = number("cy");
-  if (r.image_width <= 0 || r.image_height <= 0 || !(r.fx > 0) || !(r.fy > 0))
-    throw Error(file + ": error: calibration needs positive image_width, image_height, fx and fy");
-  if (YAML::Node d = root["distortion"]) {
-    try {
-      r.distortion = d.as<std::vector<double>>();
-    } catch (const YAML::Exception&) {
-      throw Error(file + ":" + std::to_string(d.Mark().line + 1) +
-                  ": error: calibration field 'distortion' is not a list of numbers");
-    }
-  }
   if (root["rms_px"]) r.rms_px = number("rms_px");
   if (YAML::Node b = root["board"]; b && b.IsMap()) {
     r.board_cols = b["cols"] ? b["cols"].as<int>() : 0;

@@ -143,8 +143,8 @@ TEST(Calibration, YamlRoundTripAndSourceReader) {
   EXPECT_EQ(r.images_used, c.images_used);
   ASSERT_EQ(r.images_rejected.size(), 1u);
   EXPECT_EQ(r.images_rejected[0].reason, "no 9x6 chessboard found");
-  // The sources read the same file with their own reader.
-  const source::CalibrationFile s = source::load_calibration_file(file);
+  // The sources read the same file with the SDK's reader.
+  const CalibrationFile s = read_calibration_file(file);
   EXPECT_DOUBLE_EQ(s.fx, c.fx);
   EXPECT_DOUBLE_EQ(s.cx, c.cx);
   EXPECT_EQ(s.distortion, c.distortion);
@@ -153,7 +153,7 @@ TEST(Calibration, YamlRoundTripAndSourceReader) {
   std::ofstream(dir / "bad.yaml") << "image_width: 1280\nimage_height: 720\nfx: abc\nfy: 1\ncx: 1\ncy: 1\n";
   EXPECT_EQ(error_of([&] { read_calibration(dir / "bad.yaml"); }),
             (dir / "bad.yaml").string() + ":3: error: calibration field 'fx' is not a number");
-  EXPECT_EQ(error_of([&] { source::load_calibration_file(dir / "bad.yaml"); }),
+  EXPECT_EQ(error_of([&] { read_calibration_file(dir / "bad.yaml"); }),
             (dir / "bad.yaml").string() + ":3: error: calibration field 'fx' is not a number");
   std::ofstream(dir / "short.yaml") << "image_width: 1280\nimage_height: 720\nfx: 1\n";
   EXPECT_EQ(error_of([&] { read_calibration(dir / "short.yaml"); }),

@@ -8,19 +8,10 @@
 
 #include <opencv2/core.hpp>
 
+#include "hazardforge/calibration_file.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::source {
-
-// Intrinsics as read from a calibration YAML file (the format hf::write_calibration produces).
-struct CalibrationFile {
-  int width = 0;
-  int height = 0;
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::vector<double> distortion;
-};
-// Throws hf::Error naming the file and the missing/bad field.
-CalibrationFile load_calibration_file(const std::filesystem::path& yaml);
 
 // Turns the camera params into a CameraModel once the native image size is known, and prepares each frame
 // (undistort with the calibrated K, then resize) so the image and the model always agree.
