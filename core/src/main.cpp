@@ -64,7 +64,8 @@ int main(int argc, char** argv) {
   bool dot = false;
   graph->add_flag("--dot", dot, "Graphviz dot output")->required();
 
-  auto* bench = app.add_subcommand("bench", "Benchmark a config: per-stage latency, graph frames/s vs bare detector");
+  auto* bench =
+      app.add_subcommand("bench", "Benchmark a config: per-stage latency, graph frames/s vs bare detector");
   add_config(bench);
   BenchOptions bopt;
   bench->add_option("--repeat", bopt.repeat, "Repetitions (medians are reported)")->check(CLI::Range(1, 50));
@@ -86,7 +87,9 @@ int main(int argc, char** argv) {
 
   auto* calibrate = app.add_subcommand("calibrate", "Calibrate a camera from chessboard photos");
   CalibrateOptions copt;
-  calibrate->add_option("folder", copt.folder, "Folder of chessboard photos")->required()->check(CLI::ExistingDirectory);
+  calibrate->add_option("folder", copt.folder, "Folder of chessboard photos")
+      ->required()
+      ->check(CLI::ExistingDirectory);
   calibrate->add_option("--cols", copt.cols, "Inner corners per row")->check(CLI::Range(2, 100));
   calibrate->add_option("--rows", copt.rows, "Inner corners per column")->check(CLI::Range(2, 100));
   calibrate->add_option("--square", copt.square, "Square size (any unit; only scales extrinsics)");
@@ -94,10 +97,15 @@ int main(int argc, char** argv) {
 
   auto* assets = app.add_subcommand("assets", "Appearance assets for the AR renderer");
   assets->require_subcommand(1);
-  auto* harvest = assets->add_subcommand("harvest", "Cut real object appearances out of a dataset into an asset folder");
+  auto* harvest =
+      assets->add_subcommand("harvest", "Cut real object appearances out of a dataset into an asset folder");
   HarvestOptions hopt;
   harvest->add_option("-o,--output", hopt.output_dir, "Asset folder to write")->required();
-  harvest->add_option("--config", hopt.config, "Harvest graph (default: share/graphs/harvest_assets.yaml)");
+  harvest
+      ->add_option("--config", hopt.config,
+                   "Harvest graph: a source with annotations feeding an asset_harvester node named "
+                   "`harvester` (e.g. configs/harvest_assets.yaml)")
+      ->required();
   harvest->add_option("--set", hopt.overrides, "Override a param: node.param=value");
 
   try {

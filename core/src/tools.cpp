@@ -30,10 +30,8 @@ int cmd_calibrate(const CalibrateOptions& o) {
 }
 
 int cmd_assets_harvest(Host& host, const HarvestOptions& o) {
-  std::filesystem::path cfg = o.config.empty() ? std::filesystem::path(share_dir()) / "graphs" / "harvest_assets.yaml"
-                                               : std::filesystem::path(o.config);
   RunRequest req;
-  req.config = cfg;
+  req.config = o.config;
   req.overrides = o.overrides;
   req.overrides.push_back("harvester.out_dir=" + std::filesystem::absolute(o.output_dir).string());
   req.output_dir = std::filesystem::path(o.output_dir) / "run";
