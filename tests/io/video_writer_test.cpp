@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -199,6 +200,7 @@ TEST(VideoFileWriter, EncoderFailureNamesTheFileExitCodeAndStderr) {
     write_sequence(w, 20, o.size);
     w.close();
   });
+  std::cout << "encoder failure message: " << err << "\n";  // quoted in docs/sources-and-sinks.md
   EXPECT_NE(err.find("cannot write video '" + (dir / "bad.partial.mp4").string() + "'"), std::string::npos) << err;
   EXPECT_NE(err.find(fake.string() + " exited with code 3"), std::string::npos) << err;
   EXPECT_NE(err.find("Unknown encoder settings: broken"), std::string::npos) << err;
