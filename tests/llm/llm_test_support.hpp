@@ -123,7 +123,8 @@ inline Json valid_reply() {
            {{"crossing_from", "right"},
             {"final_speed_mps", nullptr},
             {"brake_delay_s", nullptr},
-            {"track_id", nullptr}}},
+            {"track_id", nullptr},
+            {"under_way_s", nullptr}}},
           {"rationale", "sidewalks on both sides; a jogger crosses"}};
 }
 

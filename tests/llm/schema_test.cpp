@@ -26,7 +26,7 @@ TEST(HazardSchema, ReplySchemaRequiresEveryFieldAndNarrowsKinds) {
   EXPECT_FALSE(r["properties"].contains("schema_version"));
   EXPECT_EQ(r["properties"]["kind"]["enum"], Json::array({"cut_in", "sudden_stop"}));
   EXPECT_EQ(r["required"].size(), r["properties"].size());
-  EXPECT_EQ(r["properties"]["extra"]["required"].size(), 4u);
+  EXPECT_EQ(r["properties"]["extra"]["required"].size(), 5u);
   EXPECT_EQ(r["properties"]["extra"]["additionalProperties"], false);
 }
 

@@ -93,6 +93,13 @@ ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
       ParamSpec::number("ego_smoothing_s", 0.25)
           .range(0, 2)
           .describe("sigma of the Gaussian (s) that smooths the recorded ego path against pose noise"),
+      ParamSpec::number("max_under_way_s", 0.0)
+          .range(0, 30)
+          .describe(
+              "longest extra.under_way_s a spec may give: the hazard is already under way when it appears "
+              "(a lead already braking, a lane change already started), for recordings too short to show "
+              "the whole manoeuvre; the spec's position and speed then describe the manoeuvre's start, "
+              "under_way_s before the anchor time. 0 = every hazard starts when it appears"),
   };
   for (auto& p : RoadModel::params()) i.params.push_back(p);
   for (auto& p : TtcConventions::params()) i.params.push_back(p);
@@ -111,6 +118,7 @@ void TemplateBase::open(const Params& params) {
   duration_s_ = params.get_double("duration_s");
   ego_plan_ = params.has("ego_plan") ? params.get_string("ego_plan") : "auto";
   ego_smoothing_s_ = params.has("ego_smoothing_s") ? params.get_double("ego_smoothing_s") : 0.25;
+  max_under_way_s_ = params.has("max_under_way_s") ? params.get_double("max_under_way_s") : 0.0;
 }
 
 std::vector<std::string> TemplateBase::check(const HazardSpec& spec, const SceneContext& scene) const {
@@ -169,6 +177,22 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   }
   if (spec.target_ttc_s && *spec.target_ttc_s <= 0)
     reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " must be positive");
+  // How long the manoeuvre has been under way when the hazard appears (0 = it starts now).
+  double under_way = 0;
+  if (spec.extra.is_object() && spec.extra.contains("under_way_s") && !spec.extra["under_way_s"].is_null()) {
+    const Json& u = spec.extra["under_way_s"];
+    if (!u.is_number()) {
+      reasons.push_back("extra.under_way_s must be a number, got " + u.dump());
+    } else {
+      under_way = u.get<double>();
+      if (under_way < 0)
+        reasons.push_back("extra.under_way_s " + num(under_way) + " is negative");
+      else if (under_way > max_under_way_s_ + 1e-9)
+        reasons.push_back("extra.under_way_s " + num(under_way) + " s exceeds max_under_way_s " +
+                          num(max_under_way_s_) +
+                          " s (raise the template param to plan hazards already under way when they appear)");
+    }
+  }
   if (!reasons.empty()) return out;
 
   // The ego plan: the recorded track when the scene carries one (so the hazard is planned against where the
@@ -181,11 +205,25 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
         "scene does not carry");
     return out;
   }
+  // An under-way hazard is designed from its start, under_way s before the anchor time, against the ego's
+  // path from there (`design_ego`); its samples are then taken from the anchor time on.
+  EgoPath design_ego = ego;
   if (ego_plan_ != "constant_speed" && has_track) {
     const std::string where = "scene at t=" + num(scene.timestamp, 3) + " s";
-    ego = EgoPath::recorded(parse_ego_track(scene.meta["ego_track"], where), scene.timestamp, where,
-                            ego_smoothing_s_);
+    const auto track = parse_ego_track(scene.meta["ego_track"], where);
+    ego = EgoPath::recorded(track, scene.timestamp, where, ego_smoothing_s_);
+    design_ego = ego;
+    if (under_way > 0) {
+      if (scene.timestamp - under_way < track.front().t - 1e-9) {
+        reasons.push_back("extra.under_way_s " + num(under_way) + " s reaches back before the recorded ego track (" +
+                          num(track.front().t, 3) + " s)");
+        return out;
+      }
+      design_ego = EgoPath::recorded(track, scene.timestamp - under_way, where, ego_smoothing_s_);
+    }
   }
+  // Arc length the ego covers from the hazard's start to the anchor time (road x of the design -> of the anchor).
+  const double ego_shift = under_way > 0 ? design_ego.s_at(under_way) : 0.0;
 
   const ClassSize& prior = sizes_.at(cls);
   PlanRequest req{spec,
@@ -195,14 +233,15 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
                   *scene.ego_speed_mps,
                   road_,
                   ttc_,
-                  duration_s_,
+                  duration_s_ + under_way,
                   params_,
-                  ego};
+                  design_ego};
   Design d = design(req, reasons);
   if (!reasons.empty()) return out;
   if (!d.motion) throw Error("hazard template '" + hazard_kind() + "' designed no motion and gave no reason");
   out.notes = d.notes;
   out.notes["ego_plan"] = ego.is_recorded() ? "recorded" : "constant_speed";
+  if (under_way > 0) out.notes["under_way_s"] = under_way;
 
   HazardTrajectory& tr = out.trajectory;
   tr.kind = spec.kind;
@@ -214,8 +253,8 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   std::vector<std::optional<double>> headings;
   for (int k = 0; k <= n; ++k) {
     const double tau = k / rate_hz_;
-    const ObjectMotion m = d.motion(tau);
-    const EgoPath::Mapped a = ego.map(m.x, m.y, m.vx, m.vy, m.heading);
+    const ObjectMotion m = d.motion(tau + under_way);
+    const EgoPath::Mapped a = ego.map(m.x - ego_shift, m.y, m.vx, m.vy, m.heading);
     TrajectoryPoint p;
     p.t = scene.timestamp + tau;
     p.x = a.x;
@@ -264,7 +303,27 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   }
   tr.intended_min_ttc_s = min_ttc(out.ttc);
 
-  out.stats = measure(tr.points);
+  if (under_way > 0) {
+    // The limits hold for the whole manoeuvre, including its part before the anchor time: measure it from its
+    // start (in the frame of the ego at the start) up to the last planned sample.
+    std::vector<TrajectoryPoint> whole;
+    const int m_end = static_cast<int>(std::floor((under_way + (tr.points.back().t - tr.anchor_time)) * rate_hz_ + 1e-9));
+    for (int k = 0; k <= m_end; ++k) {
+      const ObjectMotion m = d.motion(k / rate_hz_);
+      const EgoPath::Mapped a = design_ego.map(m.x, m.y, m.vx, m.vy, m.heading);
+      TrajectoryPoint p;
+      p.t = scene.timestamp - under_way + k / rate_hz_;
+      p.x = a.x;
+      p.y = a.y;
+      p.speed = std::hypot(a.vx, a.vy);
+      p.heading = a.heading.value_or(p.speed > 0.05 ? std::atan2(a.vy, a.vx)
+                                                    : (whole.empty() ? 0.0 : whole.back().heading));
+      whole.push_back(p);
+    }
+    out.stats = measure(whole);
+  } else {
+    out.stats = measure(tr.points);
+  }
   for (auto& r : exceeded_limits(out.stats, lim)) reasons.push_back(r);
 
   if (start_must_be_visible()) {

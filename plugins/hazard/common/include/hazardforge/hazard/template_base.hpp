@@ -128,6 +128,7 @@ class TemplateBase : public HazardTemplate {
   double duration_s_ = 6;
   std::string ego_plan_ = "auto";
   double ego_smoothing_s_ = 0.25;
+  double max_under_way_s_ = 0;
 };
 
 }  // namespace hf::hazard

@@ -1,0 +1,110 @@
+// Hazards already under way when they appear (extra.under_way_s): the plan is the whole manoeuvre from its
+// start, sampled from the anchor time on, and only allowed up to the template's max_under_way_s.
+#include <gtest/gtest.h>
+
+#include "scenario_support.hpp"
+
+namespace hf {
+namespace {
+
+using test::make_template;
+using test::test_scene;
+
+HazardSpec lead_stop(double distance, double speed, double decel) {
+  HazardSpec s;
+  s.kind = "sudden_stop";
+  s.object_class = "car";
+  s.initial_distance_m = distance;
+  s.speed_mps = speed;
+  s.deceleration_mps2 = decel;
+  s.start_time_s = 2.0;
+  s.extra = {{"brake_delay_s", 0.0}};
+  return s;
+}
+
+TEST(UnderWay, RefusedUnlessTheTemplateAllowsIt) {
+  auto tpl = make_template("sudden_stop", {{"duration_s", 3.0}});
+  HazardSpec s = lead_stop(30, 15, 6);
+  s.extra["under_way_s"] = 0.5;
+  EXPECT_EQ(tpl->check(s, test_scene(15.0)),
+            std::vector<std::string>{"extra.under_way_s 0.5 s exceeds max_under_way_s 0 s (raise the template "
+                                     "param to plan hazards already under way when they appear)"});
+  s.extra["under_way_s"] = -0.5;
+  auto allowing = make_template("sudden_stop", {{"duration_s", 3.0}, {"max_under_way_s", 1.0}});
+  EXPECT_EQ(allowing->check(s, test_scene(15.0)),
+            std::vector<std::string>{"extra.under_way_s -0.5 is negative"});
+}
+
+TEST(UnderWay, ALeadAlreadyBrakingIsTheSameManoeuvreSampledLater) {
+  // Lead and ego at 15 m/s; the lead brakes at 6 m/s^2 from the start of the manoeuvre. Planned from its
+  // start (A) and as a hazard that appears 0.5 s into it (B): B is A from 0.5 s on, with the road x seen
+  // from where the ego is then (7.5 m further on).
+  auto tpl = make_template("sudden_stop", {{"duration_s", 5.0}, {"max_under_way_s", 1.0}});
+  const hazard::PlanOutcome a = tpl->evaluate(lead_stop(30, 15, 6), test_scene(15.0));
+  ASSERT_TRUE(a.reasons.empty()) << a.reasons.front();
+  HazardSpec s = lead_stop(30, 15, 6);
+  s.extra["under_way_s"] = 0.5;
+  const hazard::PlanOutcome b = tpl->evaluate(s, test_scene(15.0));
+  ASSERT_TRUE(b.reasons.empty()) << b.reasons.front();
+  EXPECT_DOUBLE_EQ(b.notes["under_way_s"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(b.trajectory.anchor_time, 2.0);
+  EXPECT_DOUBLE_EQ(b.trajectory.points.front().t, 2.0);
+  const auto& pa = a.trajectory.points;
+  const auto& pb = b.trajectory.points;
+  ASSERT_GE(pa.size(), 50u);
+  ASSERT_GE(pb.size(), 40u);
+  for (size_t k = 0; k + 10 < pa.size() && k < pb.size(); ++k) {
+    EXPECT_NEAR(pb[k].x, pa[k + 10].x - 7.5, 1e-9) << k;
+    EXPECT_NEAR(pb[k].speed, pa[k + 10].speed, 1e-9) << k;
+  }
+  // Already slower than the ego when it appears: jerk 20 for 0.3 s (v 15 -> 14.1), then -6 for 0.2 s.
+  EXPECT_NEAR(pb.front().speed, 15.0 - 0.9 - 6.0 * 0.2, 1e-9);
+  // The ego starts at the anchor as always.
+  EXPECT_DOUBLE_EQ(b.trajectory.ego.front().x, 0.0);
+  // The contact comes 0.5 s earlier after the anchor.
+  ASSERT_TRUE(a.notes.contains("contact_time_s") && b.notes.contains("contact_time_s"));
+  EXPECT_NEAR(b.notes["contact_time_s"].get<double>(), a.notes["contact_time_s"].get<double>() - 0.5, 0.051);
+  // The limits are measured over the whole manoeuvre, including the braking onset before the anchor.
+  EXPECT_NEAR(b.stats.max_jerk, a.stats.max_jerk, 1e-6);
+}
+
+TEST(UnderWay, ACutInAlreadyChangingLanesAppearsInViewAndEndsAtTheTarget) {
+  // Ego at 20 m/s, a car from 3 m behind in the left lane at 26 m/s cutting in to end at TTC 1.2 s. From its
+  // start it is behind the camera; 0.6 s before its lane change ends it is in view, straddling the lane line.
+  auto tpl = make_template("cut_in", {{"max_under_way_s", 10.0}});
+  HazardSpec s;
+  s.kind = "cut_in";
+  s.object_class = "car";
+  s.initial_distance_m = -3;
+  s.side = "left";
+  s.speed_mps = 26;
+  s.target_ttc_s = 1.2;
+  s.start_time_s = 2.0;
+  const hazard::PlanOutcome whole = tpl->evaluate(s, test_scene(20.0));
+  ASSERT_TRUE(whole.reasons.empty()) << whole.reasons.front();
+  const double t_end = whole.notes["cut_in_end_s"].get<double>();
+  s.extra = {{"under_way_s", t_end - 0.6}};
+  const hazard::PlanOutcome o = tpl->evaluate(s, test_scene(20.0));
+  ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
+  const TrajectoryPoint& p0 = o.trajectory.points.front();
+  EXPECT_GT(p0.x, 5.0);                // ahead of the ego's front
+  EXPECT_GT(p0.y, 0.0);                // still partly in its own lane ...
+  EXPECT_LT(p0.y, 3.5 - 0.1);          // ... but already moving across
+  EXPECT_LT(p0.heading, 0.0);          // pointing into the ego lane (towards -y)
+  const auto cam = test::test_camera().project_ego(cv::Vec3d(p0.x, p0.y, 0.75));
+  ASSERT_TRUE(cam.has_value());
+  EXPECT_GE(cam->x, 0.0);
+  EXPECT_LT(cam->x, test::test_camera().width);
+  // The end of the lane change is 0.6 s after the anchor, at the target TTC.
+  const auto end = o.trajectory.at(2.0 + 0.6);
+  ASSERT_TRUE(end.has_value());
+  EXPECT_NEAR(end->y, 0.0, 1e-3);
+  TrajectoryPoint ego{2.6, 20.0 * 0.6, 0.0, 0.0, 20.0, 0.0};
+  EXPECT_NEAR(hazard::ttc_at(ego, *end, o.trajectory.size_lwh, tpl->ttc_conventions()).ttc, 1.2, 0.02);
+  // Limits over the whole manoeuvre: the same peaks as the plan from its start.
+  EXPECT_NEAR(o.stats.max_lat_accel, whole.stats.max_lat_accel, 1e-6);
+  EXPECT_NEAR(o.stats.max_yaw_rate, whole.stats.max_yaw_rate, 1e-6);
+}
+
+}  // namespace
+}  // namespace hf
