@@ -125,5 +125,66 @@ TEST(OfflinePlanner, RefusesClearlyWhenNothingFits) {
   }
 }
 
+// A highway clip 1.4 s long after the trigger: ego at 20 m/s in the leftmost of four lanes, no sidewalks.
+Json short_highway(std::vector<std::string> kinds, double max_under_way, bool people_on_shoulder) {
+  llm_hazard::SceneSettings s;
+  s.environment = "highway";
+  s.road_type = "multi-lane highway";
+  s.sidewalks = {false, "test"};
+  s.intersection = {false, "test"};
+  s.multi_lane = {true, "test"};
+  s.allowed_kinds = std::move(kinds);
+  s.ego_speed_mps = 20.0;
+  s.target_ttc_s = 1.4;
+  s.horizon_s = 1.4;
+  s.max_under_way_s = max_under_way;
+  s.pedestrians_without_sidewalks = people_on_shoulder;
+  s.road.lanes_left = 0;
+  s.road.lanes_right = 3;
+  Frame f = test::make_frame(5, 2.5, "test");
+  ObjectStates st = test::make_states(5, 2.5);
+  RiskAssessment r = test::make_risk(5, true);
+  hazard::LimitsTable limits = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
+  ClassPriors sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
+  return llm_hazard::summarize_scene(f, st, {&r}, s, limits, sizes).scene;
+}
+
+TEST(OfflinePlanner, ShortHorizonSuddenStopIsAlreadyUnderWayWhenAllowed) {
+  OfflinePlanner p = planner();
+  try {
+    p.complete(request(short_highway({"sudden_stop"}, 0.0, false), 7));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sudden_stop: the stop would come too late within the horizon"),
+              std::string::npos)
+        << e.what();
+  }
+  for (int64_t seed : {1, 7, 11}) {
+    const Json j = Json::parse(p.complete(request(short_highway({"sudden_stop"}, 1.0, false), seed)).content);
+    EXPECT_EQ(j["kind"], "sudden_stop");
+    const double b = j["extra"]["under_way_s"].get<double>();
+    EXPECT_GE(b, 0.3);
+    EXPECT_LE(b, 0.8);
+    EXPECT_EQ(j["extra"]["brake_delay_s"], 0.0);
+    EXPECT_DOUBLE_EQ(j["speed_mps"].get<double>(), 20.0);  // it followed at the ego's speed before braking
+    EXPECT_LT(j["initial_distance_m"].get<double>(), 40.0);
+  }
+}
+
+TEST(OfflinePlanner, PersonOnTheShoulderOnlyWhenExplicitlyAllowed) {
+  OfflinePlanner p = planner();
+  EXPECT_THROW(p.complete(request(short_highway({"pedestrian_crossing"}, 1.0, false), 3)), Error);
+  const Json j =
+      Json::parse(p.complete(request(short_highway({"pedestrian_crossing"}, 1.0, true), 3)).content);
+  EXPECT_EQ(j["object_class"], "person");
+  // The left shoulder: beyond the road edge at 1.75 m, kerb offset 0.5 m plus up to 0.5 m.
+  EXPECT_GE(j["lateral_offset_m"].get<double>(), 2.25 - 1e-9);
+  EXPECT_LE(j["lateral_offset_m"].get<double>(), 2.75 + 1e-9);
+  EXPECT_NE(j["rationale"].get<std::string>().find("Edge case"), std::string::npos);
+  // Too short a horizon to watch the person wait and step off: the walk is already under way.
+  EXPECT_GT(j["extra"]["under_way_s"].get<double>(), 0.0);
+  EXPECT_LE(j["extra"]["under_way_s"].get<double>(), 1.0);
+}
+
 }  // namespace
 }  // namespace hf::llm

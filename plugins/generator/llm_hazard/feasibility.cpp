@@ -85,7 +85,7 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
   const double y = spec.lateral_offset_m;
 
   // The prompt's scene rules.
-  if (cls == "person" && !cfg.sidewalks)
+  if (cls == "person" && !cfg.sidewalks && !cfg.pedestrians_without_sidewalks)
     errs.push_back("/object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = no)");
   if (is_vehicle(cls) && std::abs(spec.heading_deg) > 45.0 && !cfg.intersection)
     errs.push_back("/heading_deg = " + num(spec.heading_deg) +
@@ -112,7 +112,9 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
 
   // On the road, or on a sidewalk for people and bicycles.
   const int side_sign = y >= 0 ? 1 : -1;
-  const bool may_use_sidewalk = (cls == "person" || cls == "bicycle") && cfg.sidewalks;
+  // Beyond the road edge: a sidewalk, or the shoulder when people on roads without sidewalks are allowed.
+  const bool may_use_sidewalk = ((cls == "person" || cls == "bicycle") && cfg.sidewalks) ||
+                                (cls == "person" && cfg.pedestrians_without_sidewalks);
   const double max_y = cfg.road.edge(side_sign) + (may_use_sidewalk ? cfg.sidewalk_width_m : 0.0);
   if (std::abs(y) > max_y)
     errs.push_back("/lateral_offset_m = " + num(y) + " puts the " + cls + " off the " +

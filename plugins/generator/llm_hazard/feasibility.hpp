@@ -20,6 +20,7 @@ struct FeasibilityConfig {
   hazard::RoadModel road;      // lanes either side of the ego lane, shared with the templates
   double sidewalk_width_m = 3.0;
   bool sidewalks = false;
+  bool pedestrians_without_sidewalks = false;  // edge-case tests: a person on the shoulder (sidewalk_width_m)
   bool intersection = false;
   bool multi_lane = false;
   double horizon_s = 6.0;

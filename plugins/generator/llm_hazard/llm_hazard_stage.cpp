@@ -90,6 +90,15 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe("crossing vehicles allowed"),
       ParamSpec::string("multi_lane", "auto").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
       ParamSpec::number("sidewalk_width_m", 3.0).range(0, 15).describe("sidewalk width beyond the road edge"),
+      ParamSpec::boolean("pedestrians_without_sidewalks", false)
+          .describe("edge-case tests: a person may appear on a road without sidewalks, on the shoulder "
+                    "(sidewalk_width_m beyond the road edge) — e.g. someone who left a broken-down car. "
+                    "Relaxes the rule 'no pedestrians without sidewalks' explicitly; the prompt says so"),
+      ParamSpec::number("max_under_way_s", 0.0)
+          .range(0, 30)
+          .describe("longest extra.under_way_s a spec may give (hazards already under way when they appear, "
+                    "for recordings too short to show the whole manoeuvre); passed to the templates; 0 = "
+                    "every hazard starts when it appears"),
       ParamSpec::number("horizon_s", 6.0)
           .range(1, 60)
           .describe("how long hazards are planned/replayed for the TTC check (templates' duration_s)"),
@@ -155,7 +164,8 @@ void LlmHazardGenerator::open(StageContext& ctx) {
                        {"corridor_margin_m", ttc_.margin},
                        {"ego_front_m", ttc_.ego_front},
                        {"min_closing_mps", ttc_.min_closing},
-                       {"duration_s", p.get_double("horizon_s")}};
+                       {"duration_s", p.get_double("horizon_s")},
+                       {"max_under_way_s", p.get_double("max_under_way_s")}};
   for (const std::string& k : allowed_kinds_) {
     if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
       ctx.log(LogLevel::kWarning,
@@ -278,6 +288,8 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
                 " is unknown (neither ObjectStates nor the frame carry it); set param ego_speed_mps");
   s.horizon_s = p.get_double("horizon_s");
   s.sidewalk_width_m = p.get_double("sidewalk_width_m");
+  s.pedestrians_without_sidewalks = p.get_bool("pedestrians_without_sidewalks");
+  s.max_under_way_s = p.get_double("max_under_way_s");
   s.ttc = ttc_;
   s.road = road_;
   ctx.log(LogLevel::kInfo,
@@ -299,6 +311,7 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
   fc.road = road_;
   fc.sidewalk_width_m = s.sidewalk_width_m;
   fc.sidewalks = s.sidewalks.value;
+  fc.pedestrians_without_sidewalks = s.pedestrians_without_sidewalks;
   fc.intersection = s.intersection.value;
   fc.multi_lane = s.multi_lane.value;
   fc.horizon_s = s.horizon_s;

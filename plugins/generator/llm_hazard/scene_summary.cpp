@@ -172,6 +172,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                {"ttc_tolerance_s", s.ttc_tolerance_s},
                {"horizon_s", s.horizon_s},
                {"sidewalk_width_m", s.sidewalk_width_m},
+               {"pedestrians_without_sidewalks", s.pedestrians_without_sidewalks},
+               {"max_under_way_s", s.max_under_way_s},
                {"road",
                 {{"lane_width_m", s.road.lane_width},
                  {"lanes_left", s.road.lanes_left},
@@ -191,7 +193,12 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
   out.placeholders = {{"environment", s.environment},
                       {"road_type", s.road_type},
                       {"description", s.description.empty() ? "none" : s.description},
-                      {"sidewalks", yes_no(s.sidewalks)},
+                      {"sidewalks", !s.sidewalks.value && s.pedestrians_without_sidewalks
+                                        ? yes_no(s.sidewalks) +
+                                              " (edge-case test: a person may nevertheless stand on the "
+                                              "shoulder, e.g. after leaving a broken-down car, and walk "
+                                              "into the road)"
+                                        : yes_no(s.sidewalks)},
                       {"intersection", yes_no(s.intersection)},
                       {"multi_lane", yes_no(s.multi_lane)},
                       {"timestamp_s", num(frame.timestamp)},

@@ -36,6 +36,8 @@ struct SceneSettings {
   double ego_speed_mps = 0.0;
   double horizon_s = 6.0;
   double sidewalk_width_m = 3.0;
+  bool pedestrians_without_sidewalks = false;  // edge-case tests: a person on the shoulder
+  double max_under_way_s = 0.0;                // hazards may already be under way when they appear
   hazard::TtcConventions ttc;
   hazard::RoadModel road;
 };

@@ -66,6 +66,8 @@ struct Limits {
 struct Scene {
   std::vector<std::string> allowed;
   bool sidewalks = false, intersection = false, multi_lane = false;
+  bool on_shoulder = false;  // edge-case tests: a person on a road without sidewalks, on its shoulder
+  double max_under_way = 0;  // s a manoeuvre may already be under way when the hazard appears
   double ego_speed = 0, target = 1.0, horizon = 6, sidewalk = 3.0;
   double lane_width = 3.5, edge_left = 5.25, edge_right = 5.25, kerb = 0.5;
   double ego_half = 1.0, margin = 0.5, ego_front = 3.4;
@@ -104,6 +106,9 @@ Scene read_scene(const Json& s) {
     sc.target = number(s, "target_ttc_s");
     sc.horizon = number(s, "horizon_s");
     sc.sidewalk = number(s, "sidewalk_width_m");
+    // Newer fields; a context without them allows neither.
+    sc.on_shoulder = s.value("pedestrians_without_sidewalks", false);
+    sc.max_under_way = s.value("max_under_way_s", 0.0);
     const Json& road = field(s, "road");
     sc.lane_width = road.at("lane_width_m").get<double>();
     sc.edge_left = road.at("edge_left_m").get<double>();
@@ -181,7 +186,8 @@ Json base_spec(const std::string& kind, const std::string& cls, double x, double
            {{"crossing_from", nullptr},
             {"final_speed_mps", nullptr},
             {"brake_delay_s", nullptr},
-            {"track_id", nullptr}}},
+            {"track_id", nullptr},
+            {"under_way_s", nullptr}}},
           {"rationale", ""}};
 }
 
@@ -192,7 +198,7 @@ double walk_time(double d, double v, double accel) {
 
 // pedestrian_crossing: waits on the kerb, walks across; the ego arrives `enter + target` after the start.
 Plan plan_pedestrian(const Scene& sc, Draw& d, double aim) {
-  if (!sc.sidewalks) return {{}, "the scene has no sidewalks"};
+  if (!sc.sidewalks && !sc.on_shoulder) return {{}, "the scene has no sidewalks"};
   const std::string cls = "person";
   if (!sc.limits.count(cls)) return {{}, "the limits table has no 'person'"};
   const Limits& lim = sc.limits.at(cls);
@@ -202,23 +208,44 @@ Plan plan_pedestrian(const Scene& sc, Draw& d, double aim) {
   const double y0 = sign * (sc.edge(sign) + sc.kerb + d.uniform(0.0, std::min(0.5, sc.sidewalk)));
   const double speed = d.uniform(1.6, std::min(2.5, lim.max_speed));
   const double d_in = std::abs(y0) - sc.path_half(size.width);
-  const double enter = walk_time(d_in, speed, lim.max_accel) + d.uniform(0.3, 1.0);
+  // Waits a moment before stepping off; within a short horizon only as long as still leaves time to be seen.
+  const double walk = walk_time(d_in, speed, lim.max_accel);
+  const double enter = walk + std::min(d.uniform(0.3, 1.0), std::max(0.0, sc.horizon - 0.5 - walk));
   const double ttc = aim * sc.target;
-  if (enter > sc.horizon - 0.5) return {{}, "walking into the ego path takes longer than the horizon"};
+  // A horizon too short to watch the whole walk: when allowed, the person is already on the way when the
+  // hazard appears and enters the path a little into the horizon.
+  double under_way = 0;
+  if (enter > sc.horizon - 0.5) {
+    if (sc.max_under_way <= 0) return {{}, "walking into the ego path takes longer than the horizon"};
+    under_way = enter - d.uniform(0.3, 0.5) * sc.horizon;
+    if (under_way > sc.max_under_way)
+      return {{}, "the walk would have to be under way for " + fmt(under_way) + " s (max_under_way_s " +
+                      fmt(sc.max_under_way) + ")"};
+  }
   const double x0 = sc.ego_front + size.length / 2.0 + sc.ego_speed * (enter + ttc);
+  const double x_seen = x0 - sc.ego_speed * under_way;  // where it is when the hazard appears
   if (x0 > kMaxDistance) return {{}, "the crossing would be more than 120 m ahead"};
-  if (!visible(sc, x0, y0))
-    return {{}, "the kerb point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
-  if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
+  if (!visible(sc, x_seen, y0))
+    return {{}, "the kerb point (" + fmt(x_seen) + ", " + fmt(y0) + ") m is outside the camera view"};
+  if (std::string p = overlap_problem(sc, x_seen, y0, size); !p.empty()) return {{}, p};
   const std::string from = left ? "left" : "right";
   Json spec =
       base_spec("pedestrian_crossing", cls, x0, y0, from, speed, -sign * 90.0,
                 "steps off the " + from + " kerb and crosses to the " + (left ? "right" : "left"), sc.target);
   spec["extra"]["crossing_from"] = from;
-  spec["rationale"] =
-      "The scene has sidewalks, so a pedestrian stepping off the " + from + " kerb " + fmt(x0) +
-      " m ahead and crossing at " + fmt(speed) + " m/s is realistic; with the ego at " + fmt(sc.ego_speed) +
-      " m/s they are in its path about " + fmt(enter) + " s later, TTC near " + fmt(ttc) + " s.";
+  const std::string where =
+      sc.sidewalks ? "The scene has sidewalks, so a pedestrian stepping off the " + from + " kerb "
+                   : "Edge case (no sidewalks; people on the road allowed explicitly): a person who left a "
+                     "broken-down vehicle on the " +
+                         from + " shoulder steps into the road ";
+  spec["rationale"] = where + fmt(x0) + " m ahead and crossing at " + fmt(speed) +
+                      " m/s is realistic; with the ego at " + fmt(sc.ego_speed) + " m/s they are in its path about " +
+                      fmt(enter) + " s later, TTC near " + fmt(ttc) + " s.";
+  if (under_way > 0) {
+    spec["extra"]["under_way_s"] = round_to(under_way, 0.05);
+    spec["rationale"] = spec["rationale"].get<std::string>() + " The hazard appears " + fmt(under_way) +
+                        " s after the start, " + fmt(x_seen) + " m ahead, as the person sets off.";
+  }
   return {spec, {}};
 }
 
@@ -250,8 +277,18 @@ Plan plan_cut_in(const Scene& sc, Draw& d, double aim) {
   const double x0 =
       gap_end + sc.ego_front + size.length / 2.0 + sc.ego_speed * (t_brake + t_slow) - s_slow - v0 * t_brake;
   if (x0 < -25.0 || x0 > 3.0) return {{}, "no start beside or behind the ego fits (x " + fmt(x0) + " m)"};
-  if (t_brake + t_slow > sc.horizon - 0.5) return {{}, "the cut-in takes longer than the horizon"};
-  if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
+  // A horizon too short for the whole manoeuvre: when allowed, it is already under way when it appears and
+  // the lane change ends a little into the horizon.
+  double under_way = 0;
+  if (t_brake + t_slow > sc.horizon - 0.5) {
+    if (sc.max_under_way <= 0) return {{}, "the cut-in takes longer than the horizon"};
+    under_way = t_brake + t_slow - d.uniform(0.3, 0.5) * sc.horizon;
+    if (under_way > sc.max_under_way)
+      return {{}, "the cut-in would have to be under way for " + fmt(under_way) + " s (max_under_way_s " +
+                      fmt(sc.max_under_way) + ")"};
+  }
+  if (under_way == 0)
+    if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
   const std::string side = left ? "left" : "right";
   Json spec = base_spec("cut_in", cls, x0, y0, side, v0, 0.0,
                         "overtakes in the " + side + " lane and cuts in, braking", sc.target);
@@ -260,13 +297,19 @@ Plan plan_cut_in(const Scene& sc, Draw& d, double aim) {
   spec["rationale"] = "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " + fmt(v0) +
                       " m/s and cuts in ahead of the ego, braking to " + fmt(v1) + " m/s; it ends about " +
                       fmt(gap_end) + " m ahead, TTC near " + fmt(ttc) + " s.";
+  if (under_way > 0) {
+    spec["extra"]["under_way_s"] = round_to(under_way, 0.05);
+    spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fmt(under_way) +
+                        " s into the manoeuvre, already changing lanes beside-ahead of the ego.";
+  }
   return {spec, {}};
 }
 
 // First time (s) the TTC to a lead braking after `delay` falls to `ttc`, by a 20 ms replay; kInf if never.
+// A negative delay: braking began that long before (v0 is the speed before braking, gap0 the gap now).
 double time_to_ttc(double gap0, double ego, double v0, double delay, double decel, double ttc,
                    double horizon) {
-  double gap = gap0, v = v0;
+  double gap = gap0, v = delay < 0 ? std::max(0.0, v0 + decel * delay) : v0;
   for (double t = 0; t <= horizon; t += 0.02) {
     const double closing = ego - v;
     if (gap <= 0 || (closing > 0.1 && gap / closing <= ttc)) return t;
@@ -314,6 +357,32 @@ Plan plan_sudden_stop(const Scene& sc, Draw& d, double aim) {
   const double speed = std::min(sc.ego_speed, sc.limits.at(cls).max_speed);
   const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(cls).max_decel, 0.1);
   if (speed < kMinEgoSpeed) return {{}, "a lead vehicle cannot brake from standstill"};
+  if (sc.max_under_way > 0 && delay + 1.0 > sc.horizon - 0.7) {
+    // A horizon too short to watch a lead cruise and then brake: it has been braking for `b` s when it
+    // appears, following at the ego's speed until then, and the TTC reaches the target `t_hit` s in.
+    const double b = std::min(sc.max_under_way, d.uniform(0.3, 0.8));
+    const double t_hit = d.uniform(0.3, 0.5) * sc.horizon;
+    const double gap_now = decel * (b * t_hit + t_hit * t_hit / 2.0) + ttc * decel * (b + t_hit);
+    const double gap_start = gap_now + decel * b * b / 2.0;  // the closing covered while braking before
+    const double x0 = sc.ego_front + size.length / 2.0 + gap_start;
+    const double y0 = d.uniform(-0.3, 0.3);
+    if (time_to_ttc(gap_now, sc.ego_speed, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
+      return {{}, "the stop would come too late within the horizon"};
+    if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
+      return {{}, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt(lead->x) + " m"};
+    if (!visible(sc, x0, y0))
+      return {{}, "the start point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
+    Json spec = base_spec("sudden_stop", cls, x0, y0, "center", speed, 0.0,
+                          "follows in the ego lane and is already braking hard when it appears", sc.target);
+    spec["deceleration_mps2"] = decel;
+    spec["extra"]["brake_delay_s"] = 0.0;
+    spec["extra"]["under_way_s"] = round_to(b, 0.05);
+    spec["rationale"] = "A " + cls + " following " + fmt(gap_start) + " m ahead of the ego at the same " +
+                        fmt(speed) + " m/s has been braking at " + fmt(decel) + " m/s^2 for " + fmt(b) +
+                        " s when it appears " + fmt(gap_now) + " m ahead; the TTC falls to about " + fmt(ttc) +
+                        " s " + fmt(t_hit) + " s later.";
+    return {spec, {}};
+  }
   // Same speed as the ego: the gap holds until braking starts, then TTC = gap / closing falls.
   const double t_star = std::min(d.uniform(1.0, 2.5), 0.8 * speed / decel);
   const double gap = decel * t_star * t_star / 2.0 + decel * ttc * t_star;
