@@ -210,8 +210,12 @@ Plan plan_pedestrian(const Scene& sc, Draw& d, double aim) {
   const double d_in = std::abs(y0) - sc.path_half(size.width);
   // Waits a moment before stepping off; within a short horizon only as long as still leaves time to be seen.
   const double walk = walk_time(d_in, speed, lim.max_accel);
-  const double enter = walk + std::min(d.uniform(0.3, 1.0), std::max(0.0, sc.horizon - 0.5 - walk));
   const double ttc = aim * sc.target;
+  // The template times the walk for the spec's target (sc.target), the position is planned for `ttc`: the
+  // wait must cover the difference, or the person would have to enter the path before it can.
+  const double min_wait = sc.target - ttc + 0.1;
+  const double enter =
+      walk + std::max(min_wait, std::min(d.uniform(0.3, 1.0), std::max(0.0, sc.horizon - 0.5 - walk)));
   // A horizon too short to watch the whole walk: when allowed, the person is already on the way when the
   // hazard appears and enters the path a little into the horizon.
   double under_way = 0;
