@@ -6,6 +6,7 @@
 #include <iostream>
 #include <sstream>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -241,6 +242,38 @@ TEST(AnnotatedVideoSink, PresetParamReachesTheEncoder) {
   EXPECT_EQ(x264_option(bytes, "threads"), "2");
   EXPECT_EQ(x264_option(bytes, "crf"), "28.0");
   EXPECT_EQ(decode(file).size(), 6u);
+}
+
+TEST(AnnotatedVideoSink, ScaleShrinksTheVideoAndKeepsBoxesOnTheirObjects) {
+  auto r = testing::StageRunner::create<sink::AnnotatedVideoSink>("{fps: 5, scale: 0.5, png_every: 1}");
+  for (int i = 0; i < 3; ++i) {
+    Frame f;
+    f.index = i;
+    f.timestamp = i * 0.2;
+    f.image = cv::Mat(cv::Size(640, 360), CV_8UC3, cv::Scalar(90, 90, 90));
+    r.push("frames", f, f.timestamp);
+    Tracks t;
+    t.frame_index = i;
+    Track a;
+    a.id = 3;
+    a.label = "car";
+    a.box = cv::Rect2f(200, 180, 120, 90);
+    t.items = {a};
+    r.push("tracks", t, f.timestamp);
+  }
+  r.run();
+  const auto back = decode(r.output_dir() / "annotated.mp4");
+  ASSERT_EQ(back.size(), 3u);
+  ASSERT_EQ(back[0].size(), cv::Size(320, 180));
+  // The car box (full-size x 200, y 180..270) is drawn in the car colour at half the coordinates.
+  const cv::Vec3b edge = back[1].at<cv::Vec3b>(90 + 22, 100);
+  EXPECT_GT(edge[0], 150);
+  EXPECT_LT(edge[2], 80);
+  const cv::Mat png = cv::imread((r.output_dir() / "annotated_frames/frame_000001.png").string());
+  ASSERT_EQ(png.size(), cv::Size(320, 180));
+  EXPECT_EQ(png.at<cv::Vec3b>(90 + 22, 100), cv::Vec3b(255, 140, 0));
+  // Away from the drawing the grey survives.
+  EXPECT_NEAR(cv::mean(back[1](cv::Rect(250, 20, 40, 40)))[0], 90, 4);
 }
 
 TEST(AnnotatedVideoSink, BadPresetIsAClearParamError) {

@@ -16,7 +16,7 @@ namespace hf::sink {
 // The file is written as <stem>.partial<ext> and renamed in finish(), so a finished run never leaves a
 // half-written video under the final name. H.264 (avc1) is tried first, then MPEG-4 Part 2 (mp4v); H.264 goes
 // through the ffmpeg program (VideoFileWriter) so encoding is cheap, bounded per frame and controllable.
-// Params: file, fps, codec, png_every, png_dir, thickness, encoder, preset, threads, crf.
+// Params: file, fps, codec, png_every, png_dir, thickness, scale, encoder, preset, threads, crf.
 class AnnotatedVideoSink : public Stage {
  public:
   static ComponentInfo describe();
@@ -35,6 +35,8 @@ class AnnotatedVideoSink : public Stage {
   std::string codec_param_, codec_;
   int png_every_ = 0;
   int thickness_ = 2;
+  double scale_ = 1.0;
+  cv::Size frame_size_;  // of the incoming frames; size_ is the video's
   std::string encoder_, preset_;
   int threads_ = 1, crf_ = 23;
   VideoFileWriter writer_;

@@ -47,14 +47,17 @@ void label_box(cv::Mat& img, const std::string& text, cv::Point org, double scal
 }  // namespace
 
 void draw_overlay(cv::Mat& img, int64_t frame_index, double timestamp, const OverlayInputs& in,
-                  int thickness) {
+                  int thickness, double box_scale) {
+  auto scaled = [box_scale](const cv::Rect2f& b) {
+    return cv::Rect(cv::Rect2d(b.x * box_scale, b.y * box_scale, b.width * box_scale, b.height * box_scale));
+  };
   const double scale = std::max(0.35, img.rows / 720.0 * 0.55);
   const int line_h = static_cast<int>(std::lround(28 * scale / 0.55));
 
   // Raw detections: thin boxes, so tracked objects (thick) stand out.
   if (in.detections)
     for (const Detection& d : in.detections->items)
-      cv::rectangle(img, cv::Rect(d.box), class_color(d.label), 1, cv::LINE_AA);
+      cv::rectangle(img, scaled(d.box), class_color(d.label), 1, cv::LINE_AA);
 
   std::map<int64_t, const ObjectState*> state_of;
   if (in.states)
@@ -75,8 +78,9 @@ void draw_overlay(cv::Mat& img, int64_t frame_index, double timestamp, const Ove
   };
   auto draw_object = [&](const cv::Rect2f& box, int64_t id, const std::string& label, bool predicted) {
     const cv::Scalar c = class_color(label);
-    cv::rectangle(img, cv::Rect(box), c, predicted ? 1 : thickness, cv::LINE_AA);
-    label_box(img, object_text(id, label), cv::Point(static_cast<int>(box.x), static_cast<int>(box.y)),
+    const cv::Rect r = scaled(box);
+    cv::rectangle(img, r, c, predicted ? 1 : thickness, cv::LINE_AA);
+    label_box(img, object_text(id, label), r.tl(),
               scale * 0.8, c, cv::Scalar(0, 0, 0));
   };
   if (in.tracks) {

@@ -24,9 +24,10 @@ struct OverlayInputs {
   std::vector<std::pair<std::string, const RiskAssessment*>> risks;  // metric name -> assessment
 };
 
-// Draws on `img` (BGR 8-bit) in place.
+// Draws on `img` (BGR 8-bit) in place. Boxes are in the frame's pixels; `box_scale` maps them onto `img` when
+// it is a resized copy of the frame.
 void draw_overlay(cv::Mat& img, int64_t frame_index, double timestamp, const OverlayInputs& in,
-                  int thickness);
+                  int thickness, double box_scale = 1.0);
 
 // Text of a metric value: "1.23 s", "inf" when not finite.
 std::string format_value(double v, const std::string& unit);
