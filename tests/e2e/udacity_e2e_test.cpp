@@ -1,0 +1,93 @@
+// A hazard on the short Udacity highway clip through the CLI: configs/pedestrian_crossing_udacity.yaml (a person
+// who left a broken-down car on the shoulder walks into the ego lane, already under way when the 1.52 s clip
+// starts) must pass the closed-loop verification with the default criteria inside the clip.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "hazardforge/types.hpp"
+#include "test_support.hpp"
+
+namespace hf {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Cmd {
+  int code = -1;
+  std::string out;
+};
+
+Cmd run(const std::string& cmd) {
+  Cmd c;
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return c;
+  std::array<char, 4096> buf{};
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) c.out.append(buf.data(), n);
+  const int st = pclose(p);
+  c.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return c;
+}
+
+std::string quote(const fs::path& p) {
+  return "'" + p.string() + "'";
+}
+
+Json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return Json::parse(in);
+}
+
+TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
+  const fs::path shared = test::shared_dir();
+  HF_REQUIRE_SHARED(shared / "data/udacity-highway/test_video.mp4");
+  HF_REQUIRE_SHARED(shared / "models/yolov8n/yolov8n_deq_640x384.onnx");
+  const fs::path exe = fs::path(HF_BINARY_DIR "/bin/hazardforge");
+  ASSERT_TRUE(fs::exists(exe)) << exe;
+  const fs::path out = test::binary_dir() / "tests/e2e/udacity_run";
+  fs::remove_all(out);
+  const Cmd r = run("HAZARDFORGE_SHARED=" + quote(shared) + " " + quote(exe) + " run " +
+                    quote(test::source_dir() / "configs/pedestrian_crossing_udacity.yaml") + " -o " + quote(out));
+  ASSERT_EQ(r.code, 0) << r.out;
+
+  // Generated at frame 1 as an explicit edge case: a person on the left shoulder, the walk under way.
+  const Json spec = read_json(out / "hazard_spec.json");
+  EXPECT_EQ(spec["kind"], "pedestrian_crossing");
+  EXPECT_EQ(spec["object_class"], "person");
+  EXPECT_EQ(spec["provenance"]["frame_index"], 1);
+  EXPECT_GT(spec["lateral_offset_m"].get<double>(), 1.75);  // beyond the road edge (leftmost lane)
+  EXPECT_GT(spec["extra"]["under_way_s"].get<double>(), 0.0);
+  EXPECT_LE(spec["extra"]["under_way_s"].get<double>(), 1.0);
+  const Json tr = read_json(out / "trajectory.json");
+  EXPECT_TRUE(tr["planner"]["feasible"].get<bool>());
+  EXPECT_DOUBLE_EQ(tr["planner"]["ego_speed_mps"].get<double>(), 20.0);
+  // Already in view when the clip starts, and in the ego path (|y| < 1.0 + 0.5 + w/2) before it ends (1.52 s).
+  EXPECT_LT(tr["points"].front()["x"].get<double>(), 60.0);
+  bool in_path = false;
+  for (const Json& p : tr["points"])
+    in_path |= p["t"].get<double>() < 1.48 && std::abs(p["y"].get<double>()) < 1.5;
+  EXPECT_TRUE(in_path);
+
+  // The verdict with the default criteria plus require_hazard_critical.
+  const Json v = read_json(out / "verification.json");
+  EXPECT_TRUE(v["passed"].get<bool>()) << v.dump(2);
+  EXPECT_EQ(v["criteria"]["min_iou"], 0.5);
+  EXPECT_EQ(v["criteria"]["min_redetection_rate"], 0.5);
+  EXPECT_TRUE(v["criteria"]["require_unsafe"].get<bool>());
+  EXPECT_TRUE(v["criteria"]["require_hazard_critical"].get<bool>());
+  EXPECT_GE(v["redetection"]["rate"].get<double>(), 0.5);
+  EXPECT_GE(v["unsafe"]["hazard_critical_frames"].get<int>(), 3);
+  EXPECT_LT(v["ttc"]["achieved_min_ttc_s"].get<double>(), 1.5);
+  // The person is re-estimated within 10 % of where it was inserted.
+  EXPECT_GE(v["distance"]["matched_frames"].get<int>(), 5);
+  EXPECT_LT(v["distance"]["median_rel_error"].get<double>(), 0.1);
+}
+
+}  // namespace
+}  // namespace hf
