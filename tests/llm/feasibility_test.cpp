@@ -87,6 +87,33 @@ TEST_F(Feasibility, SceneRulesFromThePrompt) {
   EXPECT_EQ(e[1], "/kind = \"cut_in\" needs a lane beside the ego lane; this road has one (multi_lane = no)");
 }
 
+TEST_F(Feasibility, PersonOnTheShoulderOnlyWithTheExplicitRelaxation) {
+  cfg_.sidewalks = false;
+  cfg_.sidewalk_width_m = 2.5;
+  HazardSpec p = stop();
+  p.kind = "pedestrian_crossing";
+  p.object_class = "person";
+  p.speed_mps = 2;
+  p.deceleration_mps2.reset();
+  p.heading_deg = 90;
+  p.side = "right";
+  p.lateral_offset_m = -6.0;  // the right road edge is at 5.25 m: 0.75 m onto the shoulder
+  auto has = [](const std::vector<std::string>& e, const std::string& start) {
+    for (const auto& m : e)
+      if (m.rfind(start, 0) == 0) return true;
+    return false;
+  };
+  std::vector<std::string> e = check(p);
+  EXPECT_TRUE(has(e, "/object_class = \"person\" is not allowed"));
+  EXPECT_TRUE(has(e, "/lateral_offset_m = -6 puts the person off the road (|y| <= 5.25 m on the right)"));
+  cfg_.pedestrians_without_sidewalks = true;
+  e = check(p);
+  EXPECT_FALSE(has(e, "/object_class = \"person\" is not allowed"));
+  EXPECT_FALSE(has(e, "/lateral_offset_m"));
+  p.lateral_offset_m = -8.0;  // beyond the 2.5 m shoulder
+  EXPECT_TRUE(has(check(p), "/lateral_offset_m = -8 puts the person off the road and sidewalk (|y| <= 7.75 m"));
+}
+
 TEST_F(Feasibility, SideRoadAndOverlap) {
   HazardSpec s = stop();
   s.side = "left";
