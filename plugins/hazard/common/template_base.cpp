@@ -70,6 +70,11 @@ BoxView view_of(const CameraModel& cam, const EgoPath& ego, double s, double d, 
   return view_of(cam, m.x, m.y, *m.heading, size);
 }
 
+BoxView view_from_anchor(const PlanRequest& req, double s, double d, double rel_heading, const cv::Vec3d& size) {
+  if (req.under_way <= 0 || !req.anchor_ego) return view_of(req.scene.camera, req.ego, s, d, rel_heading, size);
+  return view_of(req.scene.camera, *req.anchor_ego, s - req.ego.s_at(req.under_way), d, rel_heading, size);
+}
+
 ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
   ComponentInfo i;
   i.name = std::move(name);
@@ -235,7 +240,9 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
                   ttc_,
                   duration_s_ + under_way,
                   params_,
-                  design_ego};
+                  design_ego,
+                  under_way,
+                  &ego};
   Design d = design(req, reasons);
   if (!reasons.empty()) return out;
   if (!d.motion) throw Error("hazard template '" + hazard_kind() + "' designed no motion and gave no reason");

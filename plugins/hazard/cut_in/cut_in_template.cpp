@@ -181,7 +181,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
     reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num(gap_enter) +
                       " m at " + num(t_enter) + " s): it has not passed yet");
   const hazard::ObjectMotion end = motion(t_end);
-  if (!hazard::view_of(req.scene.camera, req.ego, end.x, end.y, 0.0, req.size_lwh).centre_inside)
+  if (!hazard::view_from_anchor(req, end.x, end.y, 0.0, req.size_lwh).centre_inside)
     reasons.push_back("the cut-in point (x=" + num(end.x) + " m at " + num(t_end) +
                       " s) is out of the camera's view");
   if (!reasons.empty()) return {};

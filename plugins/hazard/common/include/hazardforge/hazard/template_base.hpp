@@ -58,6 +58,11 @@ struct PlanRequest {
   double duration = 0;   // s
   const Params& params;  // the template's validated params
   const EgoPath& ego;    // where the ego goes: the recorded track, or straight at ego_speed
+  // A hazard already under way (extra.under_way_s): the design starts under_way s before the anchor time and
+  // `ego` is the ego's path from there; `anchor_ego` is its path from the anchor time, where the recording (and
+  // the camera's view of the hazard) begins. Without: under_way 0 and anchor_ego = &ego.
+  double under_way = 0;
+  const EgoPath* anchor_ego = nullptr;
 
   // |y| below which an object of this width is in the ego path.
   double path_half_width(double object_width) const {
@@ -84,6 +89,9 @@ BoxView view_of(const CameraModel& cam, double x, double y, double heading, cons
 // The same for an object given in road coordinates (heading relative to the road) at the anchor time.
 BoxView view_of(const CameraModel& cam, const EgoPath& ego, double s, double d, double rel_heading,
                 const cv::Vec3d& size_lwh);
+// Projection of an object given in the design's road coordinates (PlanRequest::ego), seen from the camera at the
+// anchor time: for a hazard already under way the design's road x is shifted by the ego's travel up to then.
+BoxView view_from_anchor(const PlanRequest& req, double s, double d, double rel_heading, const cv::Vec3d& size_lwh);
 
 // The planned hazard and, when infeasible, why.
 struct PlanOutcome {
