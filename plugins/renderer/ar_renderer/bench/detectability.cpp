@@ -3,7 +3,11 @@
 // as found when a detection of its class overlaps the inserted box with IoU >= 0.5. Placements whose box already
 // overlaps a real detection of that class in the original frame are skipped, so real objects are not counted.
 //
-//   hf_ar_renderer_detectability [--assets DIR] [--frames N]   (needs $HAZARDFORGE_SHARED)
+// The table also says which label the best-overlapping detection has: for cars, how often YOLO calls the
+// inserted car `car` rather than `truck`/`bus` (the monocular estimator uses the label's height prior, so a car
+// labelled truck is placed about twice as far away).
+//
+//   hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person]   (needs $HAZARDFORGE_SHARED)
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -38,14 +42,17 @@ bool same_class(const std::string& hazard, const std::string& label) {
 int main(int argc, char** argv) {
   fs::path assets;
   int n_frames = 6;
+  std::vector<std::string> classes = {"car", "person"};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--assets" && i + 1 < argc) {
       assets = argv[++i];
     } else if (a == "--frames" && i + 1 < argc) {
       n_frames = std::atoi(argv[++i]);
+    } else if (a == "--class" && i + 1 < argc) {
+      classes = {argv[++i]};
     } else {
-      std::cerr << "usage: hf_ar_renderer_detectability [--assets DIR] [--frames N]\n";
+      std::cerr << "usage: hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person]\n";
       return 2;
     }
   }
@@ -68,18 +75,19 @@ int main(int argc, char** argv) {
     auto lib = std::make_shared<const AssetLibrary>(
         AssetLibrary::load(assets.empty() ? defaults : assets, assets.empty() ? fs::path() : defaults));
     struct Cell {
-      int tried = 0, found = 0;
+      int tried = 0, found = 0, exact = 0;  // exact: found with the class's own label (car, not truck/bus)
       double iou_sum = 0;
     };
     std::map<std::string, Cell> table;
-    const double headings[3] = {0.0, CV_PI, CV_PI / 2};
-    const char* heading_names[3] = {"away", "oncoming", "crossing"};
+    // Away, away turned in by 20 degrees (a car changing lanes ahead), oncoming, crossing.
+    const double headings[4] = {0.0, -0.35, CV_PI, CV_PI / 2};
+    const char* heading_names[4] = {"away", "away-20", "oncoming", "crossing"};
     for (int fi = 0; fi < n_frames; ++fi) {
       const Frame& f = frames[static_cast<size_t>(fi) * (frames.size() - 1) / std::max(1, n_frames - 1)];
       const Detections original = detect(f);
-      for (const std::string cls : {"car", "person"})
+      for (const std::string& cls : classes)
         for (double dist : {8.0, 12.0, 20.0, 30.0})
-          for (int h = 0; h < 3; ++h) {
+          for (int h = 0; h < 4; ++h) {
             HazardTrajectory t;
             t.kind = "detectability";
             t.object_class = cls;
@@ -98,28 +106,38 @@ int main(int argc, char** argv) {
             Frame aug = f;
             aug.image = res.frame.image;
             double best = 0;
+            std::string best_label;
             for (const auto& d : detect(aug).items)
-              if (same_class(cls, d.label)) best = std::max(best, iou(d.box, res.hazard.box));
+              if (same_class(cls, d.label) && iou(d.box, res.hazard.box) > best) {
+                best = iou(d.box, res.hazard.box);
+                best_label = d.label;
+              }
             char key[64];
             std::snprintf(key, sizeof key, "%-6s %-8s %4.0f m", cls.c_str(), heading_names[h], dist);
             Cell& c = table[key];
             ++c.tried;
             c.found += best >= 0.5;
+            c.exact += best >= 0.5 && best_label == cls;
             c.iou_sum += best;
           }
       std::cerr << "frame " << f.index << " done\n";
     }
-    std::printf("| class | heading | distance | insertions | found (IoU >= 0.5) | mean best IoU |\n|---|---|---:|---:|---:|---:|\n");
-    int tried = 0, found = 0;
+    std::printf(
+        "| class | heading | distance | insertions | found (IoU >= 0.5) | labelled as its class | mean best IoU "
+        "|\n|---|---|---:|---:|---:|---:|---:|\n");
+    int tried = 0, found = 0, exact = 0;
     for (const auto& [k, c] : table) {
       char cls[8], head[10];
       double d = 0;
       std::sscanf(k.c_str(), "%7s %9s %lf", cls, head, &d);
-      std::printf("| %s | %s | %.0f m | %d | %d | %.2f |\n", cls, head, d, c.tried, c.found, c.iou_sum / c.tried);
+      std::printf("| %s | %s | %.0f m | %d | %d | %d | %.2f |\n", cls, head, d, c.tried, c.found, c.exact,
+                  c.iou_sum / c.tried);
       tried += c.tried;
       found += c.found;
+      exact += c.exact;
     }
-    std::printf("| all | | | %d | %d (%.0f %%) | |\n", tried, found, tried ? 100.0 * found / tried : 0.0);
+    std::printf("| all | | | %d | %d (%.0f %%) | %d (%.0f %%) | |\n", tried, found,
+                tried ? 100.0 * found / tried : 0.0, exact, tried ? 100.0 * exact / tried : 0.0);
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "hf_ar_renderer_detectability: " << e.what() << "\n";
