@@ -1,6 +1,8 @@
 // VideoFileWriter (H.264 through the ffmpeg program, or OpenCV) and the video sinks' encoder params: decodable
 // files with the right frames and colours, x264's options string in the stream, clear errors.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <iostream>
@@ -138,6 +140,35 @@ TEST(VideoFileWriter, PresetAndThreadsLandInTheStream) {
     EXPECT_EQ(x264_option(bytes, "bframes"), "0") << c.preset;
     EXPECT_EQ(decode(o.file).size(), 5u) << c.preset;
   }
+}
+
+volatile sig_atomic_t g_sigints = 0;
+void count_sigint(int) { g_sigints = g_sigints + 1; }
+
+// Ctrl-C goes to the terminal's foreground process group. The host handles it by finishing every sink, so the
+// encoder must not get it too (it would stop and leave a cut file); it runs in its own process group.
+TEST(VideoFileWriter, CtrlCForTheHostDoesNotReachTheEncoder) {
+  if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg not installed";
+  // Our own process group, so the signal below reaches only this test process (and children left in it).
+  if (setpgid(0, 0) != 0) GTEST_SKIP() << "cannot lead a process group here";
+  struct sigaction sa {}, old {};
+  sa.sa_handler = count_sigint;
+  sigemptyset(&sa.sa_mask);
+  ASSERT_EQ(sigaction(SIGINT, &sa, &old), 0);
+  TempDir dir;
+  VideoWriterOptions o;
+  o.file = dir / "interrupted.mp4";
+  o.size = {320, 240};
+  VideoFileWriter w;
+  w.open(o);
+  write_sequence(w, 5, o.size);
+  ASSERT_EQ(kill(0, SIGINT), 0);
+  usleep(300 * 1000);
+  for (int i = 5; i < 10; ++i) w.write(coloured(i, o.size));
+  EXPECT_EQ(error_of([&] { w.close(); }), "");
+  sigaction(SIGINT, &old, nullptr);
+  EXPECT_EQ(g_sigints, 1);
+  EXPECT_EQ(decode(o.file).size(), 10u);
 }
 
 TEST(VideoFileWriter, OddSizeIsPaddedToEven) {

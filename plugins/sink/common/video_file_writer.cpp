@@ -70,7 +70,8 @@ bool has_libx264(const std::string& program) {
   for (char c : program) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
   quoted += "'";
   bool found = false;
-  if (FILE* p = popen((quoted + " -hide_banner -nostdin -encoders 2>/dev/null").c_str(), "r")) {
+  // "e": close-on-exec, so an encoder started meanwhile by another sink cannot inherit the pipe and hold it open.
+  if (FILE* p = popen((quoted + " -hide_banner -nostdin -encoders 2>/dev/null").c_str(), "re")) {
     char line[512];
     while (fgets(line, sizeof line, p))
       if (std::strstr(line, " libx264 ")) found = true;
@@ -263,8 +264,22 @@ void VideoFileWriter::start_ffmpeg(const std::string& program) {
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
+  // Own process group: Ctrl-C in the terminal reaches only the host, which then lets the sink finish() and
+  // close the pipe, so ffmpeg ends the file normally instead of being interrupted mid-write. Default signal
+  // mask and dispositions, whatever the spawning thread had blocked.
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  posix_spawnattr_setpgroup(&attr, 0);
+  sigset_t none, defaults;
+  sigemptyset(&none);
+  posix_spawnattr_setsigmask(&attr, &none);
+  sigemptyset(&defaults);
+  for (int sig : {SIGPIPE, SIGINT, SIGTERM}) sigaddset(&defaults, sig);
+  posix_spawnattr_setsigdefault(&attr, &defaults);
   pid_t pid = -1;
-  const int rc = posix_spawn(&pid, program.c_str(), &fa, nullptr, argv.data(), environ);
+  const int rc = posix_spawn(&pid, program.c_str(), &fa, &attr, argv.data(), environ);
+  posix_spawnattr_destroy(&attr);
   posix_spawn_file_actions_destroy(&fa);
   ::close(in[0]);
   ::close(err[1]);
