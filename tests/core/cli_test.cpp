@@ -9,29 +9,21 @@
 #include <cstdio>
 #include <fstream>
 
+#include "command.hpp"
 #include "hazardforge/types.hpp"
 #include "test_support.hpp"
 
 namespace {
 
-struct Cmd {
-  int code = -1;
-  std::string out;
-};
+using Cmd = hf::test::CommandResult;
 
 Cmd run(const std::string& args) {
-  Cmd c;
-  const std::string cmd = std::string(HF_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) c.out.append(buf.data(), n);
-  const int st = pclose(p);
-  c.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return c;
+  return hf::test::run_command(std::string(HF_EXE) + " " + args);
 }
 
 TEST(Cli, HelpOnEveryCommand) {
-  for (const char* sub : {"run", "validate", "plugins", "inspect", "graph", "bench", "eval", "experiment", "calibrate"}) {
+  for (const char* sub :
+       {"run", "validate", "plugins", "inspect", "graph", "bench", "eval", "experiment", "calibrate"}) {
     Cmd c = run(std::string(sub) + " --help");
     EXPECT_EQ(c.code, 0) << sub;
     EXPECT_NE(c.out.find("Usage"), std::string::npos) << sub << ": " << c.out;
@@ -49,12 +41,13 @@ TEST(Cli, PluginsListsInTreePluginsWithPaths) {
 TEST(Cli, InspectDocumentsPortsAndParams) {
   Cmd c = run("inspect yolo");
   EXPECT_EQ(c.code, 0) << c.out;
-  for (const char* s : {"detector/yolo", "inputs:", "frames", "Frame v1", "outputs:", "detections", "params:",
-                        "conf_threshold"})
+  for (const char* s : {"detector/yolo", "inputs:", "frames", "Frame v1", "outputs:", "detections",
+                        "params:", "conf_threshold"})
     EXPECT_NE(c.out.find(s), std::string::npos) << s << "\n" << c.out;
   Cmd bad = run("inspect yoloo");
   EXPECT_EQ(bad.code, 1);
-  EXPECT_NE(bad.out.find("error: unknown component 'yoloo'; did you mean 'yolo'?"), std::string::npos) << bad.out;
+  EXPECT_NE(bad.out.find("error: unknown component 'yoloo'; did you mean 'yolo'?"), std::string::npos)
+      << bad.out;
 }
 
 TEST(Cli, ValidateReportsEveryErrorAndFails) {
@@ -109,7 +102,8 @@ TEST(Cli, CtrlCKeepsWhatWasWrittenAndMarksTheManifest) {
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     const std::string o = out.string();
-    execl(HF_EXE, HF_EXE, "run", "configs/assess_video.yaml", "-o", o.c_str(), "-q", static_cast<char*>(nullptr));
+    execl(HF_EXE, HF_EXE, "run", "configs/assess_video.yaml", "-o", o.c_str(), "-q",
+          static_cast<char*>(nullptr));
     _exit(127);
   }
   // Wait until a few frames are on disk, then press Ctrl-C.

@@ -2,15 +2,13 @@
 // configs/paper.yaml, and check that the generated scenario passed the closed-loop verification and that its
 // outputs exist.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
+#include "command.hpp"
 #include "hazardforge/types.hpp"
 #include "test_support.hpp"
 
@@ -19,29 +17,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Cmd {
-  int code = -1;
-  std::string out;
-};
+using test::quote;
+using Cmd = test::CommandResult;
 
 Cmd run(const std::string& cmd) {
-  Cmd c;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return c;
-  std::array<char, 4096> buf{};
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) c.out.append(buf.data(), n);
-  const int st = pclose(p);
-  c.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return c;
+  return test::run_command(cmd);
 }
-
-std::string quote(const fs::path& p) {
-  return "'" + p.string() + "'";
-}
-
 Json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return Json::parse(in);
+  return test::read_json_file(p);
 }
 
 TEST(PaperEndToEnd, Scene0916ScenarioPassesVerification) {

@@ -1,16 +1,14 @@
-// A hazard on the short Udacity highway clip through the CLI: configs/pedestrian_crossing_udacity.yaml (a person
-// who left a broken-down car on the shoulder walks into the ego lane, already under way when the 1.52 s clip
-// starts) must pass the closed-loop verification with the default criteria inside the clip.
+// A hazard on the short Udacity highway clip through the CLI: configs/pedestrian_crossing_udacity.yaml (a
+// person who left a broken-down car on the shoulder walks into the ego lane, already under way when the 1.52
+// s clip starts) must pass the closed-loop verification with the default criteria inside the clip.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
+#include "command.hpp"
 #include "hazardforge/types.hpp"
 #include "test_support.hpp"
 
@@ -19,29 +17,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Cmd {
-  int code = -1;
-  std::string out;
-};
+using test::quote;
+using Cmd = test::CommandResult;
 
 Cmd run(const std::string& cmd) {
-  Cmd c;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return c;
-  std::array<char, 4096> buf{};
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) c.out.append(buf.data(), n);
-  const int st = pclose(p);
-  c.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return c;
+  return test::run_command(cmd);
 }
-
-std::string quote(const fs::path& p) {
-  return "'" + p.string() + "'";
-}
-
 Json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return Json::parse(in);
+  return test::read_json_file(p);
 }
 
 TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
@@ -52,8 +35,9 @@ TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   ASSERT_TRUE(fs::exists(exe)) << exe;
   const fs::path out = test::binary_dir() / "tests/e2e/udacity_run";
   fs::remove_all(out);
-  const Cmd r = run("HAZARDFORGE_SHARED=" + quote(shared) + " " + quote(exe) + " run " +
-                    quote(test::source_dir() / "configs/pedestrian_crossing_udacity.yaml") + " -o " + quote(out));
+  const Cmd r =
+      run("HAZARDFORGE_SHARED=" + quote(shared) + " " + quote(exe) + " run " +
+          quote(test::source_dir() / "configs/pedestrian_crossing_udacity.yaml") + " -o " + quote(out));
   ASSERT_EQ(r.code, 0) << r.out;
 
   // Generated at frame 1 as an explicit edge case: a person on the left shoulder, the walk under way.
@@ -67,7 +51,8 @@ TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   const Json tr = read_json(out / "trajectory.json");
   EXPECT_TRUE(tr["planner"]["feasible"].get<bool>());
   EXPECT_DOUBLE_EQ(tr["planner"]["ego_speed_mps"].get<double>(), 20.0);
-  // Already in view when the clip starts, and in the ego path (|y| < 1.0 + 0.5 + w/2) before it ends (1.52 s).
+  // Already in view when the clip starts, and in the ego path (|y| < 1.0 + 0.5 + w/2) before it ends (1.52
+  // s).
   EXPECT_LT(tr["points"].front()["x"].get<double>(), 60.0);
   bool in_path = false;
   for (const Json& p : tr["points"])
