@@ -19,13 +19,8 @@ namespace fs = std::filesystem;
 
 using test::quote;
 using Cmd = test::CommandResult;
-
-Cmd run(const std::string& cmd) {
-  return test::run_command(cmd);
-}
-Json read_json(const fs::path& p) {
-  return test::read_json_file(p);
-}
+using test::read_json_file;
+using test::run_command;
 
 TEST(PaperEndToEnd, Scene0916ScenarioPassesVerification) {
   const fs::path shared = test::shared_dir();
@@ -40,18 +35,18 @@ TEST(PaperEndToEnd, Scene0916ScenarioPassesVerification) {
 
   // Real appearances from the same recording (the default car sprite is not recognised by YOLOv8n).
   const fs::path assets = work / "assets";
-  const Cmd harvest = run(env + quote(exe) + " assets harvest -o " + quote(assets) + " --config " +
-                          quote(test::source_dir() / "configs/harvest_assets.yaml"));
+  const Cmd harvest = run_command(env + quote(exe) + " assets harvest -o " + quote(assets) + " --config " +
+                                  quote(test::source_dir() / "configs/harvest_assets.yaml"));
   ASSERT_EQ(harvest.code, 0) << harvest.out;
   ASSERT_TRUE(fs::exists(assets / "assets.yaml")) << harvest.out;
 
   const fs::path out = work / "run";
-  const Cmd paper = run(env + "HAZARDFORGE_ASSETS=" + quote(assets) + " " + quote(exe) + " run " +
-                        quote(test::source_dir() / "configs/paper.yaml") + " -o " + quote(out));
+  const Cmd paper = run_command(env + "HAZARDFORGE_ASSETS=" + quote(assets) + " " + quote(exe) + " run " +
+                                quote(test::source_dir() / "configs/paper.yaml") + " -o " + quote(out));
   ASSERT_EQ(paper.code, 0) << paper.out;
 
   // The verdict: re-detected, Unsafe while visible, distances measured.
-  const Json v = read_json(out / "verification.json");
+  const Json v = read_json_file(out / "verification.json");
   EXPECT_TRUE(v["passed"].get<bool>()) << v.dump(2);
   EXPECT_TRUE(v["reasons"].empty()) << v.dump(2);
   EXPECT_EQ(v["criteria"]["min_iou"], 0.5);
@@ -76,9 +71,9 @@ TEST(PaperEndToEnd, Scene0916ScenarioPassesVerification) {
       EXPECT_GT(fs::file_size(out / f), 100u) << f;
     }
   }
-  const Json spec = read_json(out / "hazard_spec.json");
+  const Json spec = read_json_file(out / "hazard_spec.json");
   EXPECT_EQ(spec["provenance"]["provider"], "offline");
-  const Json tr = read_json(out / "trajectory.json");
+  const Json tr = read_json_file(out / "trajectory.json");
   EXPECT_TRUE(tr["planner"]["feasible"].get<bool>());
   EXPECT_EQ(tr["kind"], spec["kind"]);
   // Planned against the recorded ego track: the ego's planned speed follows the recording (it speeds up
@@ -88,8 +83,8 @@ TEST(PaperEndToEnd, Scene0916ScenarioPassesVerification) {
   EXPECT_GT(std::abs(v1 - v0), 0.05) << v0 << " -> " << v1;
 
   // The exported scenario is valid ASAM OpenSCENARIO 1.2.
-  const Cmd xsd = run("xmllint --noout --schema " + quote(shared / "schemas/OpenSCENARIOv1.2.xsd") + " " +
-                      quote(out / "scenario.xosc"));
+  const Cmd xsd = run_command("xmllint --noout --schema " + quote(shared / "schemas/OpenSCENARIOv1.2.xsd") +
+                              " " + quote(out / "scenario.xosc"));
   EXPECT_EQ(xsd.code, 0) << xsd.out << "(xmllint comes with Debian's libxml2-utils)";
 }
 

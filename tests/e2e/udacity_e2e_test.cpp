@@ -19,13 +19,8 @@ namespace fs = std::filesystem;
 
 using test::quote;
 using Cmd = test::CommandResult;
-
-Cmd run(const std::string& cmd) {
-  return test::run_command(cmd);
-}
-Json read_json(const fs::path& p) {
-  return test::read_json_file(p);
-}
+using test::read_json_file;
+using test::run_command;
 
 TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   const fs::path shared = test::shared_dir();
@@ -35,20 +30,20 @@ TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   ASSERT_TRUE(fs::exists(exe)) << exe;
   const fs::path out = test::binary_dir() / "tests/e2e/udacity_run";
   fs::remove_all(out);
-  const Cmd r =
-      run("HAZARDFORGE_SHARED=" + quote(shared) + " " + quote(exe) + " run " +
-          quote(test::source_dir() / "configs/pedestrian_crossing_udacity.yaml") + " -o " + quote(out));
+  const Cmd r = run_command("HAZARDFORGE_SHARED=" + quote(shared) + " " + quote(exe) + " run " +
+                            quote(test::source_dir() / "configs/pedestrian_crossing_udacity.yaml") + " -o " +
+                            quote(out));
   ASSERT_EQ(r.code, 0) << r.out;
 
   // Generated at frame 1 as an explicit edge case: a person on the left shoulder, the walk under way.
-  const Json spec = read_json(out / "hazard_spec.json");
+  const Json spec = read_json_file(out / "hazard_spec.json");
   EXPECT_EQ(spec["kind"], "pedestrian_crossing");
   EXPECT_EQ(spec["object_class"], "person");
   EXPECT_EQ(spec["provenance"]["frame_index"], 1);
   EXPECT_GT(spec["lateral_offset_m"].get<double>(), 1.75);  // beyond the road edge (leftmost lane)
   EXPECT_GT(spec["extra"]["under_way_s"].get<double>(), 0.0);
   EXPECT_LE(spec["extra"]["under_way_s"].get<double>(), 1.0);
-  const Json tr = read_json(out / "trajectory.json");
+  const Json tr = read_json_file(out / "trajectory.json");
   EXPECT_TRUE(tr["planner"]["feasible"].get<bool>());
   EXPECT_DOUBLE_EQ(tr["planner"]["ego_speed_mps"].get<double>(), 20.0);
   // Already in view when the clip starts, and in the ego path (|y| < 1.0 + 0.5 + w/2) before it ends (1.52
@@ -60,7 +55,7 @@ TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   EXPECT_TRUE(in_path);
 
   // The verdict with the default criteria plus require_hazard_critical.
-  const Json v = read_json(out / "verification.json");
+  const Json v = read_json_file(out / "verification.json");
   EXPECT_TRUE(v["passed"].get<bool>()) << v.dump(2);
   EXPECT_EQ(v["criteria"]["min_iou"], 0.5);
   EXPECT_EQ(v["criteria"]["min_redetection_rate"], 0.5);
