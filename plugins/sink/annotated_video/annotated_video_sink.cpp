@@ -35,8 +35,10 @@ ComponentInfo AnnotatedVideoSink::describe() {
       "metric's "
       "per-object value), one banner per risk metric (red when Unsafe) and the frame index/time. The frame "
       "rate is "
-      "`fps` or the median timestamp spacing of the first frames. H.264 (avc1) is written by piping the frames "
-      "to the `ffmpeg` program (libx264, `preset`, `threads`, `crf`, no lookahead) when it is installed, else by "
+      "`fps` or the median timestamp spacing of the first frames. H.264 (avc1) is written by piping the "
+      "frames "
+      "to the `ffmpeg` program (libx264, `preset`, `threads`, `crf`, no lookahead) when it is installed, "
+      "else by "
       "OpenCV's VideoWriter (with a warning); mp4v and MJPG are written by OpenCV. Records the inner timings "
       "`draw` and `encode` per frame.";
   i.inputs = {port<Frame>("frames", "the frames to draw on"),
@@ -58,20 +60,11 @@ ComponentInfo AnnotatedVideoSink::describe() {
       ParamSpec::integer("thickness", 2).range(1, 20).describe("box line thickness, px"),
       ParamSpec::number("scale", 1.0)
           .range(0.1, 1.0)
-          .describe("size of the video (and PNGs) relative to the frames; the frame is shrunk before drawing, so "
-                    "0.5 costs about a quarter of the encoding"),
-      ParamSpec::string("encoder", "ffmpeg")
-          .one_of({"ffmpeg", "opencv"})
-          .describe("H.264 writer: the ffmpeg program (falls back to opencv with a warning when missing) or "
-                    "OpenCV's VideoWriter"),
-      ParamSpec::string("preset", "ultrafast")
-          .one_of(x264_presets())
-          .describe("x264 preset (ffmpeg encoder): slower presets make smaller files and cost more CPU per frame"),
-      ParamSpec::integer("threads", 1)
-          .range(0, 64)
-          .describe("x264 encoder threads (ffmpeg encoder; 0 = one per core)"),
-      ParamSpec::integer("crf", 23).range(0, 51).describe("x264 constant rate factor (ffmpeg encoder): lower = better"),
+          .describe(
+              "size of the video (and PNGs) relative to the frames; the frame is shrunk before drawing, so "
+              "0.5 costs about a quarter of the encoding"),
   };
+  for (ParamSpec& e : encoder_params()) i.params.push_back(std::move(e));
   return i;
 }
 
@@ -84,10 +77,7 @@ void AnnotatedVideoSink::open(StageContext& ctx) {
   png_every_ = static_cast<int>(p.get_int("png_every"));
   thickness_ = static_cast<int>(p.get_int("thickness"));
   scale_ = p.get_double("scale");
-  encoder_ = p.get_string("encoder");
-  preset_ = p.get_string("preset");
-  threads_ = static_cast<int>(p.get_int("threads"));
-  crf_ = static_cast<int>(p.get_int("crf"));
+  read_encoder_params(p, encoder_);
   fs::create_directories(file_.parent_path());
   if (png_every_ > 0) fs::create_directories(png_dir_);
 }
@@ -107,15 +97,12 @@ void AnnotatedVideoSink::start_writer(StageContext& ctx) {
       fps = 1.0 / d[d.size() / 2];
     }
   }
-  VideoWriterOptions o;
+  VideoWriterOptions o = encoder_;
   o.file = file_;
   o.fps = fps;
   o.size = size_;
-  o.codecs = codec_param_ == "auto" ? std::vector<std::string>{"avc1", "mp4v"} : std::vector<std::string>{codec_param_};
-  o.encoder = encoder_;
-  o.preset = preset_;
-  o.threads = threads_;
-  o.crf = crf_;
+  o.codecs = codec_param_ == "auto" ? std::vector<std::string>{"avc1", "mp4v"}
+                                    : std::vector<std::string>{codec_param_};
   writer_.open(o, [&](const std::string& w) { ctx.log(LogLevel::kWarning, "annotated video: " + w); });
   codec_ = writer_.codec();
   char buf[64];

@@ -36,9 +36,8 @@ class AnnotatedVideoSink : public Stage {
   int png_every_ = 0;
   int thickness_ = 2;
   double scale_ = 1.0;
-  cv::Size frame_size_;  // of the incoming frames; size_ is the video's
-  std::string encoder_, preset_;
-  int threads_ = 1, crf_ = 23;
+  cv::Size frame_size_;         // of the incoming frames; size_ is the video's
+  VideoWriterOptions encoder_;  // encoder, preset, threads, crf from the params
   VideoFileWriter writer_;
   cv::Size size_;
   // Frames held back until the frame rate is known from their timestamps.

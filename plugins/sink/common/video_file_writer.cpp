@@ -70,7 +70,8 @@ bool has_libx264(const std::string& program) {
   for (char c : program) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
   quoted += "'";
   bool found = false;
-  // "e": close-on-exec, so an encoder started meanwhile by another sink cannot inherit the pipe and hold it open.
+  // "e": close-on-exec, so an encoder started meanwhile by another sink cannot inherit the pipe and hold it
+  // open.
   if (FILE* p = popen((quoted + " -hide_banner -nostdin -encoders 2>/dev/null").c_str(), "re")) {
     char line[512];
     while (fgets(line, sizeof line, p))
@@ -92,9 +93,34 @@ std::string fps_text(double fps) {
 }  // namespace
 
 const std::vector<std::string>& x264_presets() {
-  static const std::vector<std::string> k = {"ultrafast", "superfast", "veryfast", "faster", "fast",
+  static const std::vector<std::string> k = {"ultrafast", "superfast", "veryfast", "faster",   "fast",
                                              "medium",    "slow",      "slower",   "veryslow", "placebo"};
   return k;
+}
+
+std::vector<ParamSpec> encoder_params() {
+  return {
+      ParamSpec::string("encoder", "ffmpeg")
+          .one_of({"ffmpeg", "opencv"})
+          .describe("H.264 writer: the ffmpeg program (falls back to opencv with a warning when missing) or "
+                    "OpenCV's VideoWriter"),
+      ParamSpec::string("preset", "ultrafast")
+          .one_of(x264_presets())
+          .describe(
+              "x264 preset (ffmpeg encoder): slower presets make smaller files and cost more CPU per frame"),
+      ParamSpec::integer("threads", 1)
+          .range(0, 64)
+          .describe("x264 encoder threads (ffmpeg encoder; 0 = one per core)"),
+      ParamSpec::integer("crf", 23).range(0, 51).describe(
+          "x264 constant rate factor (ffmpeg encoder): lower = better"),
+  };
+}
+
+void read_encoder_params(const Params& p, VideoWriterOptions& o) {
+  o.encoder = p.get_string("encoder");
+  o.preset = p.get_string("preset");
+  o.threads = static_cast<int>(p.get_int("threads"));
+  o.crf = static_cast<int>(p.get_int("crf"));
 }
 
 std::string find_program(const std::string& name) {
@@ -153,7 +179,9 @@ VideoFileWriter::~VideoFileWriter() {
   if (cv_.isOpened()) cv_.release();
 }
 
-bool VideoFileWriter::is_open() const { return ffmpeg_ != nullptr || cv_.isOpened(); }
+bool VideoFileWriter::is_open() const {
+  return ffmpeg_ != nullptr || cv_.isOpened();
+}
 
 void VideoFileWriter::open(const VideoWriterOptions& options, const Warn& warn) {
   if (is_open()) throw Error("video '" + partial_.string() + "' is already open");
@@ -179,8 +207,7 @@ void VideoFileWriter::open(const VideoWriterOptions& options, const Warn& warn) 
                 " is negative");
   std::error_code ec;
   fs::create_directories(partial_.parent_path(), ec);
-  if (ec)
-    throw Error("cannot create the folder of video '" + partial_.string() + "': " + ec.message());
+  if (ec) throw Error("cannot create the folder of video '" + partial_.string() + "': " + ec.message());
 
   std::vector<std::string> tried;
   for (const std::string& c : opt_.codecs) {
@@ -220,23 +247,16 @@ void VideoFileWriter::open(const VideoWriterOptions& options, const Warn& warn) 
 }
 
 void VideoFileWriter::start_ffmpeg(const std::string& program) {
-  std::vector<std::string> args = {program,
-                                   "-hide_banner",
-                                   "-nostdin",
-                                   "-loglevel",
-                                   "error",
-                                   "-y",
-                                   "-f",
-                                   "rawvideo",
-                                   "-pix_fmt",
-                                   "bgr24",
-                                   "-s",
-                                   std::to_string(opt_.size.width) + "x" + std::to_string(opt_.size.height),
-                                   "-framerate",
-                                   fps_text(opt_.fps),
-                                   "-i",
-                                   "pipe:0",
-                                   "-an"};
+  std::vector<std::string> args = {
+      program,      "-hide_banner",
+      "-nostdin",   "-loglevel",
+      "error",      "-y",
+      "-f",         "rawvideo",
+      "-pix_fmt",   "bgr24",
+      "-s",         std::to_string(opt_.size.width) + "x" + std::to_string(opt_.size.height),
+      "-framerate", fps_text(opt_.fps),
+      "-i",         "pipe:0",
+      "-an"};
   // yuv420p needs even sides; an odd one gets one black row/column rather than failing.
   if (opt_.size.width % 2 || opt_.size.height % 2)
     args.insert(args.end(), {"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2"});
@@ -315,9 +335,9 @@ void VideoFileWriter::ffmpeg_failed(const std::string& what) {
   const std::string err = ffmpeg_->stderr_text();
   ffmpeg_.reset();
   const std::string how = WIFEXITED(status) ? "exited with code " + std::to_string(WEXITSTATUS(status))
-                                             : "was killed by signal " + std::to_string(WTERMSIG(status));
-  throw Error("cannot write video '" + partial_.string() + "': " + what + (what.empty() ? "" : "; ") + program +
-              " " + how + " after " + std::to_string(frames_) + " frame(s)" +
+                                            : "was killed by signal " + std::to_string(WTERMSIG(status));
+  throw Error("cannot write video '" + partial_.string() + "': " + what + (what.empty() ? "" : "; ") +
+              program + " " + how + " after " + std::to_string(frames_) + " frame(s)" +
               (err.empty() ? std::string() : ": " + err));
 }
 

@@ -29,7 +29,9 @@ void label(cv::Mat& img, const std::string& text, cv::Point org, double scale) {
   cv::putText(img, text, org, font, fs, cv::Scalar(255, 255, 255), th, cv::LINE_AA);
 }
 
-fs::path below(const fs::path& base, const fs::path& p) { return p.is_absolute() ? p : base / p; }
+fs::path below(const fs::path& base, const fs::path& p) {
+  return p.is_absolute() ? p : base / p;
+}
 
 }  // namespace
 
@@ -39,42 +41,43 @@ ComponentInfo SideBySideSink::describe() {
   i.kind = kind::kSink;
   i.summary = "writes original and augmented frames side by side (before_after.mp4) and PNG stills";
   i.doc =
-      "Each frame pair becomes one labelled picture (original left or top, augmented right or bottom). The video "
-      "is H.264 ('avc1'), written by piping the frames to the `ffmpeg` program (libx264, `preset`, `threads`, "
+      "Each frame pair becomes one labelled picture (original left or top, augmented right or bottom). The "
+      "video "
+      "is H.264 ('avc1'), written by piping the frames to the `ffmpeg` program (libx264, `preset`, "
+      "`threads`, "
       "`crf`, no lookahead) or, when ffmpeg is missing, by OpenCV's VideoWriter (with a warning); MPEG-4 "
-      "('mp4v') when no H.264 encoder exists. It is written under a temporary name and renamed when the stream "
+      "('mp4v') when no H.264 encoder exists. It is written under a temporary name and renamed when the "
+      "stream "
       "ends, so an interrupted run keeps a playable file.";
-  i.inputs = {port<Frame>("original", "frames before augmentation"),
-              port<Frame>("augmented", "the same frames after augmentation"),
-              optional(port<HazardInstance>("hazard", "where the hazard is (outlined when draw_hazard_box)"))};
+  i.inputs = {
+      port<Frame>("original", "frames before augmentation"),
+      port<Frame>("augmented", "the same frames after augmentation"),
+      optional(port<HazardInstance>("hazard", "where the hazard is (outlined when draw_hazard_box)"))};
   i.params = {
       ParamSpec::string("file", "before_after.mp4").describe("video file name below the run's output folder"),
       ParamSpec::number("fps", 0.0).range(0.0, 240.0).describe("video rate; 0 = from the frames' timestamps"),
       ParamSpec::string("fourcc", "avc1").describe("preferred codec; 'mp4v' is the fallback"),
       ParamSpec::number("scale", 0.5).range(0.05, 2.0).describe("scale of each half in the video"),
-      ParamSpec::string("layout", "horizontal").one_of({"horizontal", "vertical"}).describe("halves side by side or stacked"),
+      ParamSpec::string("layout", "horizontal")
+          .one_of({"horizontal", "vertical"})
+          .describe("halves side by side or stacked"),
       ParamSpec::string_list("labels", {"original", "augmented"}).describe("captions of the two halves"),
       ParamSpec::int_list("stills", {}).describe("frame indices written as PNG stills"),
-      ParamSpec::string("stills_dir", "stills").describe("folder for stills; relative = below the run's output folder"),
+      ParamSpec::string("stills_dir", "stills")
+          .describe("folder for stills; relative = below the run's output folder"),
       ParamSpec::number("stills_scale", 0.5).range(0.05, 2.0).describe("scale of each half in the stills"),
-      ParamSpec::boolean("draw_hazard_box", false).describe("outline the inserted object on the augmented half"),
-      ParamSpec::string("encoder", "ffmpeg")
-          .one_of({"ffmpeg", "opencv"})
-          .describe("H.264 writer: the ffmpeg program (falls back to opencv with a warning when missing) or "
-                    "OpenCV's VideoWriter"),
-      ParamSpec::string("preset", "ultrafast")
-          .one_of(sink::x264_presets())
-          .describe("x264 preset (ffmpeg encoder): slower presets make smaller files and cost more CPU per frame"),
-      ParamSpec::integer("threads", 1).range(0, 64).describe("x264 encoder threads (ffmpeg encoder; 0 = one per core)"),
-      ParamSpec::integer("crf", 23).range(0, 51).describe("x264 constant rate factor (ffmpeg encoder): lower = better"),
+      ParamSpec::boolean("draw_hazard_box", false)
+          .describe("outline the inserted object on the augmented half"),
   };
+  for (ParamSpec& e : sink::encoder_params()) i.params.push_back(std::move(e));
   return i;
 }
 
 void SideBySideSink::open(StageContext& ctx) {
   const Params& p = ctx.params();
   const fs::path file = p.get_string("file");
-  if (file.empty() || file.extension() != ".mp4") throw Error("file '" + file.string() + "' must end in .mp4");
+  if (file.empty() || file.extension() != ".mp4")
+    throw Error("file '" + file.string() + "' must end in .mp4");
   file_ = below(ctx.output_dir(), file);
   stills_dir_ = below(ctx.output_dir(), p.get_string("stills_dir"));
   fps_ = p.get_double("fps");
@@ -87,13 +90,11 @@ void SideBySideSink::open(StageContext& ctx) {
   if (labels_.size() != 2) throw Error("labels must list two captions (original, augmented)");
   for (long long s : p.get_ints("stills")) stills_.insert(s);
   draw_box_ = p.get_bool("draw_hazard_box");
-  encoder_ = p.get_string("encoder");
-  preset_ = p.get_string("preset");
-  threads_ = static_cast<int>(p.get_int("threads"));
-  crf_ = static_cast<int>(p.get_int("crf"));
+  sink::read_encoder_params(p, encoder_);
 }
 
-cv::Mat SideBySideSink::compose(const Frame& a, const Frame& b, const HazardInstance* hz, double scale) const {
+cv::Mat SideBySideSink::compose(const Frame& a, const Frame& b, const HazardInstance* hz,
+                                double scale) const {
   if (a.image.empty() || b.image.empty())
     throw Error("frame " + std::to_string(a.index) + ": an input frame has no image");
   if (a.image.size() != b.image.size())
@@ -106,9 +107,11 @@ cv::Mat SideBySideSink::compose(const Frame& a, const Frame& b, const HazardInst
   cv::resize(a.image, l, half, 0, 0, cv::INTER_AREA);
   cv::resize(b.image, r, half, 0, 0, cv::INTER_AREA);
   if (draw_box_ && hz && hz->visible) {
-    const double sx = static_cast<double>(half.width) / a.image.cols, sy = static_cast<double>(half.height) / a.image.rows;
-    cv::rectangle(r, cv::Rect(cvRound(hz->box.x * sx), cvRound(hz->box.y * sy), cvRound(hz->box.width * sx),
-                              cvRound(hz->box.height * sy)),
+    const double sx = static_cast<double>(half.width) / a.image.cols,
+                 sy = static_cast<double>(half.height) / a.image.rows;
+    cv::rectangle(r,
+                  cv::Rect(cvRound(hz->box.x * sx), cvRound(hz->box.y * sy), cvRound(hz->box.width * sx),
+                           cvRound(hz->box.height * sy)),
                   cv::Scalar(0, 200, 255), std::max(1, cvRound(2 * scale)), cv::LINE_AA);
   }
   const double ts = std::clamp(half.height / 450.0, 0.5, 2.0);
@@ -128,16 +131,12 @@ cv::Mat SideBySideSink::compose(const Frame& a, const Frame& b, const HazardInst
 }
 
 void SideBySideSink::open_writer(StageContext& ctx, double fps, cv::Size size) {
-  sink::VideoWriterOptions o;
+  sink::VideoWriterOptions o = encoder_;
   o.file = file_;
   o.fps = fps;
   o.size = size;
   o.codecs = {fourcc_};
   if (fourcc_ != "mp4v") o.codecs.push_back("mp4v");
-  o.encoder = encoder_;
-  o.preset = preset_;
-  o.threads = threads_;
-  o.crf = crf_;
   writer_.open(o, [&](const std::string& w) { ctx.log(LogLevel::kWarning, "side_by_side: " + w); });
   codec_ = writer_.codec();
   ctx.log(LogLevel::kInfo, "side_by_side: " + writer_.description());
@@ -154,14 +153,15 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
   const Frame& a = in.require<Frame>("original");
   const Frame& b = in.require<Frame>("augmented");
   if (a.index != b.index)
-    throw Error("side_by_side: original frame " + std::to_string(a.index) + " is paired with augmented frame " +
-                std::to_string(b.index));
+    throw Error("side_by_side: original frame " + std::to_string(a.index) +
+                " is paired with augmented frame " + std::to_string(b.index));
   const HazardInstance* hz = in.get<HazardInstance>("hazard");
   if (stills_.count(b.index)) {
     fs::create_directories(stills_dir_);
     const fs::path still = stills_dir_ / ("before_after_" + std::to_string(b.index) + ".png");
     const fs::path tmp = stills_dir_ / ("before_after_" + std::to_string(b.index) + ".partial.png");
-    if (!cv::imwrite(tmp.string(), compose(a, b, hz, stills_scale_))) throw Error("cannot write '" + tmp.string() + "'");
+    if (!cv::imwrite(tmp.string(), compose(a, b, hz, stills_scale_)))
+      throw Error("cannot write '" + tmp.string() + "'");
     fs::rename(tmp, still);
   }
   cv::Mat img = compose(a, b, hz, scale_);
@@ -192,8 +192,8 @@ void SideBySideSink::finish(StageContext& ctx, Outputs& /*out*/) {
   }
   if (!writer_.is_open()) return;
   writer_.close();
-  ctx.log(LogLevel::kInfo, "side_by_side: " + std::to_string(written_) + " frames written to " + file_.string() +
-                               " (" + codec_ + ")");
+  ctx.log(LogLevel::kInfo, "side_by_side: " + std::to_string(written_) + " frames written to " +
+                               file_.string() + " (" + codec_ + ")");
 }
 
 }  // namespace hf::render

@@ -16,12 +16,13 @@ namespace hf::render {
 // Stage "side_by_side" (kind sink).
 //  inputs:  original (Frame), augmented (Frame) — the same frame before and after augmentation; hazard
 //           (HazardInstance, optional) — outlined on the augmented half when draw_hazard_box is set.
-//  outputs: none; writes <output_dir>/<file> (H.264 'avc1' through the ffmpeg program or OpenCV, falling back to
-//           MPEG-4 'mp4v' when no encoder exists; written under a temporary name and renamed in finish()) and, for
-//           the frame indices in `stills`,
-//           PNGs <stills_dir>/before_after_<index>.png. Timestamps: the video's rate is `fps`, or the first two
-//           frames' interval when fps is 0.
-//  params:  file, fps, fourcc, scale, layout, labels, stills, stills_dir, stills_scale, draw_hazard_box, encoder,
+//  outputs: none; writes <output_dir>/<file> (H.264 'avc1' through the ffmpeg program or OpenCV, falling back
+//  to
+//           MPEG-4 'mp4v' when no encoder exists; written under a temporary name and renamed in finish())
+//           and, for the frame indices in `stills`, PNGs <stills_dir>/before_after_<index>.png. Timestamps:
+//           the video's rate is `fps`, or the first two frames' interval when fps is 0.
+//  params:  file, fps, fourcc, scale, layout, labels, stills, stills_dir, stills_scale, draw_hazard_box,
+//  encoder,
 //           preset, threads, crf.
 class SideBySideSink : public Stage {
  public:
@@ -31,7 +32,8 @@ class SideBySideSink : public Stage {
   void finish(StageContext& ctx, Outputs& out) override;
 
   // Composes one pair at `scale` (labels drawn); public for tests.
-  cv::Mat compose(const Frame& original, const Frame& augmented, const HazardInstance* hazard, double scale) const;
+  cv::Mat compose(const Frame& original, const Frame& augmented, const HazardInstance* hazard,
+                  double scale) const;
   // The FOURCC the video was finally written with ("avc1" or "mp4v"), empty before the writer opened.
   const std::string& codec() const { return codec_; }
 
@@ -45,8 +47,7 @@ class SideBySideSink : public Stage {
   std::vector<std::string> labels_;
   std::set<long long> stills_;
   bool draw_box_ = false;
-  std::string encoder_, preset_;
-  int threads_ = 1, crf_ = 23;
+  sink::VideoWriterOptions encoder_;  // encoder, preset, threads, crf from the params
   sink::VideoFileWriter writer_;
   std::string codec_;
   std::optional<cv::Mat> pending_;  // first composite, held until the second frame gives the rate

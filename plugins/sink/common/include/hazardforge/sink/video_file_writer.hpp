@@ -12,6 +12,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "hazardforge/params.hpp"
+
 namespace hf::sink {
 
 struct VideoWriterOptions {
@@ -24,14 +26,19 @@ struct VideoWriterOptions {
   // "ffmpeg": H.264 through the ffmpeg program when it is on PATH with libx264 (else cv::VideoWriter, with a
   // warning); "opencv": always cv::VideoWriter. Other codecs always use cv::VideoWriter.
   std::string encoder = "ffmpeg";
-  std::string preset = "ultrafast";  // x264 preset (ffmpeg encoder only)
-  int threads = 1;                   // x264 threads (ffmpeg encoder only); 0 = x264 chooses
-  int crf = 23;                      // x264 constant rate factor (ffmpeg encoder only), 0..51
+  std::string preset = "ultrafast";       // x264 preset (ffmpeg encoder only)
+  int threads = 1;                        // x264 threads (ffmpeg encoder only); 0 = x264 chooses
+  int crf = 23;                           // x264 constant rate factor (ffmpeg encoder only), 0..51
   std::string ffmpeg_program = "ffmpeg";  // a name looked up on PATH, or a path
 };
 
 // x264's presets, fastest first.
 const std::vector<std::string>& x264_presets();
+
+// The encoder params every video sink declares (encoder, preset, threads, crf) and their reading into
+// options.
+std::vector<ParamSpec> encoder_params();
+void read_encoder_params(const Params& p, VideoWriterOptions& options);
 
 // Full path of an executable: `name` itself when it contains a '/', else the first match on PATH; empty
 // when there is none.
