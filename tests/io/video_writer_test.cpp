@@ -1,5 +1,5 @@
-// VideoFileWriter (H.264 through the ffmpeg program, or OpenCV) and the video sinks' encoder params: decodable
-// files with the right frames and colours, x264's options string in the stream, clear errors.
+// VideoFileWriter (H.264 through the ffmpeg program, or OpenCV) and the video sinks' encoder params:
+// decodable files with the right frames and colours, x264's options string in the stream, clear errors.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <unistd.h>
@@ -26,7 +26,9 @@ using sink::VideoWriterOptions;
 using test::error_of;
 using test::TempDir;
 
-bool have_ffmpeg() { return !sink::find_program("ffmpeg").empty(); }
+bool have_ffmpeg() {
+  return !sink::find_program("ffmpeg").empty();
+}
 
 // Frame i of a sequence cycling through clearly different flat colours (BGR).
 cv::Scalar colour(int i) {
@@ -39,6 +41,17 @@ cv::Mat coloured(int i, cv::Size size) {
   // A white square moving right, so frames differ in structure too.
   cv::rectangle(m, cv::Rect(10 + 8 * i, size.height / 2 - 10, 20, 20), cv::Scalar(255, 255, 255), cv::FILLED);
   return m;
+}
+
+// Frames 0..n-1 of the coloured sequence on the runner's `frames` port, 5 per second.
+void push_coloured(testing::StageRunner& r, int n, cv::Size size) {
+  for (int i = 0; i < n; ++i) {
+    Frame f;
+    f.index = i;
+    f.timestamp = i * 0.2;
+    f.image = coloured(i, size);
+    r.push("frames", f, f.timestamp);
+  }
 }
 
 std::string read_all(const fs::path& p) {
@@ -116,7 +129,8 @@ TEST(VideoFileWriter, PresetAndThreadsLandInTheStream) {
     std::string subme, me;
   };
   // x264's preset table: ultrafast subme=0 me=dia, veryfast subme=2 me=hex, medium subme=7 me=hex.
-  for (const Case& c : {Case{"ultrafast", 1, "0", "0"}, Case{"veryfast", 2, "2", "1"}, Case{"medium", 1, "7", "1"}}) {
+  for (const Case& c :
+       {Case{"ultrafast", 1, "0", "0"}, Case{"veryfast", 2, "2", "1"}, Case{"medium", 1, "7", "1"}}) {
     VideoWriterOptions o;
     o.file = dir / (c.preset + ".mp4");
     o.fps = 10;
@@ -133,8 +147,8 @@ TEST(VideoFileWriter, PresetAndThreadsLandInTheStream) {
     EXPECT_EQ(x264_option(bytes, "me"), c.me == "0" ? "dia" : "hex") << c.preset;
     EXPECT_EQ(x264_option(bytes, "threads"), std::to_string(c.threads)) << c.preset;
     EXPECT_EQ(x264_option(bytes, "crf"), "30.0") << c.preset;
-    // zerolatency: no macroblock-tree lookahead (x264 then omits rc_lookahead), no B-frames, so nothing is held
-    // back until the end of the stream.
+    // zerolatency: no macroblock-tree lookahead (x264 then omits rc_lookahead), no B-frames, so nothing is
+    // held back until the end of the stream.
     EXPECT_EQ(x264_option(bytes, "mbtree"), "0") << c.preset;
     EXPECT_EQ(x264_option(bytes, "rc_lookahead"), "(no rc_lookahead)") << c.preset;
     EXPECT_EQ(x264_option(bytes, "bframes"), "0") << c.preset;
@@ -143,7 +157,9 @@ TEST(VideoFileWriter, PresetAndThreadsLandInTheStream) {
 }
 
 volatile sig_atomic_t g_sigints = 0;
-void count_sigint(int) { g_sigints = g_sigints + 1; }
+void count_sigint(int) {
+  g_sigints = g_sigints + 1;
+}
 
 // Ctrl-C goes to the terminal's foreground process group. The host handles it by finishing every sink, so the
 // encoder must not get it too (it would stop and leave a cut file); it runs in its own process group.
@@ -151,7 +167,8 @@ TEST(VideoFileWriter, CtrlCForTheHostDoesNotReachTheEncoder) {
   if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg not installed";
   // Our own process group, so the signal below reaches only this test process (and children left in it).
   if (setpgid(0, 0) != 0) GTEST_SKIP() << "cannot lead a process group here";
-  struct sigaction sa {}, old {};
+  struct sigaction sa {
+  }, old{};
   sa.sa_handler = count_sigint;
   sigemptyset(&sa.sa_mask);
   ASSERT_EQ(sigaction(SIGINT, &sa, &old), 0);
@@ -233,7 +250,8 @@ TEST(VideoFileWriter, EncoderFailureNamesTheFileExitCodeAndStderr) {
     w.close();
   });
   std::cout << "encoder failure message: " << err << "\n";  // quoted in docs/sources-and-sinks.md
-  EXPECT_NE(err.find("cannot write video '" + (dir / "bad.partial.mp4").string() + "'"), std::string::npos) << err;
+  EXPECT_NE(err.find("cannot write video '" + (dir / "bad.partial.mp4").string() + "'"), std::string::npos)
+      << err;
   EXPECT_NE(err.find(fake.string() + " exited with code 3"), std::string::npos) << err;
   EXPECT_NE(err.find("Unknown encoder settings: broken"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(o.file));
@@ -246,10 +264,11 @@ TEST(VideoFileWriter, BadOptionsAreRefusedByName) {
   o.size = {64, 64};
   o.preset = "fastest";
   VideoFileWriter w;
-  EXPECT_EQ(error_of([&] { w.open(o); }),
-            "cannot write video '" + (dir / "x.partial.mp4").string() +
-                "': preset 'fastest' is not an x264 preset (ultrafast, superfast, veryfast, faster, fast, medium, "
-                "slow, slower, veryslow, placebo)");
+  EXPECT_EQ(
+      error_of([&] { w.open(o); }),
+      "cannot write video '" + (dir / "x.partial.mp4").string() +
+          "': preset 'fastest' is not an x264 preset (ultrafast, superfast, veryfast, faster, fast, medium, "
+          "slow, slower, veryslow, placebo)");
   o.preset = "ultrafast";
   o.encoder = "gstreamer";
   EXPECT_EQ(error_of([&] { w.open(o); }), "cannot write video '" + (dir / "x.partial.mp4").string() +
@@ -258,14 +277,9 @@ TEST(VideoFileWriter, BadOptionsAreRefusedByName) {
 
 TEST(AnnotatedVideoSink, PresetParamReachesTheEncoder) {
   if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg not installed";
-  auto r = testing::StageRunner::create<sink::AnnotatedVideoSink>("{fps: 5, preset: veryfast, threads: 2, crf: 28}");
-  for (int i = 0; i < 6; ++i) {
-    Frame f;
-    f.index = i;
-    f.timestamp = i * 0.2;
-    f.image = coloured(i, {320, 240});
-    r.push("frames", f, f.timestamp);
-  }
+  auto r = testing::StageRunner::create<sink::AnnotatedVideoSink>(
+      "{fps: 5, preset: veryfast, threads: 2, crf: 28}");
+  push_coloured(r, 6, {320, 240});
   r.run();
   const fs::path file = r.output_dir() / "annotated.mp4";
   const std::string bytes = read_all(file);
@@ -308,7 +322,8 @@ TEST(AnnotatedVideoSink, ScaleShrinksTheVideoAndKeepsBoxesOnTheirObjects) {
 }
 
 TEST(AnnotatedVideoSink, BadPresetIsAClearParamError) {
-  const std::string err = error_of([] { testing::StageRunner::create<sink::AnnotatedVideoSink>("{preset: quick}"); });
+  const std::string err =
+      error_of([] { testing::StageRunner::create<sink::AnnotatedVideoSink>("{preset: quick}"); });
   EXPECT_NE(err.find("preset"), std::string::npos) << err;
   EXPECT_NE(err.find("quick"), std::string::npos) << err;
   EXPECT_NE(err.find("ultrafast"), std::string::npos) << err;
@@ -316,13 +331,7 @@ TEST(AnnotatedVideoSink, BadPresetIsAClearParamError) {
 
 TEST(AnnotatedVideoSink, OpenCvEncoderStillWorks) {
   auto r = testing::StageRunner::create<sink::AnnotatedVideoSink>("{fps: 5, encoder: opencv}");
-  for (int i = 0; i < 4; ++i) {
-    Frame f;
-    f.index = i;
-    f.timestamp = i * 0.2;
-    f.image = coloured(i, {320, 240});
-    r.push("frames", f, f.timestamp);
-  }
+  push_coloured(r, 4, {320, 240});
   r.run();
   const std::string bytes = read_all(r.output_dir() / "annotated.mp4");
   const std::string codec = dynamic_cast<sink::AnnotatedVideoSink&>(r.stage()).codec_used();
@@ -337,7 +346,8 @@ TEST(AnnotatedVideoSink, OpenCvEncoderStillWorks) {
 
 TEST(SideBySideSink, PresetParamReachesTheEncoder) {
   if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg not installed";
-  auto r = testing::StageRunner::create<render::SideBySideSink>("{fps: 4, preset: superfast, threads: 1, scale: 1.0}");
+  auto r = testing::StageRunner::create<render::SideBySideSink>(
+      "{fps: 4, preset: superfast, threads: 1, scale: 1.0}");
   for (int i = 0; i < 5; ++i) {
     Frame a, b;
     a.index = b.index = i;
