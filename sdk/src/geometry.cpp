@@ -1,4 +1,4 @@
-// In-path corridor, class size priors, and locating the project's share folder.
+// Class size priors, box truncation, and locating the project's share folder.
 #include "hazardforge/geometry.hpp"
 
 #include <dlfcn.h>
@@ -11,22 +11,13 @@
 
 namespace hf {
 
-bool Corridor::contains(double longitudinal, double lateral, double object_width) const {
-  return longitudinal > 0 && std::abs(lateral) < ego_half_width + margin + object_width / 2.0;
-}
-
-std::vector<ParamSpec> Corridor::params() {
-  return {ParamSpec::number("corridor_half_width", 1.0).range(0, 10).describe("ego half-width (m)"),
-          ParamSpec::number("corridor_margin", 0.5)
-              .range(0, 10)
-              .describe("extra lateral margin (m); in path when |y| < half_width + margin + object_width/2")};
-}
-
-Corridor Corridor::from(const Params& p) {
-  Corridor c;
-  if (p.has("corridor_half_width")) c.ego_half_width = p.get_double("corridor_half_width");
-  if (p.has("corridor_margin")) c.margin = p.get_double("corridor_margin");
-  return c;
+unsigned truncation_flags(const cv::Rect2f& box, const cv::Size& image, double margin_px) {
+  unsigned f = 0;
+  if (box.x <= margin_px) f |= truncation::kLeft;
+  if (box.y <= margin_px) f |= truncation::kTop;
+  if (box.x + box.width >= image.width - margin_px) f |= truncation::kRight;
+  if (box.y + box.height >= image.height - margin_px) f |= truncation::kBottom;
+  return f;
 }
 
 ClassPriors ClassPriors::load(const std::string& path) {

@@ -96,6 +96,13 @@ ComponentInfo RiskMetric::base_info(std::string name, std::string summary) {
   i.params.push_back(ParamSpec::number("threshold", 1.5)
                          .range(0, 1000)
                          .describe("Unsafe when the scene value is below (TTC-like) or above (DRAC) this"));
+  i.params.push_back(
+      ParamSpec::string("unsafe_when", "value")
+          .one_of({"value", "riskier_bound", "safer_bound"})
+          .describe("which number of an in-path object decides Unsafe when the metric gives an interval: the "
+                    "value; its riskier bound (TTC low end: flags an object whose interval reaches below the "
+                    "threshold, for screening); its safer bound (TTC high end: only objects below the "
+                    "threshold with confidence, for verification). Objects without an interval use the value"));
   for (ParamSpec& p : Corridor::params()) i.params.push_back(std::move(p));
   return i;
 }
@@ -104,23 +111,33 @@ void RiskMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   const ObjectStates& states = in.require<ObjectStates>("states");
   RiskAssessment r = assess(ctx, states, in.get<Frame>("frames"));
   const Corridor corridor = Corridor::from(ctx.params());
+  const std::string rule = ctx.params().get_string("unsafe_when");
   r.frame_index = states.frame_index;
   r.metric = ctx.node_id();
   r.threshold = ctx.params().get_double("threshold");
+  r.label_rule = rule;
   r.scene_value = r.lower_is_riskier ? kInf : 0.0;
   r.critical_track = -1;
+  auto worse = [&](double a, double b) { return r.lower_is_riskier ? a < b : a > b; };
+  double deciding = r.scene_value;
   for (ObjectRisk& o : r.objects) {
     auto it = std::find_if(states.objects.begin(), states.objects.end(),
                            [&](const ObjectState& s) { return s.track_id == o.track_id; });
-    o.in_path = it != states.objects.end() && corridor.contains(*it);
+    o.in_path = it != states.objects.end() && corridor.contains(states, *it);
     if (!o.in_path || std::isnan(o.value)) continue;
-    const bool worse = r.lower_is_riskier ? o.value < r.scene_value : o.value > r.scene_value;
-    if (worse) {
+    if (worse(o.value, r.scene_value)) {
       r.scene_value = o.value;
       r.critical_track = o.track_id;
     }
+    // The bound on the risky side is the low end for TTC-like metrics and the high end for DRAC-like ones.
+    const double risky = r.lower_is_riskier ? o.low : o.high;
+    const double safe = r.lower_is_riskier ? o.high : o.low;
+    double d = o.value;
+    if (rule == "riskier_bound" && !std::isnan(risky)) d = risky;
+    if (rule == "safer_bound" && !std::isnan(safe)) d = safe;
+    if (worse(d, deciding)) deciding = d;
   }
-  const bool unsafe = r.lower_is_riskier ? r.scene_value < r.threshold : r.scene_value > r.threshold;
+  const bool unsafe = r.lower_is_riskier ? deciding < r.threshold : deciding > r.threshold;
   r.label = unsafe ? SafetyLabel::kUnsafe : SafetyLabel::kSafe;
   out.emit("risk", std::move(r));
 }

@@ -1,6 +1,7 @@
 // Camera geometry and the JSON forms of the SDK payload types.
 #include "hazardforge/types.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace hf {
@@ -125,6 +126,7 @@ void from_json(const Json& j, CameraModel& v) {
 void to_json(Json& j, const Detection& v) {
   j = {{"box", rect(v.box)}, {"class_id", v.class_id}, {"label", v.label}, {"score", v.score}};
   if (v.annotation_index >= 0) j["annotation_index"] = v.annotation_index;
+  if (v.truncated) j["truncated"] = v.truncated;
 }
 void to_json(Json& j, const Detections& v) {
   j = {{"frame", v.frame_index}, {"detector", v.detector}, {"items", v.items}};
@@ -133,6 +135,7 @@ void to_json(Json& j, const Track& v) {
   j = {{"id", v.id},       {"box", rect(v.box)},   {"label", v.label},
        {"score", v.score}, {"age", v.age},         {"hits", v.hits},
        {"misses", v.misses}, {"velocity_px", {v.velocity_px.x, v.velocity_px.y}}};
+  if (v.truncated) j["truncated"] = v.truncated;
 }
 void to_json(Json& j, const Tracks& v) { j = {{"frame", v.frame_index}, {"tracker", v.tracker}, {"items", v.items}}; }
 void to_json(Json& j, const ObjectState& v) {
@@ -150,17 +153,35 @@ void to_json(Json& j, const ObjectState& v) {
        {"distance_method", v.distance_method},
        {"age", v.age}};
   j["velocity_rel"] = v.velocity_rel ? Json::array({(*v.velocity_rel)[0], (*v.velocity_rel)[1]}) : Json();
+  if (v.truncated) j["truncated"] = v.truncated;
+  if (v.covariance) {
+    // 1-sigma of each component; the full matrix is rarely what a reader of the stream wants.
+    const cv::Matx44d& P = *v.covariance;
+    j["sigma"] = {{"distance_m", std::sqrt(std::max(P(0, 0), 0.0))},
+                  {"lateral_m", std::sqrt(std::max(P(1, 1), 0.0))},
+                  {"velocity_rel", {std::sqrt(std::max(P(2, 2), 0.0)), std::sqrt(std::max(P(3, 3), 0.0))}}};
+  }
 }
 void to_json(Json& j, const ObjectStates& v) {
   j = {{"frame", v.frame_index},
        {"timestamp", v.timestamp},
        {"ego_speed_mps", optd(v.ego_speed_mps)},
+       {"ego_yaw_rate", optd(v.ego_yaw_rate)},
+       {"distance_origin_x", v.distance_origin_x},
        {"objects", v.objects}};
 }
 void to_json(Json& j, const RiskAssessment& v) {
   Json objs = Json::array();
-  for (const ObjectRisk& o : v.objects)
-    objs.push_back({{"track_id", o.track_id}, {"value", finite_or_null(o.value)}, {"in_path", o.in_path}});
+  for (const ObjectRisk& o : v.objects) {
+    Json jo = {{"track_id", o.track_id}, {"value", finite_or_null(o.value)}, {"in_path", o.in_path}};
+    // An interval's open end is infinite: written as null like every non-finite number, so "low" and
+    // "high" appear only when the metric gives an interval.
+    if (!std::isnan(o.low) || !std::isnan(o.high)) {
+      jo["low"] = finite_or_null(o.low);
+      jo["high"] = finite_or_null(o.high);
+    }
+    objs.push_back(std::move(jo));
+  }
   j = {{"frame", v.frame_index},
        {"metric", v.metric},
        {"stage", v.stage},
@@ -169,6 +190,7 @@ void to_json(Json& j, const RiskAssessment& v) {
        {"scene_value", finite_or_null(v.scene_value)},
        {"critical_track", v.critical_track},
        {"label", to_string(v.label)},
+       {"label_rule", v.label_rule},
        {"objects", objs}};
 }
 void to_json(Json& j, const HazardSpec& v) {

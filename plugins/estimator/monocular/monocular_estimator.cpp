@@ -201,6 +201,7 @@ ObjectStates MonocularEstimator::estimate(StageContext& ctx, const Tracks& track
   } else if (out.ego_speed_mps) {
     v_ego = cv::Vec2d(*out.ego_speed_mps, 0.0);
   }
+  out.ego_yaw_rate = frame.ego.yaw_rate;
   const Reference ref = !v_ego                  ? Reference::kEgo
                         : frame.ego.T_world_ego ? Reference::kPose
                                                 : Reference::kOdometry;
@@ -208,6 +209,7 @@ ObjectStates MonocularEstimator::estimate(StageContext& ctx, const Tracks& track
   const double origin_x = origin_ == Origin::kCamera   ? cam.t_ego_cam[0]
                           : origin_ == Origin::kBumper ? front_overhang_
                                                        : 0.0;
+  out.distance_origin_x = origin_x;
 
   std::set<int64_t> alive;
   for (const Track& tr : tracks.items) {
@@ -289,7 +291,7 @@ ObjectStates MonocularEstimator::estimate(StageContext& ctx, const Tracks& track
       }
       s.scale_rate = monocular::ls_slope(ts, ls);
     }
-    s.in_path = corridor_.contains(s);
+    s.in_path = corridor_.contains(out, s);
     out.objects.push_back(std::move(s));
   }
   for (auto it = history_.begin(); it != history_.end();)

@@ -1,4 +1,5 @@
-// Shared geometry for risk metrics and renderers: the in-path corridor and per-class size priors.
+// Shared geometry for risk metrics and renderers: per-class size priors, box truncation, the share folder
+// (and, through corridor.hpp, the in-path corridor).
 #pragma once
 
 #include <map>
@@ -6,22 +7,12 @@
 #include <vector>
 
 #include "hazardforge/abi.hpp"
+#include "hazardforge/corridor.hpp"
 #include "hazardforge/params.hpp"
 #include "hazardforge/types.hpp"
 
 HF_SDK_BEGIN
 namespace hf {
-
-// An object is in the ego's path when it is ahead and |lateral| < ego_half_width + margin + object_width/2.
-struct Corridor {
-  double ego_half_width = 1.0;
-  double margin = 0.5;
-  bool contains(double longitudinal, double lateral, double object_width) const;
-  bool contains(const ObjectState& s) const { return contains(s.distance_m, s.lateral_m, s.width_m); }
-  // Params "corridor_half_width" and "corridor_margin", appended to every risk metric's declaration.
-  static std::vector<ParamSpec> params();
-  static Corridor from(const Params& p);
-};
 
 // Typical real-world size of a road-user class (m), read from share/class_sizes.yaml.
 struct ClassSize {
@@ -44,6 +35,13 @@ class ClassPriors {
   std::map<std::string, ClassSize> sizes_;
   std::string file_;
 };
+
+// Edges of a box that lie on (within `margin_px` of) the image border: a truncated box's extent on that side
+// is not the object's. Bit flags, 0 = fully inside.
+namespace truncation {
+inline constexpr unsigned kLeft = 1, kTop = 2, kRight = 4, kBottom = 8;
+}
+unsigned truncation_flags(const cv::Rect2f& box, const cv::Size& image, double margin_px = 2.0);
 
 // The folder holding the project's shared files (prompts, priors, schemas, assets): $HAZARDFORGE_SHARE,
 // else the install's share/hazardforge, else the source tree's share/ (set at build time).

@@ -103,6 +103,7 @@ struct Detection {
   std::string label;  // car, truck, bus, person, bicycle, motorcycle, ...
   float score = 0.f;
   int annotation_index = -1;  // for ground-truth detections: index into Frame::annotations
+  unsigned truncated = 0;     // hf::truncation flags: box edges on the image border (geometry.hpp)
 };
 
 struct Detections {
@@ -125,6 +126,7 @@ struct Track {
   cv::Point2f velocity_px;  // image-plane velocity of the box centre, px/s
   int detection_index = -1;  // index into this frame's Detections, -1 when not matched this frame
   int annotation_index = -1;
+  unsigned truncated = 0;  // hf::truncation flags of the last matched detection
 };
 
 struct Tracks {
@@ -153,8 +155,12 @@ struct ObjectState {
   int age = 0;
   int misses = 0;
   bool in_path = false;
-  std::string distance_method;  // "pinhole", "ground", "annotation"
+  std::string distance_method;  // "pinhole", "ground", "fused", "annotation", "predicted" (no range this frame)
   int annotation_index = -1;
+  unsigned truncated = 0;  // hf::truncation flags of the box (its height/bottom did not measure range)
+  // Covariance of (distance_m, lateral_m, velocity_rel.x, velocity_rel.y) in m and m/s, from estimators that
+  // filter the state; absent for those that do not.
+  std::optional<cv::Matx44d> covariance;
 };
 
 struct ObjectStates {
@@ -163,6 +169,8 @@ struct ObjectStates {
   int64_t frame_index = 0;
   double timestamp = 0.0;
   std::optional<double> ego_speed_mps;
+  std::optional<double> ego_yaw_rate;  // rad/s, positive = turning left (drives the corridor's path)
+  double distance_origin_x = 0.0;      // ego x (m) that every distance_m is measured from
   std::vector<ObjectState> objects;
 };
 
@@ -173,6 +181,10 @@ struct ObjectRisk {
   int64_t track_id = -1;
   double value = kInf;
   bool in_path = false;
+  // Interval of the value (about 90 %: value +- 1.645 sigma, mapped through the metric) when the metric
+  // propagates the state's uncertainty; NaN when it does not.
+  double low = std::numeric_limits<double>::quiet_NaN();
+  double high = std::numeric_limits<double>::quiet_NaN();
 };
 
 // One metric's verdict on a frame. For TTC-like metrics lower is riskier; for DRAC higher is riskier.
@@ -189,6 +201,7 @@ struct RiskAssessment {
   double scene_value = kInf;  // min (or max) over in-path objects
   int64_t critical_track = -1;
   SafetyLabel label = SafetyLabel::kSafe;
+  std::string label_rule = "value";  // which bound decided the label: value | riskier_bound | safer_bound
 };
 
 // The hazard the generator asks for (mirrors share/schemas/hazard_spec.schema.json).
