@@ -7,6 +7,8 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include <hazardforge/geometry.hpp>
+
 namespace hf {
 
 namespace {
@@ -153,6 +155,7 @@ Detections GroundTruthDetector::detect_frame(const Frame& frame) const {
     d.label = o.label;
     d.score = 1.f;
     d.annotation_index = static_cast<int>(k);
+    d.truncated = truncation_flags(d.box, size);
     out.items.push_back(std::move(d));
   }
   return out;

@@ -82,6 +82,16 @@ ComponentInfo YoloDetector::describe() {
       ParamSpec::string_list("classes", {"person", "bicycle", "car", "motorcycle", "bus", "truck"})
           .describe("COCO class names to keep; empty = all 80"),
       ParamSpec::number("min_box_height", 0.0).range(0, 100000).describe("drop boxes shorter than this (px)"),
+      ParamSpec::string_list("merge_groups", default_class_groups())
+          .describe("comma-separated labels of one kind of object: after the per-class NMS, overlapping boxes "
+                    "of different labels in one group (an SUV seen as car and truck) are merged into the "
+                    "higher-scoring one"),
+      ParamSpec::number("merge_iou", 0.6)
+          .range(0, 1)
+          .describe("IoU at or above which boxes of one merge group are duplicates; 1 = never merge"),
+      ParamSpec::number("border_margin_px", 2.0)
+          .range(0, 1000)
+          .describe("a box edge within this many px of the image border marks the box truncated there"),
       ParamSpec::integer("threads", 0)
           .range(0, 1024)
           .describe(
@@ -125,6 +135,9 @@ void YoloDetector::open(StageContext& ctx) {
   c.nms_threshold = static_cast<float>(p.get_double("nms_threshold"));
   c.classes = p.get_strings("classes");
   c.min_box_height = static_cast<float>(p.get_double("min_box_height"));
+  c.merge_groups = p.get_strings("merge_groups");
+  c.merge_iou = static_cast<float>(p.get_double("merge_iou"));
+  c.border_margin_px = p.get_double("border_margin_px");
   c.threads = static_cast<int>(p.get_int("threads"));
   load(c);
   ctx.record_resource(cfg_.model);
@@ -323,12 +336,36 @@ std::vector<Detection> YoloDetector::postprocess(const cv::Mat& output, const Le
       d.class_id = id;
       d.label = names[id];
       d.score = s[k];
+      d.truncated = truncation_flags(d.box, lb.image, cfg_.border_margin_px);
       dets.push_back(std::move(d));
     }
   }
   std::sort(dets.begin(), dets.end(),
             [](const Detection& a, const Detection& b) { return a.score > b.score; });
-  return dets;
+  return merge_duplicates(std::move(dets));
+}
+
+std::vector<Detection> YoloDetector::merge_duplicates(std::vector<Detection> dets) const {
+  // Greedy over descending score: a box is dropped when a kept box of another label in its group overlaps it
+  // at merge_iou or more. Same-label duplicates were already removed by the per-class NMS.
+  if (cfg_.merge_iou >= 1.f) return dets;
+  const ClassGroups groups(cfg_.merge_groups);
+  std::vector<Detection> kept;
+  kept.reserve(dets.size());
+  for (Detection& d : dets) {
+    bool duplicate = false;
+    for (const Detection& k : kept) {
+      if (k.label == d.label || !groups.same(k.label, d.label)) continue;
+      const float inter = (k.box & d.box).area();
+      const float uni = k.box.area() + d.box.area() - inter;
+      if (uni > 0.f && inter / uni >= cfg_.merge_iou) {
+        duplicate = true;
+        break;
+      }
+    }
+    if (!duplicate) kept.push_back(std::move(d));
+  }
+  return kept;
 }
 
 std::vector<Detection> YoloDetector::detect_image(const cv::Mat& bgr, StepTimes* times) {

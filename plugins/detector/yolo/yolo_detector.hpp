@@ -8,6 +8,8 @@
 
 #include <opencv2/dnn.hpp>
 
+#include <hazardforge/class_groups.hpp>
+#include <hazardforge/geometry.hpp>
 #include <hazardforge/stage.hpp>
 
 namespace hf {
@@ -42,6 +44,11 @@ class YoloDetector : public Detector {
     std::vector<std::string> classes = {"person", "bicycle", "car", "motorcycle", "bus", "truck"};
     float min_box_height = 0.f;
     int threads = 0;  // 0 = OpenCV's default
+    // Duplicate boxes across the labels of one group (one SUV seen as car and truck) above this IoU keep only
+    // the higher-scoring one; 1 = off.
+    std::vector<std::string> merge_groups = default_class_groups();
+    float merge_iou = 0.6f;
+    double border_margin_px = 2.0;  // boxes this close to the image border are marked truncated
   };
 
   // How the network input was made from the image: input = image * scale + (pad_x, pad_y).
@@ -67,6 +74,8 @@ class YoloDetector : public Detector {
   cv::Mat preprocess(const cv::Mat& bgr, Letterbox& lb) const;
   cv::Mat forward(const cv::Mat& blob);  // net.forward() on a blob from preprocess()
   std::vector<Detection> postprocess(const cv::Mat& output, const Letterbox& lb) const;
+  // Class-agnostic suppression within each merge group (score-sorted input).
+  std::vector<Detection> merge_duplicates(std::vector<Detection> dets) const;
   // preprocess + forward + postprocess on one BGR image.
   std::vector<Detection> detect_image(const cv::Mat& bgr, StepTimes* times = nullptr);
   // Seconds taken by net.forward() alone on this image's blob (preprocessing done before the clock starts).

@@ -12,7 +12,8 @@ ComponentInfo TtcPaperMetric::describe() {
   i.doc =
       "Per object TTC = d / (v_ego - v_obj cos psi) with d = distance_m. Infinite when the denominator is at "
       "most min_closing_mps (receding or equal speed); unknown (null, ignored by the scene value) while the "
-      "object has no velocity yet.";
+      "object has no velocity yet. States with a covariance (estimator kalman) also give the TTC's ~90 % "
+      "interval (low, high), used by the unsafe_when rule.";
   i.params.push_back(ParamSpec::number("min_closing_mps", 0.1)
                          .range(0, 100)
                          .describe("denominators at or below this (m/s) give an infinite TTC"));
@@ -32,7 +33,14 @@ RiskAssessment TtcPaperMetric::assess(StageContext& ctx, const ObjectStates& sta
   for (const ObjectState& s : states.objects) {
     const auto closing = risk::closing_speed(s, states.ego_speed_mps, fallback);
     const double ttc = !closing ? std::nan("") : *closing <= eps ? kInf : s.distance_m / *closing;
-    r.objects.push_back({s.track_id, ttc, false});
+    ObjectRisk o{s.track_id, ttc, false};
+    // A filtered state carries its covariance: the TTC gets an interval (the value stays the paper's).
+    if (closing)
+      if (const auto iv = risk::ttc_interval(s, s.distance_m, *closing)) {
+        o.low = iv->low;
+        o.high = iv->high;
+      }
+    r.objects.push_back(o);
   }
   return r;
 }

@@ -146,6 +146,7 @@ Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
       e.misses = 0;
       e.detection_index = j;
       e.annotation_index = d.annotation_index;
+    e.truncated = d.truncated;
     } else {
       ++e.misses;
       e.detection_index = -1;
@@ -167,6 +168,7 @@ Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
     e.hits = 1;
     e.detection_index = int(j);
     e.annotation_index = d.annotation_index;
+    e.truncated = d.truncated;
     kept.push_back(std::move(e));
   }
   tracks_ = std::move(kept);
@@ -186,6 +188,7 @@ Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
     tr.velocity_px = e.velocity.velocity();
     tr.detection_index = e.detection_index;
     tr.annotation_index = e.annotation_index;
+    tr.truncated = e.truncated;
     out.items.push_back(tr);
   }
   std::sort(out.items.begin(), out.items.end(), [](const Track& a, const Track& b) { return a.id < b.id; });

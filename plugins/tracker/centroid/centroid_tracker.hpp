@@ -55,6 +55,7 @@ class CentroidTracker : public Tracker {
     float score = 0.f;
     int age = 0, hits = 0, misses = 0;
     int detection_index = -1, annotation_index = -1;
+    unsigned truncated = 0;  // of the last matched detection
   };
   Config cfg_;
   tracking::ClassGroups groups_{tracking::default_class_groups()};

@@ -93,6 +93,7 @@ SortTracker::Entry SortTracker::make_entry(const Detection& d, int index, double
   e.hit_streak = 1;
   e.detection_index = index;
   e.annotation_index = d.annotation_index;
+    e.truncated = d.truncated;
   return e;
 }
 
@@ -164,6 +165,7 @@ Tracks SortTracker::step(const Detections& dets, const Frame& frame) {
     e.score = d.score;
     e.detection_index = j;
     e.annotation_index = d.annotation_index;
+    e.truncated = d.truncated;
   }
   for (size_t j = 0; j < nd; ++j)
     if (!det_used[j]) tracks_.push_back(make_entry(dets.items[j], int(j), t));
@@ -193,6 +195,7 @@ Tracks SortTracker::step(const Detections& dets, const Frame& frame) {
       tr.velocity_px = e.velocity.velocity();
       tr.detection_index = e.detection_index;
       tr.annotation_index = e.annotation_index;
+    tr.truncated = e.truncated;
       out.items.push_back(tr);
     }
     kept.push_back(std::move(e));

@@ -57,6 +57,7 @@ class SortTracker : public Tracker {
     int age = 0, hits = 0, hit_streak = 0, misses = 0;
     bool confirmed = false;  // has been emitted as a matched track at least once
     int detection_index = -1, annotation_index = -1;
+    unsigned truncated = 0;  // of the last matched detection
     cv::Rect2f box() const;
   };
   Entry make_entry(const Detection& d, int index, double t);

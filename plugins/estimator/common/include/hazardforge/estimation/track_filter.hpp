@@ -1,0 +1,70 @@
+// Per-track Kalman filter over ground position and velocity in the moving ego frame, with gating.
+#pragma once
+
+#include <optional>
+
+#include <opencv2/core.hpp>
+
+namespace hf::estimation {
+
+// How the ego moved between the previous and the current frame, in the previous ego frame (x forward, y
+// left): translation (dx, dy) and heading change dyaw. `absolute` = the ego's own speed is known, so the
+// filter's velocity is the object's absolute velocity (a parked car has zero); otherwise the displacement is
+// zero and the velocity is relative to the ego.
+struct EgoDelta {
+  double dx = 0.0, dy = 0.0, dyaw = 0.0;
+  bool absolute = false;
+};
+
+struct TrackFilterConfig {
+  double accel_sd = 2.5;          // m/s^2: white-noise acceleration of the object (process noise)
+  double relative_accel_sd = 1.5; // m/s^2 added without ego speed: the ego's own acceleration
+  double init_velocity_sd = 10.0; // m/s: spread of the velocity before the second measurement
+  double gate_chi2 = 13.82;       // 2-dof position innovation gate (99.9 %)
+  double scale_gate_chi2 = 10.83; // 1-dof gate of the scale (inverse-TTC) measurement (99.9 %)
+  double max_speed_mps = 60.0;    // the class's limit: a measurement implying more is physically impossible
+  int reinit_after = 3;           // consecutive rejected positions after which the state restarts there
+};
+
+// State s = (x, y, vx, vy): the object's ground point in the current ego frame (m) and its velocity in the
+// current ego axes (m/s; absolute when the ego speed is known, else relative). Constant velocity between
+// frames; the ego's motion moves and turns the frame under it.
+class TrackFilter {
+ public:
+  enum class Update { kAccepted, kGated, kImpossible, kRestarted };
+
+  explicit TrackFilter(TrackFilterConfig c = {}) : cfg_(c) {}
+  bool initialised() const { return initialised_; }
+  int updates() const { return updates_; }  // accepted position updates since (re)start
+  double time() const { return t_; }
+
+  // First position (or a restart): velocity zero with init_velocity_sd.
+  void init(double t, const cv::Vec2d& z, const cv::Matx22d& R);
+  // Moves the state to time t and into the current ego frame.
+  void predict(double t, const EgoDelta& ego);
+  // Ground-position measurement with covariance R. Gated by the Mahalanobis distance and by the speed it
+  // implies; after reinit_after consecutive rejections the filter restarts at z (returns kRestarted).
+  Update update_position(const cv::Vec2d& z, const cv::Matx22d& R);
+  // Scale change of the object's image: z = (ratio - 1) / dt = closing speed / depth, with depth = x - cam_x
+  // and closing = -(vx - ego_vx) (ego_vx = the ego's own speed along x in absolute mode, 0 in relative).
+  Update update_inverse_ttc(double z, double var, double cam_x, double ego_vx);
+  // Rescales the state about the camera (positions and relative velocity by k): when the class prior behind
+  // the range changes (a track relabelled car -> truck), so TTC = range / closing is unchanged.
+  void rescale(double k, double cam_x, double ego_vx);
+
+  const cv::Vec4d& state() const { return s_; }
+  const cv::Matx44d& covariance() const { return P_; }
+
+ private:
+  TrackFilterConfig cfg_;
+  bool initialised_ = false;
+  bool absolute_ = false;
+  int updates_ = 0;
+  int rejected_ = 0;
+  double t_ = 0.0;
+  double last_dt_ = 0.0;
+  cv::Vec4d s_{0, 0, 0, 0};
+  cv::Matx44d P_ = cv::Matx44d::eye();
+};
+
+}  // namespace hf::estimation

@@ -1,0 +1,326 @@
+// Kalman estimator: fused pinhole/ground range, per-track filter moved by the ego, keypoint scale updates.
+#include "kalman_estimator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+namespace hf {
+
+namespace {
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+// Heading change and translation of the ego from the previous to the current frame, in the previous frame.
+estimation::EgoDelta delta_from_poses(const cv::Matx44d& prev, const cv::Matx44d& cur) {
+  const cv::Matx44d d = prev.inv() * cur;
+  estimation::EgoDelta e;
+  e.dx = d(0, 3);
+  e.dy = d(1, 3);
+  e.dyaw = std::atan2(d(1, 0), d(0, 0));
+  e.absolute = true;
+  return e;
+}
+
+estimation::EgoDelta delta_from_speed(double speed, std::optional<double> yaw_rate, double dt) {
+  // Constant speed and yaw rate: the ego moves along the chord of a circular arc.
+  estimation::EgoDelta e;
+  e.dyaw = yaw_rate ? *yaw_rate * dt : 0.0;
+  const double chord = std::abs(e.dyaw) > 1e-12 ? speed * dt * std::sin(e.dyaw / 2) / (e.dyaw / 2) : speed * dt;
+  e.dx = chord * std::cos(e.dyaw / 2);
+  e.dy = chord * std::sin(e.dyaw / 2);
+  e.absolute = true;
+  return e;
+}
+}  // namespace
+
+ComponentInfo KalmanEstimator::describe() {
+  ComponentInfo i = Estimator::base_info(
+      "kalman", "filtered range, lateral offset and rates per track (fused range cues, keypoint scale change)");
+  i.doc =
+      "Per track a Kalman filter over the object's ground point (x, y) and velocity in the ego frame. Predicted "
+      "with constant velocity and moved by the ego's motion between frames (dataset poses; else ego speed and "
+      "yaw rate; else the velocity is relative to the ego). Range measurement: the pinhole depth fy*H/h (error "
+      "from height_rel_sd and box_jitter_px) and the ground-contact depth (error from box_jitter_px, "
+      "pitch_sd_deg and ground_height_sd, growing with the square of the distance) fused by inverse variance; a "
+      "box touching the top or bottom border gives no pinhole range, one touching the bottom no ground range. "
+      "Updates are gated (99.9 % Mahalanobis gate, and the class's max speed from share/hazard_limits.yaml); "
+      "after three rejected updates in a row the track's state restarts. The keypoint scale ratio r of the box "
+      "between frames (KLT corners, median pairwise distance ratio) updates closing/depth = (r-1)/dt. A track "
+      "relabelled (car -> truck) is rescaled by the ratio of the class heights, so its TTC does not jump. "
+      "Process noise: accel_sd_fraction x the class's max acceleration. Velocity, heading and scale_rate are "
+      "reported after min_updates measurements; the state's covariance goes into ObjectState::covariance.";
+  i.params = {
+      ParamSpec::path("class_sizes", "").describe("YAML of per-class real sizes (m); empty = <share>/class_sizes.yaml"),
+      ParamSpec::path("limits", "").describe("YAML of per-class kinematic limits; empty = <share>/hazard_limits.yaml"),
+      ParamSpec::number("height_rel_sd", 0.10).range(0, 1).describe("relative spread of a class's real height"),
+      ParamSpec::number("box_jitter_px", 1.5).range(0, 100).describe("detector jitter of a box edge (px)"),
+      ParamSpec::number("pitch_sd_deg", 0.5).range(0, 10).describe("uncertainty of the camera pitch (deg)"),
+      ParamSpec::number("ground_height_sd", 0.1)
+          .range(0, 5)
+          .describe("road surface height at the object relative to the ego's ground plane (m, 1 sigma)"),
+      ParamSpec::number("min_horizon_gap_px", 10.0)
+          .range(0, 10000)
+          .describe("ground range only for box bottoms at least this far below the horizon (px)"),
+      ParamSpec::number("border_margin_px", 2.0)
+          .range(0, 1000)
+          .describe("box edges this close to the image border are truncated (in addition to the detector's flags)"),
+      ParamSpec::boolean("keypoints", true).describe("update closing/depth from the keypoint scale change"),
+      ParamSpec::number("keypoint_floor", 0.003)
+          .range(0, 1)
+          .describe("minimum standard error of ln(scale ratio) per frame pair"),
+      ParamSpec::integer("min_updates", 3)
+          .range(1, 1000)
+          .describe("measurements a track needs before velocity, heading and scale rate are reported"),
+      ParamSpec::integer("max_misses", 3)
+          .range(0, 100000)
+          .describe("frames a held (unmatched) box is predicted through before it is no longer reported"),
+      ParamSpec::number("accel_sd_fraction", 0.5)
+          .range(0.01, 10)
+          .describe("process noise: white-noise acceleration = this x the class's max_accel_mps2"),
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .range(-1, 200)
+          .describe("ego speed when the frame carries none (m/s); -1 = unknown (relative velocities)"),
+      ParamSpec::string("distance_origin", "bumper")
+          .one_of({"camera", "bumper", "ego_origin"})
+          .describe("where distance_m is measured from along ego x (bumper = as the ground-truth gap)"),
+      ParamSpec::number("front_overhang", 3.4).range(0, 20).describe("ego x of the front bumper (m)"),
+  };
+  for (ParamSpec& p : Corridor::params()) i.params.push_back(std::move(p));
+  return i;
+}
+
+void KalmanEstimator::open(StageContext& ctx) {
+  const Params& p = ctx.params();
+  std::filesystem::path sizes = p.get_path("class_sizes");
+  if (sizes.empty()) sizes = std::filesystem::path(share_dir()) / "class_sizes.yaml";
+  priors_ = ClassPriors::load(sizes.string());
+  ctx.record_resource(sizes);
+  std::filesystem::path limits = p.get_path("limits");
+  if (limits.empty()) limits = hazard::LimitsTable::default_path();
+  limits_ = hazard::LimitsTable::load(limits.string());
+  ctx.record_resource(limits);
+  cfg_.height_rel_sd = p.get_double("height_rel_sd");
+  cfg_.box_jitter_px = p.get_double("box_jitter_px");
+  cfg_.pitch_sd_deg = p.get_double("pitch_sd_deg");
+  cfg_.ground_height_sd = p.get_double("ground_height_sd");
+  cfg_.min_horizon_gap_px = p.get_double("min_horizon_gap_px");
+  cfg_.border_margin_px = p.get_double("border_margin_px");
+  cfg_.keypoints = p.get_bool("keypoints");
+  cfg_.keypoint_floor = p.get_double("keypoint_floor");
+  cfg_.min_updates = static_cast<int>(p.get_int("min_updates"));
+  cfg_.max_misses = static_cast<int>(p.get_int("max_misses"));
+  cfg_.accel_sd_fraction = p.get_double("accel_sd_fraction");
+  const double ego = p.get_double("ego_speed_mps");
+  if (ego >= 0) cfg_.ego_speed_param = ego;
+  cfg_.origin = p.get_string("distance_origin");
+  cfg_.front_overhang = p.get_double("front_overhang");
+  corridor_ = Corridor::from(p);
+  tracks_.clear();
+  keypoints_ = estimation::KeypointScaleTracker();
+}
+
+RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
+                                    double real_height, const Config& c) {
+  RangeCue r;
+  const double h = box.height;
+  const double j2 = c.box_jitter_px * c.box_jitter_px;
+  const cv::Point2d bottom(box.x + box.width / 2.0, box.y + box.height);
+  if (!(truncated & (truncation::kTop | truncation::kBottom)) && h > 1.0) {
+    const double z = cam.fy * real_height / h;
+    // d = fy H / h: relative error of H and of h (two edges' jitter) add in quadrature.
+    const double rel2 = c.height_rel_sd * c.height_rel_sd + 2.0 * j2 / (h * h);
+    r.pinhole_depth = z;
+    r.pinhole_var = z * z * rel2;
+  }
+  if (!(truncated & truncation::kBottom)) {
+    const std::optional<cv::Vec3d> g = cam.pixel_to_ground(bottom);
+    if (g) {
+      const cv::Vec3d pc = cam.ego_to_cam(*g);
+      const double z = pc[2];
+      const double hc = cam.height_above_ground();
+      // Rows below the horizon: v - v_h = fy hc / z (level camera). A row error dv moves the depth by
+      // z^2 / (fy hc) dv; a pitch error acts as a row error of fy * dpitch; a road surface dz off the plane
+      // scales the depth by dz / hc.
+      const double gap_px = cam.fy * hc / std::max(z, 1e-6);
+      if (z > 0.5 && gap_px >= c.min_horizon_gap_px && hc > 0) {
+        const double k = z * z / (cam.fy * hc);
+        const double pitch_px = cam.fy * std::tan(c.pitch_sd_deg * kDeg);
+        const double var = k * k * (j2 + pitch_px * pitch_px) + std::pow(z * c.ground_height_sd / hc, 2);
+        r.ground_depth = z;
+        r.ground_var = var;
+      }
+    }
+  }
+  if (r.pinhole_depth && r.ground_depth) {
+    const double wp = 1.0 / *r.pinhole_var, wg = 1.0 / *r.ground_var;
+    r.depth = (wp * *r.pinhole_depth + wg * *r.ground_depth) / (wp + wg);
+    r.var = 1.0 / (wp + wg);
+    r.method = "fused";
+  } else if (r.pinhole_depth) {
+    r.depth = r.pinhole_depth;
+    r.var = r.pinhole_var;
+    r.method = "pinhole";
+  } else if (r.ground_depth) {
+    r.depth = r.ground_depth;
+    r.var = r.ground_var;
+    r.method = "ground";
+  }
+  return r;
+}
+
+ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, const Frame& frame) {
+  CameraModel cam = frame.camera;
+  if (!cam.valid())
+    throw Error("frame " + std::to_string(frame.index) + " (" + frame.source_id +
+                "): the camera model has no intrinsics (width, height, fx, fy); the kalman estimator needs them");
+  if (!frame.image.empty() && (frame.image.cols != cam.width || frame.image.rows != cam.height))
+    cam = cam.scaled_to(frame.image.cols, frame.image.rows);
+  const cv::Size image_size(cam.width, cam.height);
+  const double t = frame.timestamp;
+  const double cam_x = cam.t_ego_cam[0];
+
+  ObjectStates out;
+  out.frame_index = frame.index;
+  out.timestamp = t;
+  out.ego_speed_mps = frame.ego.speed_mps ? frame.ego.speed_mps : cfg_.ego_speed_param;
+  out.ego_yaw_rate = frame.ego.yaw_rate;
+  double ego_vx = 0.0;  // the ego's velocity along its own x
+  if (frame.ego.velocity_world && frame.ego.T_world_ego) {
+    const cv::Matx44d& T = *frame.ego.T_world_ego;
+    const cv::Vec3d& w = *frame.ego.velocity_world;
+    ego_vx = T(0, 0) * w[0] + T(1, 0) * w[1] + T(2, 0) * w[2];
+    if (!out.ego_speed_mps) out.ego_speed_mps = std::hypot(ego_vx, T(0, 1) * w[0] + T(1, 1) * w[1] + T(2, 1) * w[2]);
+  } else if (out.ego_speed_mps) {
+    ego_vx = *out.ego_speed_mps;
+  }
+  const bool absolute = frame.ego.T_world_ego.has_value() || out.ego_speed_mps.has_value();
+  if (!absolute) ego_vx = 0.0;
+  out.distance_origin_x = cfg_.origin == "camera" ? cam_x : cfg_.origin == "bumper" ? cfg_.front_overhang : 0.0;
+
+  estimation::EgoDelta delta;
+  if (have_last_ && t > last_t_) {
+    if (frame.ego.T_world_ego && last_pose_)
+      delta = delta_from_poses(*last_pose_, *frame.ego.T_world_ego);
+    else if (out.ego_speed_mps)
+      delta = delta_from_speed(*out.ego_speed_mps, frame.ego.yaw_rate, t - last_t_);
+  }
+  delta.absolute = absolute;
+  if (frame.ego.T_world_ego) last_pose_ = *frame.ego.T_world_ego;
+  else last_pose_.reset();
+  last_t_ = t;
+  have_last_ = true;
+
+  // Keypoint scale ratios of this frame's matched boxes.
+  std::map<int64_t, estimation::ScaleRatio> ratios;
+  if (cfg_.keypoints && !frame.image.empty()) {
+    std::map<int64_t, cv::Rect2f> boxes;
+    for (const Track& tr : tracks.items)
+      if (tr.misses == 0) boxes[tr.id] = tr.box;
+    ratios = keypoints_.update(frame.image, t, boxes);
+  }
+
+  std::set<int64_t> alive;
+  for (const Track& tr : tracks.items) {
+    alive.insert(tr.id);
+    if (tr.misses > cfg_.max_misses) continue;
+    if (!priors_.has(tr.label)) {
+      if (warned_.insert(tr.label).second)
+        ctx.log(LogLevel::kWarning, "no size prior for class '" + tr.label + "'; its tracks are not estimated");
+      continue;
+    }
+    const ClassSize& size = priors_.at(tr.label);
+    auto found = tracks_.find(tr.id);
+    if (found == tracks_.end()) {
+      estimation::TrackFilterConfig fc;
+      if (limits_.has(tr.label)) {
+        const hazard::KinematicLimits& L = limits_.at(tr.label);
+        fc.max_speed_mps = L.max_speed_mps;
+        fc.accel_sd = cfg_.accel_sd_fraction * L.max_accel_mps2;
+        fc.init_velocity_sd = std::min(L.max_speed_mps / 3.0, 15.0);
+      }
+      found = tracks_.emplace(tr.id, TrackMemory{estimation::TrackFilter(fc), tr.label}).first;
+    }
+    TrackMemory& mem = found->second;
+    estimation::TrackFilter& f = mem.filter;
+    if (f.initialised()) {
+      f.predict(t, delta);
+      // The voted class changed: the pinhole range was measured with the other class's height.
+      if (mem.label != tr.label && priors_.has(mem.label)) {
+        f.rescale(size.height / priors_.at(mem.label).height, cam_x, ego_vx);
+        mem.label = tr.label;
+      }
+    }
+    mem.label = tr.label;
+
+    ObjectState s;
+    s.track_id = tr.id;
+    s.label = tr.label;
+    s.score = tr.score;
+    s.box = tr.box;
+    s.box_height_px = tr.box.height;
+    s.age = tr.age;
+    s.misses = tr.misses;
+    s.annotation_index = tr.annotation_index;
+    s.width_m = size.width;
+    s.length_m = size.length;
+    s.truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
+    s.distance_method = "predicted";
+
+    if (tr.misses == 0) {
+      const RangeCue cue = range_cue(cam, tr.box, s.truncated, size.height, cfg_);
+      if (cue.depth) {
+        const cv::Point2d bottom(tr.box.x + tr.box.width / 2.0, tr.box.y + tr.box.height);
+        const cv::Vec3d p = cam.cam_to_ego(
+            cv::Vec3d((bottom.x - cam.cx) * *cue.depth / cam.fx, (bottom.y - cam.cy) * *cue.depth / cam.fy, *cue.depth));
+        // Along the viewing ray the depth error moves x and y together; across it, the column's jitter (and a
+        // side cut off by the border) moves y.
+        const cv::Vec2d a((p[0] - cam_x) / *cue.depth, (p[1] - cam.t_ego_cam[1]) / *cue.depth);
+        double lat_px = cfg_.box_jitter_px;
+        if (s.truncated & (truncation::kLeft | truncation::kRight)) lat_px += tr.box.width / 2.0;
+        const double lat = lat_px * *cue.depth / cam.fx;
+        cv::Matx22d R(a[0] * a[0] * *cue.var, a[0] * a[1] * *cue.var, a[0] * a[1] * *cue.var,
+                      a[1] * a[1] * *cue.var + lat * lat);
+        const cv::Vec2d z(p[0], p[1]);
+        if (!f.initialised()) {
+          f.init(t, z, R);
+        } else {
+          const auto u = f.update_position(z, R);
+          if (u == estimation::TrackFilter::Update::kImpossible || u == estimation::TrackFilter::Update::kGated)
+            s.distance_method = "rejected";
+          else
+            s.distance_method = cue.method;
+        }
+        if (s.distance_method == "predicted") s.distance_method = cue.method;
+      }
+      auto r = ratios.find(tr.id);
+      if (f.initialised() && r != ratios.end() && r->second.valid()) {
+        const estimation::ScaleRatio& q = r->second;
+        const double ls = std::max(q.log_sigma, cfg_.keypoint_floor);
+        const double sd = q.ratio * ls / q.dt;
+        f.update_inverse_ttc(q.inverse_ttc(), sd * sd, cam_x, ego_vx);
+      }
+    }
+    if (!f.initialised()) continue;
+
+    const cv::Vec4d& x = f.state();
+    s.distance_m = x[0] - out.distance_origin_x;
+    s.lateral_m = x[1];
+    if (f.updates() >= cfg_.min_updates) {
+      const cv::Vec2d vrel(x[2] - ego_vx, x[3]);
+      s.velocity_rel = vrel;
+      s.covariance = f.covariance();
+      if (absolute) {
+        s.speed_mps = std::hypot(x[2], x[3]);
+        s.heading_rad = std::atan2(x[3], x[2]);
+      }
+      const double depth = x[0] - cam_x;
+      if (depth > 0.5) s.scale_rate = -vrel[0] / depth;
+    }
+    s.in_path = corridor_.contains(out, s);
+    out.objects.push_back(std::move(s));
+  }
+  for (auto it = tracks_.begin(); it != tracks_.end();) it = alive.count(it->first) ? std::next(it) : tracks_.erase(it);
+  return out;
+}
+
+}  // namespace hf

@@ -1,0 +1,80 @@
+// Filtered monocular state estimation: fused range cues, a Kalman filter per track, keypoint scale change.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+
+#include <hazardforge/estimation/keypoint_scale.hpp>
+#include <hazardforge/estimation/track_filter.hpp>
+#include <hazardforge/geometry.hpp>
+#include <hazardforge/hazard/kinematics.hpp>
+#include <hazardforge/stage.hpp>
+
+namespace hf {
+
+// One frame's range measurement of a box: the pinhole range from the class height prior and the ground-contact
+// range from the camera's height and pitch, each with its expected error, fused by inverse variance.
+struct RangeCue {
+  std::optional<double> pinhole_depth, pinhole_var;  // optical depth (m) and its variance
+  std::optional<double> ground_depth, ground_var;
+  std::optional<double> depth, var;  // fused
+  std::string method;                // pinhole | ground | fused | "" (no usable cue: truncated)
+};
+
+// Stage "kalman" (estimator).
+// Ports: tracks (Tracks) + frames (Frame: image, camera, ego pose/speed/yaw rate) -> states (ObjectStates),
+//   one packet per frame stamped with the frame's time.
+// Per track a TrackFilter (hazardforge/estimation/track_filter.hpp) over the ground point and velocity in the
+//   ego frame, moved by the ego's motion between frames (dataset poses, else speed and yaw rate, else
+//   relative), updated by (1) the fused range cue of the matched box — a box touching the top or bottom image
+//   border gives no pinhole range, one touching the bottom no ground range — gated by the innovation and the
+//   class's speed limit (share/hazard_limits.yaml), and (2) the keypoint scale change of the box
+//   (hazardforge/estimation/keypoint_scale.hpp) as a measurement of closing speed / depth. A held box
+//   (misses > 0) is predicted only. The state's covariance travels in ObjectState::covariance.
+// Params: see describe(); docs/risk-metrics.md has the measurement model.
+class KalmanEstimator : public Estimator {
+ public:
+  static ComponentInfo describe();
+  void open(StageContext& ctx) override;
+  ObjectStates estimate(StageContext& ctx, const Tracks& tracks, const Frame& frame) override;
+
+  struct Config {
+    double height_rel_sd = 0.10;   // relative spread of the class's real height
+    double box_jitter_px = 1.5;    // detector jitter of a box edge
+    double pitch_sd_deg = 0.5;     // uncertainty of the camera pitch (ground range)
+    double ground_height_sd = 0.1; // m, road surface off the ego's ground plane at the object (ground range)
+    double min_horizon_gap_px = 10.0;  // ground range only for bottoms this far below the horizon
+    double border_margin_px = 2.0;
+    bool keypoints = true;
+    double keypoint_floor = 0.003;  // minimum standard error of ln(scale ratio) per frame pair
+    int min_updates = 3;            // accepted measurements before velocity and TTC are reported
+    int max_misses = 3;             // held boxes predicted this many frames
+    double accel_sd_fraction = 0.5; // process noise = this x the class's max acceleration
+    std::optional<double> ego_speed_param;
+    std::string origin = "bumper";
+    double front_overhang = 3.4;
+  };
+  // Range cue of a box (exposed for tests on synthetic geometry).
+  static RangeCue range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated, double real_height,
+                            const Config& c);
+
+ private:
+  struct TrackMemory {
+    estimation::TrackFilter filter;
+    std::string label;
+  };
+  Config cfg_;
+  ClassPriors priors_;
+  hazard::LimitsTable limits_;
+  std::map<int64_t, TrackMemory> tracks_;
+  estimation::KeypointScaleTracker keypoints_;
+  Corridor corridor_;
+  std::optional<cv::Matx44d> last_pose_;
+  double last_t_ = 0.0;
+  bool have_last_ = false;
+  std::set<std::string> warned_;
+};
+
+}  // namespace hf
