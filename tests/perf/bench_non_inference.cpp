@@ -1,5 +1,6 @@
 // Benchmark of every per-frame step of the assessment graph except detector inference, at 1600x900 with N
-// synthetic objects (N = 10 and 50): trackers, the monocular estimator, the four risk metrics, jsonl records,
+// synthetic objects (N = 10 and 50): trackers, the monocular and kalman estimators, the risk metrics (the
+// keypoint ones track corners in the frame image), jsonl records,
 // the annotated overlay, and the annotated_video sink with its H.264 encoder (draw + encode).
 //
 //   bench_non_inference [--benchmark_repetitions=5 --benchmark_report_aggregates_only=true ...]
@@ -32,10 +33,12 @@
 #include "hazardforge/params.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "jsonl_sink.hpp"
+#include "kalman_estimator.hpp"
 #include "monocular_estimator.hpp"
 #include "overlay.hpp"
 #include "sort_tracker.hpp"
 #include "time_headway_metric.hpp"
+#include "ttc_keypoints_metric.hpp"
 #include "ttc_paper_metric.hpp"
 #include "ttc_scale_metric.hpp"
 
@@ -253,6 +256,17 @@ void BM_Monocular(benchmark::State& st) {
       });
 }
 
+// The filtered estimator with its keypoint scale step (corners and pyramidal KLT on the 1600x900 frame).
+void BM_Kalman(benchmark::State& st) {
+  const Scene& s = scene(static_cast<int>(st.range(0)));
+  run_stage(
+      st, [] { return StageRunner::create<hf::KalmanEstimator>(); },
+      [&](StageRunner& r, int64_t k) {
+        r.push("frames", frame(k), k * kDt);
+        r.push("tracks", at(s.tracks, k), k * kDt);
+      });
+}
+
 template <class T>
 void BM_Metric(benchmark::State& st) {
   const Scene& s = scene(static_cast<int>(st.range(0)));
@@ -352,8 +366,14 @@ void BM_AnnotatedVideoSink(benchmark::State& st) {
 BENCHMARK_TEMPLATE(BM_Tracker, hf::CentroidTracker)->Name("tracker/centroid")->Arg(10)->Arg(50);
 BENCHMARK_TEMPLATE(BM_Tracker, hf::SortTracker)->Name("tracker/sort")->Arg(10)->Arg(50);
 BENCHMARK(BM_Monocular)->Name("estimator/monocular")->Arg(10)->Arg(50);
+BENCHMARK(BM_Kalman)->Name("estimator/kalman")->Arg(10)->Arg(50)->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(BM_Metric, hf::TtcPaperMetric)->Name("risk/ttc_paper")->Arg(10)->Arg(50);
 BENCHMARK_TEMPLATE(BM_Metric, hf::TtcScaleMetric)->Name("risk/ttc_scale")->Arg(10)->Arg(50);
+BENCHMARK_TEMPLATE(BM_Metric, hf::TtcKeypointsMetric)
+    ->Name("risk/ttc_keypoints")
+    ->Arg(10)
+    ->Arg(50)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(BM_Metric, hf::TimeHeadwayMetric)->Name("risk/thw")->Arg(10)->Arg(50);
 BENCHMARK_TEMPLATE(BM_Metric, hf::DracMetric)->Name("risk/drac")->Arg(10)->Arg(50);
 BENCHMARK(BM_JsonlRecords)->Name("sink/jsonl_records")->Arg(10)->Arg(50);

@@ -342,14 +342,13 @@ std::vector<Detection> YoloDetector::postprocess(const cv::Mat& output, const Le
   }
   std::sort(dets.begin(), dets.end(),
             [](const Detection& a, const Detection& b) { return a.score > b.score; });
-  return merge_duplicates(std::move(dets));
+  return merge_duplicates(std::move(dets), ClassGroups(cfg_.merge_groups), cfg_.merge_iou);
 }
 
-std::vector<Detection> YoloDetector::merge_duplicates(std::vector<Detection> dets) const {
-  // Greedy over descending score: a box is dropped when a kept box of another label in its group overlaps it
-  // at merge_iou or more. Same-label duplicates were already removed by the per-class NMS.
-  if (cfg_.merge_iou >= 1.f) return dets;
-  const ClassGroups groups(cfg_.merge_groups);
+std::vector<Detection> YoloDetector::merge_duplicates(std::vector<Detection> dets, const ClassGroups& groups,
+                                                      float iou) {
+  // Same-label duplicates were already removed by the per-class NMS.
+  if (iou >= 1.f) return dets;
   std::vector<Detection> kept;
   kept.reserve(dets.size());
   for (Detection& d : dets) {
@@ -358,7 +357,7 @@ std::vector<Detection> YoloDetector::merge_duplicates(std::vector<Detection> det
       if (k.label == d.label || !groups.same(k.label, d.label)) continue;
       const float inter = (k.box & d.box).area();
       const float uni = k.box.area() + d.box.area() - inter;
-      if (uni > 0.f && inter / uni >= cfg_.merge_iou) {
+      if (uni > 0.f && inter / uni >= iou) {
         duplicate = true;
         break;
       }

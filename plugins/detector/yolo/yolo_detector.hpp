@@ -58,6 +58,10 @@ class YoloDetector : public Detector {
     cv::Size image;
   };
 
+  // Class-agnostic suppression within each merge group: over score-sorted detections, a box is dropped when a
+  // kept box of another label in its group overlaps it at `iou` or more (iou >= 1: nothing is merged).
+  static std::vector<Detection> merge_duplicates(std::vector<Detection> dets, const ClassGroups& groups, float iou);
+
   struct StepTimes {
     double preprocess = 0, forward = 0, postprocess = 0;  // seconds
   };
@@ -74,8 +78,7 @@ class YoloDetector : public Detector {
   cv::Mat preprocess(const cv::Mat& bgr, Letterbox& lb) const;
   cv::Mat forward(const cv::Mat& blob);  // net.forward() on a blob from preprocess()
   std::vector<Detection> postprocess(const cv::Mat& output, const Letterbox& lb) const;
-  // Class-agnostic suppression within each merge group (score-sorted input).
-  std::vector<Detection> merge_duplicates(std::vector<Detection> dets) const;
+
   // preprocess + forward + postprocess on one BGR image.
   std::vector<Detection> detect_image(const cv::Mat& bgr, StepTimes* times = nullptr);
   // Seconds taken by net.forward() alone on this image's blob (preprocessing done before the clock starts).

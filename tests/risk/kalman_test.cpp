@@ -1,0 +1,343 @@
+// Kalman estimator and keypoint scale TTC on synthetic data of known geometry: constant velocity, braking,
+// occlusion gaps, truncated boxes, label flips, impossible jumps, pure image scaling with noise and outliers.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+
+#include <opencv2/imgproc.hpp>
+
+#include "hazardforge/estimation/keypoint_scale.hpp"
+#include "hazardforge/estimation/track_filter.hpp"
+#include "hazardforge/testing/stage_runner.hpp"
+#include "kalman_estimator.hpp"
+#include "synthetic.hpp"
+#include "ttc_keypoints_metric.hpp"
+#include "ttc_paper_metric.hpp"
+
+namespace hf {
+namespace {
+
+using test::box_of;
+using test::frame_at;
+using test::front_camera;
+using test::track;
+
+constexpr double kCarH = 1.52, kCarW = 1.85, kTruckH = 3.0;  // share/class_sizes.yaml
+constexpr double kCamX = 1.7, kBumper = 3.4;
+
+struct Step {
+  Frame frame;
+  Tracks tracks;
+};
+
+std::vector<ObjectStates> run_kalman(const std::string& params, const std::vector<Step>& seq) {
+  auto r = testing::StageRunner::create<KalmanEstimator>(params);
+  for (const Step& s : seq) {
+    r.push("frames", s.frame, s.frame.timestamp);
+    r.push("tracks", s.tracks, s.frame.timestamp);
+  }
+  r.run();
+  return r.collect<ObjectStates>("states");
+}
+
+const ObjectState* find(const ObjectStates& s, int64_t id) {
+  for (const ObjectState& o : s.objects)
+    if (o.track_id == id) return &o;
+  return nullptr;
+}
+
+// A car ahead in the ego's lane whose near face is at ego x = x(t); box edges jittered by `noise_px`.
+std::vector<Step> lead_sequence(int n, double dt, double ego_speed, const std::function<double(double)>& x_of_t,
+                                double noise_px, const std::string& label = "car", double height = kCarH) {
+  const CameraModel cam = front_camera();
+  cv::RNG rng(7);
+  std::vector<Step> seq;
+  for (int k = 0; k < n; ++k) {
+    const double t = k * dt;
+    cv::Rect2f b = box_of(cam, x_of_t(t), 0.2, height, kCarW);
+    b.y += static_cast<float>(rng.gaussian(noise_px));
+    b.height += static_cast<float>(rng.gaussian(noise_px));
+    b.x += static_cast<float>(rng.gaussian(noise_px));
+    Step s{frame_at(k, t, cam, ego_speed), {}};
+    s.tracks.frame_index = k;
+    s.tracks.items = {track(1, label, b)};
+    seq.push_back(std::move(s));
+  }
+  return seq;
+}
+
+TEST(KalmanEstimator, ConstantVelocityConvergesAndItsIntervalHoldsTheTruth) {
+  // Ego at 12 m/s, lead car at 7 m/s starting 40 m ahead of the ego origin: closing 5 m/s.
+  auto x_of = [](double t) { return 40.0 - 5.0 * t; };
+  const auto seq = lead_sequence(40, 0.1, 12.0, x_of, 1.0);
+  const auto out = run_kalman("keypoints: false", seq);
+  ASSERT_EQ(out.size(), seq.size());
+  int inside = 0, scored = 0;
+  double prev_sigma = 1e9;
+  for (size_t k = 20; k < out.size(); ++k) {
+    const ObjectState* s = find(out[k], 1);
+    ASSERT_NE(s, nullptr);
+    ASSERT_TRUE(s->velocity_rel && s->covariance);
+    const double t = k * 0.1;
+    EXPECT_NEAR((*s->velocity_rel)[0], -5.0, 1.0) << "frame " << k;
+    EXPECT_NEAR(s->distance_m, x_of(t) - kBumper, 0.12 * (x_of(t) - kBumper)) << "frame " << k;
+    EXPECT_NEAR(*s->speed_mps, 7.0, 1.0);
+    const double sigma_v = std::sqrt((*s->covariance)(2, 2));
+    EXPECT_LT(sigma_v, 2.0);
+    if (k > 25) EXPECT_LE(sigma_v, prev_sigma * 1.05);  // the filter settles, it does not wander
+    prev_sigma = sigma_v;
+  }
+  // The paper's TTC on the filtered states, with its interval.
+  auto m = testing::StageRunner::create<TtcPaperMetric>("");
+  for (const ObjectStates& s : out) m.push("states", s, s.timestamp);
+  m.run();
+  const auto risks = m.collect<RiskAssessment>("risk");
+  for (size_t k = 20; k < risks.size(); ++k) {
+    ASSERT_EQ(risks[k].objects.size(), 1u);
+    const ObjectRisk& o = risks[k].objects[0];
+    // The truth against the estimate's own distance (the class-height prior's error is a constant scale).
+    const double truth = (x_of(k * 0.1) - kBumper) / 5.0;
+    ++scored;
+    if (o.low <= truth && truth <= o.high) ++inside;
+    EXPECT_LT(o.low, o.value);
+    EXPECT_GT(o.high, o.value);
+  }
+  EXPECT_GE(inside, scored * 8 / 10) << inside << " of " << scored << " intervals hold the true TTC";
+}
+
+TEST(KalmanEstimator, FollowsABrakingLeadWithBoundedLag) {
+  // Both at 15 m/s, lead 25 m ahead brakes at 4 m/s^2 from t = 1 s (to a stop at t = 4.75 s).
+  auto x_of = [](double t) {
+    const double tb = std::max(0.0, std::min(t, 4.75) - 1.0);
+    const double lead = 15.0 * std::min(t, 1.0) + 15.0 * tb - 2.0 * tb * tb + 0.0;
+    return 25.0 + lead - 15.0 * t;
+  };
+  const auto seq = lead_sequence(45, 0.1, 15.0, x_of, 0.5);
+  const auto out = run_kalman("keypoints: false", seq);
+  for (size_t k = 25; k < out.size(); ++k) {
+    const ObjectState* s = find(out[k], 1);
+    ASSERT_NE(s, nullptr);
+    ASSERT_TRUE(s->velocity_rel);
+    const double t = k * 0.1, tb = std::max(0.0, std::min(t, 4.75) - 1.0);
+    const double v_lead = 15.0 - 4.0 * tb;
+    // Constant-velocity model behind a 4 m/s^2 deceleration: within 2.5 m/s of the true closing speed.
+    EXPECT_NEAR((*s->velocity_rel)[0], v_lead - 15.0, 2.5) << "t = " << t;
+    EXPECT_LT((*s->velocity_rel)[0], -1.0) << "t = " << t;
+  }
+}
+
+TEST(KalmanEstimator, PredictsThroughAnOcclusionGapWithoutRestarting) {
+  auto x_of = [](double t) { return 30.0 - 4.0 * t; };
+  auto seq = lead_sequence(30, 0.1, 10.0, x_of, 0.5);
+  for (int k = 15; k < 18; ++k) seq[k].tracks.items[0].misses = k - 14;  // held box for three frames
+  const auto out = run_kalman("keypoints: false\nmax_misses: 3", seq);
+  const ObjectState* before = find(out[14], 1);
+  ASSERT_NE(before, nullptr);
+  const double sigma_before = std::sqrt((*before->covariance)(0, 0));
+  for (int k = 15; k < 18; ++k) {
+    const ObjectState* s = find(out[k], 1);
+    ASSERT_NE(s, nullptr);
+    EXPECT_EQ(s->distance_method, "predicted");
+    EXPECT_NEAR(s->distance_m, x_of(k * 0.1) - kBumper, 1.5);
+    EXPECT_GT(std::sqrt((*s->covariance)(0, 0)), sigma_before);  // uncertainty grows while unobserved
+  }
+  const ObjectState* after = find(out[18], 1);
+  ASSERT_NE(after, nullptr);
+  EXPECT_NE(after->distance_method, "rejected");
+  ASSERT_TRUE(after->velocity_rel);  // not restarted: a restart would hide the velocity for min_updates frames
+  EXPECT_NEAR((*after->velocity_rel)[0], -4.0, 1.0);
+}
+
+TEST(KalmanEstimator, TruncatedBoxesGiveNoRangeOfTheCutEdge) {
+  const CameraModel cam = front_camera();
+  KalmanEstimator::Config c;
+  const cv::Rect2f whole = box_of(cam, 20.0, 0.0, kCarH, kCarW);
+  const RangeCue both = KalmanEstimator::range_cue(cam, whole, 0, kCarH, c);
+  ASSERT_TRUE(both.pinhole_depth && both.ground_depth);
+  EXPECT_EQ(both.method, "fused");
+  EXPECT_NEAR(*both.depth, 20.0 - kCamX, 0.05);
+  // Fused variance is below either cue's.
+  EXPECT_LT(*both.var, std::min(*both.pinhole_var, *both.ground_var));
+  const RangeCue bottom = KalmanEstimator::range_cue(cam, whole, truncation::kBottom, kCarH, c);
+  EXPECT_FALSE(bottom.pinhole_depth);
+  EXPECT_FALSE(bottom.ground_depth);
+  EXPECT_EQ(bottom.method, "");
+  const RangeCue top = KalmanEstimator::range_cue(cam, whole, truncation::kTop, kCarH, c);
+  EXPECT_FALSE(top.pinhole_depth);
+  ASSERT_TRUE(top.ground_depth);
+  EXPECT_EQ(top.method, "ground");
+  // The ground range's error grows with distance faster than the pinhole's.
+  const RangeCue far = KalmanEstimator::range_cue(cam, box_of(cam, 60.0, 0.0, kCarH, kCarW), 0, kCarH, c);
+  EXPECT_GT(*far.ground_var / *far.pinhole_var, *both.ground_var / *both.pinhole_var);
+
+  // A lead whose lower part leaves the image: its state goes on (predicted), never from the cut box's height.
+  auto x_of = [](double t) { return 12.0 - 2.0 * t; };
+  auto seq = lead_sequence(30, 0.1, 5.0, x_of, 0.3);
+  for (int k = 15; k < 30; ++k) {
+    cv::Rect2f& b = seq[k].tracks.items[0].box;
+    b.height = 900.f - b.y;  // cut at the bottom border
+    seq[k].tracks.items[0].truncated = truncation::kBottom;
+  }
+  const auto out = run_kalman("keypoints: false", seq);
+  for (int k = 15; k < 30; ++k) {
+    const ObjectState* s = find(out[k], 1);
+    ASSERT_NE(s, nullptr);
+    EXPECT_EQ(s->distance_method, "predicted");
+    EXPECT_TRUE(s->truncated & truncation::kBottom);
+    EXPECT_NEAR(s->distance_m, x_of(k * 0.1) - kBumper, 1.0) << "frame " << k;
+  }
+}
+
+TEST(KalmanEstimator, ALabelFlipNeitherResetsNorJumpsTheTtc) {
+  // The box of a truck seen as "car" for 15 frames, then as "truck": the range doubles with the prior, the
+  // TTC (range / closing) must not move.
+  auto x_of = [](double t) { return 40.0 - 6.0 * t; };
+  auto seq = lead_sequence(30, 0.1, 10.0, x_of, 0.3, "car", kTruckH);
+  for (int k = 15; k < 30; ++k) seq[k].tracks.items[0].label = "truck";
+  const auto out = run_kalman("keypoints: false\ndistance_origin: camera", seq);
+  const ObjectState* a = find(out[14], 1);
+  const ObjectState* b = find(out[15], 1);
+  ASSERT_TRUE(a && b && a->velocity_rel && b->velocity_rel);
+  const double ttc_a = a->distance_m / -(*a->velocity_rel)[0];
+  const double ttc_b = b->distance_m / -(*b->velocity_rel)[0];
+  EXPECT_NEAR(ttc_b, ttc_a - 0.1, 0.1 * ttc_a);
+  EXPECT_NEAR(b->distance_m / a->distance_m, kTruckH / kCarH, 0.15);
+  EXPECT_NE(b->distance_method, "rejected");
+}
+
+TEST(TrackFilter, RejectsAPhysicallyImpossibleJumpAndRestartsAfterThree) {
+  estimation::TrackFilterConfig c;
+  c.max_speed_mps = 60.0;
+  estimation::TrackFilter f(c);
+  const cv::Matx22d R(0.25, 0, 0, 0.04);
+  estimation::EgoDelta ego;
+  ego.absolute = true;
+  ego.dx = 1.0;  // ego at 10 m/s, a parked car 30 m ahead
+  f.init(0.0, {30.0, 0.0}, R);
+  for (int k = 1; k <= 5; ++k) {
+    f.predict(0.1 * k, ego);
+    ASSERT_EQ(f.update_position({30.0 - k, 0.0}, R), estimation::TrackFilter::Update::kAccepted);
+  }
+  const cv::Vec4d before = f.state();
+  // A second car's box 20 m closer: 200 m/s for one frame.
+  f.predict(0.6, ego);
+  const auto u = f.update_position({5.0, 0.0}, R);
+  EXPECT_TRUE(u == estimation::TrackFilter::Update::kImpossible || u == estimation::TrackFilter::Update::kGated);
+  EXPECT_NEAR(f.state()[0], before[0] - 1.0, 0.2);  // predicted only
+  f.predict(0.7, ego);
+  EXPECT_NE(f.update_position({4.0, 0.0}, R), estimation::TrackFilter::Update::kAccepted);
+  f.predict(0.8, ego);
+  EXPECT_EQ(f.update_position({3.0, 0.0}, R), estimation::TrackFilter::Update::kRestarted);
+  EXPECT_NEAR(f.state()[0], 3.0, 1e-9);
+}
+
+// ---- keypoint scale ------------------------------------------------------------------------------------------
+
+TEST(KeypointScale, MedianRatioIsRobustToNoiseAndOutliers) {
+  cv::RNG rng(3);
+  std::vector<cv::Point2f> a, b;
+  const double scale = 1.04;
+  const cv::Point2f c(400, 300);
+  for (int i = 0; i < 60; ++i) {
+    const cv::Point2f p(static_cast<float>(c.x + rng.uniform(-80.0, 80.0)), static_cast<float>(c.y + rng.uniform(-60.0, 60.0)));
+    cv::Point2f q = c + (p - c) * static_cast<float>(scale) + cv::Point2f(12.f, -5.f);
+    q += cv::Point2f(static_cast<float>(rng.gaussian(0.2)), static_cast<float>(rng.gaussian(0.2)));
+    if (i % 5 == 0) q += cv::Point2f(static_cast<float>(rng.uniform(-40.0, 40.0)), static_cast<float>(rng.uniform(-40.0, 40.0)));
+    a.push_back(p);
+    b.push_back(q);
+  }
+  const estimation::ScaleRatio r = estimation::scale_from_matches(a, b);
+  ASSERT_TRUE(r.valid());
+  EXPECT_NEAR(r.ratio, scale, 0.003);
+  EXPECT_LT(r.log_sigma, 0.01);
+  EXPECT_FALSE(estimation::scale_from_matches({a.begin(), a.begin() + 3}, {b.begin(), b.begin() + 3}).valid());
+}
+
+// A textured object pasted onto a differently textured background at a given scale about its centre.
+cv::Mat render(const cv::Mat& object, const cv::Mat& background, double scale, const cv::Point2d& centre,
+               cv::Rect2f* box) {
+  cv::Mat img = background.clone();
+  cv::Mat obj;
+  cv::resize(object, obj, cv::Size(), scale, scale, cv::INTER_LINEAR);
+  const cv::Rect r(static_cast<int>(std::lround(centre.x - obj.cols / 2.0)),
+                   static_cast<int>(std::lround(centre.y - obj.rows / 2.0)), obj.cols, obj.rows);
+  obj.copyTo(img(r));
+  *box = cv::Rect2f(r);
+  return img;
+}
+
+cv::Mat texture(int w, int h, int seed) {
+  cv::Mat m(h, w, CV_8UC1);
+  cv::RNG(seed).fill(m, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(m, m, cv::Size(0, 0), 2.0);
+  cv::normalize(m, m, 0, 255, cv::NORM_MINMAX);
+  cv::Mat bgr;
+  cv::cvtColor(m, bgr, cv::COLOR_GRAY2BGR);
+  return bgr;
+}
+
+TEST(TtcKeypoints, PureScalingGivesTheTtcAndIgnoresTheBoxEdges) {
+  // Depth d(t) = 20 - 4 t m: image scale 20 / d(t); TTC = d / 4. Boxes jitter by up to 3 px, which would ruin a
+  // box-height TTC, and the background inside the box moves differently.
+  const cv::Mat object = texture(160, 120, 11), background = texture(800, 600, 12);
+  auto m = testing::StageRunner::create<TtcKeypointsMetric>("window_s: 0.3");
+  cv::RNG rng(5);
+  std::vector<double> truth;
+  for (int k = 0; k < 12; ++k) {
+    const double t = 0.1 * k, d = 20.0 - 4.0 * t;
+    Frame f = frame_at(k, t, front_camera());
+    cv::Rect2f box;
+    f.image = render(object, background, 20.0 / d, {400 + 3.0 * k, 300}, &box);
+    box.x += static_cast<float>(rng.uniform(-3.0, 3.0));
+    box.height += static_cast<float>(rng.uniform(-3.0, 3.0));
+    ObjectStates s;
+    s.frame_index = k;
+    s.timestamp = t;
+    ObjectState o;
+    o.track_id = 4;
+    o.box = box;
+    o.distance_m = d;
+    o.width_m = 1.8;
+    s.objects = {o};
+    m.push("frames", f, t);
+    m.push("states", s, t);
+    truth.push_back(d / 4.0);
+  }
+  m.run();
+  const auto risks = m.collect<RiskAssessment>("risk");
+  ASSERT_EQ(risks.size(), truth.size());
+  EXPECT_TRUE(std::isnan(risks[0].objects[0].value));  // no previous frame yet
+  for (size_t k = 1; k < risks.size(); ++k) {
+    const ObjectRisk& o = risks[k].objects[0];
+    EXPECT_NEAR(o.value, truth[k], 0.06 * truth[k]) << "frame " << k;
+    EXPECT_LE(o.low, o.value);
+    EXPECT_GE(o.high, o.value);
+  }
+}
+
+TEST(TtcKeypoints, ARecedingOrStillObjectIsInfinite) {
+  const cv::Mat object = texture(160, 120, 21), background = texture(800, 600, 22);
+  auto m = testing::StageRunner::create<TtcKeypointsMetric>("");
+  for (int k = 0; k < 4; ++k) {
+    Frame f = frame_at(k, 0.1 * k, front_camera());
+    cv::Rect2f box;
+    f.image = render(object, background, 1.0 - 0.02 * k, {400, 300}, &box);
+    ObjectStates s;
+    s.frame_index = k;
+    s.timestamp = 0.1 * k;
+    ObjectState o;
+    o.track_id = 1;
+    o.box = box;
+    o.distance_m = 10;
+    s.objects = {o};
+    m.push("frames", f, 0.1 * k);
+    m.push("states", s, 0.1 * k);
+  }
+  m.run();
+  const auto risks = m.collect<RiskAssessment>("risk");
+  for (size_t k = 1; k < risks.size(); ++k) EXPECT_TRUE(std::isinf(risks[k].objects[0].value));
+}
+
+}  // namespace
+}  // namespace hf
