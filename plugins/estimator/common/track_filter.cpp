@@ -87,8 +87,20 @@ TrackFilter::Update TrackFilter::update_position(const cv::Vec2d& z, const cv::M
   // Joseph form keeps P symmetric and positive with the strongly correlated range/velocity states.
   cv::Matx44d KRKt = K * R * K.t();
   P_ = IKH * P_ * IKH.t() + KRKt;
+  clamp_speed();
   ++updates_;
   return Update::kAccepted;
+}
+
+void TrackFilter::clamp_speed() {
+  // A state faster than the class can move is a filter transient, not a measurement: project it back onto the
+  // limit (absolute mode only; a relative velocity also holds the ego's unknown speed).
+  if (!absolute_) return;
+  const double v = std::hypot(s_[2], s_[3]);
+  if (v > cfg_.max_speed_mps && v > 0) {
+    s_[2] *= cfg_.max_speed_mps / v;
+    s_[3] *= cfg_.max_speed_mps / v;
+  }
 }
 
 TrackFilter::Update TrackFilter::update_inverse_ttc(double z, double var, double cam_x, double ego_vx) {
@@ -105,6 +117,7 @@ TrackFilter::Update TrackFilter::update_inverse_ttc(double z, double var, double
   for (int i = 0; i < 4; ++i) s_[i] += K(i, 0) * y;
   const cv::Matx44d IKH = cv::Matx44d::eye() - K * H;
   P_ = IKH * P_ * IKH.t() + (K * K.t()) * var;
+  clamp_speed();
   return Update::kAccepted;
 }
 

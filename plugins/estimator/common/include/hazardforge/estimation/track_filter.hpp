@@ -56,6 +56,7 @@ class TrackFilter {
   const cv::Matx44d& covariance() const { return P_; }
 
  private:
+  void clamp_speed();
   TrackFilterConfig cfg_;
   bool initialised_ = false;
   bool absolute_ = false;
