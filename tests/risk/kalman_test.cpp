@@ -85,7 +85,9 @@ TEST(KalmanEstimator, ConstantVelocityConvergesAndItsIntervalHoldsTheTruth) {
     EXPECT_NEAR(*s->speed_mps, 7.0, 1.0);
     const double sigma_v = std::sqrt((*s->covariance)(2, 2));
     EXPECT_LT(sigma_v, 2.0);
-    if (k > 25) EXPECT_LE(sigma_v, prev_sigma * 1.05);  // the filter settles, it does not wander
+    if (k > 25) {
+      EXPECT_LE(sigma_v, prev_sigma * 1.05);  // the filter settles, it does not wander
+    }
     prev_sigma = sigma_v;
   }
   // The paper's TTC on the filtered states, with its interval.
