@@ -80,10 +80,13 @@ TEST(KalmanEstimator, ConstantVelocityConvergesAndItsIntervalHoldsTheTruth) {
     ASSERT_NE(s, nullptr);
     ASSERT_TRUE(s->velocity_rel && s->covariance);
     const double t = k * 0.1;
-    EXPECT_NEAR((*s->velocity_rel)[0], -5.0, 1.0) << "frame " << k;
-    EXPECT_NEAR(s->distance_m, x_of(t) - kBumper, 0.12 * (x_of(t) - kBumper)) << "frame " << k;
-    EXPECT_NEAR(*s->speed_mps, 7.0, 1.0);
+    // 1 px of jitter on a 50-70 px box is 1-2 % of range per frame: a 2.5 m/s^2 process noise keeps the filter
+    // responsive, so the velocity wanders by about a metre per second — and the filter says so.
     const double sigma_v = std::sqrt((*s->covariance)(2, 2));
+    EXPECT_NEAR((*s->velocity_rel)[0], -5.0, 1.6) << "frame " << k;
+    EXPECT_LT(std::abs((*s->velocity_rel)[0] + 5.0), 3.0 * sigma_v) << "frame " << k;
+    EXPECT_NEAR(s->distance_m, x_of(t) - kBumper, 0.05 * (x_of(t) - kBumper)) << "frame " << k;
+    EXPECT_NEAR(*s->speed_mps, 7.0, 1.6);
     EXPECT_LT(sigma_v, 2.0);
     if (k > 25) {
       EXPECT_LE(sigma_v, prev_sigma * 1.05);  // the filter settles, it does not wander
@@ -115,7 +118,7 @@ TEST(KalmanEstimator, FollowsABrakingLeadWithBoundedLag) {
     const double lead = 15.0 * std::min(t, 1.0) + 15.0 * tb - 2.0 * tb * tb + 0.0;
     return 25.0 + lead - 15.0 * t;
   };
-  const auto seq = lead_sequence(45, 0.1, 15.0, x_of, 0.5);
+  const auto seq = lead_sequence(40, 0.1, 15.0, x_of, 0.5);  // until the gap is 5 m
   const auto out = run_kalman("keypoints: false", seq);
   for (size_t k = 25; k < out.size(); ++k) {
     const ObjectState* s = find(out[k], 1);
@@ -133,7 +136,7 @@ TEST(KalmanEstimator, PredictsThroughAnOcclusionGapWithoutRestarting) {
   auto x_of = [](double t) { return 30.0 - 4.0 * t; };
   auto seq = lead_sequence(30, 0.1, 10.0, x_of, 0.5);
   for (int k = 15; k < 18; ++k) seq[k].tracks.items[0].misses = k - 14;  // held box for three frames
-  const auto out = run_kalman("keypoints: false\nmax_misses: 3", seq);
+  const auto out = run_kalman("keypoints: false\nmax_gap_s: 0.45", seq);
   const ObjectState* before = find(out[14], 1);
   ASSERT_NE(before, nullptr);
   const double sigma_before = std::sqrt((*before->covariance)(0, 0));
@@ -146,8 +149,8 @@ TEST(KalmanEstimator, PredictsThroughAnOcclusionGapWithoutRestarting) {
   }
   const ObjectState* after = find(out[18], 1);
   ASSERT_NE(after, nullptr);
-  EXPECT_NE(after->distance_method, "rejected");
-  ASSERT_TRUE(after->velocity_rel);  // not restarted: a restart would hide the velocity for min_updates frames
+  EXPECT_NE(after->distance_method, "rejected");  // the reappearing box is where the prediction expects it
+  ASSERT_TRUE(after->velocity_rel);
   EXPECT_NEAR((*after->velocity_rel)[0], -4.0, 1.0);
 }
 
@@ -173,7 +176,8 @@ TEST(KalmanEstimator, TruncatedBoxesGiveNoRangeOfTheCutEdge) {
   const RangeCue far = KalmanEstimator::range_cue(cam, box_of(cam, 60.0, 0.0, kCarH, kCarW), 0, kCarH, c);
   EXPECT_GT(*far.ground_var / *far.pinhole_var, *both.ground_var / *both.pinhole_var);
 
-  // A lead whose lower part leaves the image: its state goes on (predicted), never from the cut box's height.
+  // A lead whose lower part leaves the image: its state goes on (predicted), never from the cut box's height —
+  // for max_gap_s without any other measurement (keypoints off here), then it is no longer reported.
   auto x_of = [](double t) { return 12.0 - 2.0 * t; };
   auto seq = lead_sequence(30, 0.1, 5.0, x_of, 0.3);
   for (int k = 15; k < 30; ++k) {
@@ -184,6 +188,10 @@ TEST(KalmanEstimator, TruncatedBoxesGiveNoRangeOfTheCutEdge) {
   const auto out = run_kalman("keypoints: false", seq);
   for (int k = 15; k < 30; ++k) {
     const ObjectState* s = find(out[k], 1);
+    if (k > 19) {
+      EXPECT_EQ(s, nullptr) << "frame " << k << ": 0.5 s without a measurement";
+      continue;
+    }
     ASSERT_NE(s, nullptr);
     EXPECT_EQ(s->distance_method, "predicted");
     EXPECT_TRUE(s->truncated & truncation::kBottom);
@@ -204,8 +212,14 @@ TEST(KalmanEstimator, ALabelFlipNeitherResetsNorJumpsTheTtc) {
   const double ttc_a = a->distance_m / -(*a->velocity_rel)[0];
   const double ttc_b = b->distance_m / -(*b->velocity_rel)[0];
   EXPECT_NEAR(ttc_b, ttc_a - 0.1, 0.1 * ttc_a);
-  EXPECT_NEAR(b->distance_m / a->distance_m, kTruckH / kCarH, 0.15);
+  // The range moves with the prior (by how much depends on how much the fused range leans on the pinhole cue).
+  EXPECT_GT(b->distance_m, a->distance_m * 1.1);
   EXPECT_NE(b->distance_method, "rejected");
+  for (size_t k = 16; k < out.size(); ++k) {
+    const ObjectState* s = find(out[k], 1);
+    ASSERT_TRUE(s && s->velocity_rel);
+    EXPECT_NE(s->distance_method, "rejected") << "frame " << k;
+  }
 }
 
 TEST(TrackFilter, RejectsAPhysicallyImpossibleJumpAndRestartsAfterThree) {

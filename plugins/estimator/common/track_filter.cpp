@@ -1,6 +1,7 @@
 // Per-track Kalman filter: constant velocity in the ego frame, ego-motion compensated, gated updates.
 #include "hazardforge/estimation/track_filter.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace hf::estimation {
@@ -13,7 +14,10 @@ void TrackFilter::init(double t, const cv::Vec2d& z, const cv::Matx22d& R) {
   const double v2 = cfg_.init_velocity_sd * cfg_.init_velocity_sd;
   P_(2, 2) = P_(3, 3) = v2;
   t_ = t;
+  last_update_ = t;
   initialised_ = true;
+  noise_scale_ = 1.0;
+  mean_nis_ = 2.0;
   updates_ = 1;
   rejected_ = 0;
 }
@@ -51,7 +55,8 @@ void TrackFilter::predict(double t, const EgoDelta& ego) {
   t_ = t;
 }
 
-TrackFilter::Update TrackFilter::update_position(const cv::Vec2d& z, const cv::Matx22d& R) {
+TrackFilter::Update TrackFilter::update_position(const cv::Vec2d& z, const cv::Matx22d& R_stated) {
+  const cv::Matx22d R = R_stated * noise_scale_;
   const cv::Vec2d y(z[0] - s_[0], z[1] - s_[1]);
   cv::Matx22d S;
   for (int i = 0; i < 2; ++i)
@@ -69,12 +74,20 @@ TrackFilter::Update TrackFilter::update_position(const cv::Vec2d& z, const cv::M
   }
   if (impossible || d2 > cfg_.gate_chi2) {
     if (++rejected_ >= cfg_.reinit_after) {
-      init(t_, z, R);
+      init(t_, z, R_stated);
       return Update::kRestarted;
     }
     return impossible ? Update::kImpossible : Update::kGated;
   }
   rejected_ = 0;
+  // The innovation of the noise as stated (not yet scaled) tells how much the detector really jitters.
+  {
+    cv::Matx22d S0;
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) S0(i, j) = P_(i, j) + R_stated(i, j);
+    const double nis = y.dot(S0.inv() * y);
+    mean_nis_ = (1.0 - cfg_.noise_memory) * mean_nis_ + cfg_.noise_memory * nis;
+  }
   cv::Matx<double, 4, 2> PHt;
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 2; ++j) PHt(i, j) = P_(i, j);
@@ -89,6 +102,8 @@ TrackFilter::Update TrackFilter::update_position(const cv::Vec2d& z, const cv::M
   P_ = IKH * P_ * IKH.t() + KRKt;
   clamp_speed();
   ++updates_;
+  last_update_ = t_;
+  noise_scale_ = std::clamp(mean_nis_ / 2.0, 1.0, cfg_.max_noise_scale);
   return Update::kAccepted;
 }
 
@@ -118,6 +133,7 @@ TrackFilter::Update TrackFilter::update_inverse_ttc(double z, double var, double
   const cv::Matx44d IKH = cv::Matx44d::eye() - K * H;
   P_ = IKH * P_ * IKH.t() + (K * K.t()) * var;
   clamp_speed();
+  last_update_ = t_;
   return Update::kAccepted;
 }
 

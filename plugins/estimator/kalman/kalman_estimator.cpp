@@ -48,7 +48,8 @@ ComponentInfo KalmanEstimator::describe() {
       "between frames (KLT corners, median pairwise distance ratio) updates closing/depth = (r-1)/dt. A track "
       "relabelled (car -> truck) is rescaled by the ratio of the class heights, so its TTC does not jump. "
       "Process noise: accel_sd_fraction x the class's max acceleration. Velocity, heading and scale_rate are "
-      "reported after min_updates measurements; the state's covariance goes into ObjectState::covariance.";
+      "reported after min_updates measurements (from the first, with the prior's wide covariance, by default); a "
+      "track is reported until max_gap_s after its last accepted measurement; the state's covariance goes into ObjectState::covariance.";
   i.params = {
       ParamSpec::path("class_sizes", "").describe("YAML of per-class real sizes (m); empty = <share>/class_sizes.yaml"),
       ParamSpec::path("limits", "").describe("YAML of per-class kinematic limits; empty = <share>/hazard_limits.yaml"),
@@ -68,12 +69,14 @@ ComponentInfo KalmanEstimator::describe() {
       ParamSpec::number("keypoint_floor", 0.003)
           .range(0, 1)
           .describe("minimum standard error of ln(scale ratio) per frame pair"),
-      ParamSpec::integer("min_updates", 3)
+      ParamSpec::integer("min_updates", 1)
           .range(1, 1000)
-          .describe("measurements a track needs before velocity, heading and scale rate are reported"),
-      ParamSpec::integer("max_misses", 3)
-          .range(0, 100000)
-          .describe("frames a held (unmatched) box is predicted through before it is no longer reported"),
+          .describe("measurements a track needs before velocity, heading and scale rate are reported (1: from "
+                    "the first frame, the prior's velocity with its wide covariance)"),
+      ParamSpec::number("max_gap_s", 0.5)
+          .range(0, 100)
+          .describe("a track whose last accepted measurement is older than this (s) is not reported (held, "
+                    "truncated or gated boxes are predicted until then)"),
       ParamSpec::number("accel_sd_fraction", 0.5)
           .range(0.01, 10)
           .describe("process noise: white-noise acceleration = this x the class's max_accel_mps2"),
@@ -108,7 +111,7 @@ void KalmanEstimator::open(StageContext& ctx) {
   cfg_.keypoints = p.get_bool("keypoints");
   cfg_.keypoint_floor = p.get_double("keypoint_floor");
   cfg_.min_updates = static_cast<int>(p.get_int("min_updates"));
-  cfg_.max_misses = static_cast<int>(p.get_int("max_misses"));
+  cfg_.max_gap_s = p.get_double("max_gap_s");
   cfg_.accel_sd_fraction = p.get_double("accel_sd_fraction");
   const double ego = p.get_double("ego_speed_mps");
   if (ego >= 0) cfg_.ego_speed_param = ego;
@@ -122,6 +125,7 @@ void KalmanEstimator::open(StageContext& ctx) {
 RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
                                     double real_height, const Config& c) {
   RangeCue r;
+  double pinhole_noise = 0.0, ground_noise = 0.0;
   const double h = box.height;
   const double j2 = c.box_jitter_px * c.box_jitter_px;
   const cv::Point2d bottom(box.x + box.width / 2.0, box.y + box.height);
@@ -131,6 +135,7 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
     const double rel2 = c.height_rel_sd * c.height_rel_sd + 2.0 * j2 / (h * h);
     r.pinhole_depth = z;
     r.pinhole_var = z * z * rel2;
+    pinhole_noise = z * z * 2.0 * j2 / (h * h);
   }
   if (!(truncated & truncation::kBottom)) {
     const std::optional<cv::Vec3d> g = cam.pixel_to_ground(bottom);
@@ -148,6 +153,7 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
         const double var = k * k * (j2 + pitch_px * pitch_px) + std::pow(z * c.ground_height_sd / hc, 2);
         r.ground_depth = z;
         r.ground_var = var;
+        ground_noise = k * k * j2;
       }
     }
   }
@@ -155,14 +161,17 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
     const double wp = 1.0 / *r.pinhole_var, wg = 1.0 / *r.ground_var;
     r.depth = (wp * *r.pinhole_depth + wg * *r.ground_depth) / (wp + wg);
     r.var = 1.0 / (wp + wg);
+    r.noise_var = (wp * wp * pinhole_noise + wg * wg * ground_noise) / ((wp + wg) * (wp + wg));
     r.method = "fused";
   } else if (r.pinhole_depth) {
     r.depth = r.pinhole_depth;
     r.var = r.pinhole_var;
+    r.noise_var = pinhole_noise;
     r.method = "pinhole";
   } else if (r.ground_depth) {
     r.depth = r.ground_depth;
     r.var = r.ground_var;
+    r.noise_var = ground_noise;
     r.method = "ground";
   }
   return r;
@@ -222,7 +231,6 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
   std::set<int64_t> alive;
   for (const Track& tr : tracks.items) {
     alive.insert(tr.id);
-    if (tr.misses > cfg_.max_misses) continue;
     if (!priors_.has(tr.label)) {
       if (warned_.insert(tr.label).second)
         ctx.log(LogLevel::kWarning, "no size prior for class '" + tr.label + "'; its tracks are not estimated");
@@ -242,12 +250,16 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     }
     TrackMemory& mem = found->second;
     estimation::TrackFilter& f = mem.filter;
+    const unsigned truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
     if (f.initialised()) {
       f.predict(t, delta);
-      // The voted class changed: the pinhole range was measured with the other class's height.
+      // The voted class changed: the state's range was measured with the other class's height. Rescale it by how
+      // much the range of this very box changes with the prior (the full height ratio when the pinhole cue
+      // dominates, almost nothing when the ground contact does).
       if (mem.label != tr.label && priors_.has(mem.label)) {
-        f.rescale(size.height / priors_.at(mem.label).height, cam_x, ego_vx);
-        mem.label = tr.label;
+        const RangeCue was = range_cue(cam, tr.box, truncated, priors_.at(mem.label).height, cfg_);
+        const RangeCue now = range_cue(cam, tr.box, truncated, size.height, cfg_);
+        if (was.depth && now.depth) f.rescale(*now.depth / *was.depth, cam_x, ego_vx);
       }
     }
     mem.label = tr.label;
@@ -263,7 +275,7 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     s.annotation_index = tr.annotation_index;
     s.width_m = size.width;
     s.length_m = size.length;
-    s.truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
+    s.truncated = truncated;
     s.distance_method = "predicted";
 
     if (tr.misses == 0) {
@@ -278,8 +290,8 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
         double lat_px = cfg_.box_jitter_px;
         if (s.truncated & (truncation::kLeft | truncation::kRight)) lat_px += tr.box.width / 2.0;
         const double lat = lat_px * *cue.depth / cam.fx;
-        cv::Matx22d R(a[0] * a[0] * *cue.var, a[0] * a[1] * *cue.var, a[0] * a[1] * *cue.var,
-                      a[1] * a[1] * *cue.var + lat * lat);
+        const double v = *cue.noise_var;
+        cv::Matx22d R(a[0] * a[0] * v, a[0] * a[1] * v, a[0] * a[1] * v, a[1] * a[1] * v + lat * lat);
         const cv::Vec2d z(p[0], p[1]);
         if (!f.initialised()) {
           f.init(t, z, R);
@@ -301,8 +313,13 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
       }
     }
     if (!f.initialised()) continue;
-
     const cv::Vec4d& x = f.state();
+    // An extrapolated state is reported for a short gap only, and never once it has been carried into the ego
+    // (a collision no measurement saw is the model's, not the scene's).
+    const bool measured = s.distance_method != "predicted" && s.distance_method != "rejected";
+    if (t - f.last_update() > cfg_.max_gap_s + 1e-9) continue;
+    if (!measured && x[0] <= cfg_.front_overhang) continue;
+
     s.distance_m = x[0] - out.distance_origin_x;
     s.lateral_m = x[1];
     if (f.updates() >= cfg_.min_updates) {

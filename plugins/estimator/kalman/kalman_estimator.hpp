@@ -19,8 +19,12 @@ namespace hf {
 struct RangeCue {
   std::optional<double> pinhole_depth, pinhole_var;  // optical depth (m) and its variance
   std::optional<double> ground_depth, ground_var;
-  std::optional<double> depth, var;  // fused
-  std::string method;                // pinhole | ground | fused | "" (no usable cue: truncated)
+  std::optional<double> depth, var;  // fused, with the cues' whole expected errors (they set the weights)
+  // Variance of the fused depth from frame-to-frame noise alone (box jitter). The prior's height error and the
+  // pitch / road offsets are biases that persist along a track: they scale range and closing speed alike, so
+  // TTC does not see them, and feeding them to the filter as white noise would smear every velocity.
+  std::optional<double> noise_var;
+  std::string method;  // pinhole | ground | fused | "" (no usable cue: truncated)
 };
 
 // Stage "kalman" (estimator).
@@ -49,8 +53,8 @@ class KalmanEstimator : public Estimator {
     double border_margin_px = 2.0;
     bool keypoints = true;
     double keypoint_floor = 0.003;  // minimum standard error of ln(scale ratio) per frame pair
-    int min_updates = 3;            // accepted measurements before velocity and TTC are reported
-    int max_misses = 3;             // held boxes predicted this many frames
+    int min_updates = 1;            // accepted measurements before velocity and TTC are reported
+    double max_gap_s = 0.5;         // a track without an accepted measurement for longer is not reported
     double accel_sd_fraction = 0.5; // process noise = this x the class's max acceleration
     std::optional<double> ego_speed_param;
     std::string origin = "bumper";

@@ -24,6 +24,11 @@ struct TrackFilterConfig {
   double scale_gate_chi2 = 10.83; // 1-dof gate of the scale (inverse-TTC) measurement (99.9 %)
   double max_speed_mps = 60.0;    // the class's limit: a measurement implying more is physically impossible
   int reinit_after = 3;           // consecutive rejected positions after which the state restarts there
+  // Covariance matching: the position noise is scaled by the track's running mean of the normalised
+  // innovation squared over its expectation (2), between 1 and max_noise_scale — so a detector that jitters
+  // more than the stated box_jitter_px is learnt from the track itself.
+  double noise_memory = 0.2;      // weight of the newest update in the running mean
+  double max_noise_scale = 25.0;
 };
 
 // State s = (x, y, vx, vy): the object's ground point in the current ego frame (m) and its velocity in the
@@ -37,6 +42,8 @@ class TrackFilter {
   bool initialised() const { return initialised_; }
   int updates() const { return updates_; }  // accepted position updates since (re)start
   double time() const { return t_; }
+  double last_update() const { return last_update_; }  // time of the last accepted measurement
+  double noise_scale() const { return noise_scale_; }   // current factor on the position noise
 
   // First position (or a restart): velocity zero with init_velocity_sd.
   void init(double t, const cv::Vec2d& z, const cv::Matx22d& R);
@@ -64,6 +71,9 @@ class TrackFilter {
   int rejected_ = 0;
   double t_ = 0.0;
   double last_dt_ = 0.0;
+  double last_update_ = 0.0;
+  double noise_scale_ = 1.0;
+  double mean_nis_ = 2.0;
   cv::Vec4d s_{0, 0, 0, 0};
   cv::Matx44d P_ = cv::Matx44d::eye();
 };
