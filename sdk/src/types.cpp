@@ -151,7 +151,8 @@ void to_json(Json& j, const ObjectState& v) {
        {"scale_rate", optd(v.scale_rate)},
        {"in_path", v.in_path},
        {"distance_method", v.distance_method},
-       {"age", v.age}};
+       {"age", v.age},
+       {"misses", v.misses}};
   j["velocity_rel"] = v.velocity_rel ? Json::array({(*v.velocity_rel)[0], (*v.velocity_rel)[1]}) : Json();
   if (v.truncated) j["truncated"] = v.truncated;
   if (v.covariance) {

@@ -41,14 +41,16 @@ struct Findings {
   std::vector<std::string> too_fast, duplicates;
 };
 
-// Reads every ObjectStates record of the run's records.jsonl.
+// Reads the estimator's ObjectStates of every line of the run's frames.jsonl (one line per frame, a key per
+// input stream).
 Findings inspect(const fs::path& records, const hazard::LimitsTable& limits) {
   Findings f;
   std::ifstream in(records);
   std::string line;
   while (std::getline(in, line)) {
-    const Json j = Json::parse(line);
-    if (!j.contains("objects") || !j.contains("ego_speed_mps")) continue;
+    const Json all = Json::parse(line);
+    if (!all.contains("estimator.states")) continue;
+    const Json& j = all["estimator.states"];
     ++f.frames;
     const int64_t frame = j.at("frame").get<int64_t>();
     const double ego = j["ego_speed_mps"].is_number() ? j["ego_speed_mps"].get<double>() : -1.0;
@@ -94,9 +96,9 @@ TEST_P(TrackHygiene, NoImpossibleSpeedsAndNoDuplicateVehicleTracks) {
   const auto r = test::run_command(test::quote(test::binary_dir() / "bin/hazardforge") + " run " +
                                    test::quote(test::source_dir() / "configs" / config) + " -o " +
                                    test::quote(out / "run") + " -q");
-  ASSERT_EQ(r.code, 0) << r.output;
+  ASSERT_EQ(r.code, 0) << r.out;
   const hazard::LimitsTable limits = hazard::LimitsTable::load((test::source_dir() / "share/hazard_limits.yaml").string());
-  const Findings f = inspect(out / "run/records.jsonl", limits);
+  const Findings f = inspect(out / "run/frames.jsonl", limits);
   std::cout << config << ": " << f.frames << " frames, " << f.states << " object states, " << f.with_velocity
             << " with a velocity\n";
   EXPECT_GT(f.frames, 30);

@@ -122,6 +122,32 @@ void KalmanEstimator::open(StageContext& ctx) {
   keypoints_ = estimation::KeypointScaleTracker();
 }
 
+void KalmanEstimator::drop_shadowed(ObjectStates& out) const {
+  // A track held or predicted by the tracker while another track of the same kind of object is measured on
+  // (nearly) the same box is that object's stale twin (the tracker started a new id instead of re-matching):
+  // reporting both would count one vehicle twice.
+  auto measured = [](const ObjectState& s) {
+    return s.distance_method != "predicted" && s.distance_method != "rejected";
+  };
+  std::vector<ObjectState> kept;
+  kept.reserve(out.objects.size());
+  for (const ObjectState& s : out.objects) {
+    bool shadowed = false;
+    if (!measured(s))
+      for (const ObjectState& o : out.objects) {
+        if (&o == &s || !measured(o) || !groups_.same(o.label, s.label)) continue;
+        const float inter = (o.box & s.box).area();
+        const float uni = o.box.area() + s.box.area() - inter;
+        if (uni > 0 && inter / uni >= 0.5f) {
+          shadowed = true;
+          break;
+        }
+      }
+    if (!shadowed) kept.push_back(s);
+  }
+  out.objects = std::move(kept);
+}
+
 RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
                                     double real_height, const Config& c) {
   RangeCue r;
@@ -337,6 +363,7 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     out.objects.push_back(std::move(s));
   }
   for (auto it = tracks_.begin(); it != tracks_.end();) it = alive.count(it->first) ? std::next(it) : tracks_.erase(it);
+  drop_shadowed(out);
   return out;
 }
 

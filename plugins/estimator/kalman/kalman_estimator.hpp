@@ -8,6 +8,7 @@
 
 #include <hazardforge/estimation/keypoint_scale.hpp>
 #include <hazardforge/estimation/track_filter.hpp>
+#include <hazardforge/class_groups.hpp>
 #include <hazardforge/geometry.hpp>
 #include <hazardforge/hazard/kinematics.hpp>
 #include <hazardforge/stage.hpp>
@@ -65,6 +66,7 @@ class KalmanEstimator : public Estimator {
                             const Config& c);
 
  private:
+  void drop_shadowed(ObjectStates& out) const;
   struct TrackMemory {
     estimation::TrackFilter filter;
     std::string label;
@@ -79,6 +81,7 @@ class KalmanEstimator : public Estimator {
   double last_t_ = 0.0;
   bool have_last_ = false;
   std::set<std::string> warned_;
+  ClassGroups groups_{default_class_groups()};
 };
 
 }  // namespace hf
