@@ -41,7 +41,8 @@ bool Corridor::contains(double x, double y, double object_width, const EgoPath& 
   return c.s > 0 && std::abs(c.d) < half_width_for(object_width);
 }
 
-EgoPath Corridor::path_for(const std::optional<double>& speed_mps, const std::optional<double>& yaw_rate) const {
+EgoPath Corridor::path_for(const std::optional<double>& speed_mps,
+                           const std::optional<double>& yaw_rate) const {
   return follow_path ? EgoPath::from_motion(speed_mps, yaw_rate) : EgoPath{};
 }
 
@@ -50,16 +51,17 @@ bool Corridor::contains(const ObjectStates& states, const ObjectState& s) const 
                   path_for(states.ego_speed_mps, states.ego_yaw_rate));
 }
 
-std::vector<ParamSpec> Corridor::params() {
-  return {ParamSpec::number("corridor_half_width", 1.0).range(0, 10).describe("ego half-width (m)"),
-          ParamSpec::number("corridor_margin", 0.5)
-              .range(0, 10)
-              .describe("extra lateral margin (m); in path when the offset from the ego's path is below "
-                        "half_width + margin + object_width/2"),
-          ParamSpec::string("corridor_path", "ego_path")
-              .one_of({"ego_path", "straight"})
-              .describe("ego_path: the corridor follows the ego's predicted arc (curvature = yaw rate / speed, "
-                        "straight when either is unknown); straight: along ego x whatever the ego does")};
+std::vector<ParamSpec> Corridor::params(bool follow_path_by_default) {
+  return {
+      ParamSpec::number("corridor_half_width", 1.0).range(0, 10).describe("ego half-width (m)"),
+      ParamSpec::number("corridor_margin", 0.5)
+          .range(0, 10)
+          .describe("extra lateral margin (m); in path when the offset from the ego's path is below "
+                    "half_width + margin + object_width/2"),
+      ParamSpec::string("corridor_path", follow_path_by_default ? "ego_path" : "straight")
+          .one_of({"ego_path", "straight"})
+          .describe("ego_path: the corridor follows the ego's predicted arc (curvature = yaw rate / speed, "
+                    "straight when either is unknown); straight: along ego x whatever the ego does")};
 }
 
 Corridor Corridor::from(const Params& p) {

@@ -239,7 +239,7 @@ TEST(RecordedEgoTrack, PedestrianStopsInTheLaneAndStays) {
   EXPECT_TRUE(hazard::exceeded_limits(o.stats, tpl->limits().at("person")).empty());
   // A stop point outside the path (narrower with a 0.5 m ego half-width) is refused.
   auto wide = make("pedestrian_crossing",
-                   {{"stop_in_path", true}, {"stop_offset_m", 1.5}, {"ego_half_width_m", 0.5}});
+                   {{"stop_in_path", true}, {"stop_offset_m", 1.5}, {"corridor_half_width", 0.5}});
   EXPECT_EQ(wide->check(spec, scene),
             std::vector<std::string>{"stop_offset_m 1.5 is outside the ego path "
                                      "(|offset| must be below 1.3 m for a 0.6 m wide "

@@ -1,6 +1,8 @@
 // Feasibility checks: class limits, scene rules, road position, camera view, overlap and the TTC replay.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <hazardforge/geometry.hpp>
 
 #include "feasibility.hpp"
@@ -111,7 +113,8 @@ TEST_F(Feasibility, PersonOnTheShoulderOnlyWithTheExplicitRelaxation) {
   EXPECT_FALSE(has(e, "/object_class = \"person\" is not allowed"));
   EXPECT_FALSE(has(e, "/lateral_offset_m"));
   p.lateral_offset_m = -8.0;  // beyond the 2.5 m shoulder
-  EXPECT_TRUE(has(check(p), "/lateral_offset_m = -8 puts the person off the road and sidewalk (|y| <= 7.75 m"));
+  EXPECT_TRUE(
+      has(check(p), "/lateral_offset_m = -8 puts the person off the road and sidewalk (|y| <= 7.75 m"));
 }
 
 TEST_F(Feasibility, SideRoadAndOverlap) {
@@ -188,7 +191,8 @@ TEST(TtcReplay, CrossingPedestrianEntersThePath) {
   s.speed_mps = 2;
   s.heading_deg = -90;
   // ClassSize is {height, width, length}.
-  TtcSimulation sim = simulate_ttc(s, ClassSize{1.7, 0.6, 0.5}, 10.0, hazard::TtcConventions{}, 6.0);
+  TtcSimulation sim =
+      simulate_ttc(s, ClassSize{1.7, 0.6, 0.5}, 10.0, std::nullopt, hazard::TtcConventions{}, 6.0);
   EXPECT_FALSE(sim.starts_in_collision);
   EXPECT_EQ(sim.ttc_at_start, kInf);
   // In the path once |y| < 1.5 + 0.25, i.e. from t = 1.625 s (gap 30 - 16.25 - 3.4 - 0.3 = 10.05 m, TTC 1.005
@@ -197,6 +201,29 @@ TEST(TtcReplay, CrossingPedestrianEntersThePath) {
   EXPECT_TRUE(sim.enters_path);
   EXPECT_DOUBLE_EQ(sim.min_ttc, 0.0);
   EXPECT_NEAR(sim.t_min_ttc, 2.63, 0.03);
+}
+
+TEST(TtcReplay, TheReplayedEgoFollowsItsArc) {
+  // The ego turns left at 10 m/s and 0.1 rad/s (100 m radius); a stopped car stands in its lane 40 m along
+  // the curve, 7.9 m left of the ego's x axis.
+  HazardSpec s;
+  s.object_class = "car";
+  s.initial_distance_m = 100.0 * std::sin(0.4);
+  s.lateral_offset_m = 100.0 * (1 - std::cos(0.4));
+  const ClassSize car{1.5, 1.8, 4.5};
+  const TtcSimulation along = simulate_ttc(s, car, 10.0, 0.1, hazard::TtcConventions{}, 6.0);
+  EXPECT_TRUE(along.enters_path);
+  EXPECT_NEAR(along.ttc_at_start, (s.initial_distance_m - 3.4 - 2.25) / 10.0, 1e-9);
+  EXPECT_DOUBLE_EQ(along.min_ttc, 0.0);  // the ego drives into it
+  EXPECT_DOUBLE_EQ(along.closest_lateral_m, 0.0);
+  // A straight corridor, or an unknown yaw rate, replays a straight ego that passes 7.9 m to its right.
+  hazard::TtcConventions straight;
+  straight.corridor.follow_path = false;
+  for (const TtcSimulation& sim : {simulate_ttc(s, car, 10.0, 0.1, straight, 6.0),
+                                   simulate_ttc(s, car, 10.0, std::nullopt, hazard::TtcConventions{}, 6.0)}) {
+    EXPECT_FALSE(sim.enters_path);
+    EXPECT_NEAR(sim.closest_lateral_m, s.lateral_offset_m - 2.4, 1e-9);
+  }
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
-// Placement geometry: projection of world points, 1/distance scaling, views, and anchoring under known ego poses.
+// Placement geometry: projection of world points, 1/distance scaling, views, and anchoring under known ego
+// poses.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -19,7 +20,8 @@ using hf::test::static_object;
 using hf::test::test_camera;
 
 std::shared_ptr<const AssetLibrary> default_assets() {
-  return std::make_shared<const AssetLibrary>(AssetLibrary::load(std::filesystem::path(share_dir()) / "assets"));
+  return std::make_shared<const AssetLibrary>(
+      AssetLibrary::load(std::filesystem::path(share_dir()) / "assets"));
 }
 
 // Plain compositing (no shadow, harmonisation, feathering or blur) so drawn pixels are exactly the object's.
@@ -109,8 +111,8 @@ TEST(Placement, PixelHeightScalesExactlyWithInverseDistance) {
     depth.push_back(rear_depth);
     height.push_back(outline_height(res.composite.alpha));
   }
-  // The silhouette's share of the rear face's height in the picture: the roof sits behind the rear face, so the
-  // outline is a little lower than the box.
+  // The silhouette's share of the rear face's height in the picture: the roof sits behind the rear face, so
+  // the outline is a little lower than the box.
   cv::Mat pic = cv::imread((std::filesystem::path(share_dir()) / "assets" / "car_rear.png").string(),
                            cv::IMREAD_UNCHANGED);
   ASSERT_FALSE(pic.empty());
@@ -223,10 +225,39 @@ TEST(Placement, IntendedTtcFollowsTheGuideProtocol) {
   auto traj = std::make_shared<const HazardTrajectory>(
       static_object("car", 30.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
   HazardRenderer::Result res;
-  for (int k = 0; k < 3; ++k) res = r.render(make_frame(k, k * 0.1, img, cam, planar_pose(k * 1.0, 0, 0)), traj, {});
+  for (int k = 0; k < 3; ++k)
+    res = r.render(make_frame(k, k * 0.1, img, cam, planar_pose(k * 1.0, 0, 0)), traj, {});
   // Frame 2: distance 28 m, gap = 28 - 3.4 - 2.25, closing 10 m/s.
   EXPECT_NEAR(res.hazard.distance_m, 28.0, 1e-9);
   EXPECT_NEAR(res.hazard.intended_ttc_s, (28.0 - 3.4 - 2.25) / 10.0, 1e-9);
+}
+
+TEST(Placement, IntendedTtcUsesTheCorridorAlongTheTurningEgo) {
+  // Ego at 10 m/s on a 50 m left curve (poses 1 m apart along the arc at 10 Hz; the yaw rate comes from
+  // them), a stopped car in the ego's lane 30 m along the curve from the anchor frame.
+  const double R = 50.0;
+  const CameraModel cam = test_camera();
+  const cv::Mat img(900, 1600, CV_8UC3, cv::Scalar(90, 90, 90));
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", R * std::sin(30.0 / R), R * (1 - std::cos(30.0 / R)), 30.0 / R, 0.0, 1.0, 0.0,
+                    cv::Vec3d(4.5, 1.85, 1.52)));
+  auto render = [&](bool follow_path) {
+    RendererOptions o = plain_options();
+    o.corridor.follow_path = follow_path;
+    HazardRenderer r(o, default_assets());
+    HazardRenderer::Result res;
+    for (int k = 0; k < 3; ++k)
+      res = r.render(make_frame(k, k * 0.1, img, cam,
+                                planar_pose(R * std::sin(k / R), R * (1 - std::cos(k / R)), k / R)),
+                     traj, {});
+    return res;
+  };
+  // Frame 2: the car is 28 m along the curve, 7.6 m left of the ego's x axis.
+  const HazardRenderer::Result along = render(true), straight = render(false);
+  EXPECT_NEAR(along.hazard.distance_m, R * std::sin(28.0 / R), 1e-9);
+  EXPECT_NEAR(along.hazard.lateral_m, R * (1 - std::cos(28.0 / R)), 1e-9);
+  EXPECT_NEAR(along.hazard.intended_ttc_s, (R * std::sin(28.0 / R) - 3.4 - 2.25) / 10.0, 0.01);
+  EXPECT_EQ(straight.hazard.intended_ttc_s, kInf);
 }
 
 }  // namespace

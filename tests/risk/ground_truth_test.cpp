@@ -101,6 +101,34 @@ TEST(GroundTruthRisk, OverlappingBoxGivesZeroAndConstantsAreParams) {
   EXPECT_EQ(run(g, "threshold: 3").label, SafetyLabel::kUnsafe);
 }
 
+TEST(GroundTruthRisk, CorridorPathStraightByDefaultOrAlongTheRecordedYawRate) {
+  // The ego turns left at 10 m/s and 0.1 rad/s (100 m radius). A parked car in its lane 40 m along the
+  // curve is 7.9 m left of the ego's x axis; a parked car in the lane outside the curve, 25 m along, sits
+  // on that axis.
+  const double R = 100.0;
+  const double a = 40.0 / R, b = 25.0 / R;
+  Frame f = annotated_frame({
+      annotated("vehicle.car", R * std::sin(a), R * (1 - std::cos(a)), 4.0, 1.8, cv::Vec3d(0, 0, 0)),
+      annotated("vehicle.car", (R + 3.5) * std::sin(b), R - (R + 3.5) * std::cos(b), 4.0, 1.8,
+                cv::Vec3d(0, 0, 0)),
+  });
+  f.ego.speed_mps = 10.0;
+  f.ego.yaw_rate = 0.1;
+  const RiskAssessment straight = run(f);  // the protocol: straight ahead whatever the ego does
+  EXPECT_FALSE(straight.objects[0].in_path);
+  EXPECT_TRUE(straight.objects[1].in_path);
+  EXPECT_EQ(straight.critical_track, 1);
+  const RiskAssessment along = run(f, "corridor_path: ego_path");
+  EXPECT_TRUE(along.objects[0].in_path);
+  EXPECT_FALSE(along.objects[1].in_path);
+  EXPECT_EQ(along.critical_track, 0);
+  // The TTC itself keeps the protocol's gap along x.
+  EXPECT_DOUBLE_EQ(along.scene_value, (R * std::sin(a) - 3.4 - 2.0) / 10.0);
+  // Without a yaw rate the ego path is straight.
+  f.ego.yaw_rate.reset();
+  EXPECT_FALSE(run(f, "corridor_path: ego_path").objects[0].in_path);
+}
+
 TEST(GroundTruthRisk, ObjectWithoutVelocity) {
   const Frame f = annotated_frame({annotated("vehicle.car", 13.4, 0.0, 4.0, 1.8, std::nullopt)});
   const RiskAssessment ignored = run(f);

@@ -47,13 +47,6 @@ TEST(Camera, ScaledToKeepsNormalisedGeometry) {
   EXPECT_DOUBLE_EQ(s.cy, 245.5);
 }
 
-TEST(Corridor, HalfWidthMarginAndObjectWidth) {
-  Corridor k;  // 1.0 + 0.5
-  EXPECT_TRUE(k.contains(10, 2.3, 1.8));   // 2.3 < 1.5 + 0.9
-  EXPECT_FALSE(k.contains(10, 2.5, 1.8));  // 2.5 > 2.4
-  EXPECT_FALSE(k.contains(-1, 0, 1.8));    // behind
-}
-
 TEST(Trajectory, InterpolatesAndRefusesOutside) {
   HazardTrajectory t;
   t.points = {{0, 0, 0, 0, 1, 0}, {1, 1, 2, 0, 1, 0}};

@@ -39,23 +39,30 @@ std::string num(double v) {
 }
 
 TtcSimulation simulate_ttc(const HazardSpec& spec, const ClassSize& size, double ego_speed_mps,
-                           const hazard::TtcConventions& conv, double horizon_s, double dt) {
+                           std::optional<double> ego_yaw_rate, const hazard::TtcConventions& conv,
+                           double horizon_s, double dt) {
   TtcSimulation sim;
   const double h = spec.heading_deg * kPi / 180.0;
-  const Extent ext = extent(size, h);
   const double decel = spec.deceleration_mps2.value_or(0.0);
-  const double corridor_half = conv.ego_half_width + conv.margin + ext.lateral_half;
+  // Constant speed and yaw rate keep the ego on one arc, so the path predicted from any later pose is that
+  // same arc: one EgoPath serves every step.
+  const EgoPath path = conv.corridor.path_for(ego_speed_mps, ego_yaw_rate);
   double x = spec.initial_distance_m, y = spec.lateral_offset_m, v = spec.speed_mps;
   const int steps = static_cast<int>(std::ceil(horizon_s / dt));
   for (int i = 0; i <= steps; ++i) {
     const double t = i * dt;
-    const double xr = x - ego_speed_mps * t;
-    const bool in_path = xr > 0 && std::abs(y) < corridor_half;
-    sim.closest_lateral_m = std::min(sim.closest_lateral_m, std::max(0.0, std::abs(y) - corridor_half));
+    const cv::Vec3d ego = path.at(ego_speed_mps * t);  // x, y, heading in the spec's (start) ego frame
+    const double c = std::cos(ego[2]), s = std::sin(ego[2]);
+    const double xr = c * (x - ego[0]) + s * (y - ego[1]), yr = -s * (x - ego[0]) + c * (y - ego[1]);
+    const Extent ext = extent(size, h - ego[2]);
+    const bool in_path = conv.corridor.contains(xr, yr, 2.0 * ext.lateral_half, path);
+    const double across =
+        std::abs(path.project(xr, yr).d) - conv.corridor.half_width_for(2.0 * ext.lateral_half);
+    sim.closest_lateral_m = std::min(sim.closest_lateral_m, std::max(0.0, across));
     if (in_path) {
       sim.enters_path = true;
       const double gap = xr - conv.ego_front - ext.longitudinal_half;
-      const double closing = ego_speed_mps - v * std::cos(h);
+      const double closing = ego_speed_mps - v * std::cos(h - ego[2]);
       double ttc = kInf;
       if (gap <= 0.0)
         ttc = 0.0;
@@ -95,7 +102,7 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
         "/kind = \"cut_in\" needs a lane beside the ego lane; this road has one (multi_lane = no)");
 
   // Side, crossing side and lateral position agree.
-  const double lane_half = cfg.ttc.ego_half_width + cfg.ttc.margin;
+  const double lane_half = cfg.ttc.corridor.half_width_for(0.0);
   if (spec.side == "left" && y <= 0.0)
     errs.push_back("/side = \"left\" contradicts /lateral_offset_m = " + num(y) +
                    " (left of the ego means y > 0)");
@@ -185,7 +192,8 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
 
   // The motion reaches the target TTC.
   if (cfg.sizes.has(cls)) {
-    TtcSimulation sim = simulate_ttc(spec, cfg.sizes.at(cls), cfg.ego_speed_mps, cfg.ttc, cfg.horizon_s);
+    TtcSimulation sim =
+        simulate_ttc(spec, cfg.sizes.at(cls), cfg.ego_speed_mps, cfg.ego_yaw_rate, cfg.ttc, cfg.horizon_s);
     const double target = spec.target_ttc_s.value_or(cfg.threshold_s);
     if (sim.starts_in_collision) {
       errs.push_back("the " + cls + " would appear touching the ego vehicle (x " +

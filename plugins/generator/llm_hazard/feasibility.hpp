@@ -3,6 +3,7 @@
 // class limits (share/hazard_limits.yaml), camera visibility and a constant-velocity TTC replay.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,25 +29,29 @@ struct FeasibilityConfig {
   double threshold_s = 1.5;
   double trigger_time_s = 0.0;
   double ego_speed_mps = 0.0;
+  std::optional<double> ego_yaw_rate;  // rad/s; with the corridor's ego_path the replayed ego follows its arc
   // Class limits, start visibility and the TTC replay. Off when the kind's template checks the spec: it plans
   // the real motion (a cut-in starting beside the ego, a lead cruising before it brakes), which a generic
   // straight-line replay would misjudge.
   bool kinematics = true;
 };
 
-// The hazard replayed against an ego vehicle that keeps its speed and lane.
+// The hazard replayed against an ego vehicle that keeps its speed and its yaw rate (the arc its corridor
+// follows; a straight line when the yaw rate is unknown or the corridor is straight).
 struct TtcSimulation {
   bool starts_in_collision = false;
   bool enters_path = false;
   double ttc_at_start = kInf;  // kInf when not in path or not closing at t = 0
   double min_ttc = kInf;
-  double t_min_ttc = 0.0;           // seconds after start_time_s
-  double closest_lateral_m = kInf;  // smallest distance outside the corridor edge (0 = inside)
+  double t_min_ttc = 0.0;  // seconds after start_time_s
+  double closest_lateral_m =
+      kInf;  // smallest distance outside the corridor edge, across the path (0 = inside)
 };
 
 // Straight-line motion at speed_mps along heading_deg, braking at deceleration_mps2 when given.
 TtcSimulation simulate_ttc(const HazardSpec& spec, const ClassSize& size, double ego_speed_mps,
-                           const hazard::TtcConventions& ttc, double horizon_s, double dt = 0.02);
+                           std::optional<double> ego_yaw_rate, const hazard::TtcConventions& ttc,
+                           double horizon_s, double dt = 0.02);
 
 // Every problem found, each naming the field (JSON pointer), its value and the limit it breaks.
 // Checks that cannot run (no camera model) are described in `skipped`.

@@ -160,8 +160,9 @@ void LlmHazardGenerator::open(StageContext& ctx) {
                        {"lanes_left", road_.lanes_left},
                        {"lanes_right", road_.lanes_right},
                        {"kerb_offset_m", road_.kerb_offset},
-                       {"ego_half_width_m", ttc_.ego_half_width},
-                       {"corridor_margin_m", ttc_.margin},
+                       {"corridor_half_width", ttc_.corridor.ego_half_width},
+                       {"corridor_margin", ttc_.corridor.margin},
+                       {"corridor_path", ttc_.corridor.follow_path ? "ego_path" : "straight"},
                        {"ego_front_m", ttc_.ego_front},
                        {"min_closing_mps", ttc_.min_closing},
                        {"duration_s", p.get_double("horizon_s")},
@@ -319,6 +320,7 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
   fc.threshold_s = s.threshold_s;
   fc.trigger_time_s = frame.timestamp;
   fc.ego_speed_mps = s.ego_speed_mps;
+  fc.ego_yaw_rate = states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate;
 
   LlmRequest req;
   req.messages = {{"user", prompt}};

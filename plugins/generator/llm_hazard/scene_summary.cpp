@@ -182,39 +182,40 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                  {"edge_left_m", s.road.edge(1)},
                  {"edge_right_m", s.road.edge(-1)}}},
                {"ttc",
-                {{"ego_half_width_m", s.ttc.ego_half_width},
-                 {"corridor_margin_m", s.ttc.margin},
+                {{"corridor_half_width", s.ttc.corridor.ego_half_width},
+                 {"corridor_margin", s.ttc.corridor.margin},
+                 {"corridor_path", s.ttc.corridor.follow_path ? "ego_path" : "straight"},
                  {"ego_front_m", s.ttc.ego_front},
                  {"min_closing_mps", s.ttc.min_closing}}},
                {"limits", limits_json},
                {"class_sizes", class_sizes},
                {"camera", frame.camera.valid() ? Json(frame.camera) : Json(nullptr)}};
 
-  out.placeholders = {{"environment", s.environment},
-                      {"road_type", s.road_type},
-                      {"description", s.description.empty() ? "none" : s.description},
-                      {"sidewalks", !s.sidewalks.value && s.pedestrians_without_sidewalks
-                                        ? yes_no(s.sidewalks) +
-                                              " (edge-case test: a person may nevertheless stand on the "
-                                              "shoulder, e.g. after leaving a broken-down car, and walk "
-                                              "into the road)"
-                                        : yes_no(s.sidewalks)},
-                      {"intersection", yes_no(s.intersection)},
-                      {"multi_lane", yes_no(s.multi_lane)},
-                      {"timestamp_s", num(frame.timestamp)},
-                      {"frame_index", std::to_string(frame.index)},
-                      {"ego_speed_mps", num(s.ego_speed_mps)},
-                      {"scene_ttc_s", num(scene_ttc)},
-                      {"threshold_s", num(s.threshold_s)},
-                      {"risk_summary", risk_summary.empty() ? "none" : risk_summary},
-                      {"objects", object_lines},
-                      {"limits", limit_lines},
-                      {"allowed_kinds", kinds},
-                      {"target_ttc_s", num(s.target_ttc_s)},
-                      {"ego_front_m", num(s.ttc.ego_front)},
-                      {"lane_width_m", num(s.road.lane_width)},
-                      {"road_edge_left_m", num(s.road.edge(1))},
-                      {"road_edge_right_m", num(s.road.edge(-1))}};
+  out.placeholders = {
+      {"environment", s.environment},
+      {"road_type", s.road_type},
+      {"description", s.description.empty() ? "none" : s.description},
+      {"sidewalks", !s.sidewalks.value && s.pedestrians_without_sidewalks
+                        ? yes_no(s.sidewalks) + " (edge-case test: a person may nevertheless stand on the "
+                                                "shoulder, e.g. after leaving a broken-down car, and walk "
+                                                "into the road)"
+                        : yes_no(s.sidewalks)},
+      {"intersection", yes_no(s.intersection)},
+      {"multi_lane", yes_no(s.multi_lane)},
+      {"timestamp_s", num(frame.timestamp)},
+      {"frame_index", std::to_string(frame.index)},
+      {"ego_speed_mps", num(s.ego_speed_mps)},
+      {"scene_ttc_s", num(scene_ttc)},
+      {"threshold_s", num(s.threshold_s)},
+      {"risk_summary", risk_summary.empty() ? "none" : risk_summary},
+      {"objects", object_lines},
+      {"limits", limit_lines},
+      {"allowed_kinds", kinds},
+      {"target_ttc_s", num(s.target_ttc_s)},
+      {"ego_front_m", num(s.ttc.ego_front)},
+      {"lane_width_m", num(s.road.lane_width)},
+      {"road_edge_left_m", num(s.road.edge(1))},
+      {"road_edge_right_m", num(s.road.edge(-1))}};
 
   out.context.timestamp = frame.timestamp;
   out.context.ego_speed_mps = s.ego_speed_mps;

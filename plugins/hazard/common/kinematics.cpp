@@ -186,31 +186,28 @@ double min_jerk_duration(double distance, double max_rate, double max_accel, dou
 // ---------------------------------------------------------------------------------------------------------
 
 std::vector<ParamSpec> TtcConventions::params() {
-  return {ParamSpec::number("ego_half_width_m", 1.0)
-              .range(0, 5)
-              .describe("ego half-width for the in-path test (m)"),
-          ParamSpec::number("corridor_margin_m", 0.5)
-              .range(0, 5)
-              .describe("lateral margin (m): in path when x > 0 and |y| < half-width + margin + w/2"),
-          ParamSpec::number("ego_front_m", 3.4)
-              .range(0, 20)
-              .describe("ego rear axle to front bumper (m): gap = x - ego_front_m - l/2"),
-          ParamSpec::number("min_closing_mps", 0.1)
-              .range(0, 10)
-              .describe("closing speed (m/s) below which TTC is infinite")};
+  std::vector<ParamSpec> specs = Corridor::params();
+  for (ParamSpec& p :
+       std::vector<ParamSpec>{ParamSpec::number("ego_front_m", 3.4)
+                                  .range(0, 20)
+                                  .describe("ego rear axle to front bumper (m): gap = x - ego_front_m - l/2"),
+                              ParamSpec::number("min_closing_mps", 0.1)
+                                  .range(0, 10)
+                                  .describe("closing speed (m/s) below which TTC is infinite")})
+    specs.push_back(std::move(p));
+  return specs;
 }
 
 TtcConventions TtcConventions::from(const Params& p) {
   TtcConventions c;
-  if (p.has("ego_half_width_m")) c.ego_half_width = p.get_double("ego_half_width_m");
-  if (p.has("corridor_margin_m")) c.margin = p.get_double("corridor_margin_m");
+  c.corridor = Corridor::from(p);
   if (p.has("ego_front_m")) c.ego_front = p.get_double("ego_front_m");
   if (p.has("min_closing_mps")) c.min_closing = p.get_double("min_closing_mps");
   return c;
 }
 
 TtcSample ttc_at(const TrajectoryPoint& ego, const TrajectoryPoint& obj, const cv::Vec3d& size_lwh,
-                 const TtcConventions& conv) {
+                 const TtcConventions& conv, const hf::EgoPath& path) {
   const double c = std::cos(ego.heading), s = std::sin(ego.heading);
   const double dx = obj.x - ego.x, dy = obj.y - ego.y;
   TtcSample r;
@@ -220,7 +217,7 @@ TtcSample ttc_at(const TrajectoryPoint& ego, const TrajectoryPoint& obj, const c
   const double dvx = obj.speed * std::cos(obj.heading) - ego.speed * c;
   const double dvy = obj.speed * std::sin(obj.heading) - ego.speed * s;
   r.closing = -(c * dvx + s * dvy);
-  r.in_path = r.x_rel > 0 && std::abs(r.y_rel) < conv.ego_half_width + conv.margin + size_lwh[1] / 2;
+  r.in_path = conv.corridor.contains(r.x_rel, r.y_rel, size_lwh[1], path);
   r.gap = r.x_rel - conv.ego_front - size_lwh[0] / 2;
   r.ttc = (r.in_path && r.closing > conv.min_closing) ? std::max(r.gap, 0.0) / r.closing : kInf;
   return r;
@@ -238,9 +235,18 @@ std::vector<TtcSample> ttc_series(const std::vector<TrajectoryPoint>& ego,
     if (std::abs(ego[i].t - obj[i].t) > 1e-6)
       throw Error("TTC of two trajectories: sample " + std::to_string(i) + " is at t=" + num(obj[i].t, 3) +
                   " s for the object but t=" + num(ego[i].t, 3) + " s for the ego");
-    out.push_back(ttc_at(ego[i], obj[i], size_lwh, conv));
+    out.push_back(
+        ttc_at(ego[i], obj[i], size_lwh, conv, conv.corridor.path_for(ego[i].speed, yaw_rate_at(ego, i))));
   }
   return out;
+}
+
+std::optional<double> yaw_rate_at(const std::vector<TrajectoryPoint>& ego, size_t i) {
+  if (ego.size() < 2 || i >= ego.size()) return std::nullopt;
+  const size_t a = i == 0 ? 0 : i - 1, b = i + 1 >= ego.size() ? ego.size() - 1 : i + 1;
+  const double dt = ego[b].t - ego[a].t;
+  if (!(dt > 0)) return std::nullopt;
+  return std::remainder(ego[b].heading - ego[a].heading, 2 * CV_PI) / dt;
 }
 
 double min_ttc(const std::vector<TtcSample>& series) {

@@ -9,6 +9,7 @@
 #include <optional>
 #include <random>
 
+#include <hazardforge/corridor.hpp>
 #include <hazardforge/error.hpp>
 
 namespace hf::llm {
@@ -70,7 +71,8 @@ struct Scene {
   double max_under_way = 0;  // s a manoeuvre may already be under way when the hazard appears
   double ego_speed = 0, target = 1.0, horizon = 6, sidewalk = 3.0;
   double lane_width = 3.5, edge_left = 5.25, edge_right = 5.25, kerb = 0.5;
-  double ego_half = 1.0, margin = 0.5, ego_front = 3.4;
+  Corridor corridor;  // its widths; the objects' in_path flags already say where the ego's path runs
+  double ego_front = 3.4;
   std::map<std::string, Limits> limits;
   std::map<std::string, Size> sizes;
   std::optional<CameraModel> camera;
@@ -89,7 +91,7 @@ struct Scene {
     return it->second;
   }
   double edge(int side) const { return side > 0 ? edge_left : edge_right; }
-  double path_half(double width) const { return ego_half + margin + width / 2.0; }
+  double path_half(double width) const { return corridor.half_width_for(width); }
 };
 
 Scene read_scene(const Json& s) {
@@ -115,8 +117,8 @@ Scene read_scene(const Json& s) {
     sc.edge_right = road.at("edge_right_m").get<double>();
     sc.kerb = road.at("kerb_offset_m").get<double>();
     const Json& ttc = field(s, "ttc");
-    sc.ego_half = ttc.at("ego_half_width_m").get<double>();
-    sc.margin = ttc.at("corridor_margin_m").get<double>();
+    sc.corridor.ego_half_width = ttc.at("corridor_half_width").get<double>();
+    sc.corridor.margin = ttc.at("corridor_margin").get<double>();
     sc.ego_front = ttc.at("ego_front_m").get<double>();
     for (auto it = field(s, "limits").begin(); it != s["limits"].end(); ++it)
       sc.limits[it.key()] = {it.value().at("max_speed_mps").get<double>(),
@@ -223,8 +225,9 @@ Plan plan_pedestrian(const Scene& sc, Draw& d, double aim) {
     if (sc.max_under_way <= 0) return {{}, "walking into the ego path takes longer than the horizon"};
     under_way = enter - d.uniform(0.3, 0.5) * sc.horizon;
     if (under_way > sc.max_under_way)
-      return {{}, "the walk would have to be under way for " + fmt(under_way) + " s (max_under_way_s " +
-                      fmt(sc.max_under_way) + ")"};
+      return {{},
+              "the walk would have to be under way for " + fmt(under_way) + " s (max_under_way_s " +
+                  fmt(sc.max_under_way) + ")"};
   }
   const double x0 = sc.ego_front + size.length / 2.0 + sc.ego_speed * (enter + ttc);
   const double x_seen = x0 - sc.ego_speed * under_way;  // where it is when the hazard appears
@@ -243,8 +246,9 @@ Plan plan_pedestrian(const Scene& sc, Draw& d, double aim) {
                      "broken-down vehicle on the " +
                          from + " shoulder steps into the road ";
   spec["rationale"] = where + fmt(x0) + " m ahead and crossing at " + fmt(speed) +
-                      " m/s is realistic; with the ego at " + fmt(sc.ego_speed) + " m/s they are in its path about " +
-                      fmt(enter) + " s later, TTC near " + fmt(ttc) + " s.";
+                      " m/s is realistic; with the ego at " + fmt(sc.ego_speed) +
+                      " m/s they are in its path about " + fmt(enter) + " s later, TTC near " + fmt(ttc) +
+                      " s.";
   if (under_way > 0) {
     spec["extra"]["under_way_s"] = round_to(under_way, 0.05);
     spec["rationale"] = spec["rationale"].get<std::string>() + " The hazard appears " + fmt(under_way) +
@@ -288,8 +292,9 @@ Plan plan_cut_in(const Scene& sc, Draw& d, double aim) {
     if (sc.max_under_way <= 0) return {{}, "the cut-in takes longer than the horizon"};
     under_way = t_brake + t_slow - d.uniform(0.3, 0.5) * sc.horizon;
     if (under_way > sc.max_under_way)
-      return {{}, "the cut-in would have to be under way for " + fmt(under_way) + " s (max_under_way_s " +
-                      fmt(sc.max_under_way) + ")"};
+      return {{},
+              "the cut-in would have to be under way for " + fmt(under_way) + " s (max_under_way_s " +
+                  fmt(sc.max_under_way) + ")"};
   }
   if (under_way == 0)
     if (std::string p = overlap_problem(sc, x0, y0, size); !p.empty()) return {{}, p};
@@ -342,8 +347,7 @@ Plan plan_sudden_stop(const Scene& sc, Draw& d, double aim) {
         time_to_ttc(gap, sc.ego_speed, *lead->speed, delay, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
       Json spec = base_spec("sudden_stop", lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
                             "the tracked lead brakes hard in the ego lane", sc.target);
-      spec["side"] =
-          std::abs(lead->y) <= sc.ego_half + sc.margin ? "center" : (lead->y > 0 ? "left" : "right");
+      spec["side"] = std::abs(lead->y) <= sc.path_half(0.0) ? "center" : (lead->y > 0 ? "left" : "right");
       spec["deceleration_mps2"] = decel;
       spec["extra"]["brake_delay_s"] = delay;
       spec["extra"]["track_id"] = lead->track_id;
@@ -373,7 +377,8 @@ Plan plan_sudden_stop(const Scene& sc, Draw& d, double aim) {
     if (time_to_ttc(gap_now, sc.ego_speed, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
       return {{}, "the stop would come too late within the horizon"};
     if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
-      return {{}, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt(lead->x) + " m"};
+      return {{},
+              "no room to insert a lead vehicle before the " + lead->label + " at " + fmt(lead->x) + " m"};
     if (!visible(sc, x0, y0))
       return {{}, "the start point (" + fmt(x0) + ", " + fmt(y0) + ") m is outside the camera view"};
     Json spec = base_spec("sudden_stop", cls, x0, y0, "center", speed, 0.0,
@@ -383,8 +388,8 @@ Plan plan_sudden_stop(const Scene& sc, Draw& d, double aim) {
     spec["extra"]["under_way_s"] = round_to(b, 0.05);
     spec["rationale"] = "A " + cls + " following " + fmt(gap_start) + " m ahead of the ego at the same " +
                         fmt(speed) + " m/s has been braking at " + fmt(decel) + " m/s^2 for " + fmt(b) +
-                        " s when it appears " + fmt(gap_now) + " m ahead; the TTC falls to about " + fmt(ttc) +
-                        " s " + fmt(t_hit) + " s later.";
+                        " s when it appears " + fmt(gap_now) + " m ahead; the TTC falls to about " +
+                        fmt(ttc) + " s " + fmt(t_hit) + " s later.";
     return {spec, {}};
   }
   // Same speed as the ego: the gap holds until braking starts, then TTC = gap / closing falls.

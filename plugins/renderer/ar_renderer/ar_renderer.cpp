@@ -1,4 +1,5 @@
-// The ar_renderer stage: places a planned hazard in each frame from the ego motion and composites its picture.
+// The ar_renderer stage: places a planned hazard in each frame from the ego motion and composites its
+// picture.
 #include "ar_renderer.hpp"
 
 #include <chrono>
@@ -64,11 +65,13 @@ void HazardRenderer::start_hazard(const HazardTrajectory& t) {
   warned_future_anchor_ = false;
 }
 
-HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_ptr<const HazardTrajectory>& traj,
+HazardRenderer::Result HazardRenderer::render(const Frame& f,
+                                              const std::shared_ptr<const HazardTrajectory>& traj,
                                               const std::vector<OccluderCandidate>& occluders) {
   if (f.image.empty() || f.image.type() != CV_8UC3)
     throw Error(frame_name(f) + ": expected a BGR 8-bit image");
-  if (!f.camera.valid()) throw Error(frame_name(f) + ": the frame has no valid camera model (width/height/fx/fy)");
+  if (!f.camera.valid())
+    throw Error(frame_name(f) + ": the frame has no valid camera model (width/height/fx/fy)");
   if (f.camera.width != f.image.cols || f.camera.height != f.image.rows)
     throw Error(frame_name(f) + ": camera model is " + std::to_string(f.camera.width) + "x" +
                 std::to_string(f.camera.height) + " but the image is " + std::to_string(f.image.cols) + "x" +
@@ -110,8 +113,9 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_
                   " s is before the first frame (" + std::to_string(ego_.first_time()) +
                   " s), so the anchor frame's pose is unknown");
     if (!warned_future_anchor_) {
-      warnings_.push_back(frame_name(f) + ": trajectory '" + T.kind + "' is anchored at t=" +
-                          std::to_string(T.anchor_time) + " s, a frame not seen yet; it is drawn from there on");
+      warnings_.push_back(frame_name(f) + ": trajectory '" + T.kind +
+                          "' is anchored at t=" + std::to_string(T.anchor_time) +
+                          " s, a frame not seen yet; it is drawn from there on");
       warned_future_anchor_ = true;
     }
     return res;
@@ -127,12 +131,14 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_
   res.hazard.lateral_m = centre[1];
 
   // Intended TTC by the GUIDE protocol: gap to the front bumper over the closing speed, when in the path.
-  const cv::Vec3d v_obj =
-      rotate(cur_from_anchor, cv::Vec3d(pt->speed * std::cos(pt->heading), pt->speed * std::sin(pt->heading), 0));
-  const cv::Vec3d v_rel = v_obj - ego_.velocity_ego();
+  const cv::Vec3d v_obj = rotate(
+      cur_from_anchor, cv::Vec3d(pt->speed * std::cos(pt->heading), pt->speed * std::sin(pt->heading), 0));
+  const cv::Vec3d v_ego = ego_.velocity_ego();
+  const cv::Vec3d v_rel = v_obj - v_ego;
   const double closing = -v_rel[0];
   const double gap = centre[0] - opt_.ego_front_m - size[0] / 2;
-  if (opt_.corridor.contains(centre[0], centre[1], size[1]) && closing > 0.1)
+  const EgoPath path = opt_.corridor.path_for(std::hypot(v_ego[0], v_ego[1]), ego_.yaw_rate());
+  if (opt_.corridor.contains(centre[0], centre[1], size[1], path) && closing > 0.1)
     res.hazard.intended_ttc_s = std::max(gap, 0.0) / closing;
 
   const auto proj = project_box(f.camera, corners, 0.3);
@@ -158,8 +164,10 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_
   Placement pl;
   pl.asset = &asset;
   pl.corners_px = proj->px;
-  const cv::Point2d cen_px((proj->bounds.x + proj->bounds.width / 2), (proj->bounds.y + proj->bounds.height / 2));
-  if (prev_center_px_ && f.timestamp > prev_t_) pl.velocity_px_s = (cen_px - *prev_center_px_) / (f.timestamp - prev_t_);
+  const cv::Point2d cen_px((proj->bounds.x + proj->bounds.width / 2),
+                           (proj->bounds.y + proj->bounds.height / 2));
+  if (prev_center_px_ && f.timestamp > prev_t_)
+    pl.velocity_px_s = (cen_px - *prev_center_px_) / (f.timestamp - prev_t_);
   prev_center_px_ = cen_px;
   prev_t_ = f.timestamp;
 
@@ -189,7 +197,8 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f, const std::shared_
   return res;
 }
 
-// ---- stage -------------------------------------------------------------------------------------------------------
+// ---- stage
+// -------------------------------------------------------------------------------------------------------
 
 ComponentInfo ArRenderer::describe() {
   ComponentInfo i;
@@ -197,19 +206,24 @@ ComponentInfo ArRenderer::describe() {
   i.kind = kind::kRenderer;
   i.summary = "composites a planned hazard into the video, anchored in the world, with occlusion and shadow";
   i.doc =
-      "Places the hazard's 3D box (HazardTrajectory, anchor frame = ego frame at anchor_time) in each frame from "
-      "the ego motion (dataset poses, road-plane optical flow, or a constant speed), projects it with the frame's "
-      "camera, picks the asset whose view matches the object's heading relative to the camera, warps it with a "
+      "Places the hazard's 3D box (HazardTrajectory, anchor frame = ego frame at anchor_time) in each frame "
+      "from "
+      "the ego motion (dataset poses, road-plane optical flow, or a constant speed), projects it with the "
+      "frame's "
+      "camera, picks the asset whose view matches the object's heading relative to the camera, warps it with "
+      "a "
       "homography onto the projected box faces and blends it with harmonised colour, feathered edges, motion "
       "blur, a contact shadow and occlusion by nearer detected objects. Outputs are stamped with the frame's "
       "time; frames outside the trajectory pass through unchanged.";
-  i.inputs = {port<Frame>("frames", "original frames"),
-              sticky(port<HazardTrajectory>("trajectory", "the planned hazard; the latest one is used")),
-              optional(port<Tracks>("tracks", "tracked objects (occluders, kept out of the flow)")),
-              optional(port<ObjectStates>("states", "objects with distances (occluders, kept out of the flow)")),
-              optional(port<Detections>("detections", "detected objects (occluders, kept out of the flow)"))};
-  i.outputs = {port<Frame>("frames", "augmented frames: same index, time, camera, ego and meta; new image"),
-               port<HazardInstance>("hazard", "where the hazard is in each frame (box, distance, intended TTC)")};
+  i.inputs = {
+      port<Frame>("frames", "original frames"),
+      sticky(port<HazardTrajectory>("trajectory", "the planned hazard; the latest one is used")),
+      optional(port<Tracks>("tracks", "tracked objects (occluders, kept out of the flow)")),
+      optional(port<ObjectStates>("states", "objects with distances (occluders, kept out of the flow)")),
+      optional(port<Detections>("detections", "detected objects (occluders, kept out of the flow)"))};
+  i.outputs = {
+      port<Frame>("frames", "augmented frames: same index, time, camera, ego and meta; new image"),
+      port<HazardInstance>("hazard", "where the hazard is in each frame (box, distance, intended TTC)")};
   i.params = {
       ParamSpec::path("assets_dir", "")
           .describe("folder with assets.yaml and the pictures; empty = the default set (share/assets)"),
@@ -217,15 +231,25 @@ ComponentInfo ArRenderer::describe() {
           .describe("use the default set for classes/views assets_dir lacks"),
       ParamSpec::string("ego_motion", "auto")
           .one_of({"auto", "poses", "flow", "constant_speed"})
-          .describe("how the hazard is kept fixed in the world: auto = poses when frames carry them, else flow"),
+          .describe(
+              "how the hazard is kept fixed in the world: auto = poses when frames carry them, else flow"),
       ParamSpec::number("ego_speed_mps", -1.0)
           .range(-1.0, 80.0)
-          .describe("ego speed for constant_speed and when flow is degenerate (frame speed first); -1 = unknown"),
-      ParamSpec::number("motion_smoothing", 0.5).range(0.0, 0.95).describe("smoothing of flow ego velocities"),
+          .describe(
+              "ego speed for constant_speed and when flow is degenerate (frame speed first); -1 = unknown"),
+      ParamSpec::number("motion_smoothing", 0.5)
+          .range(0.0, 0.95)
+          .describe("smoothing of flow ego velocities"),
       ParamSpec::number("flow_scale", 0.5).range(0.25, 1.0).describe("image scale for feature tracking"),
-      ParamSpec::integer("flow_max_features", 250).range(50, 5000).describe("road features tracked per frame"),
-      ParamSpec::integer("flow_min_inliers", 25).range(6, 1000).describe("fewer road-plane inliers = degenerate"),
-      ParamSpec::number("flow_min_range_m", 3.0).range(0.5, 50.0).describe("nearest road point used by the flow"),
+      ParamSpec::integer("flow_max_features", 250)
+          .range(50, 5000)
+          .describe("road features tracked per frame"),
+      ParamSpec::integer("flow_min_inliers", 25)
+          .range(6, 1000)
+          .describe("fewer road-plane inliers = degenerate"),
+      ParamSpec::number("flow_min_range_m", 3.0)
+          .range(0.5, 50.0)
+          .describe("nearest road point used by the flow"),
       ParamSpec::number("flow_max_range_m", 35.0).range(2.0, 200.0).describe("farthest road point used"),
       ParamSpec::number("max_view_error_deg", 30.0)
           .range(0.0, 180.0)
@@ -245,7 +269,9 @@ ComponentInfo ArRenderer::describe() {
           .range(0.0, 0.1)
           .describe("camera exposure time: motion blur = image-plane speed x exposure; 0 = none"),
       ParamSpec::boolean("occlusion", true).describe("keep nearer detected objects in front of the hazard"),
-      ParamSpec::number("occluder_min_score", 0.3).range(0.0, 1.0).describe("weakest detection that occludes"),
+      ParamSpec::number("occluder_min_score", 0.3)
+          .range(0.0, 1.0)
+          .describe("weakest detection that occludes"),
       ParamSpec::number("ego_front_m", 3.4)
           .range(0.0, 10.0)
           .describe("ego origin (rear axle) to front bumper, for the intended TTC"),
@@ -273,8 +299,8 @@ RendererOptions renderer_options(const Params& p) {
   o.ego.flow.min_range_m = p.get_double("flow_min_range_m");
   o.ego.flow.max_range_m = p.get_double("flow_max_range_m");
   if (o.ego.flow.max_range_m <= o.ego.flow.min_range_m)
-    throw Error("flow_max_range_m (" + std::to_string(o.ego.flow.max_range_m) + ") must exceed flow_min_range_m (" +
-                std::to_string(o.ego.flow.min_range_m) + ")");
+    throw Error("flow_max_range_m (" + std::to_string(o.ego.flow.max_range_m) +
+                ") must exceed flow_min_range_m (" + std::to_string(o.ego.flow.min_range_m) + ")");
   o.max_view_error_deg = p.get_double("max_view_error_deg");
   o.occlusion = p.get_bool("occlusion");
   o.occluder_min_score = p.get_double("occluder_min_score");

@@ -38,10 +38,10 @@ class HazardRenderer {
   HazardRenderer(RendererOptions o, std::shared_ptr<const AssetLibrary> assets);
 
   struct Result {
-    Frame frame;             // the augmented frame (the input's image when nothing was drawn)
-    HazardInstance hazard;   // where the hazard is in this frame
+    Frame frame;            // the augmented frame (the input's image when nothing was drawn)
+    HazardInstance hazard;  // where the hazard is in this frame
     CompositeResult composite;
-    std::string asset_file;  // the picture used, empty when nothing was drawn
+    std::string asset_file;        // the picture used, empty when nothing was drawn
     double prepare_seconds = 0;    // time spent preparing a new hazard's pictures (once per hazard)
     double ego_seconds = 0;        // time spent on ego motion
     double composite_seconds = 0;  // time spent placing and drawing
@@ -69,16 +69,18 @@ class HazardRenderer {
 };
 
 // Stage "ar_renderer" (kind renderer).
-//  inputs:  frames (Frame); trajectory (HazardTrajectory, sticky: the latest plan is used until a new one comes);
-//           tracks (Tracks), states (ObjectStates), detections (Detections) — optional, for occlusion by nearer
-//           objects and to keep moving objects out of the flow-based ego motion.
+//  inputs:  frames (Frame); trajectory (HazardTrajectory, sticky: the latest plan is used until a new one
+//  comes);
+//           tracks (Tracks), states (ObjectStates), detections (Detections) — optional, for occlusion by
+//           nearer objects and to keep moving objects out of the flow-based ego motion.
 //  outputs: frames (Frame: same index, timestamp, camera, ego and meta; new image), hazard (HazardInstance),
-//           one of each per input frame, stamped with the frame's time. Frames outside the trajectory's time span
-//           pass through unchanged (hazard.visible = false).
+//           one of each per input frame, stamped with the frame's time. Frames outside the trajectory's time
+//           span pass through unchanged (hazard.visible = false).
 //  params:  assets_dir, fallback_assets, ego_motion (auto|poses|flow|constant_speed), ego_speed_mps,
 //           motion_smoothing, flow_*, max_view_error_deg, shadow, shadow_strength, harmonize_luma,
-//           harmonize_chroma, exposure_smoothing, grain, feather_px, exposure_s, occlusion, occluder_min_score,
-//           ego_front_m, corridor_half_width, corridor_margin (see describe()).
+//           harmonize_chroma, exposure_smoothing, grain, feather_px, exposure_s, occlusion,
+//           occluder_min_score, ego_front_m, corridor_half_width, corridor_margin, corridor_path (see
+//           describe()).
 class ArRenderer : public Stage {
  public:
   static ComponentInfo describe();

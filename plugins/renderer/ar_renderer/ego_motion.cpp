@@ -61,7 +61,9 @@ cv::Matx44d invert_rigid(const cv::Matx44d& T) {
   return compose(Rt, -(Rt * t));
 }
 
-double yaw_of(const cv::Matx44d& T) { return std::atan2(T(1, 0), T(0, 0)); }
+double yaw_of(const cv::Matx44d& T) {
+  return std::atan2(T(1, 0), T(0, 0));
+}
 
 EgoMotionMode parse_ego_motion_mode(const std::string& s) {
   if (s == "auto") return EgoMotionMode::kAuto;
@@ -71,7 +73,8 @@ EgoMotionMode parse_ego_motion_mode(const std::string& s) {
   throw Error("ego_motion '" + s + "' is not one of auto, poses, flow, constant_speed");
 }
 
-// ---- FlowEgoMotion ---------------------------------------------------------------------------------------------
+// ---- FlowEgoMotion
+// ---------------------------------------------------------------------------------------------
 
 namespace {
 constexpr int kLkLevels = 3;
@@ -122,7 +125,8 @@ PlanarMotion FlowEgoMotion::estimate(const cv::Mat& prev, const cv::Mat& cur, co
 }
 
 PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur, const CameraModel& cam,
-                                     const std::vector<cv::Rect2f>& exclude, std::vector<cv::Point2f>* carry) const {
+                                     const std::vector<cv::Rect2f>& exclude,
+                                     std::vector<cv::Point2f>* carry) const {
   PlanarMotion pm;
   if (prev.empty() || cur.empty()) {
     pm.why = "no road between flow_min_range_m and flow_max_range_m below the horizon";
@@ -136,7 +140,8 @@ PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur
   for (const cv::Rect2f& b : exclude) {
     cv::Rect r(static_cast<int>(std::floor(b.x * prev.sx)) - 3,
                static_cast<int>(std::floor((b.y - prev.row0) * prev.sy)) - 3,
-               static_cast<int>(std::ceil(b.width * prev.sx)) + 6, static_cast<int>(std::ceil(b.height * prev.sy)) + 6);
+               static_cast<int>(std::ceil(b.width * prev.sx)) + 6,
+               static_cast<int>(std::ceil(b.height * prev.sy)) + 6);
     r &= cv::Rect(0, 0, mask.cols, mask.rows);
     if (r.area() > 0) mask(r).setTo(0);
   }
@@ -211,8 +216,8 @@ PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur
   }
   // Weighted least-squares rigid motion (2D Kabsch): a pixel of error costs X^2 / (f h) metres at range X, so
   // near points are trusted more.
-  auto fit = [&W](const std::vector<cv::Vec2d>& P, const std::vector<cv::Vec2d>& Q, const std::vector<bool>& use,
-                  double& th, cv::Vec2d& t) {
+  auto fit = [&W](const std::vector<cv::Vec2d>& P, const std::vector<cv::Vec2d>& Q,
+                  const std::vector<bool>& use, double& th, cv::Vec2d& t) {
     cv::Vec2d mp(0, 0), mq(0, 0);
     double sw = 0;
     for (size_t i = 0; i < P.size(); ++i)
@@ -272,7 +277,8 @@ PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur
   return pm;
 }
 
-// ---- EgoTrajectory ---------------------------------------------------------------------------------------------
+// ---- EgoTrajectory
+// ---------------------------------------------------------------------------------------------
 
 std::vector<std::string> EgoTrajectory::take_warnings() {
   std::vector<std::string> w;
@@ -291,7 +297,8 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
   const cv::Matx44d prev_pose = current_;
   if (*resolved_ == EgoMotionMode::kPoses) {
     if (!f.ego.T_world_ego)
-      throw Error(frame_name(f) + ": ego_motion 'poses' needs the ego pose (Frame.ego.T_world_ego), which this "
+      throw Error(frame_name(f) +
+                  ": ego_motion 'poses' needs the ego pose (Frame.ego.T_world_ego), which this "
                   "frame lacks; use ego_motion: flow or constant_speed for sources without poses");
     current_ = *f.ego.T_world_ego;
     last_source_ = "poses";
@@ -302,17 +309,20 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
     cv::Vec3d rate;  // (vx, vy, yaw rate) in the previous ego frame
     bool have = false;
     if (*resolved_ == EgoMotionMode::kFlow) {
-      if (!f.camera.valid()) throw Error(frame_name(f) + ": ego_motion 'flow' needs the frame's camera model");
+      if (!f.camera.valid())
+        throw Error(frame_name(f) + ": ego_motion 'flow' needs the frame's camera model");
       FlowFrame cur = flow_.prepare(f.image, f.camera);
       last_flow_ = dt > 0 ? flow_.estimate(prev_flow_, cur, f.camera, exclude, &carry_) : PlanarMotion{};
       prev_flow_ = std::move(cur);
       if (last_flow_.ok) {
         // Ego displacement in the previous frame: the inverse of the world points' apparent motion.
         const double th = last_flow_.dyaw, c = std::cos(th), s = std::sin(th);
-        const cv::Vec2d d(-(c * last_flow_.dx + s * last_flow_.dy), -(-s * last_flow_.dx + c * last_flow_.dy));
+        const cv::Vec2d d(-(c * last_flow_.dx + s * last_flow_.dy),
+                          -(-s * last_flow_.dx + c * last_flow_.dy));
         const double speed = cv::norm(d) / dt;
         if (speed <= opt_.flow.max_speed_mps) {
-          // As a body-frame velocity (the chord is rotated back by half the turn, as integration below adds it).
+          // As a body-frame velocity (the chord is rotated back by half the turn, as integration below adds
+          // it).
           const double ch = std::cos(th / 2), sh = std::sin(th / 2);
           rate = cv::Vec3d((ch * d[0] - sh * d[1]) / dt, (sh * d[0] + ch * d[1]) / dt, -th / dt);
           if (have_rate_) rate = opt_.smoothing * smoothed_rate_ + (1.0 - opt_.smoothing) * rate;
@@ -342,9 +352,10 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
         rate = cv::Vec3d(0, 0, 0);
         last_source_ = "hold";
         if (!warned_no_speed_) {
-          warnings_.push_back(frame_name(f) + ": no ego speed known (" +
-                              (last_flow_.why.empty() ? std::string("constant_speed") : last_flow_.why) +
-                              "; the frame has no speed and ego_speed_mps is unset): assuming the ego is still");
+          warnings_.push_back(
+              frame_name(f) + ": no ego speed known (" +
+              (last_flow_.why.empty() ? std::string("constant_speed") : last_flow_.why) +
+              "; the frame has no speed and ego_speed_mps is unset): assuming the ego is still");
           warned_no_speed_ = true;
         }
       }
@@ -372,6 +383,10 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
   } else if (opt_.speed_mps >= 0) {
     velocity_ego_ = cv::Vec3d(opt_.speed_mps, 0, 0);
   }
+  if (f.ego.yaw_rate)
+    yaw_rate_ = f.ego.yaw_rate;
+  else if (have_prev_ && dt > 1e-6)
+    yaw_rate_ = std::remainder(yaw_of(current_) - yaw_of(prev_pose), 2 * CV_PI) / dt;
   history_[t] = current_;
   prev_speed_ = f.ego.speed_mps;
   prev_yaw_rate_ = f.ego.yaw_rate;

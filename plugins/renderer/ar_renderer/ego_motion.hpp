@@ -24,18 +24,19 @@ struct PlanarMotion {
 };
 
 struct FlowOptions {
-  double scale = 0.5;        // image scale at which features are tracked
+  double scale = 0.5;  // image scale at which features are tracked
   int max_corners = 250;
   double quality = 0.005;
-  int min_distance_px = 7;   // at the tracking scale
+  int min_distance_px = 7;        // at the tracking scale
   double horizon_margin_px = 12;  // full-resolution rows skipped below the horizon
-  double min_range_m = 3.0;  // road points used, by ground distance ahead of the camera
+  double min_range_m = 3.0;       // road points used, by ground distance ahead of the camera
   double max_range_m = 35.0;
   int min_inliers = 25;
   double min_inlier_ratio = 0.3;  // road-plane inliers / tracked features below this = degenerate
-  double ransac_px = 3.0;   // RANSAC reprojection threshold (full-resolution pixels)
-  double fb_max_px = 0.0;   // forward-backward tracking disagreement allowed (full-resolution px); 0 = no check
-  int win_px = 15;          // LK window at the tracking scale (small: road texture shears as the ego advances)
+  double ransac_px = 3.0;         // RANSAC reprojection threshold (full-resolution pixels)
+  double fb_max_px =
+      0.0;          // forward-backward tracking disagreement allowed (full-resolution px); 0 = no check
+  int win_px = 15;  // LK window at the tracking scale (small: road texture shears as the ego advances)
   double weight_power = 2;  // ground points weigh 1 / range^power in the rigid fit (far points are coarse)
   double max_speed_mps = 70.0;
 };
@@ -44,25 +45,27 @@ struct FlowOptions {
 // max_range_m, plus a margin), grey, at the tracking scale, as an LK pyramid.
 struct FlowFrame {
   std::vector<cv::Mat> pyramid;
-  int row0 = 0;             // first full-resolution row of the band
-  double sx = 1, sy = 1;    // tracking scale (band pixels per full-resolution pixel)
+  int row0 = 0;                   // first full-resolution row of the band
+  double sx = 1, sy = 1;          // tracking scale (band pixels per full-resolution pixel)
   int far_row = 0, near_row = 0;  // rows of the band (tracking scale) where features are taken
   bool empty() const { return pyramid.empty(); }
 };
 
-// Road-plane ego motion from sparse LK flow: features below the horizon and outside detected objects are tracked
-// between the two frames, a RANSAC homography keeps those on the road plane, and the plane's known geometry
-// (camera height and mounting) turns the inliers into metric ground points whose rigid 2D motion is the ego's.
+// Road-plane ego motion from sparse LK flow: features below the horizon and outside detected objects are
+// tracked between the two frames, a RANSAC homography keeps those on the road plane, and the plane's known
+// geometry (camera height and mounting) turns the inliers into metric ground points whose rigid 2D motion is
+// the ego's.
 class FlowEgoMotion {
  public:
   explicit FlowEgoMotion(FlowOptions o = {}) : opt_(o) {}
   // Grey road band and its pyramid (empty when the camera sees no road in range).
   FlowFrame prepare(const cv::Mat& bgr_or_gray, const CameraModel& cam) const;
   // Motion between two prepared frames. `exclude` boxes (full-resolution pixels) are left out. With `carry`,
-  // features are reused across frames (KLT): on input the points to track in `prev` (band pixels), on output the
-  // inliers' positions in `cur`; new features are detected only when fewer than half remain.
+  // features are reused across frames (KLT): on input the points to track in `prev` (band pixels), on output
+  // the inliers' positions in `cur`; new features are detected only when fewer than half remain.
   PlanarMotion estimate(const FlowFrame& prev, const FlowFrame& cur, const CameraModel& cam,
-                        const std::vector<cv::Rect2f>& exclude, std::vector<cv::Point2f>* carry = nullptr) const;
+                        const std::vector<cv::Rect2f>& exclude,
+                        std::vector<cv::Point2f>* carry = nullptr) const;
   // Same, from two full images.
   PlanarMotion estimate(const cv::Mat& prev, const cv::Mat& cur, const CameraModel& cam,
                         const std::vector<cv::Rect2f>& exclude) const;
@@ -89,8 +92,8 @@ class EgoTrajectory {
  public:
   struct Options {
     EgoMotionMode mode = EgoMotionMode::kAuto;
-    double speed_mps = -1.0;   // constant_speed / fallback when the frame carries none; < 0 = unknown
-    double smoothing = 0.5;    // exponential smoothing of flow velocities (0 = none)
+    double speed_mps = -1.0;  // constant_speed / fallback when the frame carries none; < 0 = unknown
+    double smoothing = 0.5;   // exponential smoothing of flow velocities (0 = none)
     FlowOptions flow;
   };
   explicit EgoTrajectory(Options o) : opt_(o), flow_(o.flow) {}
@@ -102,6 +105,9 @@ class EgoTrajectory {
   const cv::Matx44d& current() const { return current_; }
   // Ego velocity in its own current axes (m/s), from the last two poses.
   cv::Vec3d velocity_ego() const { return velocity_ego_; }
+  // Ego yaw rate (rad/s, positive = left): the frame's when it carries one, else the heading change between
+  // the last two poses (dataset poses, flow or dead reckoning); unknown on the first frame.
+  std::optional<double> yaw_rate() const { return yaw_rate_; }
   // What produced the last pose: "poses", "flow", "constant_speed", "hold".
   const std::string& last_source() const { return last_source_; }
   const PlanarMotion& last_flow() const { return last_flow_; }
@@ -114,6 +120,7 @@ class EgoTrajectory {
   std::map<double, cv::Matx44d> history_;
   cv::Matx44d current_ = cv::Matx44d::eye();
   cv::Vec3d velocity_ego_{0, 0, 0};
+  std::optional<double> yaw_rate_;
   std::optional<EgoMotionMode> resolved_;
   FlowFrame prev_flow_;
   std::vector<cv::Point2f> carry_;

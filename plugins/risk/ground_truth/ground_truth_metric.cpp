@@ -6,12 +6,14 @@
 
 namespace hf {
 
-RiskAssessment GroundTruthProtocol::assess(const Annotations& ann, const std::string& what) const {
+RiskAssessment GroundTruthProtocol::assess(const Annotations& ann, const EgoState& ego,
+                                           const std::string& what) const {
   if (!ann.ego_velocity_ego)
     throw Error(what +
                 ": the annotations carry no ego velocity (Annotations::ego_velocity_ego); the ground_truth "
                 "metric needs it (the source derives it from neighbouring keyframe poses)");
   const cv::Vec3d v_ego = *ann.ego_velocity_ego;
+  const EgoPath path = corridor.path_for(ego.speed_mps, ego.yaw_rate);
   RiskAssessment r;
   r.stage = "ground_truth";
   r.unit = "s";
@@ -27,7 +29,7 @@ RiskAssessment GroundTruthProtocol::assess(const Annotations& ann, const std::st
     const double l = o.size_lwh[0], w = o.size_lwh[1];
     ObjectRisk risk;
     risk.track_id = static_cast<int64_t>(i);
-    risk.in_path = x > 0 && std::abs(y) < ego_half_width + margin + w / 2.0;
+    risk.in_path = corridor.contains(x, y, w, path);
     std::optional<cv::Vec3d> v_obj = o.velocity_ego;
     if (!v_obj && static_when_unknown) v_obj = cv::Vec3d(0, 0, 0);
     if (!v_obj) {
@@ -48,30 +50,29 @@ RiskAssessment GroundTruthProtocol::assess(const Annotations& ann, const std::st
 }
 
 std::vector<ParamSpec> GroundTruthProtocol::params(const DatasetParams& d) {
-  return {
-      ParamSpec::number("threshold", 1.5)
-          .range(0, 1000)
-          .describe("Unsafe when the scene TTC is below this (s)"),
-      ParamSpec::number("corridor_half_width", 1.0).range(0, 10).describe("ego half-width (m)"),
-      ParamSpec::number("corridor_margin", 0.5)
-          .range(0, 10)
-          .describe("extra lateral margin (m); in path when |y| < half_width + margin + w/2"),
-      ParamSpec::number("front_overhang", d.front_overhang).range(-10, 20).describe(d.front_overhang_doc),
-      ParamSpec::number("min_closing_mps", 0.1)
-          .range(0, 100)
-          .describe("closing speeds at or below this (m/s) give an infinite TTC"),
-      ParamSpec::string_list("categories", d.categories).describe(d.categories_doc),
-      ParamSpec::string("missing_object_velocity", "ignore")
-          .one_of({"ignore", "static"})
-          .describe(d.missing_velocity_doc),
-  };
+  std::vector<ParamSpec> specs = {ParamSpec::number("threshold", 1.5)
+                                      .range(0, 1000)
+                                      .describe("Unsafe when the scene TTC is below this (s)")};
+  for (ParamSpec& p : Corridor::params(false)) specs.push_back(std::move(p));
+  for (ParamSpec& p :
+       std::vector<ParamSpec>{ParamSpec::number("front_overhang", d.front_overhang)
+                                  .range(-10, 20)
+                                  .describe(d.front_overhang_doc),
+                              ParamSpec::number("min_closing_mps", 0.1)
+                                  .range(0, 100)
+                                  .describe("closing speeds at or below this (m/s) give an infinite TTC"),
+                              ParamSpec::string_list("categories", d.categories).describe(d.categories_doc),
+                              ParamSpec::string("missing_object_velocity", "ignore")
+                                  .one_of({"ignore", "static"})
+                                  .describe(d.missing_velocity_doc)})
+    specs.push_back(std::move(p));
+  return specs;
 }
 
 GroundTruthProtocol GroundTruthProtocol::from(const Params& p) {
   GroundTruthProtocol g;
   g.category_prefixes = p.get_strings("categories");
-  g.ego_half_width = p.get_double("corridor_half_width");
-  g.margin = p.get_double("corridor_margin");
+  g.corridor = Corridor::from(p);
   g.front_overhang = p.get_double("front_overhang");
   g.min_closing_mps = p.get_double("min_closing_mps");
   g.threshold = p.get_double("threshold");
@@ -87,7 +88,10 @@ ComponentInfo GroundTruthRiskMetric::describe() {
   i.doc =
       "Implements the ground-truth protocol of docs/evaluation.md on Frame::annotations: objects whose "
       "category starts with one of `categories`; relative velocity = v_obj - v_ego in ego axes; in path when "
-      "x > 0 and |y| < corridor_half_width + corridor_margin + w/2; gap = x - front_overhang - l/2; closing "
+      "x > 0 and |y| < corridor_half_width + corridor_margin + w/2 (corridor_path straight, the protocol; "
+      "ego_path: "
+      "along the arc of the frame's ego speed and yaw rate, arc length s > 0 and offset |d| below the same "
+      "bound); gap = x - front_overhang - l/2; closing "
       "= "
       "-v_rel.x; TTC = max(gap, 0) / closing when closing > min_closing_mps, else infinite; scene TTC = min "
       "over in-path objects; Unsafe when below threshold. ObjectRisk.track_id = annotation index. One "
@@ -118,7 +122,7 @@ void GroundTruthRiskMetric::process(StageContext& ctx, const Inputs& in, Outputs
   if (!f.annotations)
     throw Error(what +
                 ": no annotations; the ground_truth metric needs a source that carries them (e.g. nuscenes)");
-  RiskAssessment r = protocol_.assess(*f.annotations, what);
+  RiskAssessment r = protocol_.assess(*f.annotations, f.ego, what);
   r.frame_index = f.index;
   r.metric = ctx.node_id();
   out.emit("risk", std::move(r));

@@ -14,7 +14,9 @@ ComponentInfo LabelTtcMetric::describe() {
       "The ground-truth protocol (docs/evaluation.md) on Frame::annotations from the kitti source: KITTI "
       "tracking labels have no ego motion, so velocities are relative to the camera and closing = -v_rel.x "
       "along the camera's forward axis. Labels of `categories` (KITTI types); in path when x > 0 and |y| < "
-      "corridor_half_width + corridor_margin + w/2; gap = x - front_overhang - l/2 (default: from the "
+      "corridor_half_width + corridor_margin + w/2 (corridor_path straight; ego_path would follow "
+      "Frame.ego's yaw "
+      "rate, which KITTI tracking frames do not carry); gap = x - front_overhang - l/2 (default: from the "
       "camera); "
       "TTC = max(gap, 0) / closing when closing > min_closing_mps, else infinite; unknown for tracks "
       "labelled "
@@ -44,7 +46,7 @@ void LabelTtcMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) 
       (f.meta.contains("kitti_frame") ? " (KITTI frame " + f.meta["kitti_frame"].dump() + ")" : "");
   if (!f.annotations)
     throw Error(what + ": no annotations; label_ttc needs a source with labels (kitti, layout tracking)");
-  RiskAssessment r = protocol_.assess(*f.annotations, what);
+  RiskAssessment r = protocol_.assess(*f.annotations, f.ego, what);
   // The protocol names objects by annotation index; a KITTI track id is stable across frames.
   const int64_t critical_index = r.critical_track;
   for (ObjectRisk& o : r.objects) {

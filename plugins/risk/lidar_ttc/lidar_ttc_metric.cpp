@@ -27,8 +27,12 @@ ComponentInfo LidarTtcMetric::describe() {
       "its k_closest nearest points (range_statistic closest_median) or the percentile-th percentile, when "
       "it "
       "has min_points points. Range along camera 2's optical axis (range_axis camera) or Velodyne x (lidar). "
-      "The lead is the box whose points' median lateral offset is within lane_half_width, with the smallest "
-      "range. TTC per object from its range history, constant closing speed fitted over the last `window` "
+      "The lead is the in-path box with the smallest range: the corridor test on its range and its points' "
+      "median lateral offset, object width 0 (default 1.0 + 0.5 = within 1.5 m; corridor_path ego_path "
+      "follows "
+      "the frame's ego speed and yaw rate when it has them, else straight). TTC per object from its range "
+      "history, constant closing speed fitted over the last "
+      "`window` "
       "ranges (2 = TTC = d_t dt / (d_{t-1} - d_t)); infinite when not closing faster than min_closing_mps, "
       "unknown before two ranges. Scene value = the lead's TTC (unknown without a lead). One risk packet and "
       "one lidar_range record per frame, stamped with the frame's time. See docs/evaluation.md.";
@@ -60,9 +64,6 @@ ComponentInfo LidarTtcMetric::describe() {
       ParamSpec::integer("k_closest", 20).range(1, 100000).describe("points in the closest-points median"),
       ParamSpec::number("percentile", 10.0).range(0, 100).describe("percentile of the box's ranges"),
       ParamSpec::integer("min_points", 10).range(1, 100000).describe("fewer points in a box = no range"),
-      ParamSpec::number("lane_half_width", 1.5)
-          .range(0, 20)
-          .describe("lead candidates: median lateral offset of the box's points within this (m)"),
       ParamSpec::integer("window", 2)
           .range(2, 1000)
           .describe("ranges in the least-squares closing-speed fit (2 = the plain two-frame formula)"),
@@ -77,6 +78,7 @@ ComponentInfo LidarTtcMetric::describe() {
           .describe("a gap longer than this since the last range restarts the history (s)"),
       ParamSpec::number("threshold", 1.5).range(0, 1000).describe("Unsafe when the lead's TTC is below (s)"),
   };
+  for (ParamSpec& p : Corridor::params()) i.params.push_back(std::move(p));
   return i;
 }
 
@@ -105,7 +107,7 @@ void LidarTtcMetric::open(StageContext& ctx) {
   range_.k_closest = static_cast<int>(p.get_int("k_closest"));
   range_.percentile = p.get_double("percentile");
   range_.min_points = static_cast<int>(p.get_int("min_points"));
-  lane_half_width_ = p.get_double("lane_half_width");
+  corridor_ = Corridor::from(p);
   window_ = static_cast<int>(p.get_int("window"));
   min_closing_ = p.get_double("min_closing_mps");
   max_jump_ = p.get_double("max_range_jump_m");
@@ -165,10 +167,16 @@ void LidarTtcMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) 
   const std::vector<lidar::ImagePoint> pts = lidar::project_points(lidar::read_scan(scan), calib_, range_);
   const std::vector<lidar::BoxRange> ranges = lidar::box_ranges(pts, boxes, range_);
 
+  // The points' median offset stands for the object's centre line, so the box counts with width 0.
+  const EgoPath path = corridor_.path_for(f.ego.speed_mps, f.ego.yaw_rate);
+  std::vector<bool> in_lane(ranges.size());
+  for (size_t k = 0; k < ranges.size(); ++k)
+    in_lane[k] = !std::isnan(ranges[k].range) && !std::isnan(ranges[k].lateral) &&
+                 corridor_.contains(ranges[k].range, ranges[k].lateral, 0.0, path);
   int lead = -1;
   for (size_t k = 0; k < ranges.size(); ++k) {
     const auto& r = ranges[k];
-    if (std::isnan(r.range) || !(std::abs(r.lateral) <= lane_half_width_)) continue;
+    if (!in_lane[k]) continue;
     if (lead < 0 || r.range < ranges[static_cast<size_t>(lead)].range) lead = static_cast<int>(k);
   }
 
@@ -200,15 +208,14 @@ void LidarTtcMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) 
   r.scene_value = NAN;
   Json box_rows = Json::array();
   for (size_t k = 0; k < boxes.size(); ++k) {
-    const bool in_lane = !std::isnan(ranges[k].range) && std::abs(ranges[k].lateral) <= lane_half_width_;
-    r.objects.push_back({ids[k], ttc[k].ttc, in_lane});
+    r.objects.push_back({ids[k], ttc[k].ttc, in_lane[k]});
     box_rows.push_back({{"id", ids[k]},
                         {"box", {boxes[k].x, boxes[k].y, boxes[k].width, boxes[k].height}},
                         {"points", ranges[k].points},
                         {"range_m", num_or_null(ranges[k].range)},
                         {"nearest_m", num_or_null(ranges[k].nearest)},
                         {"lateral_m", num_or_null(ranges[k].lateral)},
-                        {"in_lane", in_lane},
+                        {"in_lane", static_cast<bool>(in_lane[k])},
                         {"closing_mps", num_or_null(ttc[k].closing)},
                         {"ttc_s", num_or_null(ttc[k].ttc)}});
   }

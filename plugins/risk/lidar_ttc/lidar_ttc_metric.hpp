@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "hazardforge/corridor.hpp"
 #include "hazardforge/stage.hpp"
 #include "lidar_range.hpp"
 #include "velodyne.hpp"
@@ -23,15 +24,17 @@ namespace hf {
 //   point count and lateral offset, the lead and its TTC). Both are stamped with the frame's time.
 // Method: Velodyne points above `ground_z` are projected with P2 R0_rect Tr_velo_to_cam; a point inside
 //   exactly one box shrunk by `box_shrink` belongs to it; a box's range is the median of its k_closest
-//   nearest points (or a percentile) when it has min_points points. The lead is the box whose points'
-//   median lateral offset is within lane_half_width with the smallest range. Each object's TTC comes from its
+//   nearest points (or a percentile) when it has min_points points. The lead is the in-path box (hf::Corridor
+//   on the range and the points' median lateral offset, object width 0, so the default half-width 1.0 +
+//   margin 0.5 keeps boxes within 1.5 m; along the ego's arc when the frame carries speed and yaw rate) with
+//   the smallest range. Each object's TTC comes from its
 //   range history (track id with states; the lead with detections) under a constant closing speed, fitted
 //   over the last `window` ranges: TTC = d_t / closing, infinite when closing <= min_closing_mps, unknown
 //   (NaN) before two ranges. A range jump above max_range_jump_m or a gap above max_gap_s restarts the
 //   history.
 // Params: velodyne_dir | velodyne_archive, calib, box_shrink, ground_z, range_axis, range_statistic,
-//   k_closest, percentile, min_points, lane_half_width, window, min_closing_mps, max_range_jump_m,
-//   max_gap_s, threshold.
+//   k_closest, percentile, min_points, corridor_half_width, corridor_margin, corridor_path, window,
+//   min_closing_mps, max_range_jump_m, max_gap_s, threshold.
 class LidarTtcMetric : public Stage {
  public:
   static ComponentInfo describe();
@@ -49,7 +52,7 @@ class LidarTtcMetric : public Stage {
   std::filesystem::path velodyne_dir_;
   lidar::LidarCalibration calib_;
   lidar::RangeOptions range_;
-  double lane_half_width_ = 1.5;
+  Corridor corridor_;
   int window_ = 2;
   double min_closing_ = 0.1;
   double max_jump_ = 2.0;

@@ -11,9 +11,9 @@
 HF_SDK_BEGIN
 namespace hf {
 
-// The ego's predicted path over the next seconds: a circular arc of constant curvature through the ego origin,
-// tangent to ego x (the constant-speed, constant-yaw-rate prediction of ADAS path predictors). Coordinates are
-// the ego frame (x forward, y left, origin below the rear axle).
+// The ego's predicted path over the next seconds: a circular arc of constant curvature through the ego
+// origin, tangent to ego x (the constant-speed, constant-yaw-rate prediction of ADAS path predictors).
+// Coordinates are the ego frame (x forward, y left, origin below the rear axle).
 struct EgoPath {
   double curvature = 0.0;  // 1/m, positive = turning left; 0 = straight ahead
 
@@ -35,8 +35,8 @@ struct EgoPath {
   cv::Vec3d at(double s) const;
 };
 
-// An object is in path when its foot on the ego's path is ahead (s > 0) and its lateral offset from the path is
-// below ego_half_width + margin + object_width / 2. With follow_path = false the path is straight ahead
+// An object is in path when its foot on the ego's path is ahead (s > 0) and its lateral offset from the path
+// is below ego_half_width + margin + object_width / 2. With follow_path = false the path is straight ahead
 // whatever the ego's motion (the protocol the paper's labels use).
 struct Corridor {
   double ego_half_width = 1.0;
@@ -52,8 +52,9 @@ struct Corridor {
   EgoPath path_for(const std::optional<double>& speed_mps, const std::optional<double>& yaw_rate) const;
 
   // Params "corridor_half_width", "corridor_margin" and "corridor_path" (ego_path | straight): the one
-  // spelling every stage and template that tests in-path declares.
-  static std::vector<ParamSpec> params();
+  // spelling every stage and template that tests in-path declares. Reference protocols that must reproduce a
+  // published straight-corridor rule default to straight.
+  static std::vector<ParamSpec> params(bool follow_path_by_default = true);
   static Corridor from(const Params& p);
 };
 

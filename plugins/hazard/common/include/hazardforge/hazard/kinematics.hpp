@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "hazardforge/corridor.hpp"
 #include "hazardforge/params.hpp"
 #include "hazardforge/types.hpp"
 
@@ -88,12 +89,13 @@ Shift min_jerk_shift(double distance, double duration, double t);
 // within the given limits (peaks: 1.875 D/T, 5.7735 D/T^2, 60 D/T^3).
 double min_jerk_duration(double distance, double max_rate, double max_accel, double max_jerk);
 
-// The ground-truth protocol's TTC conventions (GUIDE section 3), every constant configurable.
+// The ground-truth protocol's TTC conventions (GUIDE section 3), every constant configurable. In-path is the
+// SDK's corridor (params corridor_half_width, corridor_margin, corridor_path), so a planned hazard is judged
+// in path exactly as the risk metrics judge it.
 struct TtcConventions {
-  double ego_half_width = 1.0;  // m
-  double margin = 0.5;          // m; in path when x > 0 and |y| < ego_half_width + margin + w/2
-  double ego_front = 3.4;       // m, rear axle (ego origin) to front bumper; gap = x - ego_front - l/2
-  double min_closing = 0.1;     // m/s; below it TTC is infinite
+  Corridor corridor;         // along the ego's path by default
+  double ego_front = 3.4;    // m, rear axle (ego origin) to front bumper; gap = x - ego_front - l/2
+  double min_closing = 0.1;  // m/s; below it TTC is infinite
   static std::vector<ParamSpec> params();
   static TtcConventions from(const Params& p);
 };
@@ -107,10 +109,15 @@ struct TtcSample {
   double ttc = kInf;   // s; infinite when not in path or not closing
 };
 
-// TTC of one object sample seen from one ego sample (both in the same fixed frame).
+// TTC of one object sample seen from one ego sample (both in the same fixed frame); `path` is the ego's
+// predicted path from that sample (straight by default), which the corridor follows unless it is straight.
 TtcSample ttc_at(const TrajectoryPoint& ego, const TrajectoryPoint& obj, const cv::Vec3d& size_lwh,
-                 const TtcConventions& conv);
-// Pairs samples by index; both trajectories must share their time stamps (throws hf::Error otherwise).
+                 const TtcConventions& conv, const hf::EgoPath& path = {});
+// The ego's yaw rate at sample i (rad/s): central difference of the headings (one-sided at the ends);
+// unknown for a single sample.
+std::optional<double> yaw_rate_at(const std::vector<TrajectoryPoint>& ego, size_t i);
+// Pairs samples by index; both trajectories must share their time stamps (throws hf::Error otherwise). The
+// corridor at sample i follows the ego's planned motion there: its speed and yaw_rate_at(ego, i).
 std::vector<TtcSample> ttc_series(const std::vector<TrajectoryPoint>& ego,
                                   const std::vector<TrajectoryPoint>& obj, const cv::Vec3d& size_lwh,
                                   const TtcConventions& conv);

@@ -59,15 +59,13 @@ struct PlanRequest {
   const Params& params;  // the template's validated params
   const EgoPath& ego;    // where the ego goes: the recorded track, or straight at ego_speed
   // A hazard already under way (extra.under_way_s): the design starts under_way s before the anchor time and
-  // `ego` is the ego's path from there; `anchor_ego` is its path from the anchor time, where the recording (and
-  // the camera's view of the hazard) begins. Without: under_way 0 and anchor_ego = &ego.
+  // `ego` is the ego's path from there; `anchor_ego` is its path from the anchor time, where the recording
+  // (and the camera's view of the hazard) begins. Without: under_way 0 and anchor_ego = &ego.
   double under_way = 0;
   const EgoPath* anchor_ego = nullptr;
 
   // |y| below which an object of this width is in the ego path.
-  double path_half_width(double object_width) const {
-    return ttc.ego_half_width + ttc.margin + object_width / 2;
-  }
+  double path_half_width(double object_width) const { return ttc.corridor.half_width_for(object_width); }
   // Gap along the path (protocol convention) of an object centred at road x with length l to the ego at tau.
   double gap(double x, double length, double tau) const {
     return x - ego.s_at(tau) - ttc.ego_front - length / 2;
@@ -89,9 +87,11 @@ BoxView view_of(const CameraModel& cam, double x, double y, double heading, cons
 // The same for an object given in road coordinates (heading relative to the road) at the anchor time.
 BoxView view_of(const CameraModel& cam, const EgoPath& ego, double s, double d, double rel_heading,
                 const cv::Vec3d& size_lwh);
-// Projection of an object given in the design's road coordinates (PlanRequest::ego), seen from the camera at the
-// anchor time: for a hazard already under way the design's road x is shifted by the ego's travel up to then.
-BoxView view_from_anchor(const PlanRequest& req, double s, double d, double rel_heading, const cv::Vec3d& size_lwh);
+// Projection of an object given in the design's road coordinates (PlanRequest::ego), seen from the camera at
+// the anchor time: for a hazard already under way the design's road x is shifted by the ego's travel up to
+// then.
+BoxView view_from_anchor(const PlanRequest& req, double s, double d, double rel_heading,
+                         const cv::Vec3d& size_lwh);
 
 // The planned hazard and, when infeasible, why.
 struct PlanOutcome {
