@@ -27,7 +27,9 @@ fs::path unique_dir(const std::string& name) {
   return d;
 }
 
-bool vehicle(const std::string& l) { return l == "car" || l == "truck" || l == "bus"; }
+bool vehicle(const std::string& l) {
+  return l == "car" || l == "truck" || l == "bus";
+}
 
 double iou(const Json& a, const Json& b) {
   const cv::Rect2d ra(a[0].get<double>(), a[1].get<double>(), a[2].get<double>(), a[3].get<double>());
@@ -70,13 +72,15 @@ Findings inspect(const fs::path& records, const hazard::LimitsTable& limits) {
       if (o["speed_mps"].is_number() && o["speed_mps"].get<double>() > vmax + 1e-6)
         why << " speed " << o["speed_mps"].get<double>() << " m/s > " << vmax;
       if (!why.str().empty())
-        f.too_fast.push_back("frame " + std::to_string(frame) + " track " + std::to_string(o["track_id"].get<int64_t>()) +
-                             " (" + label + "): " + why.str());
+        f.too_fast.push_back("frame " + std::to_string(frame) + " track " +
+                             std::to_string(o["track_id"].get<int64_t>()) + " (" + label + "): " + why.str());
     }
     for (size_t a = 0; a < objs.size(); ++a)
       for (size_t b = a + 1; b < objs.size(); ++b) {
         if (!vehicle(objs[a]["label"]) || !vehicle(objs[b]["label"])) continue;
-        if (objs[a]["misses"].is_number() && (objs[a]["misses"].get<int>() > 0 || objs[b]["misses"].get<int>() > 0)) continue;
+        if (objs[a]["misses"].is_number() &&
+            (objs[a]["misses"].get<int>() > 0 || objs[b]["misses"].get<int>() > 0))
+          continue;
         const double o = iou(objs[a]["box"], objs[b]["box"]);
         if (o >= 0.6)
           f.duplicates.push_back("frame " + std::to_string(frame) + ": tracks " +
@@ -97,7 +101,8 @@ TEST_P(TrackHygiene, NoImpossibleSpeedsAndNoDuplicateVehicleTracks) {
                                    test::quote(test::source_dir() / "configs" / config) + " -o " +
                                    test::quote(out / "run") + " -q");
   ASSERT_EQ(r.code, 0) << r.out;
-  const hazard::LimitsTable limits = hazard::LimitsTable::load((test::source_dir() / "share/hazard_limits.yaml").string());
+  const hazard::LimitsTable limits =
+      hazard::LimitsTable::load((test::source_dir() / "share/hazard_limits.yaml").string());
   const Findings f = inspect(out / "run/frames.jsonl", limits);
   std::cout << config << ": " << f.frames << " frames, " << f.states << " object states, " << f.with_velocity
             << " with a velocity\n";
@@ -109,7 +114,8 @@ TEST_P(TrackHygiene, NoImpossibleSpeedsAndNoDuplicateVehicleTracks) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedRecordings, TrackHygiene,
-                         ::testing::Values("assess_nuscenes.yaml", "assess_kitti_raw.yaml", "assess_video.yaml"),
+                         ::testing::Values("assess_nuscenes.yaml", "assess_kitti_raw.yaml",
+                                           "assess_video.yaml"),
                          [](const auto& info) { return fs::path(info.param).stem().string(); });
 
 }  // namespace

@@ -48,8 +48,9 @@ const ObjectState* find(const ObjectStates& s, int64_t id) {
 }
 
 // A car ahead in the ego's lane whose near face is at ego x = x(t); box edges jittered by `noise_px`.
-std::vector<Step> lead_sequence(int n, double dt, double ego_speed, const std::function<double(double)>& x_of_t,
-                                double noise_px, const std::string& label = "car", double height = kCarH) {
+std::vector<Step> lead_sequence(int n, double dt, double ego_speed,
+                                const std::function<double(double)>& x_of_t, double noise_px,
+                                const std::string& label = "car", double height = kCarH) {
   const CameraModel cam = front_camera();
   cv::RNG rng(7);
   std::vector<Step> seq;
@@ -80,8 +81,8 @@ TEST(KalmanEstimator, ConstantVelocityConvergesAndItsIntervalHoldsTheTruth) {
     ASSERT_NE(s, nullptr);
     ASSERT_TRUE(s->velocity_rel && s->covariance);
     const double t = k * 0.1;
-    // 1 px of jitter on a 50-70 px box is 1-2 % of range per frame: a 2.5 m/s^2 process noise keeps the filter
-    // responsive, so the velocity wanders by about a metre per second — and the filter says so.
+    // 1 px of jitter on a 50-70 px box is 1-2 % of range per frame: a 2.5 m/s^2 process noise keeps the
+    // filter responsive, so the velocity wanders by about a metre per second — and the filter says so.
     const double sigma_v = std::sqrt((*s->covariance)(2, 2));
     EXPECT_NEAR((*s->velocity_rel)[0], -5.0, 1.6) << "frame " << k;
     EXPECT_LT(std::abs((*s->velocity_rel)[0] + 5.0), 3.0 * sigma_v) << "frame " << k;
@@ -176,8 +177,8 @@ TEST(KalmanEstimator, TruncatedBoxesGiveNoRangeOfTheCutEdge) {
   const RangeCue far = KalmanEstimator::range_cue(cam, box_of(cam, 60.0, 0.0, kCarH, kCarW), 0, kCarH, c);
   EXPECT_GT(*far.ground_var / *far.pinhole_var, *both.ground_var / *both.pinhole_var);
 
-  // A lead whose lower part leaves the image: its state goes on (predicted), never from the cut box's height —
-  // for max_gap_s without any other measurement (keypoints off here), then it is no longer reported.
+  // A lead whose lower part leaves the image: its state goes on (predicted), never from the cut box's height
+  // — for max_gap_s without any other measurement (keypoints off here), then it is no longer reported.
   auto x_of = [](double t) { return 12.0 - 2.0 * t; };
   auto seq = lead_sequence(30, 0.1, 5.0, x_of, 0.3);
   for (int k = 15; k < 30; ++k) {
@@ -212,7 +213,8 @@ TEST(KalmanEstimator, ALabelFlipNeitherResetsNorJumpsTheTtc) {
   const double ttc_a = a->distance_m / -(*a->velocity_rel)[0];
   const double ttc_b = b->distance_m / -(*b->velocity_rel)[0];
   EXPECT_NEAR(ttc_b, ttc_a - 0.1, 0.1 * ttc_a);
-  // The range moves with the prior (by how much depends on how much the fused range leans on the pinhole cue).
+  // The range moves with the prior (by how much depends on how much the fused range leans on the pinhole
+  // cue).
   EXPECT_GT(b->distance_m, a->distance_m * 1.1);
   EXPECT_NE(b->distance_method, "rejected");
   for (size_t k = 16; k < out.size(); ++k) {
@@ -239,7 +241,8 @@ TEST(TrackFilter, RejectsAPhysicallyImpossibleJumpAndRestartsAfterThree) {
   // A second car's box 20 m closer: 200 m/s for one frame.
   f.predict(0.6, ego);
   const auto u = f.update_position({5.0, 0.0}, R);
-  EXPECT_TRUE(u == estimation::TrackFilter::Update::kImpossible || u == estimation::TrackFilter::Update::kGated);
+  EXPECT_TRUE(u == estimation::TrackFilter::Update::kImpossible ||
+              u == estimation::TrackFilter::Update::kGated);
   EXPECT_NEAR(f.state()[0], before[0] - 1.0, 0.2);  // predicted only
   f.predict(0.7, ego);
   EXPECT_NE(f.update_position({4.0, 0.0}, R), estimation::TrackFilter::Update::kAccepted);
@@ -248,7 +251,8 @@ TEST(TrackFilter, RejectsAPhysicallyImpossibleJumpAndRestartsAfterThree) {
   EXPECT_NEAR(f.state()[0], 3.0, 1e-9);
 }
 
-// ---- keypoint scale ------------------------------------------------------------------------------------------
+// ---- keypoint scale
+// ------------------------------------------------------------------------------------------
 
 TEST(KeypointScale, MedianRatioIsRobustToNoiseAndOutliers) {
   cv::RNG rng(3);
@@ -256,10 +260,13 @@ TEST(KeypointScale, MedianRatioIsRobustToNoiseAndOutliers) {
   const double scale = 1.04;
   const cv::Point2f c(400, 300);
   for (int i = 0; i < 60; ++i) {
-    const cv::Point2f p(static_cast<float>(c.x + rng.uniform(-80.0, 80.0)), static_cast<float>(c.y + rng.uniform(-60.0, 60.0)));
+    const cv::Point2f p(static_cast<float>(c.x + rng.uniform(-80.0, 80.0)),
+                        static_cast<float>(c.y + rng.uniform(-60.0, 60.0)));
     cv::Point2f q = c + (p - c) * static_cast<float>(scale) + cv::Point2f(12.f, -5.f);
     q += cv::Point2f(static_cast<float>(rng.gaussian(0.2)), static_cast<float>(rng.gaussian(0.2)));
-    if (i % 5 == 0) q += cv::Point2f(static_cast<float>(rng.uniform(-40.0, 40.0)), static_cast<float>(rng.uniform(-40.0, 40.0)));
+    if (i % 5 == 0)
+      q += cv::Point2f(static_cast<float>(rng.uniform(-40.0, 40.0)),
+                       static_cast<float>(rng.uniform(-40.0, 40.0)));
     a.push_back(p);
     b.push_back(q);
   }
@@ -267,7 +274,8 @@ TEST(KeypointScale, MedianRatioIsRobustToNoiseAndOutliers) {
   ASSERT_TRUE(r.valid());
   EXPECT_NEAR(r.ratio, scale, 0.003);
   EXPECT_LT(r.log_sigma, 0.01);
-  EXPECT_FALSE(estimation::scale_from_matches({a.begin(), a.begin() + 3}, {b.begin(), b.begin() + 3}).valid());
+  EXPECT_FALSE(
+      estimation::scale_from_matches({a.begin(), a.begin() + 3}, {b.begin(), b.begin() + 3}).valid());
 }
 
 // A textured object pasted onto a differently textured background at a given scale about its centre.
@@ -294,8 +302,8 @@ cv::Mat texture(int w, int h, int seed) {
 }
 
 TEST(TtcKeypoints, PureScalingGivesTheTtcAndIgnoresTheBoxEdges) {
-  // Depth d(t) = 20 - 4 t m: image scale 20 / d(t); TTC = d / 4. Boxes jitter by up to 3 px, which would ruin a
-  // box-height TTC, and the background inside the box moves differently.
+  // Depth d(t) = 20 - 4 t m: image scale 20 / d(t); TTC = d / 4. Boxes jitter by up to 3 px, which would ruin
+  // a box-height TTC, and the background inside the box moves differently.
   const cv::Mat object = texture(160, 120, 11), background = texture(800, 600, 12);
   auto m = testing::StageRunner::create<TtcKeypointsMetric>("window_s: 0.3");
   cv::RNG rng(5);

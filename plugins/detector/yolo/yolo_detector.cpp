@@ -83,9 +83,10 @@ ComponentInfo YoloDetector::describe() {
           .describe("COCO class names to keep; empty = all 80"),
       ParamSpec::number("min_box_height", 0.0).range(0, 100000).describe("drop boxes shorter than this (px)"),
       ParamSpec::string_list("merge_groups", default_class_groups())
-          .describe("comma-separated labels of one kind of object: after the per-class NMS, overlapping boxes "
-                    "of different labels in one group (an SUV seen as car and truck) are merged into the "
-                    "higher-scoring one"),
+          .describe(
+              "comma-separated labels of one kind of object: after the per-class NMS, overlapping boxes "
+              "of different labels in one group (an SUV seen as car and truck) are merged into the "
+              "higher-scoring one"),
       ParamSpec::number("merge_iou", 0.6)
           .range(0, 1)
           .describe("IoU at or above which boxes of one merge group are duplicates; 1 = never merge"),

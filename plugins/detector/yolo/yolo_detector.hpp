@@ -60,7 +60,8 @@ class YoloDetector : public Detector {
 
   // Class-agnostic suppression within each merge group: over score-sorted detections, a box is dropped when a
   // kept box of another label in its group overlaps it at `iou` or more (iou >= 1: nothing is merged).
-  static std::vector<Detection> merge_duplicates(std::vector<Detection> dets, const ClassGroups& groups, float iou);
+  static std::vector<Detection> merge_duplicates(std::vector<Detection> dets, const ClassGroups& groups,
+                                                 float iou);
 
   struct StepTimes {
     double preprocess = 0, forward = 0, postprocess = 0;  // seconds

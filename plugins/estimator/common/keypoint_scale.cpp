@@ -127,9 +127,11 @@ std::map<int64_t, ScaleRatio> KeypointScaleTracker::update(const cv::Mat& image,
     if (box.width >= cfg_.min_box_px && box.height >= cfg_.min_box_px) {
       const float fx = static_cast<float>(cfg_.inner_fraction) * box.width;
       const float fy = static_cast<float>(cfg_.inner_fraction) * box.height;
-      const cv::Rect2f inner = cv::Rect2f(box.x + fx, box.y + fy, box.width - 2 * fx, box.height - 2 * fy) & frame;
-      const cv::Rect roi(cv::Point(static_cast<int>(std::ceil(inner.x)), static_cast<int>(std::ceil(inner.y))),
-                         cv::Point(static_cast<int>(inner.x + inner.width), static_cast<int>(inner.y + inner.height)));
+      const cv::Rect2f inner =
+          cv::Rect2f(box.x + fx, box.y + fy, box.width - 2 * fx, box.height - 2 * fy) & frame;
+      const cv::Rect roi(
+          cv::Point(static_cast<int>(std::ceil(inner.x)), static_cast<int>(std::ceil(inner.y))),
+          cv::Point(static_cast<int>(inner.x + inner.width), static_cast<int>(inner.y + inner.height)));
       if (roi.width >= 4 && roi.height >= 4) {
         std::vector<cv::Point2f> corners;
         cv::goodFeaturesToTrack(grey(roi), corners, cfg_.max_points, cfg_.quality, cfg_.min_corner_px);

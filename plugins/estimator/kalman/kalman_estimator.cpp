@@ -25,7 +25,8 @@ estimation::EgoDelta delta_from_speed(double speed, std::optional<double> yaw_ra
   // Constant speed and yaw rate: the ego moves along the chord of a circular arc.
   estimation::EgoDelta e;
   e.dyaw = yaw_rate ? *yaw_rate * dt : 0.0;
-  const double chord = std::abs(e.dyaw) > 1e-12 ? speed * dt * std::sin(e.dyaw / 2) / (e.dyaw / 2) : speed * dt;
+  const double chord =
+      std::abs(e.dyaw) > 1e-12 ? speed * dt * std::sin(e.dyaw / 2) / (e.dyaw / 2) : speed * dt;
   e.dx = chord * std::cos(e.dyaw / 2);
   e.dy = chord * std::sin(e.dyaw / 2);
   e.absolute = true;
@@ -35,25 +36,39 @@ estimation::EgoDelta delta_from_speed(double speed, std::optional<double> yaw_ra
 
 ComponentInfo KalmanEstimator::describe() {
   ComponentInfo i = Estimator::base_info(
-      "kalman", "filtered range, lateral offset and rates per track (fused range cues, keypoint scale change)");
+      "kalman",
+      "filtered range, lateral offset and rates per track (fused range cues, keypoint scale change)");
   i.doc =
-      "Per track a Kalman filter over the object's ground point (x, y) and velocity in the ego frame. Predicted "
-      "with constant velocity and moved by the ego's motion between frames (dataset poses; else ego speed and "
-      "yaw rate; else the velocity is relative to the ego). Range measurement: the pinhole depth fy*H/h (error "
+      "Per track a Kalman filter over the object's ground point (x, y) and velocity in the ego frame. "
+      "Predicted "
+      "with constant velocity and moved by the ego's motion between frames (dataset poses; else ego speed "
+      "and "
+      "yaw rate; else the velocity is relative to the ego). Range measurement: the pinhole depth fy*H/h "
+      "(error "
       "from height_rel_sd and box_jitter_px) and the ground-contact depth (error from box_jitter_px, "
-      "pitch_sd_deg and ground_height_sd, growing with the square of the distance) fused by inverse variance; a "
-      "box touching the top or bottom border gives no pinhole range, one touching the bottom no ground range. "
+      "pitch_sd_deg and ground_height_sd, growing with the square of the distance) fused by inverse "
+      "variance; a "
+      "box touching the top or bottom border gives no pinhole range, one touching the bottom no ground "
+      "range. "
       "Updates are gated (99.9 % Mahalanobis gate, and the class's max speed from share/hazard_limits.yaml); "
-      "after three rejected updates in a row the track's state restarts. The keypoint scale ratio r of the box "
-      "between frames (KLT corners, median pairwise distance ratio) updates closing/depth = (r-1)/dt. A track "
+      "after three rejected updates in a row the track's state restarts. The keypoint scale ratio r of the "
+      "box "
+      "between frames (KLT corners, median pairwise distance ratio) updates closing/depth = (r-1)/dt. A "
+      "track "
       "relabelled (car -> truck) is rescaled by the ratio of the class heights, so its TTC does not jump. "
       "Process noise: accel_sd_fraction x the class's max acceleration. Velocity, heading and scale_rate are "
-      "reported after min_updates measurements (from the first, with the prior's wide covariance, by default); a "
-      "track is reported until max_gap_s after its last accepted measurement; the state's covariance goes into ObjectState::covariance.";
+      "reported after min_updates measurements (from the first, with the prior's wide covariance, by "
+      "default); a "
+      "track is reported until max_gap_s after its last accepted measurement; the state's covariance goes "
+      "into ObjectState::covariance.";
   i.params = {
-      ParamSpec::path("class_sizes", "").describe("YAML of per-class real sizes (m); empty = <share>/class_sizes.yaml"),
-      ParamSpec::path("limits", "").describe("YAML of per-class kinematic limits; empty = <share>/hazard_limits.yaml"),
-      ParamSpec::number("height_rel_sd", 0.10).range(0, 1).describe("relative spread of a class's real height"),
+      ParamSpec::path("class_sizes", "")
+          .describe("YAML of per-class real sizes (m); empty = <share>/class_sizes.yaml"),
+      ParamSpec::path("limits", "")
+          .describe("YAML of per-class kinematic limits; empty = <share>/hazard_limits.yaml"),
+      ParamSpec::number("height_rel_sd", 0.10)
+          .range(0, 1)
+          .describe("relative spread of a class's real height"),
       ParamSpec::number("box_jitter_px", 1.5).range(0, 100).describe("detector jitter of a box edge (px)"),
       ParamSpec::number("pitch_sd_deg", 0.5).range(0, 10).describe("uncertainty of the camera pitch (deg)"),
       ParamSpec::number("ground_height_sd", 0.1)
@@ -64,15 +79,17 @@ ComponentInfo KalmanEstimator::describe() {
           .describe("ground range only for box bottoms at least this far below the horizon (px)"),
       ParamSpec::number("border_margin_px", 2.0)
           .range(0, 1000)
-          .describe("box edges this close to the image border are truncated (in addition to the detector's flags)"),
+          .describe(
+              "box edges this close to the image border are truncated (in addition to the detector's flags)"),
       ParamSpec::boolean("keypoints", true).describe("update closing/depth from the keypoint scale change"),
       ParamSpec::number("keypoint_floor", 0.003)
           .range(0, 1)
           .describe("minimum standard error of ln(scale ratio) per frame pair"),
       ParamSpec::integer("min_updates", 1)
           .range(1, 1000)
-          .describe("measurements a track needs before velocity, heading and scale rate are reported (1: from "
-                    "the first frame, the prior's velocity with its wide covariance)"),
+          .describe(
+              "measurements a track needs before velocity, heading and scale rate are reported (1: from "
+              "the first frame, the prior's velocity with its wide covariance)"),
       ParamSpec::number("max_gap_s", 0.5)
           .range(0, 100)
           .describe("a track whose last accepted measurement is older than this (s) is not reported (held, "
@@ -206,8 +223,9 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
 ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, const Frame& frame) {
   CameraModel cam = frame.camera;
   if (!cam.valid())
-    throw Error("frame " + std::to_string(frame.index) + " (" + frame.source_id +
-                "): the camera model has no intrinsics (width, height, fx, fy); the kalman estimator needs them");
+    throw Error(
+        "frame " + std::to_string(frame.index) + " (" + frame.source_id +
+        "): the camera model has no intrinsics (width, height, fx, fy); the kalman estimator needs them");
   if (!frame.image.empty() && (frame.image.cols != cam.width || frame.image.rows != cam.height))
     cam = cam.scaled_to(frame.image.cols, frame.image.rows);
   const cv::Size image_size(cam.width, cam.height);
@@ -224,13 +242,16 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     const cv::Matx44d& T = *frame.ego.T_world_ego;
     const cv::Vec3d& w = *frame.ego.velocity_world;
     ego_vx = T(0, 0) * w[0] + T(1, 0) * w[1] + T(2, 0) * w[2];
-    if (!out.ego_speed_mps) out.ego_speed_mps = std::hypot(ego_vx, T(0, 1) * w[0] + T(1, 1) * w[1] + T(2, 1) * w[2]);
+    if (!out.ego_speed_mps)
+      out.ego_speed_mps = std::hypot(ego_vx, T(0, 1) * w[0] + T(1, 1) * w[1] + T(2, 1) * w[2]);
   } else if (out.ego_speed_mps) {
     ego_vx = *out.ego_speed_mps;
   }
   const bool absolute = frame.ego.T_world_ego.has_value() || out.ego_speed_mps.has_value();
   if (!absolute) ego_vx = 0.0;
-  out.distance_origin_x = cfg_.origin == "camera" ? cam_x : cfg_.origin == "bumper" ? cfg_.front_overhang : 0.0;
+  out.distance_origin_x = cfg_.origin == "camera"   ? cam_x
+                          : cfg_.origin == "bumper" ? cfg_.front_overhang
+                                                    : 0.0;
 
   estimation::EgoDelta delta;
   if (have_last_ && t > last_t_) {
@@ -240,8 +261,10 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
       delta = delta_from_speed(*out.ego_speed_mps, frame.ego.yaw_rate, t - last_t_);
   }
   delta.absolute = absolute;
-  if (frame.ego.T_world_ego) last_pose_ = *frame.ego.T_world_ego;
-  else last_pose_.reset();
+  if (frame.ego.T_world_ego)
+    last_pose_ = *frame.ego.T_world_ego;
+  else
+    last_pose_.reset();
   last_t_ = t;
   have_last_ = true;
 
@@ -259,7 +282,8 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     alive.insert(tr.id);
     if (!priors_.has(tr.label)) {
       if (warned_.insert(tr.label).second)
-        ctx.log(LogLevel::kWarning, "no size prior for class '" + tr.label + "'; its tracks are not estimated");
+        ctx.log(LogLevel::kWarning,
+                "no size prior for class '" + tr.label + "'; its tracks are not estimated");
       continue;
     }
     const ClassSize& size = priors_.at(tr.label);
@@ -279,9 +303,9 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     const unsigned truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
     if (f.initialised()) {
       f.predict(t, delta);
-      // The voted class changed: the state's range was measured with the other class's height. Rescale it by how
-      // much the range of this very box changes with the prior (the full height ratio when the pinhole cue
-      // dominates, almost nothing when the ground contact does).
+      // The voted class changed: the state's range was measured with the other class's height. Rescale it by
+      // how much the range of this very box changes with the prior (the full height ratio when the pinhole
+      // cue dominates, almost nothing when the ground contact does).
       if (mem.label != tr.label && priors_.has(mem.label)) {
         const RangeCue was = range_cue(cam, tr.box, truncated, priors_.at(mem.label).height, cfg_);
         const RangeCue now = range_cue(cam, tr.box, truncated, size.height, cfg_);
@@ -308,8 +332,8 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
       const RangeCue cue = range_cue(cam, tr.box, s.truncated, size.height, cfg_);
       if (cue.depth) {
         const cv::Point2d bottom(tr.box.x + tr.box.width / 2.0, tr.box.y + tr.box.height);
-        const cv::Vec3d p = cam.cam_to_ego(
-            cv::Vec3d((bottom.x - cam.cx) * *cue.depth / cam.fx, (bottom.y - cam.cy) * *cue.depth / cam.fy, *cue.depth));
+        const cv::Vec3d p = cam.cam_to_ego(cv::Vec3d((bottom.x - cam.cx) * *cue.depth / cam.fx,
+                                                     (bottom.y - cam.cy) * *cue.depth / cam.fy, *cue.depth));
         // Along the viewing ray the depth error moves x and y together; across it, the column's jitter (and a
         // side cut off by the border) moves y.
         const cv::Vec2d a((p[0] - cam_x) / *cue.depth, (p[1] - cam.t_ego_cam[1]) / *cue.depth);
@@ -323,7 +347,8 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
           f.init(t, z, R);
         } else {
           const auto u = f.update_position(z, R);
-          if (u == estimation::TrackFilter::Update::kImpossible || u == estimation::TrackFilter::Update::kGated)
+          if (u == estimation::TrackFilter::Update::kImpossible ||
+              u == estimation::TrackFilter::Update::kGated)
             s.distance_method = "rejected";
           else
             s.distance_method = cue.method;
@@ -362,7 +387,8 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     s.in_path = corridor_.contains(out, s);
     out.objects.push_back(std::move(s));
   }
-  for (auto it = tracks_.begin(); it != tracks_.end();) it = alive.count(it->first) ? std::next(it) : tracks_.erase(it);
+  for (auto it = tracks_.begin(); it != tracks_.end();)
+    it = alive.count(it->first) ? std::next(it) : tracks_.erase(it);
   drop_shadowed(out);
   return out;
 }

@@ -6,24 +6,25 @@
 #include <set>
 #include <string>
 
+#include <hazardforge/class_groups.hpp>
 #include <hazardforge/estimation/keypoint_scale.hpp>
 #include <hazardforge/estimation/track_filter.hpp>
-#include <hazardforge/class_groups.hpp>
 #include <hazardforge/geometry.hpp>
 #include <hazardforge/hazard/kinematics.hpp>
 #include <hazardforge/stage.hpp>
 
 namespace hf {
 
-// One frame's range measurement of a box: the pinhole range from the class height prior and the ground-contact
-// range from the camera's height and pitch, each with its expected error, fused by inverse variance.
+// One frame's range measurement of a box: the pinhole range from the class height prior and the
+// ground-contact range from the camera's height and pitch, each with its expected error, fused by inverse
+// variance.
 struct RangeCue {
   std::optional<double> pinhole_depth, pinhole_var;  // optical depth (m) and its variance
   std::optional<double> ground_depth, ground_var;
   std::optional<double> depth, var;  // fused, with the cues' whole expected errors (they set the weights)
-  // Variance of the fused depth from frame-to-frame noise alone (box jitter). The prior's height error and the
-  // pitch / road offsets are biases that persist along a track: they scale range and closing speed alike, so
-  // TTC does not see them, and feeding them to the filter as white noise would smear every velocity.
+  // Variance of the fused depth from frame-to-frame noise alone (box jitter). The prior's height error and
+  // the pitch / road offsets are biases that persist along a track: they scale range and closing speed alike,
+  // so TTC does not see them, and feeding them to the filter as white noise would smear every velocity.
   std::optional<double> noise_var;
   std::string method;  // pinhole | ground | fused | "" (no usable cue: truncated)
 };
@@ -46,24 +47,24 @@ class KalmanEstimator : public Estimator {
   ObjectStates estimate(StageContext& ctx, const Tracks& tracks, const Frame& frame) override;
 
   struct Config {
-    double height_rel_sd = 0.10;   // relative spread of the class's real height
-    double box_jitter_px = 1.5;    // detector jitter of a box edge
-    double pitch_sd_deg = 0.5;     // uncertainty of the camera pitch (ground range)
-    double ground_height_sd = 0.1; // m, road surface off the ego's ground plane at the object (ground range)
+    double height_rel_sd = 0.10;    // relative spread of the class's real height
+    double box_jitter_px = 1.5;     // detector jitter of a box edge
+    double pitch_sd_deg = 0.5;      // uncertainty of the camera pitch (ground range)
+    double ground_height_sd = 0.1;  // m, road surface off the ego's ground plane at the object (ground range)
     double min_horizon_gap_px = 10.0;  // ground range only for bottoms this far below the horizon
     double border_margin_px = 2.0;
     bool keypoints = true;
-    double keypoint_floor = 0.003;  // minimum standard error of ln(scale ratio) per frame pair
-    int min_updates = 1;            // accepted measurements before velocity and TTC are reported
-    double max_gap_s = 0.5;         // a track without an accepted measurement for longer is not reported
-    double accel_sd_fraction = 0.5; // process noise = this x the class's max acceleration
+    double keypoint_floor = 0.003;   // minimum standard error of ln(scale ratio) per frame pair
+    int min_updates = 1;             // accepted measurements before velocity and TTC are reported
+    double max_gap_s = 0.5;          // a track without an accepted measurement for longer is not reported
+    double accel_sd_fraction = 0.5;  // process noise = this x the class's max acceleration
     std::optional<double> ego_speed_param;
     std::string origin = "bumper";
     double front_overhang = 3.4;
   };
   // Range cue of a box (exposed for tests on synthetic geometry).
-  static RangeCue range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated, double real_height,
-                            const Config& c);
+  static RangeCue range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
+                            double real_height, const Config& c);
 
  private:
   void drop_shadowed(ObjectStates& out) const;

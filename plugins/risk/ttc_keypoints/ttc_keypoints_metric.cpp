@@ -13,10 +13,13 @@ ComponentInfo TtcKeypointsMetric::describe() {
       "ttc_keypoints", "time-to-collision from the scale change of keypoints inside the box (s)");
   i.doc =
       "Per matched box: KLT corners from the previous frame (seeded by the box's motion, forward-backward "
-      "checked), median ratio r of pairwise point distances with MAD outlier rejection. Over the frame pairs of "
+      "checked), median ratio r of pairwise point distances with MAD outlier rejection. Over the frame pairs "
+      "of "
       "the last window_s seconds (at least one), R = prod r, T = sum dt; TTC = T / (R - 1); infinite when "
-      "(R - 1) / T <= min_scale_rate. The ~90 % interval comes from the ratios' standard errors. Unknown (null) "
-      "on a track's first frame and whenever its keypoints fail (texture-less or tiny boxes). Needs the frames "
+      "(R - 1) / T <= min_scale_rate. The ~90 % interval comes from the ratios' standard errors. Unknown "
+      "(null) "
+      "on a track's first frame and whenever its keypoints fail (texture-less or tiny boxes). Needs the "
+      "frames "
       "input (the image).";
   i.params.push_back(ParamSpec::number("window_s", 0.5)
                          .range(0, 100)
@@ -38,7 +41,8 @@ void TtcKeypointsMetric::open(StageContext& ctx) {
   history_.clear();
 }
 
-RiskAssessment TtcKeypointsMetric::assess(StageContext& /*ctx*/, const ObjectStates& states, const Frame* frame) {
+RiskAssessment TtcKeypointsMetric::assess(StageContext& /*ctx*/, const ObjectStates& states,
+                                          const Frame* frame) {
   if (!frame || frame->image.empty())
     throw Error("ttc_keypoints: frame " + std::to_string(states.frame_index) +
                 " has no image; connect the 'frames' input to the source's frames");
@@ -62,7 +66,8 @@ RiskAssessment TtcKeypointsMetric::assess(StageContext& /*ctx*/, const ObjectSta
       r.objects.push_back(o);
       continue;
     }
-    h.push_back({frame->timestamp, q->second.dt, std::log(q->second.ratio), q->second.log_sigma * q->second.log_sigma});
+    h.push_back({frame->timestamp, q->second.dt, std::log(q->second.ratio),
+                 q->second.log_sigma * q->second.log_sigma});
     while (h.size() > 1 && frame->timestamp - (h.front().t - h.front().dt) > window_s_ + 1e-9) h.pop_front();
     double L = 0, T = 0, V = 0;
     for (const Pair& p : h) {

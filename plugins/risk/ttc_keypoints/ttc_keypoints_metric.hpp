@@ -10,7 +10,8 @@
 namespace hf {
 
 // Risk metric "ttc_keypoints" (s, lower is riskier).
-// Ports: states (ObjectStates: boxes by track) + frames (Frame: the image, required) -> risk (RiskAssessment),
+// Ports: states (ObjectStates: boxes by track) + frames (Frame: the image, required) -> risk
+// (RiskAssessment),
 //   one per frame, stamped with the frame's time.
 // Per matched box, corners inside it are tracked from the previous frame (KLT, forward-backward checked) and
 // the median ratio r of pairwise distances is the scale change (hazardforge/estimation/keypoint_scale.hpp).

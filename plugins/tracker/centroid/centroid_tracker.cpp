@@ -146,7 +146,7 @@ Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
       e.misses = 0;
       e.detection_index = j;
       e.annotation_index = d.annotation_index;
-    e.truncated = d.truncated;
+      e.truncated = d.truncated;
     } else {
       ++e.misses;
       e.detection_index = -1;

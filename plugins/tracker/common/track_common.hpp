@@ -87,6 +87,8 @@ class LabelVote {
 
 // Label groups live in the SDK (detectors merge duplicate boxes by the same groups).
 using ClassGroups = hf::ClassGroups;
-inline const std::vector<std::string>& default_class_groups() { return hf::default_class_groups(); }
+inline const std::vector<std::string>& default_class_groups() {
+  return hf::default_class_groups();
+}
 
 }  // namespace hf::tracking

@@ -93,7 +93,7 @@ SortTracker::Entry SortTracker::make_entry(const Detection& d, int index, double
   e.hit_streak = 1;
   e.detection_index = index;
   e.annotation_index = d.annotation_index;
-    e.truncated = d.truncated;
+  e.truncated = d.truncated;
   return e;
 }
 
@@ -195,7 +195,7 @@ Tracks SortTracker::step(const Detections& dets, const Frame& frame) {
       tr.velocity_px = e.velocity.velocity();
       tr.detection_index = e.detection_index;
       tr.annotation_index = e.annotation_index;
-    tr.truncated = e.truncated;
+      tr.truncated = e.truncated;
       out.items.push_back(tr);
     }
     kept.push_back(std::move(e));

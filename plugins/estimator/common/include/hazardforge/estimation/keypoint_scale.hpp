@@ -53,7 +53,8 @@ class KeypointScaleTracker {
   explicit KeypointScaleTracker(KeypointScaleConfig c = {}) : cfg_(c) {}
   // `boxes`: id -> box in this image's pixels. Returns the ratio for every id also measured in the previous
   // call (ids not in `boxes` are forgotten). `image` is BGR or grey 8-bit.
-  std::map<int64_t, ScaleRatio> update(const cv::Mat& image, double t, const std::map<int64_t, cv::Rect2f>& boxes);
+  std::map<int64_t, ScaleRatio> update(const cv::Mat& image, double t,
+                                       const std::map<int64_t, cv::Rect2f>& boxes);
 
  private:
   struct Memory {

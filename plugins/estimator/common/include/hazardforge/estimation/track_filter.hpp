@@ -17,17 +17,17 @@ struct EgoDelta {
 };
 
 struct TrackFilterConfig {
-  double accel_sd = 2.5;          // m/s^2: white-noise acceleration of the object (process noise)
-  double relative_accel_sd = 1.5; // m/s^2 added without ego speed: the ego's own acceleration
-  double init_velocity_sd = 10.0; // m/s: spread of the velocity before the second measurement
-  double gate_chi2 = 13.82;       // 2-dof position innovation gate (99.9 %)
-  double scale_gate_chi2 = 10.83; // 1-dof gate of the scale (inverse-TTC) measurement (99.9 %)
-  double max_speed_mps = 60.0;    // the class's limit: a measurement implying more is physically impossible
-  int reinit_after = 3;           // consecutive rejected positions after which the state restarts there
+  double accel_sd = 2.5;           // m/s^2: white-noise acceleration of the object (process noise)
+  double relative_accel_sd = 1.5;  // m/s^2 added without ego speed: the ego's own acceleration
+  double init_velocity_sd = 10.0;  // m/s: spread of the velocity before the second measurement
+  double gate_chi2 = 13.82;        // 2-dof position innovation gate (99.9 %)
+  double scale_gate_chi2 = 10.83;  // 1-dof gate of the scale (inverse-TTC) measurement (99.9 %)
+  double max_speed_mps = 60.0;     // the class's limit: a measurement implying more is physically impossible
+  int reinit_after = 3;            // consecutive rejected positions after which the state restarts there
   // Covariance matching: the position noise is scaled by the track's running mean of the normalised
   // innovation squared over its expectation (2), between 1 and max_noise_scale — so a detector that jitters
   // more than the stated box_jitter_px is learnt from the track itself.
-  double noise_memory = 0.2;      // weight of the newest update in the running mean
+  double noise_memory = 0.2;  // weight of the newest update in the running mean
   double max_noise_scale = 25.0;
 };
 
@@ -43,7 +43,7 @@ class TrackFilter {
   int updates() const { return updates_; }  // accepted position updates since (re)start
   double time() const { return t_; }
   double last_update() const { return last_update_; }  // time of the last accepted measurement
-  double noise_scale() const { return noise_scale_; }   // current factor on the position noise
+  double noise_scale() const { return noise_scale_; }  // current factor on the position noise
 
   // First position (or a restart): velocity zero with init_velocity_sd.
   void init(double t, const cv::Vec2d& z, const cv::Matx22d& R);
