@@ -179,6 +179,7 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
     r.pinhole_depth = z;
     r.pinhole_var = z * z * rel2;
     pinhole_noise = z * z * 2.0 * j2 / (h * h);
+    r.pinhole_noise_var = pinhole_noise;
   }
   if (!(truncated & truncation::kBottom)) {
     const std::optional<cv::Vec3d> g = cam.pixel_to_ground(bottom);
@@ -197,6 +198,7 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
         r.ground_depth = z;
         r.ground_var = var;
         ground_noise = k * k * j2;
+        r.ground_noise_var = ground_noise;
       }
     }
   }
@@ -216,6 +218,26 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
     r.var = r.ground_var;
     r.noise_var = ground_noise;
     r.method = "ground";
+  }
+  return r;
+}
+
+RangeCue KalmanEstimator::aligned(const RangeCue& cue, double log_ratio) {
+  if (!cue.ground_depth) return cue;
+  RangeCue r = cue;
+  const double k = std::exp(-log_ratio);
+  r.ground_depth = *cue.ground_depth * k;
+  r.ground_var = *cue.ground_var * k * k;
+  r.ground_noise_var = cue.ground_noise_var * k * k;
+  if (r.pinhole_depth) {
+    const double wp = 1.0 / *r.pinhole_var, wg = 1.0 / *r.ground_var;
+    r.depth = (wp * *r.pinhole_depth + wg * *r.ground_depth) / (wp + wg);
+    r.var = 1.0 / (wp + wg);
+    r.noise_var = (wp * wp * r.pinhole_noise_var + wg * wg * r.ground_noise_var) / ((wp + wg) * (wp + wg));
+  } else {
+    r.depth = r.ground_depth;
+    r.var = r.ground_var;
+    r.noise_var = r.ground_noise_var;
   }
   return r;
 }
@@ -303,13 +325,13 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     const unsigned truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
     if (f.initialised()) {
       f.predict(t, delta);
-      // The voted class changed: the state's range was measured with the other class's height. Rescale it by
-      // how much the range of this very box changes with the prior (the full height ratio when the pinhole
-      // cue dominates, almost nothing when the ground contact does).
+      // The voted class changed: the state's range was measured on the other class's height. Fused ranges are on
+      // the pinhole cue's scale (the ground cue is aligned to it), so range and relative velocity scale with the
+      // ratio of the heights, and the track's cue ratio moves by the same factor; TTC stays where it was.
       if (mem.label != tr.label && priors_.has(mem.label)) {
-        const RangeCue was = range_cue(cam, tr.box, truncated, priors_.at(mem.label).height, cfg_);
-        const RangeCue now = range_cue(cam, tr.box, truncated, size.height, cfg_);
-        if (was.depth && now.depth) f.rescale(*now.depth / *was.depth, cam_x, ego_vx);
+        const double k = size.height / priors_.at(mem.label).height;
+        f.rescale(k, cam_x, ego_vx);
+        if (mem.ratios > 0) mem.log_ratio -= std::log(k);
       }
     }
     mem.label = tr.label;
@@ -329,7 +351,14 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     s.distance_method = "predicted";
 
     if (tr.misses == 0) {
-      const RangeCue cue = range_cue(cam, tr.box, s.truncated, size.height, cfg_);
+      RangeCue cue = range_cue(cam, tr.box, s.truncated, size.height, cfg_);
+      if (cue.pinhole_depth && cue.ground_depth) {
+        // Mean over the track's first frames, then a slow running mean (the factor is a property of the track).
+        const double lr = std::log(*cue.ground_depth / *cue.pinhole_depth);
+        ++mem.ratios;
+        mem.log_ratio += (lr - mem.log_ratio) / std::min(mem.ratios, 20);
+      }
+      if (mem.ratios > 0) cue = aligned(cue, mem.log_ratio);
       if (cue.depth) {
         const cv::Point2d bottom(tr.box.x + tr.box.width / 2.0, tr.box.y + tr.box.height);
         const cv::Vec3d p = cam.cam_to_ego(cv::Vec3d((bottom.x - cam.cx) * *cue.depth / cam.fx,

@@ -21,6 +21,7 @@ namespace hf {
 struct RangeCue {
   std::optional<double> pinhole_depth, pinhole_var;  // optical depth (m) and its variance
   std::optional<double> ground_depth, ground_var;
+  double pinhole_noise_var = 0.0, ground_noise_var = 0.0;  // the frame-to-frame (jitter) part of each variance
   std::optional<double> depth, var;  // fused, with the cues' whole expected errors (they set the weights)
   // Variance of the fused depth from frame-to-frame noise alone (box jitter). The prior's height error and
   // the pitch / road offsets are biases that persist along a track: they scale range and closing speed alike,
@@ -62,6 +63,11 @@ class KalmanEstimator : public Estimator {
     std::string origin = "bumper";
     double front_overhang = 3.4;
   };
+  // Re-fuses a cue with its ground depth divided by exp(log_ratio): a track's ground and pinhole ranges differ by
+  // a factor that is the same on every frame (the class prior's height error, the road's offset), so once the
+  // track has measured it, the two cues are fused on one scale and the fused range does not drift when their
+  // weights change with distance or when one cue comes and goes (which would read as a velocity).
+  static RangeCue aligned(const RangeCue& cue, double log_ratio);
   // Range cue of a box (exposed for tests on synthetic geometry).
   static RangeCue range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
                             double real_height, const Config& c);
@@ -71,6 +77,8 @@ class KalmanEstimator : public Estimator {
   struct TrackMemory {
     estimation::TrackFilter filter;
     std::string label;
+    double log_ratio = 0.0;  // running mean of ln(ground depth / pinhole depth) on this track
+    int ratios = 0;
   };
   Config cfg_;
   ClassPriors priors_;
