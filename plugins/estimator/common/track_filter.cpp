@@ -88,25 +88,6 @@ TrackFilter::Update TrackFilter::update_position(const cv::Vec2d& z, const cv::M
     const double nis = y.dot(S0.inv() * y);
     mean_nis_ = (1.0 - cfg_.noise_memory) * mean_nis_ + cfg_.noise_memory * nis;
   }
-  if (!absolute_ && updates_ == 1 && last_dt_ > 0) {
-    // Without the ego's motion a zero prior says nothing (a parked car closes at the ego's unknown speed): the
-    // second position starts the track from the two-point velocity, with its covariance, instead of pulling a
-    // made-up zero towards it for the next second.
-    const double dt = last_dt_;
-    const cv::Vec2d z1(s_[0], s_[1]);  // the first position, moved into this frame by the prediction
-    s_ = {z[0], z[1], (z[0] - z1[0]) / dt, (z[1] - z1[1]) / dt};
-    P_ = cv::Matx44d::zeros();
-    for (int i = 0; i < 2; ++i)
-      for (int j = 0; j < 2; ++j) {
-        P_(i, j) = R(i, j);
-        P_(i, j + 2) = P_(j + 2, i) = R(i, j) / dt;
-        P_(i + 2, j + 2) = 2.0 * R(i, j) / (dt * dt);
-      }
-    clamp_speed();
-    ++updates_;
-    last_update_ = t_;
-    return Update::kAccepted;
-  }
   cv::Matx<double, 4, 2> PHt;
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 2; ++j) PHt(i, j) = P_(i, j);

@@ -45,8 +45,8 @@ class TrackFilter {
   double last_update() const { return last_update_; }  // time of the last accepted measurement
   double noise_scale() const { return noise_scale_; }  // current factor on the position noise
 
-  // First position (or a restart): velocity zero with init_velocity_sd — the prior "standing still" when the
-  // ego's motion is known (absolute velocities); without it the second position sets the two-point velocity.
+  // First position (or a restart): velocity zero with init_velocity_sd — "standing still" when the ego's motion
+  // is known (absolute velocities), "moving with the ego" otherwise; both wide open.
   void init(double t, const cv::Vec2d& z, const cv::Matx22d& R);
   // Moves the state to time t and into the current ego frame.
   void predict(double t, const EgoDelta& ego);
