@@ -67,7 +67,9 @@ std::map<int64_t, ScaleRatio> KeypointScaleTracker::update(const cv::Mat& image,
     grey = image;
   const cv::Size win(cfg_.window_px, cfg_.window_px);
   std::vector<cv::Mat> pyramid;
-  cv::buildOpticalFlowPyramid(grey, pyramid, win, cfg_.pyramid_levels);
+  // No derivative images: Scharr over three whole 1600x900 levels costs more than LK computing them on the
+  // few patches it tracks.
+  cv::buildOpticalFlowPyramid(grey, pyramid, win, cfg_.pyramid_levels, false);
   const cv::Rect2f frame(0.f, 0.f, static_cast<float>(grey.cols), static_cast<float>(grey.rows));
 
   std::map<int64_t, ScaleRatio> out;
@@ -133,9 +135,19 @@ std::map<int64_t, ScaleRatio> KeypointScaleTracker::update(const cv::Mat& image,
           cv::Point(static_cast<int>(std::ceil(inner.x)), static_cast<int>(std::ceil(inner.y))),
           cv::Point(static_cast<int>(inner.x + inner.width), static_cast<int>(inner.y + inner.height)));
       if (roi.width >= 4 && roi.height >= 4) {
+        // Corners of a large box are sought on a coarser pyramid level (at most ~96 px tall there): the search
+        // costs with the box's area, and LK refines every point on the full image anyway.
+        int level = 0;
+        while (level < static_cast<int>(pyramid.size()) - 1 && (roi.height >> level) > 96) ++level;
+        const int f = 1 << level;
+        const cv::Rect r(roi.x / f, roi.y / f, roi.width / f, roi.height / f);
+        const cv::Mat& img = pyramid[static_cast<size_t>(level)];
+        const cv::Rect in = r & cv::Rect(0, 0, img.cols, img.rows);
         std::vector<cv::Point2f> corners;
-        cv::goodFeaturesToTrack(grey(roi), corners, cfg_.max_points, cfg_.quality, cfg_.min_corner_px);
-        for (cv::Point2f& c : corners) m.points.emplace_back(c.x + roi.x, c.y + roi.y);
+        if (in.width >= 4 && in.height >= 4)
+          cv::goodFeaturesToTrack(img(in), corners, cfg_.max_points, cfg_.quality,
+                                  std::max(1.0, cfg_.min_corner_px / f));
+        for (cv::Point2f& c : corners) m.points.emplace_back((c.x + in.x) * f, (c.y + in.y) * f);
       }
     }
     next[id] = std::move(m);
