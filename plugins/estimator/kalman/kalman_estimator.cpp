@@ -82,6 +82,9 @@ ComponentInfo KalmanEstimator::describe() {
           .describe(
               "box edges this close to the image border are truncated (in addition to the detector's flags)"),
       ParamSpec::boolean("keypoints", true).describe("update closing/depth from the keypoint scale change"),
+      ParamSpec::number("keypoint_band_m", 5.0)
+          .range(0, 1000)
+          .describe("keypoint scale only for objects within this lateral distance of the ego (m)"),
       ParamSpec::number("keypoint_floor", 0.003)
           .range(0, 1)
           .describe("minimum standard error of ln(scale ratio) per frame pair"),
@@ -127,6 +130,7 @@ void KalmanEstimator::open(StageContext& ctx) {
   cfg_.border_margin_px = p.get_double("border_margin_px");
   cfg_.keypoints = p.get_bool("keypoints");
   cfg_.keypoint_floor = p.get_double("keypoint_floor");
+  cfg_.keypoint_band_m = p.get_double("keypoint_band_m");
   cfg_.min_updates = static_cast<int>(p.get_int("min_updates"));
   cfg_.max_gap_s = p.get_double("max_gap_s");
   cfg_.accel_sd_fraction = p.get_double("accel_sd_fraction");
@@ -293,9 +297,19 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
   // Keypoint scale ratios of this frame's matched boxes.
   std::map<int64_t, estimation::ScaleRatio> ratios;
   if (cfg_.keypoints && !frame.image.empty()) {
+    // Only objects that could come into the ego's path need the closing-speed cue; tracking corners costs a few
+    // milliseconds per box, so boxes whose state lies farther than keypoint_band_m to the side (or behind) are
+    // left to the range cues. A track seen for the first time is always measured.
     std::map<int64_t, cv::Rect2f> boxes;
-    for (const Track& tr : tracks.items)
-      if (tr.misses == 0) boxes[tr.id] = tr.box;
+    for (const Track& tr : tracks.items) {
+      if (tr.misses != 0) continue;
+      auto m = tracks_.find(tr.id);
+      if (m != tracks_.end() && m->second.filter.initialised()) {
+        const cv::Vec4d& x = m->second.filter.state();
+        if (std::abs(x[1]) > cfg_.keypoint_band_m || x[0] <= cam_x) continue;
+      }
+      boxes[tr.id] = tr.box;
+    }
     ratios = keypoints_.update(frame.image, t, boxes);
   }
 

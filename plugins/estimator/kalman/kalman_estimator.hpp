@@ -56,6 +56,7 @@ class KalmanEstimator : public Estimator {
     double border_margin_px = 2.0;
     bool keypoints = true;
     double keypoint_floor = 0.003;   // minimum standard error of ln(scale ratio) per frame pair
+    double keypoint_band_m = 5.0;    // keypoints only for objects this close to the ego laterally (m)
     int min_updates = 1;             // accepted measurements before velocity and TTC are reported
     double max_gap_s = 0.5;          // a track without an accepted measurement for longer is not reported
     double accel_sd_fraction = 0.5;  // process noise = this x the class's max acceleration

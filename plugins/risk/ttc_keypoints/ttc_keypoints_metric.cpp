@@ -27,7 +27,7 @@ ComponentInfo TtcKeypointsMetric::describe() {
   i.params.push_back(ParamSpec::number("min_scale_rate", 0.01)
                          .range(0, 100)
                          .describe("(R - 1) / T at or below this (1/s) gives an infinite TTC"));
-  i.params.push_back(ParamSpec::integer("max_points", 60).range(6, 1000).describe("corners sought per box"));
+  i.params.push_back(ParamSpec::integer("max_points", 40).range(6, 1000).describe("corners sought per box"));
   return i;
 }
 

@@ -33,7 +33,7 @@ ScaleRatio scale_from_matches(const std::vector<cv::Point2f>& before, const std:
                               double min_pair_px = 10.0, int min_points = 6);
 
 struct KeypointScaleConfig {
-  int max_points = 60;          // corners sought per box
+  int max_points = 40;          // corners sought per box
   double quality = 0.01;        // goodFeaturesToTrack quality level (fraction of the best corner)
   double min_corner_px = 3.0;   // minimum distance between corners
   double inner_fraction = 0.1;  // each box side is trimmed by this fraction so corners sit on the object
@@ -42,7 +42,7 @@ struct KeypointScaleConfig {
   int min_points = 6;
   double max_fb_error_px = 1.0;  // forward-backward tracking error above which a point is dropped
   int pyramid_levels = 3;
-  int window_px = 21;
+  int window_px = 15;
 };
 
 // Keeps each box's corners from the previous frame and tracks them into the current one with pyramidal
