@@ -251,18 +251,22 @@ Manoeuvre recover(const std::vector<RoadSample>& h, const HazardTrajectory& traj
     return m;
   }
 
-  // Lateral: a lane change when the plan ends in another lane than it started.
+  // Lateral: a lane change when the plan ends in another lane than it started, or than the spec started it in
+  // (a hazard that appears near the end of its lane change; the spec's offset is in road coordinates).
   const double d0 = h.front().d, d1 = h.back().d;
-  if (std::abs(d1 - d0) > 0.5) {
+  const double spec_d = traj.spec.lateral_offset_m;
+  const bool from_spec = std::abs(d1 - d0) <= 0.5 && std::abs(spec_d) > 0.01 && std::abs(spec_d - d1) > 0.5;
+  if (std::abs(d1 - d0) > 0.5 || from_spec) {
+    const double origin = from_spec ? spec_d : d0;
     m.lateral = true;
     m.d_to = d1;
-    m.d_from = d0;
+    m.d_from = origin;
     double best = kInf;
     for (const auto& l : lanes) {
       const double c = l.centre();
-      if (l.type == "driving" && (c - d1) * (d0 - d1) > 0 && std::abs(c - d1) >= std::abs(d0 - d1) - 0.1 &&
-          std::abs(c - d0) < best)
-        best = std::abs(c - d0), m.d_from = c;
+      if (l.type == "driving" && (c - d1) * (origin - d1) > 0 &&
+          std::abs(c - d1) >= std::abs(d0 - d1) - 0.1 && std::abs(c - origin) < best)
+        best = std::abs(c - origin), m.d_from = c;
     }
     const double span = m.d_to - m.d_from;
     double peak = 0;
@@ -501,7 +505,8 @@ void speed_action(XmlWriter& x, const std::string& name, const std::string& shap
 struct HazardEvents {
   std::string kind;
   bool pedestrian = false, lateral = false, speed_change = false;
-  bool relative_end_speed = false;                // the end speed is the ego's plus HazardEndSpeedDelta
+  bool relative_end_speed = false;   // the end speed is the ego's plus HazardEndSpeedDelta
+  bool hold_relative_speed = false;  // before the manoeuvre: the ego's speed plus HazardRelativeSpeed
   double lane_change_delay = 0, speed_delay = 0;  // after the trigger
   EgoTrigger trigger;
   // Pedestrian walk (scenario): from (s, t_from) to (s, t_to).
@@ -564,6 +569,31 @@ void hazard_events(XmlWriter& x, const HazardEvents& ev, const std::string& ego,
     x.close();
     x.close();  // Event
     return;
+  }
+  if (ev.hold_relative_speed) {
+    // Until its manoeuvre the vehicle keeps its speed relative to the ego, so it overtakes (or leads) any ego
+    // as planned; the manoeuvre's speed action replaces this one.
+    x.open("Event",
+           {{"name", "HazardHoldsRelativeSpeed"}, {"priority", "parallel"}, {"maximumExecutionCount", "1"}});
+    x.open("Action", {{"name", "HazardRelativeSpeedAction"}});
+    x.open("PrivateAction");
+    x.open("LongitudinalAction");
+    x.open("SpeedAction");
+    x.empty("SpeedActionDynamics",
+            {{"dynamicsShape", "step"}, {"value", "0"}, {"dynamicsDimension", "time"}});
+    x.open("SpeedActionTarget");
+    x.empty("RelativeTargetSpeed", {{"entityRef", ego},
+                                    {"value", "$HazardRelativeSpeed"},
+                                    {"speedTargetValueType", "delta"},
+                                    {"continuous", "true"}});
+    x.close();
+    x.close();
+    x.close();
+    x.close();
+    x.close();  // Action
+    // After Init has set its speed, not in the same step.
+    sim_time_trigger(x, "StartTrigger", "AfterInit", "0", "greaterThan");
+    x.close();  // Event
   }
   if (ev.lateral) {
     x.open("Event",
@@ -628,6 +658,7 @@ Json XoscSummary::to_json() const {
           {"trigger_time", trigger_time},
           {"critical_time", critical_time},
           {"stop_time", stop_time},
+          {"stop_distance", stop_distance},
           {"plan_min_ttc", f(plan_min_ttc)},
           {"ego_speed", ego_speed},
           {"hazard_speed", hazard_speed},
@@ -678,6 +709,7 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
   ev.lateral = m.lateral && !shape.pedestrian;
   ev.speed_change = m.speed_change && !shape.pedestrian;
   ev.relative_end_speed = ev.speed_change && m.end_speed > 0.5;
+  ev.hold_relative_speed = !shape.pedestrian;
   ev.lane_change_delay = m.lateral ? m.t_lateral - m.t_start : 0;
   ev.speed_delay = m.speed_change ? m.t_speed - m.t_start : 0;
   double trigger_value = 0;
@@ -732,7 +764,11 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
   sum.start_stream_time = T0;
   sum.trigger_time = m.t_start - T0;
   sum.critical_time = t_crit - T0;
-  sum.stop_time = stop_stream - T0;
+  // The story ends when the ego has driven after_s past the critical moment at its planned speed (an ego
+  // slower or faster than planned reaches that point later or earlier), at a collision, or at the latest at
+  // twice the critical moment plus after_s (an ego that stops).
+  sum.stop_distance = plan.ego_s(t_crit) - ego_s0 + opt.after_s * std::max(plan.ego_at(t_crit).speed, 0.5);
+  sum.stop_time = 2 * (t_crit - T0) + opt.after_s;
   sum.plan_min_ttc = plan_min;
   sum.ego_speed = ego0.speed;
   sum.hazard_speed = m.speed;
@@ -758,8 +794,9 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
                    " s at t=" + hazard::num(sum.critical_time, 2) +
                    " s; the ego starts the hazard at t=" + hazard::num(sum.trigger_time, 2) + " s by " +
                    sum.trigger + " " + hazard::num(sum.trigger_value, 2) + " (TriggerValue) after a " +
-                   hazard::num(sum.trigger_time, 1) +
-                   " s lead-in; ends at t=" + hazard::num(sum.stop_time, 2) + " s or at a collision.";
+                   hazard::num(sum.trigger_time, 1) + " s lead-in; ends when the ego has driven " +
+                   hazard::num(sum.stop_distance, 1) +
+                   " m (StopDistance), at a collision, or at t=" + hazard::num(sum.stop_time, 2) + " s.";
   }
 
   XmlWriter x;
@@ -774,6 +811,7 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
   declare(x, "EgoSpeed", "double", d(sum.ego_speed, 3));
   declare(x, "HazardSpeed", "double", d(m.speed, 3));
   declare(x, "HazardStartGap", "double", d(sum.start_gap, 3));
+  if (ev.hold_relative_speed) declare(x, "HazardRelativeSpeed", "double", d(m.speed - sum.ego_speed, 3));
   if (ev.speed_change) {
     declare(x, "HazardDeceleration", "double", d(m.rate, 3));
     if (ev.relative_end_speed)
@@ -788,6 +826,7 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
   declare(x, "TriggerValue", "double", d(sum.trigger_value, 3));
   declare(x, "IntendedMinTtc", "double", d(plan_min, 3));
   declare(x, "AnchorTime", "double", d(traj.anchor_time, 3));
+  declare(x, "StopDistance", "double", d(sum.stop_distance, 3));
   declare(x, "StopTime", "double", d(sum.stop_time, 3));
   x.close();
   x.empty("CatalogLocations");
@@ -942,6 +981,18 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
   x.close();  // Story
   x.open("StopTrigger");
   x.open("ConditionGroup");
+  condition_open(x, "EgoDrovePastTheHazard", "0", "rising");
+  x.open("ByEntityCondition");
+  x.open("TriggeringEntities", {{"triggeringEntitiesRule", "any"}});
+  x.empty("EntityRef", {{"entityRef", opt.ego_name}});
+  x.close();
+  x.open("EntityCondition");
+  x.empty("TraveledDistanceCondition", {{"value", "$StopDistance"}});
+  x.close();
+  x.close();
+  x.close();
+  x.close();
+  x.open("ConditionGroup");
   sim_time_condition(x, "ScenarioEnds", "$StopTime", "greaterThan");
   x.close();
   x.open("ConditionGroup");
@@ -996,23 +1047,22 @@ std::string write_hazard_catalog(const std::string& date) {
   std::vector<Kind> kinds;
   {
     Kind k{"sudden_stop", {}, {}};
-    k.ev.speed_change = true;
+    k.ev.speed_change = k.ev.hold_relative_speed = true;
     k.ev.trigger.kind = "TraveledDistanceCondition";
-    k.params = {{"HazardDeceleration", "double", "6"},
+    k.params = {{"HazardRelativeSpeed", "double", "0"},
+                {"HazardDeceleration", "double", "6"},
                 {"HazardEndSpeed", "double", "0"},
                 {"TriggerValue", "double", "30"}};
     kinds.push_back(k);
   }
   {
     Kind k{"cut_in", {}, {}};
-    k.ev.lateral = k.ev.speed_change = k.ev.relative_end_speed = true;
+    k.ev.lateral = k.ev.speed_change = k.ev.relative_end_speed = k.ev.hold_relative_speed = true;
     k.ev.trigger.kind = "RelativeDistanceCondition";
     k.ev.trigger.rule = "greaterThan";
-    k.params = {{"LaneChangeTime", "double", "3"},
-                {"TargetLaneOffset", "double", "0"},
-                {"HazardDeceleration", "double", "3"},
-                {"HazardEndSpeedDelta", "double", "-3"},
-                {"TriggerValue", "double", "5"}};
+    k.params = {{"HazardRelativeSpeed", "double", "5"},  {"LaneChangeTime", "double", "3"},
+                {"TargetLaneOffset", "double", "0"},     {"HazardDeceleration", "double", "3"},
+                {"HazardEndSpeedDelta", "double", "-3"}, {"TriggerValue", "double", "5"}};
     kinds.push_back(k);
   }
   {

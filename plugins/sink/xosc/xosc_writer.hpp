@@ -48,7 +48,8 @@ struct XoscSummary {
   double start_stream_time = 0;  // stream time of scenario time 0
   double trigger_time = 0;       // when the trigger fires for the recorded ego
   double critical_time = 0;      // the plan's minimum TTC
-  double stop_time = 0;
+  double stop_distance = 0;      // the ego's travelled distance that ends the story
+  double stop_time = 0;          // the latest end
   double plan_min_ttc = kInf;
   double ego_speed = 0;
   double hazard_speed = 0, hazard_end_speed = 0, deceleration = 0, lane_change_time = 0;
