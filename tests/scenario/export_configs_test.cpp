@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <regex>
 #include <set>
 #include <string>
 
@@ -104,11 +105,19 @@ TEST_P(ShippedConfig, ExportsAValidScenarioWhoseHazardTheEgoMeets) {
   const resim::Result nominal = resim::resimulate(xosc, 1.0);
   const resim::Result slower = resim::resimulate(xosc, 0.8);
   const resim::Result faster = resim::resimulate(xosc, 1.2);
-  std::cout << GetParam() << ": " << traj["kind"].get<std::string>() << ", trigger at "
-            << nominal.trigger_time << " s, minimum TTC " << nominal.min_ttc << " s at "
-            << nominal.min_ttc_time << " s (plan " << plan_min << " s); ego x0.8: trigger "
-            << slower.trigger_time << " s, min TTC " << slower.min_ttc << " s; x1.2: trigger "
-            << faster.trigger_time << " s, min TTC " << faster.min_ttc << " s\n";
+  // The plan's moments, as the FileHeader states them.
+  std::ifstream in(xosc);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::smatch planned;
+  ASSERT_TRUE(
+      std::regex_search(text, planned,
+                        std::regex("minimum TTC ([0-9.]+) s at t=([0-9.]+) s; the ego starts the hazard at "
+                                   "t=([0-9.]+) s by ([A-Za-z]+)")));
+  std::cout << GetParam() << ": " << traj["kind"].get<std::string>() << ", " << planned[4] << " fires at "
+            << nominal.trigger_time << " s (planned " << planned[3] << " s), minimum TTC " << nominal.min_ttc
+            << " s at " << nominal.min_ttc_time << " s (plan " << plan_min << " s at " << planned[2]
+            << " s); ego x0.8: trigger " << slower.trigger_time << " s, min TTC " << slower.min_ttc
+            << " s; x1.2: trigger " << faster.trigger_time << " s, min TTC " << faster.min_ttc << " s\n";
   EXPECT_TRUE(nominal.triggered);
   EXPECT_NEAR(nominal.min_ttc, plan_min, 0.3);
   for (const resim::Result* x : {&slower, &faster}) {

@@ -102,9 +102,11 @@ TEST(Xosc, CutInScenarioAndRoadValidateAgainstTheSchemas) {
   EXPECT_NE(x.find("<Property name=\"type\" value=\"ego_vehicle\"/>"), std::string::npos);
   EXPECT_NE(x.find("<CollisionCondition>"), std::string::npos);
   EXPECT_NE(x.find("maxDeceleration=\"10\""), std::string::npos);  // from share/hazard_limits.yaml
-  // The rationale lands in the header, escaped, with the plan's own numbers.
-  EXPECT_NE(x.find("overtakes &amp; cuts in &lt;close&gt; &quot;ahead&quot; of the ego&apos;s lane"),
+  // The rationale stays in the hazard's spec property (escaped); the header carries the plan's own numbers.
+  EXPECT_NE(x.find("overtakes &amp; cuts in &lt;close&gt; \\&quot;ahead\\&quot; of the ego&apos;s lane"),
             std::string::npos);
+  EXPECT_EQ(x.find("overtakes", x.find("<FileHeader")),
+            x.find("overtakes", x.find("<Property name=\"hazard_spec\"")));
   std::smatch mt;
   ASSERT_TRUE(std::regex_search(x, mt, std::regex("minimum TTC ([0-9.]+) s at t=([0-9.]+) s")));
   EXPECT_NEAR(std::stod(mt[1]), tr.intended_min_ttc_s, 0.01);

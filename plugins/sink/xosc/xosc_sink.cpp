@@ -75,7 +75,9 @@ ComponentInfo XoscSink::describe() {
       "by the player or a system under test; 'replay' adds its recorded speed profile). The hazard starts "
       "relative to the ego and its manoeuvre (lane change, speed change, walk) is started by a condition on "
       "the "
-      "ego, after a lead-in; the story ends after_s after the plan's critical moment or at a collision. "
+      "ego, after a lead-in; the story ends when the ego has driven after_s (at its planned speed) past the "
+      "plan's "
+      "critical moment, at a collision, or at twice the critical moment plus after_s. "
       "Parameters for the hazard's speed, start gap, deceleration and trigger value can be swept.";
   i.inputs = {sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
               optional(port<Frame>("frames", "the anchor frame's ego pose, for world coordinates"))};
@@ -90,7 +92,10 @@ ComponentInfo XoscSink::describe() {
       ParamSpec::number("lead_in_s", 3.0)
           .range(0, 60)
           .describe("seconds before the hazard's manoeuvre starts"),
-      ParamSpec::number("after_s", 3.0).range(0, 60).describe("seconds after the plan's critical moment"),
+      ParamSpec::number("after_s", 3.0)
+          .range(0, 60)
+          .describe("seconds after the plan's critical moment (driven at the ego's planned speed) before the "
+                    "story ends"),
       ParamSpec::string("author", "HazardForge").describe("FileHeader author"),
       ParamSpec::string("description", "")
           .describe("FileHeader description (empty: kind, class and rationale)"),

@@ -788,9 +788,10 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
 
   std::string description = opt.description;
   if (description.empty()) {
+    // The spec's rationale stays in the hazard's hazard_spec property: its numbers are the generator's
+    // intent, the header's are the plan's.
     description = "HazardForge " + traj.kind + " (" + traj.object_class + ")";
-    if (!traj.spec.rationale.empty()) description += ": " + traj.spec.rationale;
-    description += " | Plan: minimum TTC " + hazard::num(plan_min, 2) +
+    description += ". Plan: minimum TTC " + hazard::num(plan_min, 2) +
                    " s at t=" + hazard::num(sum.critical_time, 2) +
                    " s; the ego starts the hazard at t=" + hazard::num(sum.trigger_time, 2) + " s by " +
                    sum.trigger + " " + hazard::num(sum.trigger_value, 2) + " (TriggerValue) after a " +
