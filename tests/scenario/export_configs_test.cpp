@@ -1,6 +1,4 @@
-// Every shipped scenario config exports a valid scenario and road: each config's assessment, generation,
-// planning and export nodes run through the CLI on the real recording, up to the frame the hazard is
-// generated.
+// Every shipped scenario config exports a scenario and road that validate and whose hazard the ego meets.
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 

@@ -1,5 +1,4 @@
-// Exported scenarios re-simulated from their XML (resimulation.hpp): the ego triggers the hazard and meets
-// it.
+// Exported scenarios re-simulated from their XML (resimulation.hpp): the ego triggers and meets the hazard.
 #include <gtest/gtest.h>
 
 #include <array>

@@ -1,7 +1,4 @@
-// Re-simulation of an exported scenario, apart from the writer: reads the written .xosc and .xodr with
-// libxml2, evaluates the road, the Init positions, the hazard's actions and the ego's conditions, and drives
-// a point-mass ego that keeps its lane at constant speed; measures the hazard's TTC by the protocol (in path,
-// gap from the front bumper, closing speed).
+// Re-simulation of an exported .xosc/.xodr from the XML alone, with a lane-keeping constant-speed ego.
 #pragma once
 
 #include <gtest/gtest.h>

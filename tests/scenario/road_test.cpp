@@ -1,5 +1,4 @@
-// Road geometry: the reference line fitted to synthetic paths of known geometry stays within centimetres of
-// them; lanes and the OpenDRIVE text follow the scene's facts and validate against the 1.6 schema.
+// Road geometry: reference-line fits of known paths, lanes from scene facts, OpenDRIVE schema validation.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,5 +1,4 @@
-// Test helpers for exported XML: unique temporary folders, schema validation with xmllint (ASAM
-// OpenSCENARIO 1.2, OpenDRIVE 1.6) and reading files back.
+// Test helpers for exported XML: unique temporary folders, xmllint schema validation.
 #pragma once
 
 #include <sys/wait.h>

@@ -1,5 +1,4 @@
-// OpenSCENARIO export: every planned kind writes a scenario that validates against the ASAM OpenSCENARIO 1.2
-// XSD and a road that validates against the OpenDRIVE 1.6 XSD (xmllint), with the ego and the hazard on it.
+// OpenSCENARIO export: scenario, road and catalog validate against their schemas and say what they should.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -42,7 +42,7 @@ road::LaneLayout scene_lanes(const HazardSpec& spec, double* kerb_offset) {
   l.lanes_left = static_cast<int>(number("lanes_left", 0, 10, l.lanes_left));
   l.lanes_right = static_cast<int>(number("lanes_right", 0, 10, l.lanes_right));
   *kerb_offset = number("kerb_offset_m", 0, 5, *kerb_offset);
-  l.edge_width = number("sidewalk_width_m", 0.5, 15, l.edge_width);
+  l.edge_width = number("sidewalk_width_m", 0, 15, l.edge_width);
   if (sc.contains("driving_side")) {
     const Json& side = sc["driving_side"];
     if (!side.is_string() || (side != "right" && side != "left"))
@@ -50,6 +50,7 @@ road::LaneLayout scene_lanes(const HazardSpec& spec, double* kerb_offset) {
     l.left_hand_traffic = side == "left";
   }
   l.edge_type = flag("sidewalks") ? "sidewalk" : flag("pedestrians_without_sidewalks") ? "shoulder" : "";
+  if (l.edge_width < 0.1) l.edge_type.clear();  // no room beside the road: no lane there
   return l;
 }
 

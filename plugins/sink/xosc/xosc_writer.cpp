@@ -1,6 +1,4 @@
-// OpenSCENARIO 1.2 story for a planned hazard: the road fitted to the ego's path, the manoeuvre recovered
-// from the plan in road coordinates, Init positions relative to the ego, ego-triggered events, the hazard
-// catalog.
+// OpenSCENARIO 1.2 story and OpenDRIVE road for a planned hazard, and the hazard maneuver catalog.
 #include "xosc_writer.hpp"
 
 #include <algorithm>

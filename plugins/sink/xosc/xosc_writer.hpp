@@ -1,5 +1,4 @@
-// ASAM OpenSCENARIO 1.2 export of a planned hazard: an OpenDRIVE road fitted to the ego's path, a
-// controllable ego in its lane, and the hazard placed and triggered relative to the ego.
+// OpenSCENARIO 1.2 export of a planned hazard on an OpenDRIVE road fitted to the ego's path.
 #pragma once
 
 #include <optional>

@@ -1,5 +1,4 @@
-// Reference-line fitting: greedy G1 Hermite pieces (paramPoly3, lines where straight) within a tolerance of
-// the driven path, and the s/t mapping on a dense sampling of the result.
+// Reference-line fitting (lines and G1 Hermite paramPoly3 pieces within a tolerance) and the s/t mapping.
 #include "hazardforge/road/reference_line.hpp"
 
 #include <algorithm>

@@ -1,5 +1,4 @@
-// The scene's road as OpenDRIVE 1.6: one road on the fitted reference line, the ego lane centred on it, the
-// scene's lanes either side, a sidewalk (or shoulder) beyond each edge where the scene has one.
+// The scene's road as OpenDRIVE 1.6: one road on the fitted reference line with the scene's lanes.
 #pragma once
 
 #include <optional>

@@ -1,5 +1,4 @@
-// Road geometry from a driven path: an OpenDRIVE reference line (lines and paramPoly3 pieces) fitted to it,
-// with the s/t mapping both ways.
+// An OpenDRIVE reference line fitted to a driven path, with the s/t mapping both ways.
 #pragma once
 
 #include <vector>

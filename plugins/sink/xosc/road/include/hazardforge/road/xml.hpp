@@ -1,5 +1,4 @@
-// Small indented XML writer shared by the OpenDRIVE and OpenSCENARIO exports: fixed-shape documents, every
-// attribute value escaped.
+// Small indented XML writer with attribute escaping, shared by the OpenDRIVE and OpenSCENARIO exports.
 #pragma once
 
 #include <string>
