@@ -92,6 +92,9 @@ void expect_meets(const Case& c, const Measured& m) {
   EXPECT_TRUE(m.nominal.triggered) << c.name;
   EXPECT_NEAR(m.nominal.trigger_time, m.summary.trigger_time, 0.1) << c.name;
   EXPECT_NEAR(m.nominal.min_ttc, c.traj.intended_min_ttc_s, 0.3) << c.name;
+  // The plans' egos drive at a constant speed, as the re-simulated one does: the critical moment comes when
+  // planned.
+  EXPECT_NEAR(m.nominal.min_ttc_time, m.summary.critical_time, 0.3) << c.name;
   // An ego 20 % slower or faster still meets the hazard: it is triggered and the scene becomes Unsafe (TTC
   // below 1.5 s, the protocol's threshold).
   for (const Result* r : {&m.slower, &m.faster}) {
@@ -120,6 +123,35 @@ TEST(Resimulation, SuddenStopOfATruckAhead) {
   s.deceleration_mps2 = 6;
   const Case c{"sudden_stop", plan("sudden_stop", s, test::test_scene(15.0)), options(1, 1)};
   expect_meets(c, run_case(c));
+}
+
+TEST(Resimulation, ParametersSweepTheStory) {
+  // The declared parameters drive the story: a trigger 15 m further on starts the braking 1 s later (ego at
+  // 15 m/s), a harder deceleration brings the contact earlier.
+  HF_REQUIRE_SHARED(test::xosc_schema());
+  HazardSpec s;
+  s.kind = "sudden_stop", s.object_class = "truck", s.initial_distance_m = 30, s.speed_mps = 15;
+  s.deceleration_mps2 = 6;
+  XoscOptions opt = options(1, 1);
+  const XoscExport ex = export_scenario(plan("sudden_stop", s, test::test_scene(15.0)), opt);
+  const fs::path dir = test::unique_temp_dir();
+  test::write_text(dir / "scenario.xodr", ex.xodr);
+  auto with = [&](const std::string& name, const std::string& value) {
+    std::string x = ex.xosc;
+    const std::string key = "<ParameterDeclaration name=\"" + name + "\" parameterType=\"double\" value=\"";
+    const size_t a = x.find(key) + key.size();
+    x.replace(a, x.find('"', a) - a, value);
+    test::write_text(dir / "scenario.xosc", x);
+    return resimulate(dir / "scenario.xosc", 1.0);
+  };
+  const Result base = with("HazardDeceleration", "6");
+  const Result later = with("TriggerValue", std::to_string(ex.summary.trigger_value + 15));
+  const Result harder = with("HazardDeceleration", "9");
+  EXPECT_NEAR(later.trigger_time - base.trigger_time, 1.0, 0.02);
+  EXPECT_LT(harder.min_ttc_time, base.min_ttc_time - 0.1);
+  std::cout << "sweep: trigger " << base.trigger_time << " -> " << later.trigger_time << " s; contact at "
+            << base.min_ttc_time << " s, with 9 m/s^2 at " << harder.min_ttc_time << " s\n";
+  fs::remove_all(dir);
 }
 
 TEST(Resimulation, PedestrianFromTheRightSidewalk) {
