@@ -191,5 +191,42 @@ TEST(Resimulation, PedestrianInABendOfTheRecordedPath) {
   EXPECT_LT(worst, 0.1);
 }
 
+TEST(Resimulation, ReplayedEgoThatSpeedsUpMeetsThePedestrianWhenPlanned) {
+  // A recording in which the ego speeds up (6 m/s + 0.5 m/s^2, straight): the controlled ego keeps its
+  // initial speed and comes late; the replayed one follows the recording and meets the walker when the plan
+  // says.
+  HF_REQUIRE_SHARED(test::xosc_schema());
+  Json track = Json::array();
+  for (double t = 0; t <= 16 + 1e-9; t += 0.5)
+    track.push_back({{"t", t}, {"x", 20 + 6 * t + 0.25 * t * t}, {"y", -10.0}, {"yaw", 0.0}});
+  SceneContext scene = test::test_scene(8.0, 4.0);
+  scene.meta = {{"ego_track", track}};
+  HazardSpec s;
+  s.kind = "pedestrian_crossing", s.object_class = "person", s.initial_distance_m = 60, s.side = "right";
+  s.speed_mps = 1.4, s.target_ttc_s = 1.4;
+  Case c{"pedestrian_crossing_replay", plan("pedestrian_crossing", s, scene), options(1, 0, "sidewalk")};
+  c.opt.ego_path = hazard::EgoPath::recorded(hazard::parse_ego_track(track, "test"), 4.0, "test");
+  c.opt.ego_mode = "replay";
+  const fs::path dir = test::unique_temp_dir();
+  const XoscExport ex = export_scenario(c.traj, c.opt);
+  test::write_text(dir / "scenario.xosc", ex.xosc);
+  test::write_text(dir / "scenario.xodr", ex.xodr);
+  const test::Validation v = test::validate_xml(dir / "scenario.xosc", test::xosc_schema());
+  EXPECT_TRUE(v.ok()) << v.output;
+  const Result replayed = resimulate(dir / "scenario.xosc", 1.0);
+  c.opt.ego_mode = "controlled";
+  test::write_text(dir / "scenario.xosc", export_scenario(c.traj, c.opt).xosc);
+  const Result constant = resimulate(dir / "scenario.xosc", 1.0);
+  std::cout << "replay: trigger " << replayed.trigger_time << " s, minimum TTC " << replayed.min_ttc
+            << " s at " << replayed.min_ttc_time << " s; constant speed: trigger " << constant.trigger_time
+            << " s, at " << constant.min_ttc_time << " s; planned: trigger " << ex.summary.trigger_time
+            << " s, critical " << ex.summary.critical_time << " s\n";
+  EXPECT_NEAR(replayed.trigger_time, ex.summary.trigger_time, 0.1);
+  EXPECT_NEAR(replayed.min_ttc, c.traj.intended_min_ttc_s, 0.3);
+  EXPECT_NEAR(replayed.min_ttc_time, ex.summary.critical_time, 0.3);
+  EXPECT_GT(constant.min_ttc_time, ex.summary.critical_time + 0.3);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace hf

@@ -309,6 +309,46 @@ inline Result resimulate(const fs::path& xosc, double speed_factor) {
         events.push_back({e});
   EXPECT_FALSE(events.empty());
 
+  // ego: replay — the ego's recorded path and speed, timed WorldPosition vertices from the first step after
+  // Init; its road s comes from the nearest point of the road's reference line (sampled every 0.1 m here).
+  std::vector<std::array<double, 3>> replay;  // (time, x, y)
+  for (xmlNode* mg : children(find(sc.root, "Act"), "ManeuverGroup"))
+    if (attr(find(mg, "EntityRef"), "entityRef") == ego_name) {
+      std::vector<xmlNode*> vs;
+      find_all(mg, "Vertex", vs);
+      for (xmlNode* v : vs) {
+        xmlNode* w = find(v, "WorldPosition");
+        replay.push_back({sc.num(v, "time"), sc.num(w, "x"), sc.num(w, "y")});
+      }
+    }
+  std::vector<std::array<double, 3>> line;  // (s, x, y)
+  if (!replay.empty())
+    for (double s = 0; s <= road.length(); s += 0.1) {
+      double x, y, h;
+      road.pose(s, x, y, h);
+      line.push_back({s, x, y});
+    }
+  // Road s and speed of the replayed ego at `time`: the vertices interpolated linearly, projected on the
+  // line.
+  auto replayed = [&](double time, double& s, double& v) {
+    size_t k = 0;
+    while (k + 2 < replay.size() && replay[k + 1][0] < time) ++k;
+    const auto& a = replay[k];
+    const auto& b = replay[std::min(k + 1, replay.size() - 1)];
+    const double span = b[0] - a[0];
+    const double u = span > 0 ? std::clamp((time - a[0]) / span, 0.0, 1.0) : 0.0;
+    const double x = a[1] + u * (b[1] - a[1]), y = a[2] + u * (b[2] - a[2]);
+    v = span > 0 ? std::hypot(b[1] - a[1], b[2] - a[2]) / span : 0.0;
+    size_t best = 0;
+    double best_d = kInf;
+    for (size_t i = 0; i < line.size(); ++i)
+      if (const double d = std::hypot(line[i][1] - x, line[i][2] - y); d < best_d) best_d = d, best = i;
+    const size_t j = std::min(best + 1, line.size() - 1), i0 = j == best ? best - 1 : best;
+    const double dx = line[j][1] - line[i0][1], dy = line[j][2] - line[i0][2];
+    const double along = ((x - line[i0][1]) * dx + (y - line[i0][2]) * dy) / (dx * dx + dy * dy);
+    s = line[i0][0] + along * (line[j][0] - line[i0][0]);
+  };
+
   std::optional<LaneChange> lane_change;
   std::optional<SpeedChange> speed_change;
   std::optional<Walk> walk;
@@ -409,8 +449,16 @@ inline Result resimulate(const fs::path& xosc, double speed_factor) {
 
     if (ego.travelled > stop_distance) break;
     // Motion: the ego keeps its lane; the hazard follows its actions.
-    ego.s += ego.v * dt;
-    ego.travelled += ego.v * dt;
+    if (replay.empty()) {
+      ego.s += ego.v * dt;
+      ego.travelled += ego.v * dt;
+    } else {
+      double s_new, v_new;
+      replayed(time + dt, s_new, v_new);
+      ego.v = v_new;
+      ego.travelled += s_new - ego.s;
+      ego.s = s_new;
+    }
     if (speed_change && speed_change->relative_to) {
       haz.v = std::max(0.0, speed_change->relative_to->v + speed_change->delta);
     } else if (speed_change) {
