@@ -501,7 +501,6 @@ void speed_action(XmlWriter& x, const std::string& name, const std::string& shap
 
 // The hazard's events, shared by the scenario (numbers) and the catalog (parameters only).
 struct HazardEvents {
-  std::string kind;
   bool pedestrian = false, lateral = false, speed_change = false;
   bool relative_end_speed = false;   // the end speed is the ego's plus HazardEndSpeedDelta
   bool hold_relative_speed = false;  // before the manoeuvre: the ego's speed plus HazardRelativeSpeed
@@ -648,24 +647,6 @@ void declare(XmlWriter& x, const std::string& name, const std::string& type, con
 
 }  // namespace
 
-Json XoscSummary::to_json() const {
-  auto f = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
-  return {{"trigger", trigger},
-          {"trigger_value", trigger_value},
-          {"start_stream_time", start_stream_time},
-          {"trigger_time", trigger_time},
-          {"critical_time", critical_time},
-          {"stop_time", stop_time},
-          {"stop_distance", stop_distance},
-          {"plan_min_ttc", f(plan_min_ttc)},
-          {"ego_speed", ego_speed},
-          {"hazard_speed", hazard_speed},
-          {"hazard_end_speed", hazard_end_speed},
-          {"deceleration", deceleration},
-          {"lane_change_time", lane_change_time},
-          {"start_gap", start_gap}};
-}
-
 XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt) {
   if (traj.points.size() < 2 || traj.ego.size() < 2)
     throw Error("xosc: the trajectory needs at least two samples for the hazard and the ego (has " +
@@ -702,7 +683,6 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
 
   // The ego's condition that starts the manoeuvre at the planned moment.
   HazardEvents ev;
-  ev.kind = traj.kind;
   ev.pedestrian = shape.pedestrian;
   ev.lateral = m.lateral && !shape.pedestrian;
   ev.speed_change = m.speed_change && !shape.pedestrian;

@@ -53,7 +53,6 @@ struct XoscSummary {
   double ego_speed = 0;
   double hazard_speed = 0, hazard_end_speed = 0, deceleration = 0, lane_change_time = 0;
   double start_gap = 0;  // ds of the hazard's reference point from the ego's at the start
-  Json to_json() const;
 };
 
 struct XoscExport {
