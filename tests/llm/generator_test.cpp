@@ -63,6 +63,11 @@ TEST(LlmHazard, OfflineSpecAtFirstSafeFrameAfterWarmup) {
   EXPECT_EQ(s.provenance["model"], "offline-planner-1");
   EXPECT_EQ(s.provenance["attempts"], 1);
   EXPECT_EQ(s.provenance["frame_index"], 5);
+  // The road the spec was made for, for exports: the road params and scene facts as the generator used them.
+  EXPECT_EQ(s.provenance["scene"]["driving_side"], "right");
+  EXPECT_EQ(s.provenance["scene"]["lanes_left"], 1);
+  EXPECT_EQ(s.provenance["scene"]["lane_width_m"], 3.5);
+  EXPECT_TRUE(s.provenance["scene"]["sidewalks"].is_boolean());
 
   Json file = test::read_json(r.output_dir() / "hazard_spec.json");
   EXPECT_EQ(file, Json(s));

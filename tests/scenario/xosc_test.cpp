@@ -1,15 +1,13 @@
-// OpenSCENARIO export: every planned kind validates against the ASAM OpenSCENARIO 1.2 XSD with xmllint.
+// OpenSCENARIO export: scenario, road and catalog validate against their schemas and say what they should.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdlib>
+#include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <regex>
 
 #include "hazardforge/testing/stage_runner.hpp"
 #include "scenario_support.hpp"
-#include "test_support.hpp"
+#include "xml_files.hpp"
 #include "xosc_sink.hpp"
 #include "xosc_writer.hpp"
 
@@ -17,24 +15,6 @@ namespace hf {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct Validation {
-  int status = -1;
-  std::string output;
-};
-
-// xmllint --noout --schema OpenSCENARIOv1.2.xsd FILE
-Validation validate(const fs::path& file) {
-  const fs::path xsd = test::shared_dir() / "schemas" / "OpenSCENARIOv1.2.xsd";
-  const fs::path log = file.string() + ".xmllint.txt";
-  const std::string cmd =
-      "xmllint --noout --schema '" + xsd.string() + "' '" + file.string() + "' > '" + log.string() + "' 2>&1";
-  Validation v;
-  const int rc = std::system(cmd.c_str());
-  v.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  v.output = test::read_text(log.string());
-  return v;
-}
 
 HazardTrajectory planned(const std::string& kind, HazardSpec spec, double ego_speed) {
   auto tpl = test::make_template(kind);
@@ -70,6 +50,11 @@ int count(const std::string& text, const std::string& what) {
   return n;
 }
 
+void expect_valid(const fs::path& xosc) {
+  const test::Validation v = test::validate_xml(xosc, test::xosc_schema());
+  EXPECT_TRUE(v.ok()) << v.output;
+}
+
 fs::path write_through_sink(testing::StageRunner& r, const HazardTrajectory& tr,
                             std::optional<Frame> frame = {}) {
   r.push("trajectory", tr, tr.anchor_time);
@@ -78,48 +63,80 @@ fs::path write_through_sink(testing::StageRunner& r, const HazardTrajectory& tr,
   return r.output_dir() / "scenario.xosc";
 }
 
-TEST(Xosc, CutInScenarioValidatesAgainstTheSchema) {
-  HF_REQUIRE_SHARED(test::shared_dir() / "schemas" / "OpenSCENARIOv1.2.xsd");
+TEST(Xosc, CutInScenarioAndRoadValidateAgainstTheSchemas) {
+  HF_REQUIRE_SHARED(test::xosc_schema());
   const HazardTrajectory tr = planned("cut_in", cut_in_spec(), 20.0);
   auto r = testing::StageRunner::create<XoscSink>();
   const fs::path file = write_through_sink(r, tr);
   ASSERT_TRUE(fs::exists(file));
-  const Validation v = validate(file);
-  EXPECT_EQ(v.status, 0) << v.output;
-  EXPECT_NE(v.output.find("validates"), std::string::npos) << v.output;
+  expect_valid(file);
+  const fs::path road = r.output_dir() / "scenario.xodr";
+  ASSERT_TRUE(fs::exists(road));
+  const test::Validation rv = test::validate_xml(road, test::xodr_schema());
+  EXPECT_TRUE(rv.ok()) << rv.output;
+  // The catalog is written once, and validates too.
+  const fs::path catalog = r.output_dir() / "hazard_maneuvers.xosc";
+  ASSERT_TRUE(fs::exists(catalog));
+  expect_valid(catalog);
 
   const std::string x = test::read_text(file.string());
-  EXPECT_EQ(count(x, "<FollowTrajectoryAction>"), 2);
-  EXPECT_EQ(count(x, "<Vertex "), static_cast<int>(tr.points.size() + tr.ego.size()));
-  EXPECT_EQ(count(x, "<TeleportAction>"), 2);
-  EXPECT_NE(x.find("<Vehicle name=\"car\" vehicleCategory=\"car\">"), std::string::npos);
-  EXPECT_NE(x.find("<Axles>"), std::string::npos);
-  EXPECT_NE(x.find("maxDeceleration=\"10\""), std::string::npos);  // from share/hazard_limits.yaml
-  // The rationale lands in the header, escaped.
-  EXPECT_NE(x.find("overtakes &amp; cuts in &lt;close&gt; &quot;ahead&quot; of the ego&apos;s lane"),
+  EXPECT_NE(x.find("<LogicFile filepath=\"scenario.xodr\"/>"), std::string::npos);
+  // Init places the ego in its lane and the hazard relative to it, one lane to the left.
+  EXPECT_NE(x.find("<LanePosition roadId=\"1\" laneId=\"-1\" offset=\"0\""), std::string::npos);
+  EXPECT_NE(x.find("<RelativeLanePosition entityRef=\"Ego\" dLane=\"1\" ds=\"$HazardStartGap\""),
             std::string::npos);
+  EXPECT_EQ(count(x, "<FollowTrajectoryAction>"), 0);
+  EXPECT_EQ(count(x, "<LaneChangeAction "), 1);
+  EXPECT_NE(x.find("<RelativeTargetLane entityRef=\"Ego\" value=\"0\"/>"), std::string::npos);
+  EXPECT_NE(x.find("<RelativeDistanceCondition entityRef=\"Hazard\""), std::string::npos)
+      << x.substr(0, 2500);
+  for (const char* p : {"EgoSpeed", "HazardSpeed", "HazardStartGap", "HazardDeceleration", "TriggerValue",
+                        "LaneChangeTime", "StopTime"})
+    EXPECT_NE(x.find("<ParameterDeclaration name=\"" + std::string(p) + "\""), std::string::npos) << p;
   EXPECT_NE(x.find("<ParameterDeclaration name=\"EgoSpeed\" parameterType=\"double\" value=\"20\"/>"),
             std::string::npos);
-  // The hazard's first vertex is its rear axle: centre -3 m minus half the 0.6 x 4.5 m wheelbase.
-  EXPECT_NE(x.find("<WorldPosition x=\"-4.35\" y=\"3.5\" z=\"0\" h=\"0\" p=\"0\" r=\"0\"/>"),
+  EXPECT_NE(x.find("<ParameterDeclaration name=\"HazardSpeed\" parameterType=\"double\" value=\"26\"/>"),
             std::string::npos);
+  EXPECT_NE(x.find("model3d=\"car_red.osgb\""), std::string::npos);
+  EXPECT_NE(x.find("<Property name=\"type\" value=\"ego_vehicle\"/>"), std::string::npos);
+  EXPECT_NE(x.find("<CollisionCondition>"), std::string::npos);
+  EXPECT_NE(x.find("maxDeceleration=\"10\""), std::string::npos);  // from share/hazard_limits.yaml
+  // The rationale stays in the hazard's spec property (escaped); the header carries the plan's own numbers.
+  EXPECT_NE(x.find("overtakes &amp; cuts in &lt;close&gt; \\&quot;ahead\\&quot; of the ego&apos;s lane"),
+            std::string::npos);
+  EXPECT_EQ(x.find("overtakes", x.find("<FileHeader")),
+            x.find("overtakes", x.find("<Property name=\"hazard_spec\"")));
+  std::smatch mt;
+  ASSERT_TRUE(std::regex_search(x, mt, std::regex("minimum TTC ([0-9.]+) s at t=([0-9.]+) s")));
+  EXPECT_NEAR(std::stod(mt[1]), tr.intended_min_ttc_s, 0.01);
 }
 
-TEST(Xosc, PedestrianScenarioValidatesAgainstTheSchema) {
-  HF_REQUIRE_SHARED(test::shared_dir() / "schemas" / "OpenSCENARIOv1.2.xsd");
-  const HazardTrajectory tr = planned("pedestrian_crossing", crossing_spec(), 10.0);
+TEST(Xosc, PedestrianWaitsOnTheSidewalkAndWalksWhenTheEgoIsClose) {
+  HF_REQUIRE_SHARED(test::xosc_schema());
+  HazardTrajectory tr = planned("pedestrian_crossing", crossing_spec(), 10.0);
+  tr.spec.provenance["scene"] = {{"driving_side", "right"}, {"lanes_left", 1},   {"lanes_right", 0},
+                                 {"lane_width_m", 3.5},     {"sidewalks", true}, {"sidewalk_width_m", 3.0}};
   auto r = testing::StageRunner::create<XoscSink>("author: \"Test & Co\"");
   const fs::path file = write_through_sink(r, tr);
-  const Validation v = validate(file);
-  EXPECT_EQ(v.status, 0) << v.output;
+  expect_valid(file);
+  const test::Validation rv = test::validate_xml(r.output_dir() / "scenario.xodr", test::xodr_schema());
+  EXPECT_TRUE(rv.ok()) << rv.output;
   const std::string x = test::read_text(file.string());
-  EXPECT_NE(x.find("<Pedestrian name=\"person\" mass=\"75\" pedestrianCategory=\"pedestrian\">"),
+  const std::string road = test::read_text((r.output_dir() / "scenario.xodr").string());
+  EXPECT_EQ(count(road, "type=\"sidewalk\""), 2);
+  EXPECT_NE(x.find("<Pedestrian name=\"person\" mass=\"75\" pedestrianCategory=\"pedestrian\" "
+                   "model3d=\"walkman.osgb\">"),
             std::string::npos);
   EXPECT_NE(x.find("author=\"Test &amp; Co\""), std::string::npos);
+  // On the right sidewalk (lane -2, one lane right of the ego's), facing left across the road.
+  EXPECT_NE(x.find("<RelativeLanePosition entityRef=\"Ego\" dLane=\"-1\""), std::string::npos);
+  EXPECT_NE(x.find("<Orientation type=\"relative\" h=\"1.570796\""), std::string::npos);
+  EXPECT_NE(x.find("<TimeToCollisionCondition freespace=\"false\" rule=\"lessThan\" value=\"$TriggerValue\""),
+            std::string::npos);
 }
 
-TEST(Xosc, WorldCoordinatesFromTheAnchorPose) {
-  HF_REQUIRE_SHARED(test::shared_dir() / "schemas" / "OpenSCENARIOv1.2.xsd");
+TEST(Xosc, WorldCoordinatesAreYawOnlyAtGroundLevel) {
+  HF_REQUIRE_SHARED(test::xosc_schema());
   HazardSpec s;
   s.kind = "sudden_stop";
   s.object_class = "truck";
@@ -130,18 +147,27 @@ TEST(Xosc, WorldCoordinatesFromTheAnchorPose) {
   Frame f;
   f.index = 12;
   f.timestamp = tr.anchor_time;
-  // Ego at (100, 200, 1) heading +90 degrees (north) in the world.
-  f.ego.T_world_ego = cv::Matx44d(0, -1, 0, 100, 1, 0, 0, 200, 0, 0, 1, 1, 0, 0, 0, 1);
-  auto r = testing::StageRunner::create<XoscSink>("coordinates: world");
+  // Ego at (100, 200, 1) heading +90 degrees (north), pitched by 0.1 rad: only x, y and the yaw count.
+  const double cp = std::cos(0.1), sp = std::sin(0.1);
+  f.ego.T_world_ego = cv::Matx44d(0, -1, 0, 100, cp, 0, -sp, 200, sp, 0, cp, 1, 0, 0, 0, 1);
+  auto r = testing::StageRunner::create<XoscSink>("coordinates: world\nego: replay");
   const fs::path file = write_through_sink(r, tr, f);
-  const Validation v = validate(file);
-  EXPECT_EQ(v.status, 0) << v.output;
+  expect_valid(file);
   const std::string x = test::read_text(file.string());
-  EXPECT_NE(x.find("<WorldPosition x=\"100\" y=\"200\" z=\"1\" h=\"1.570796\" p=\"0\" r=\"0\"/>"),
+  const std::string road = test::read_text((r.output_dir() / "scenario.xodr").string());
+  // The road runs north through the ego's position; the ego replays its (constant) speed at z = 0.
+  EXPECT_NE(road.find("hdg=\"1.570796327\""), std::string::npos) << road.substr(0, 800);
+  EXPECT_TRUE(std::regex_search(
+      x, std::regex("<WorldPosition x=\"100\" y=\"2[0-9.]+\" z=\"0\" h=\"1.570796\" p=\"0\" r=\"0\"/>")));
+  EXPECT_EQ(count(x, "z=\"1\""), 0);
+  EXPECT_NE(x.find("<TraveledDistanceCondition value=\"$TriggerValue\"/>"), std::string::npos);
+  EXPECT_NE(
+      x.find("<ParameterDeclaration name=\"HazardDeceleration\" parameterType=\"double\" value=\"6\"/>"),
+      std::string::npos);
+  EXPECT_NE(x.find("<ParameterDeclaration name=\"HazardEndSpeed\" parameterType=\"double\" value=\"0\"/>"),
             std::string::npos);
-  // Truck centre 30 m ahead, rear axle 0.3 x 8 m behind it: 27.6 m north of the ego.
-  EXPECT_NE(x.find("<WorldPosition x=\"100\" y=\"227.6\" z=\"1\" h=\"1.570796\" p=\"0\" r=\"0\"/>"),
-            std::string::npos);
+  // The replayed ego starts after Init, so the Init speed is not cancelled.
+  EXPECT_NE(x.find("<SimulationTimeCondition value=\"0\" rule=\"greaterThan\"/>"), std::string::npos);
 
   auto no_pose = testing::StageRunner::create<XoscSink>("coordinates: world");
   Frame bare = f;
@@ -150,15 +176,32 @@ TEST(Xosc, WorldCoordinatesFromTheAnchorPose) {
     write_through_sink(no_pose, tr, bare);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "xosc: coordinates 'world' needs the ego pose of the anchor frame (t=2 s); frame 12 "
-              "carries none");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "xosc: coordinates 'world' needs the ego pose of the anchor frame (t=2 s); frame 12 carries none");
   }
+}
+
+TEST(Xosc, BadSceneFactsAreNamed) {
+  HazardTrajectory tr = planned("cut_in", cut_in_spec(), 20.0);
+  tr.spec.provenance["scene"] = {{"lanes_left", "two"}};
+  auto r = testing::StageRunner::create<XoscSink>();
+  try {
+    write_through_sink(r, tr);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "xosc: the trajectory's spec field provenance.scene.lanes_left must be a number in [0, 10], "
+              "got \"two\"");
+  }
+  tr.spec.provenance["scene"] = {{"driving_side", "middle"}};
+  auto r2 = testing::StageRunner::create<XoscSink>();
+  EXPECT_THROW(write_through_sink(r2, tr), Error);
 }
 
 TEST(Xosc, ValidationCatchesABrokenFile) {
   // The check above can fail: the same file without its mandatory StopTrigger is rejected.
-  HF_REQUIRE_SHARED(test::shared_dir() / "schemas" / "OpenSCENARIOv1.2.xsd");
+  HF_REQUIRE_SHARED(test::xosc_schema());
   const HazardTrajectory tr = planned("cut_in", cut_in_spec(), 20.0);
   XoscOptions opt;
   opt.date = "2024-01-01T00:00:00";
@@ -166,12 +209,12 @@ TEST(Xosc, ValidationCatchesABrokenFile) {
   const size_t a = x.rfind("<StopTrigger>"), b = x.rfind("</StopTrigger>");
   ASSERT_NE(a, std::string::npos);
   x.erase(a, b + std::string("</StopTrigger>").size() - a);
-  const fs::path file = fs::temp_directory_path() / "hf_broken.xosc";
-  std::ofstream(file) << x;
-  const Validation v = validate(file);
+  const fs::path dir = test::unique_temp_dir();
+  test::write_text(dir / "broken.xosc", x);
+  const test::Validation v = test::validate_xml(dir / "broken.xosc", test::xosc_schema());
   EXPECT_NE(v.status, 0);
   EXPECT_NE(v.output.find("fails to validate"), std::string::npos) << v.output;
-  fs::remove(file);
+  fs::remove_all(dir);
 }
 
 TEST(Xosc, EscapesEverythingXmlCannotCarryRaw) {

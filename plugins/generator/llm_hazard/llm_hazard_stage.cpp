@@ -89,6 +89,10 @@ ComponentInfo LlmHazardGenerator::describe() {
           .one_of({"auto", "yes", "no"})
           .describe("crossing vehicles allowed"),
       ParamSpec::string("multi_lane", "auto").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
+      ParamSpec::string("driving_side", "right")
+          .one_of({"right", "left"})
+          .describe("the side of the road traffic keeps to (left: e.g. Singapore, UK); exported scenarios "
+                    "lay out their road by it"),
       ParamSpec::number("sidewalk_width_m", 3.0).range(0, 15).describe("sidewalk width beyond the road edge"),
       ParamSpec::boolean("pedestrians_without_sidewalks", false)
           .describe("edge-case tests: a person may appear on a road without sidewalks, on the shoulder "
@@ -398,7 +402,17 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
                          {"temperature", req.temperature},
                          {"trigger", trigger_},
                          {"frame_index", frame.index},
-                         {"calls", "llm/calls.jsonl"}};
+                         {"calls", "llm/calls.jsonl"},
+                         // The road the spec was made for, so exports lay out the same road.
+                         {"scene",
+                          {{"driving_side", p.get_string("driving_side")},
+                           {"lane_width_m", s.road.lane_width},
+                           {"lanes_left", s.road.lanes_left},
+                           {"lanes_right", s.road.lanes_right},
+                           {"kerb_offset_m", s.road.kerb_offset},
+                           {"sidewalks", s.sidewalks.value},
+                           {"sidewalk_width_m", s.sidewalk_width_m},
+                           {"pedestrians_without_sidewalks", s.pedestrians_without_sidewalks}}}};
       Json written = spec;
       if (std::vector<std::string> bad = spec_validator_->validate(written); !bad.empty())
         throw Error("internal error: the accepted spec does not follow the schema: " + join(bad, "; "));

@@ -2,6 +2,7 @@
 #include "hazardforge/plugin.hpp"
 #include "xosc_sink.hpp"
 
-HAZARDFORGE_PLUGIN("xosc", "0.1.0", "Apache-2.0", "exports planned hazards as ASAM OpenSCENARIO 1.2 files") {
+HAZARDFORGE_PLUGIN("xosc", "0.2.0", "Apache-2.0",
+                   "exports planned hazards as ASAM OpenSCENARIO 1.2 scenarios on OpenDRIVE 1.6 roads") {
   reg.add<hf::XoscSink>();
 }

@@ -1,28 +1,102 @@
-// xosc sink: picks the coordinates (anchor or the dataset's world frame) and writes the scenario file.
+// xosc sink: gathers the scene's road, the ego path and the coordinates; writes scenario, road and catalog.
 #include "xosc_sink.hpp"
 
+#include <filesystem>
+
 #include "hazardforge/geometry.hpp"
+#include "hazardforge/hazard/template_base.hpp"
 #include "xosc_writer.hpp"
 
 namespace hf {
+
+namespace {
+
+// The road the spec was generated for: spec.provenance.scene (the generator's scene facts). Specs from
+// elsewhere get the road the templates assume by default.
+road::LaneLayout scene_lanes(const HazardSpec& spec, double* kerb_offset) {
+  road::LaneLayout l;
+  const hazard::RoadModel defaults;
+  l.lane_width = defaults.lane_width;
+  l.lanes_left = defaults.lanes_left;
+  l.lanes_right = defaults.lanes_right;
+  *kerb_offset = defaults.kerb_offset;
+  if (!spec.provenance.is_object() || !spec.provenance.contains("scene")) return l;
+  const Json& sc = spec.provenance["scene"];
+  const std::string where = "xosc: the trajectory's spec field provenance.scene";
+  if (!sc.is_object()) throw Error(where + " must be an object, got " + sc.dump());
+  auto number = [&](const char* key, double lo, double hi, double fallback) {
+    if (!sc.contains(key)) return fallback;
+    const Json& v = sc[key];
+    if (!v.is_number() || v.get<double>() < lo || v.get<double>() > hi)
+      throw Error(where + "." + key + " must be a number in [" + hazard::num(lo) + ", " + hazard::num(hi) +
+                  "], got " + v.dump());
+    return v.get<double>();
+  };
+  auto flag = [&](const char* key) {
+    if (!sc.contains(key)) return false;
+    if (!sc[key].is_boolean())
+      throw Error(where + "." + key + " must be true or false, got " + sc[key].dump());
+    return sc[key].get<bool>();
+  };
+  l.lane_width = number("lane_width_m", 2, 6, l.lane_width);
+  l.lanes_left = static_cast<int>(number("lanes_left", 0, 10, l.lanes_left));
+  l.lanes_right = static_cast<int>(number("lanes_right", 0, 10, l.lanes_right));
+  *kerb_offset = number("kerb_offset_m", 0, 5, *kerb_offset);
+  l.edge_width = number("sidewalk_width_m", 0, 15, l.edge_width);
+  if (sc.contains("driving_side")) {
+    const Json& side = sc["driving_side"];
+    if (!side.is_string() || (side != "right" && side != "left"))
+      throw Error(where + ".driving_side must be 'right' or 'left', got " + side.dump());
+    l.left_hand_traffic = side == "left";
+  }
+  l.edge_type = flag("sidewalks") ? "sidewalk" : flag("pedestrians_without_sidewalks") ? "shoulder" : "";
+  if (l.edge_width < 0.1) l.edge_type.clear();  // no room beside the road: no lane there
+  return l;
+}
+
+std::filesystem::path with_suffix(const std::string& file, int n, const std::string& ext) {
+  const std::filesystem::path f(file);
+  const std::string stem = f.stem().string() + (n > 1 ? "_" + std::to_string(n) : "");
+  return f.parent_path() / (stem + ext);
+}
+
+}  // namespace
 
 ComponentInfo XoscSink::describe() {
   ComponentInfo i;
   i.name = "xosc";
   i.kind = kind::kSink;
-  i.summary = "writes each planned hazard as an ASAM OpenSCENARIO 1.2 (.xosc) scenario";
+  i.summary =
+      "writes each planned hazard as an ASAM OpenSCENARIO 1.2 (.xosc) scenario with an OpenDRIVE road";
   i.doc =
-      "Ego and hazard become entities (Vehicle with BoundingBox, Performance from share/hazard_limits.yaml "
+      "The road (.xodr beside the .xosc) is fitted to the ego's path, with the scene's lanes, driving side "
       "and "
-      "Axles; Pedestrian for persons), are teleported to their first samples in Init, and follow their timed "
-      "polylines (FollowTrajectoryAction, relative timing, position following). Vehicles are placed by their "
-      "rear "
-      "axle. With coordinates auto/world the anchor frame's ego pose maps the plan into the dataset's world "
-      "frame.";
+      "sidewalks from the spec's provenance.scene. The ego starts in its lane at its recorded speed "
+      "(controlled "
+      "by the player or a system under test; 'replay' adds its recorded speed profile). The hazard starts "
+      "relative to the ego and its manoeuvre (lane change, speed change, walk) is started by a condition on "
+      "the "
+      "ego, after a lead-in; the story ends when the ego has driven after_s (at its planned speed) past the "
+      "plan's "
+      "critical moment, at a collision, or at twice the critical moment plus after_s. "
+      "Parameters for the hazard's speed, start gap, deceleration and trigger value can be swept.";
   i.inputs = {sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
               optional(port<Frame>("frames", "the anchor frame's ego pose, for world coordinates"))};
   i.params = {
       ParamSpec::string("file", "scenario.xosc").describe("file written below the run's output folder"),
+      ParamSpec::string("catalog", "hazard_maneuvers.xosc")
+          .describe("hazard maneuver catalog written once per run below the output folder (empty: none)"),
+      ParamSpec::string("ego", "controlled")
+          .one_of({"controlled", "replay"})
+          .describe("controlled: the ego gets its lane and initial speed only; replay: it also follows its "
+                    "recorded speed profile"),
+      ParamSpec::number("lead_in_s", 3.0)
+          .range(0, 60)
+          .describe("seconds before the hazard's manoeuvre starts"),
+      ParamSpec::number("after_s", 3.0)
+          .range(0, 60)
+          .describe("seconds after the plan's critical moment (driven at the ego's planned speed) before the "
+                    "story ends"),
       ParamSpec::string("author", "HazardForge").describe("FileHeader author"),
       ParamSpec::string("description", "")
           .describe("FileHeader description (empty: kind, class and rationale)"),
@@ -48,6 +122,10 @@ void XoscSink::open(StageContext& ctx) {
   const Params& p = ctx.params();
   file_ = p.get_string("file");
   if (file_.empty()) throw Error("node '" + ctx.node_id() + "': parameter 'file' is empty");
+  catalog_ = p.get_string("catalog");
+  ego_mode_ = p.get_string("ego");
+  lead_in_ = p.get_double("lead_in_s");
+  after_ = p.get_double("after_s");
   author_ = p.get_string("author");
   description_ = p.get_string("description");
   coordinates_ = p.get_string("coordinates");
@@ -95,16 +173,37 @@ void XoscSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
                   (at_anchor ? "; frame " + std::to_string(f->index) + " carries none"
                              : "; connect the frames input"));
   }
-  ++written_;
-  std::string name = file_;
-  if (written_ > 1) {
-    const std::filesystem::path f(file_);
-    name = (f.parent_path() / (f.stem().string() + "_" + std::to_string(written_) + f.extension().string()))
-               .string();
+  opt.lanes = scene_lanes(traj->spec, &opt.kerb_offset);
+  opt.ego_mode = ego_mode_;
+  opt.lead_in_s = lead_in_;
+  opt.after_s = after_;
+  // The recorded ego track (nuScenes) carries the road before and after the plan.
+  if (const Frame* f = in.get<Frame>("frames"); f && std::abs(f->timestamp - traj->anchor_time) < 1e-6 &&
+                                                f->meta.is_object() && f->meta.contains("ego_track")) {
+    const std::string where = "xosc: frame " + std::to_string(f->index) + " meta";
+    opt.ego_path = hazard::EgoPath::recorded(hazard::parse_ego_track(f->meta["ego_track"], where),
+                                             traj->anchor_time, where);
   }
-  hazard::write_file_atomic(ctx.output_dir() / name, write_xosc(*traj, opt));
-  ctx.log(LogLevel::kInfo, "wrote " + name + " (" + traj->kind + ", " + std::to_string(traj->points.size()) +
-                               " vertices, " + (opt.T_world_anchor ? "world" : "anchor") + " coordinates)");
+  ++written_;
+  const std::filesystem::path xosc_name =
+      with_suffix(file_, written_, std::filesystem::path(file_).extension().string());
+  const std::filesystem::path xodr_name = with_suffix(file_, written_, ".xodr");
+  opt.road_file = xodr_name.filename().string();
+  const XoscExport ex = export_scenario(*traj, opt);
+  // The road first: a scenario is never on disk without the road it names.
+  hazard::write_file_atomic(ctx.output_dir() / xodr_name, ex.xodr);
+  hazard::write_file_atomic(ctx.output_dir() / xosc_name, ex.xosc);
+  if (!catalog_.empty() && !catalog_written_) {
+    hazard::write_file_atomic(ctx.output_dir() / catalog_, write_hazard_catalog());
+    catalog_written_ = true;
+  }
+  const XoscSummary& s = ex.summary;
+  ctx.log(LogLevel::kInfo,
+          "wrote " + xosc_name.string() + " and " + xodr_name.string() + " (" + traj->kind + ", " +
+              (opt.T_world_anchor ? "world" : "anchor") + " coordinates): " + s.trigger + " " +
+              hazard::num(s.trigger_value) + " starts the hazard at t=" + hazard::num(s.trigger_time) +
+              " s, plan minimum TTC " + hazard::num(s.plan_min_ttc) +
+              " s at t=" + hazard::num(s.critical_time) + " s, stop at " + hazard::num(s.stop_time) + " s");
 }
 
 }  // namespace hf

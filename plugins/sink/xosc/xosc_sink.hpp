@@ -10,10 +10,12 @@ namespace hf {
 
 // Stage xosc (kind sink).
 // Inputs: `trajectory` (HazardTrajectory, sticky), `frames` (Frame, optional: the anchor frame's ego pose
-// places the scenario in the dataset's world frame). Outputs: none. Writes <output>/<file> (atomic) when a
-// trajectory arrives (<stem>_<n>.xosc for the n-th of a run), so an interrupted run keeps it. Params: file,
-// author, description, coordinates (auto | anchor | world), ego_name, hazard_name, ego_front_m, limits,
-// class_sizes.
+// places the scenario in the dataset's world frame, and its meta.ego_track gives the road beyond the plan).
+// Outputs: none. When a trajectory arrives writes <output>/<file> and its road <stem>.xodr beside it
+// (<stem>_<n>.* for the n-th of a run), and once per run the hazard maneuver catalog; all atomically, so an
+// interrupted run keeps them. The road's lanes come from the spec's provenance.scene (the generator's scene
+// facts). Params: file, catalog, author, description, coordinates (auto | anchor | world), ego (controlled |
+// replay), lead_in_s, after_s, ego_name, hazard_name, ego_front_m, limits, class_sizes.
 class XoscSink : public Stage {
  public:
   static ComponentInfo describe();
@@ -21,7 +23,9 @@ class XoscSink : public Stage {
   void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
 
  private:
-  std::string file_, coordinates_;
+  std::string file_, coordinates_, catalog_, ego_mode_;
+  double lead_in_ = 3, after_ = 3;
+  bool catalog_written_ = false;
   std::string author_, description_, ego_name_, hazard_name_;
   hazard::LimitsTable limits_;
   cv::Vec3d ego_size_{4.5, 1.85, 1.52};
