@@ -137,12 +137,19 @@ TrackFilter::Update TrackFilter::update_inverse_ttc(double z, double var, double
   return Update::kAccepted;
 }
 
+void TrackFilter::set_class_limits(double max_speed_mps, double accel_sd) {
+  cfg_.max_speed_mps = max_speed_mps;
+  cfg_.accel_sd = accel_sd;
+  clamp_speed();
+}
+
 void TrackFilter::rescale(double k, double cam_x, double ego_vx) {
   s_[0] = cam_x + k * (s_[0] - cam_x);
   s_[1] *= k;
   s_[2] = ego_vx + k * (s_[2] - ego_vx);
   s_[3] *= k;
   P_ = P_ * (k * k);
+  clamp_speed();
 }
 
 }  // namespace hf::estimation

@@ -346,6 +346,10 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
         const double k = size.height / priors_.at(mem.label).height;
         f.rescale(k, cam_x, ego_vx);
         if (mem.ratios > 0) mem.log_ratio -= std::log(k);
+        if (limits_.has(tr.label)) {
+          const hazard::KinematicLimits& L = limits_.at(tr.label);
+          f.set_class_limits(L.max_speed_mps, cfg_.accel_sd_fraction * L.max_accel_mps2);
+        }
       }
     }
     mem.label = tr.label;

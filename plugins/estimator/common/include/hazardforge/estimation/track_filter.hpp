@@ -59,6 +59,8 @@ class TrackFilter {
   // Rescales the state about the camera (positions and relative velocity by k): when the class prior behind
   // the range changes (a track relabelled car -> truck), so TTC = range / closing is unchanged.
   void rescale(double k, double cam_x, double ego_vx);
+  // The class's limits (a relabelled track takes its new class's), applied to the state at once.
+  void set_class_limits(double max_speed_mps, double accel_sd);
 
   const cv::Vec4d& state() const { return s_; }
   const cv::Matx44d& covariance() const { return P_; }
