@@ -2,7 +2,8 @@
 #include "hazardforge/road/xml.hpp"
 
 #include <cmath>
-#include <cstdio>
+
+#include "hazardforge/hazard/kinematics.hpp"
 
 namespace hf::road {
 
@@ -36,17 +37,10 @@ std::string xml_escape(const std::string& text) {
 }
 
 std::string xml_num(double v, int decimals) {
+  // XML Schema's spelling of the non-finite doubles; finite ones take the project's one number format.
   if (std::isnan(v)) return "NaN";
   if (std::isinf(v)) return v > 0 ? "INF" : "-INF";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  std::string s = buf;
-  if (s.find('.') != std::string::npos) {
-    while (s.back() == '0') s.pop_back();
-    if (s.back() == '.') s.pop_back();
-  }
-  if (s == "-0") s = "0";
-  return s;
+  return hazard::num(v, decimals);
 }
 
 void XmlWriter::open(const std::string& tag, const XmlAttrs& attrs) {
