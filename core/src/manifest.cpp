@@ -63,21 +63,6 @@ std::string iso8601_now() {
   return buf;
 }
 
-void write_file_atomic(const std::filesystem::path& path, const std::string& text) {
-  std::filesystem::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(path.string() + ": cannot write file");
-    out << text;
-    out.flush();
-    if (!out) throw Error(path.string() + ": write failed (disk full?)");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw Error(path.string() + ": cannot move the finished file into place: " + ec.message());
-}
-
 Json timing_json(const RunResult& r) {
   Json j = Json::array();
   for (const NodeTiming& t : r.timings) {

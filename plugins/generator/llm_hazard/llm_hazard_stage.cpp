@@ -5,7 +5,11 @@
 #include <chrono>
 #include <cmath>
 
+#include <hazardforge/atomic_file.hpp>
 #include <hazardforge/error.hpp>
+#include <hazardforge/json_text.hpp>
+#include <hazardforge/output_path.hpp>
+#include <hazardforge/run_signals.hpp>
 
 #include "llm_hash.hpp"
 #include "llm_json.hpp"
@@ -196,7 +200,8 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   trigger_ = p.get_string("trigger");
   trigger_frame_ = p.get_int("trigger_frame");
   warmup_frames_ = p.get_int("warmup_frames");
-  calls_ = std::make_unique<CallLog>(ctx.output_dir() / "llm" / "calls.jsonl");
+  calls_ = std::make_unique<CallLog>(resolve_output_path(
+      ctx.output_dir(), "llm/calls.jsonl", "node '" + ctx.node_id() + "': the LLM call record"));
   ctx.log(LogLevel::kInfo,
           "hazards from " + provider_->describe_backend() + "; kinds: " + join(allowed_kinds_, ", "));
 }
@@ -400,7 +405,7 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
       Json written = spec;
       if (std::vector<std::string> bad = spec_validator_->validate(written); !bad.empty())
         throw Error("internal error: the accepted spec does not follow the schema: " + join(bad, "; "));
-      write_file_atomic(ctx.output_dir() / "hazard_spec.json", written.dump(2) + "\n");
+      write_file_atomic(ctx.output_dir() / "hazard_spec.json", json_text(written, 2) + "\n");
       ctx.log(LogLevel::kInfo, "hazard " + spec.kind + " (" + spec.object_class + ") accepted after " +
                                    std::to_string(attempt) + " attempt(s)");
       return spec;

@@ -1,6 +1,8 @@
 // xosc sink: picks the coordinates (anchor or the dataset's world frame) and writes the scenario file.
 #include "xosc_sink.hpp"
 
+#include <hazardforge/atomic_file.hpp>
+#include <hazardforge/output_path.hpp>
 #include "hazardforge/geometry.hpp"
 #include "xosc_writer.hpp"
 
@@ -47,6 +49,7 @@ ComponentInfo XoscSink::describe() {
 void XoscSink::open(StageContext& ctx) {
   const Params& p = ctx.params();
   file_ = p.get_string("file");
+  output_param_path(ctx, "file");  // refused at open when it would leave the run folder
   if (file_.empty()) throw Error("node '" + ctx.node_id() + "': parameter 'file' is empty");
   author_ = p.get_string("author");
   description_ = p.get_string("description");
@@ -102,7 +105,7 @@ void XoscSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
     name = (f.parent_path() / (f.stem().string() + "_" + std::to_string(written_) + f.extension().string()))
                .string();
   }
-  hazard::write_file_atomic(ctx.output_dir() / name, write_xosc(*traj, opt));
+  write_file_atomic(ctx.output_dir() / name, write_xosc(*traj, opt));
   ctx.log(LogLevel::kInfo, "wrote " + name + " (" + traj->kind + ", " + std::to_string(traj->points.size()) +
                                " vertices, " + (opt.T_world_anchor ? "world" : "anchor") + " coordinates)");
 }

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "hazardforge/atomic_file.hpp"
 #include "hazardforge/core/graph.hpp"
 #include "hazardforge/core/plugin_loader.hpp"
 #include "hazardforge/core/scheduler.hpp"
@@ -14,10 +15,6 @@ namespace hf::core {
 std::string sha256_file(const std::filesystem::path& file);  // hex; throws hf::Error if unreadable
 std::string sha256_text(const std::string& text);
 std::string iso8601_now();
-
-// Writes `text` to `path` via a temporary file in the same folder and rename(), so readers never see a
-// half-written file and an interrupted write leaves the previous version.
-void write_file_atomic(const std::filesystem::path& path, const std::string& text);
 
 struct ManifestInput {
   std::vector<std::string> argv;
