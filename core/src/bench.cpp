@@ -14,6 +14,7 @@
 
 #include "hazardforge/core/commands.hpp"
 #include "hazardforge/core/manifest.hpp"
+#include "hazardforge/json_text.hpp"
 
 namespace hf::core {
 
@@ -258,7 +259,7 @@ int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b) {
   try {
     std::filesystem::create_directories(out_dir);
     write_file_atomic(out_dir / "bench.md", md.str());
-    write_file_atomic(out_dir / "bench.json", j.dump(2));
+    write_file_atomic(out_dir / "bench.json", hf::json_text(j, 2));
   } catch (const Error& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

@@ -43,6 +43,13 @@ int main(int argc, char** argv) {
   run->add_option("-o,--output", common.output_dir, "Output folder (default runs/<name>-<UTC time>)");
   run->add_option("--max-frames", common.max_frames, "Stop after N frames");
   run->add_flag("-q,--quiet", common.quiet, "No progress or stage log lines");
+  auto add_folder_flags = [&](CLI::App* c) {
+    auto* resume = c->add_flag("--resume", common.resume,
+                               "Run again into an output folder that holds a run of the same config");
+    c->add_flag("--overwrite", common.overwrite, "Clear an output folder that holds an earlier run first")
+        ->excludes(resume);
+  };
+  add_folder_flags(run);
 
   auto* validate = app.add_subcommand("validate", "Validate a graph config; print every problem at once");
   add_config(validate);
@@ -77,6 +84,7 @@ int main(int argc, char** argv) {
   add_config(eval);
   eval->add_option("-o,--output", common.output_dir, "Output folder");
   eval->add_option("--max-frames", common.max_frames, "Stop after N frames");
+  add_folder_flags(eval);
 
   auto* experiment = app.add_subcommand("experiment", "Run a base config under a matrix of overrides");
   ExperimentOptions eopt;
