@@ -132,7 +132,7 @@ int cmd_validate(Host& host, const CommonOptions& o) {
     std::cout << o.config << ": ok (" << g.nodes.size() << " nodes)\n";
     return 0;
   } catch (const Error& e) {
-    std::cerr << e.what() << "\n";
+    std::cerr << redact_urls(e.what()) << "\n";
     return 1;
   }
 }
@@ -216,7 +216,7 @@ int cmd_graph(Host& host, const CommonOptions& o) {
     std::cout << g.to_dot();
     return 0;
   } catch (const Error& e) {
-    std::cerr << e.what() << "\n";
+    std::cerr << redact_urls(e.what()) << "\n";
     return 1;
   }
 }

@@ -9,6 +9,7 @@
 
 #include "hazardforge/core/commands.hpp"
 #include "hazardforge/core/host.hpp"
+#include "hazardforge/redact.hpp"
 
 namespace {
 
@@ -153,7 +154,7 @@ int main(int argc, char** argv) {
       return cmd_assets_harvest(host, hopt);
     }
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << "error: " << hf::redact_urls(e.what()) << "\n";
     return 1;
   }
   return 2;

@@ -1,6 +1,8 @@
 // Run manifest, file hashing, atomic writes and the per-stage timing table.
 #include "hazardforge/core/manifest.hpp"
 
+#include "hazardforge/redact.hpp"
+
 #include <openssl/evp.h>
 #include <unistd.h>
 
@@ -158,9 +160,11 @@ Json make_manifest(const ManifestInput& in, const std::string& status, const Run
     m["wall_seconds"] = result->wall_s;
     m["errors"] = result->errors;
     m["warnings"] = result->log;
+    if (!result->incomplete.empty()) m["incomplete"] = result->incomplete;
     m["timing"] = timing_json(*result);
   }
-  return m;
+  // argv, the config and messages may carry URLs with credentials (an LLM host with user:pass@).
+  return redact_json_urls(m);
 }
 
 }  // namespace hf::core

@@ -1,6 +1,9 @@
 // Threaded graph execution with per-edge bounded queues, sticky/optional inputs, timing and clean shutdown.
 #include "hazardforge/core/scheduler.hpp"
 
+#include "hazardforge/redact.hpp"
+#include "hazardforge/run_signals.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -154,7 +157,8 @@ const std::string& NodeContext::node_id() const { return node->spec->id; }
 void NodeContext::log(LogLevel level, const std::string& message) const {
   if (level < shared->options->min_log_level) return;
   static const char* names[] = {"debug", "info", "warning", "error"};
-  const std::string line = "[" + node->spec->id + "] " + names[static_cast<int>(level)] + ": " + message;
+  const std::string line =
+      "[" + node->spec->id + "] " + names[static_cast<int>(level)] + ": " + redact_urls(message);
   std::lock_guard lk(shared->mu);
   if (!shared->options->quiet) std::cerr << line << "\n";
   if (level >= LogLevel::kWarning) shared->log.push_back(line);
@@ -164,7 +168,7 @@ void fail(NodeRuntime& n, Shared& sh, const std::string& when, const std::string
   n.failed = true;
   sh.abort = true;
   std::lock_guard lk(sh.mu);
-  sh.errors.push_back(n.who() + ": " + when + ": " + what);
+  sh.errors.push_back(n.who() + ": " + when + ": " + redact_urls(what));
 }
 
 void send(NodeRuntime& n, int64_t tick, double ts, bool final, NodeOutputs& out) {
