@@ -206,6 +206,20 @@ void LlmHazardGenerator::open(StageContext& ctx) {
           "hazards from " + provider_->describe_backend() + "; kinds: " + join(allowed_kinds_, ", "));
 }
 
+namespace {
+
+// Each retry re-sends the whole conversation: a huge reply echoed as is would be sent again with every
+// attempt (and recorded with every call), so only its beginning goes back to the model.
+constexpr size_t kMaxEchoedReply = 8000;
+
+std::string echoed_reply(const std::string& reply) {
+  if (reply.size() <= kMaxEchoedReply) return reply;
+  return reply.substr(0, kMaxEchoedReply) + "\n[... reply cut here: " + std::to_string(reply.size()) +
+         " bytes in all]";
+}
+
+}  // namespace
+
 void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (done_) return;
   const Frame& frame = in.require<Frame>("frames");
@@ -235,9 +249,9 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     return;
   }
 
-  HazardSpec spec = generate(ctx, frame, states, risks);
+  std::optional<HazardSpec> spec = generate(ctx, frame, states, risks);
   done_ = true;
-  out.emit("hazard", std::move(spec));
+  if (spec) out.emit("hazard", std::move(*spec));
 }
 
 void LlmHazardGenerator::finish(StageContext& ctx, Outputs&) {
@@ -265,8 +279,9 @@ double LlmHazardGenerator::risk_threshold(const std::vector<const RiskAssessment
               ": no time-to-collision risk input (unit 's'); the hazard's target TTC needs one");
 }
 
-HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, const ObjectStates& states,
-                                        const std::vector<const RiskAssessment*>& risks) {
+std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame,
+                                                       const ObjectStates& states,
+                                                       const std::vector<const RiskAssessment*>& risks) {
   const Params& p = ctx.params();
 
   SceneSettings s;
@@ -345,11 +360,19 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
     LlmReply reply;
     auto t0 = std::chrono::steady_clock::now();
     try {
+      CancellationScope cancel([&ctx] { return ctx.stop_requested(); });
       reply = provider_->complete(req);
     } catch (const Error& e) {
       record["latency_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       record["transport_error"] = e.what();
       record["accepted"] = false;
+      if (ctx.stop_requested()) {
+        // Ctrl-C, not a server fault: the run ends interrupted with the call on record.
+        record["cancelled"] = true;
+        calls_->append(record);
+        ctx.log(LogLevel::kWarning, "no hazard generated: " + std::string(e.what()));
+        return std::nullopt;
+      }
       calls_->append(record);
       throw;  // the host names the node; the provider named the endpoint
     }
@@ -412,7 +435,7 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
     }
     ctx.log(LogLevel::kWarning, "attempt " + std::to_string(attempt) + " rejected: " + join(errors, "; "));
     if (attempt < max_attempts) {
-      req.messages.push_back({"assistant", reply.content});
+      req.messages.push_back({"assistant", echoed_reply(reply.content)});
       req.messages.push_back({"user", retry_prompt_->render({{"errors", bullet_list(errors)}})});
     }
   }

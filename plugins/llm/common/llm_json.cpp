@@ -1,6 +1,7 @@
 // JSON object extraction from free-form model replies (bare JSON, prose around it, ``` fences).
 #include "llm_json.hpp"
 
+#include <algorithm>
 #include <optional>
 #include <string_view>
 
@@ -85,9 +86,33 @@ void scan_objects(std::string_view text, Attempt& a) {
 
 }  // namespace
 
+int json_nesting_depth(std::string_view text) {
+  int depth = 0, deepest = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '{' || c == '[') {
+      deepest = std::max(deepest, ++depth);
+    } else if ((c == '}' || c == ']') && depth > 0) {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
 Json extract_json_object(const std::string& reply) {
   std::string_view text = trim(reply);
   if (text.empty()) throw Error("reply is empty");
+  if (const int depth = json_nesting_depth(text); depth > kMaxJsonDepth)
+    throw Error("reply nests JSON " + std::to_string(depth) + " levels deep (at most " +
+                std::to_string(kMaxJsonDepth) + ")");
   Attempt a;
   Json whole = Json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
   if (whole.is_object()) return whole;
