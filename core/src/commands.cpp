@@ -127,7 +127,7 @@ int cmd_run(Host& host, const CommonOptions& o) {
 
 int cmd_validate(Host& host, const CommonOptions& o) {
   try {
-    Graph g = load_graph(host, o.config, o.overrides);
+    Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins);
     for (const Diagnostic& w : g.warnings) std::cerr << w.str() << "\n";
     std::cout << o.config << ": ok (" << g.nodes.size() << " nodes)\n";
     return 0;
@@ -212,7 +212,7 @@ int cmd_inspect_all(Host& host, bool markdown) {
 
 int cmd_graph(Host& host, const CommonOptions& o) {
   try {
-    Graph g = load_graph(host, o.config, o.overrides);
+    Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins);
     std::cout << g.to_dot();
     return 0;
   } catch (const Error& e) {

@@ -27,9 +27,16 @@ std::vector<std::string> Host::load_plugins(const std::vector<std::filesystem::p
 }
 
 Graph load_graph(Host& host, const std::filesystem::path& config, const std::vector<std::string>& overrides,
-                 GraphConfig* config_out) {
+                 GraphConfig* config_out, bool load_config_plugins) {
   GraphConfig cfg = load_graph_config(config, overrides);
-  std::vector<std::string> errors = host.load_plugins(cfg.plugin_paths);
+  std::vector<std::filesystem::path> config_paths;
+  if (load_config_plugins)
+    config_paths = cfg.plugin_paths;
+  else if (!cfg.plugin_paths.empty())
+    std::cerr << config.string()
+              << ": warning: plugin_paths not loaded (loading runs the libraries' code); pass "
+                 "--load-config-plugins to load them\n";
+  std::vector<std::string> errors = host.load_plugins(config_paths);
   if (!errors.empty()) {
     std::vector<Diagnostic> d;
     for (auto& e : errors) d.push_back({Diagnostic::Severity::kError, {}, e});

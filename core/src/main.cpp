@@ -54,6 +54,8 @@ int main(int argc, char** argv) {
 
   auto* validate = app.add_subcommand("validate", "Validate a graph config; print every problem at once");
   add_config(validate);
+  const char* load_doc = "Also load the libraries in the config's plugin_paths (runs their code)";
+  validate->add_flag("--load-config-plugins", common.load_config_plugins, load_doc);
 
   auto* plugins = app.add_subcommand("plugins", "List plugin libraries, their versions, paths and stages");
   bool plugins_json = false;
@@ -71,6 +73,7 @@ int main(int argc, char** argv) {
   add_config(graph);
   bool dot = false;
   graph->add_flag("--dot", dot, "Graphviz dot output")->required();
+  graph->add_flag("--load-config-plugins", common.load_config_plugins, load_doc);
 
   auto* bench =
       app.add_subcommand("bench", "Benchmark a config: per-stage latency, graph frames/s vs bare detector");
