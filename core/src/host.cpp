@@ -242,6 +242,11 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   } else if (r.interrupted) {
     o.exit_code = 130;
     o.message = "interrupted after " + std::to_string(r.frames) + " frames; outputs kept in " + o.output_dir.string();
+  } else if (!r.incomplete.empty()) {
+    std::string msg;
+    for (const auto& e : r.incomplete)
+      msg += (msg.empty() ? "" : "\n") + std::string("warning: incomplete: ") + e;
+    o.message = msg;
   }
   o.result = std::move(r);
   return o;

@@ -56,6 +56,7 @@ struct Shared {
   std::mutex mu;
   std::vector<std::string> errors;
   std::vector<std::string> log;
+  std::vector<std::string> incomplete;
   std::set<std::filesystem::path> resources;
   std::atomic<bool> abort{false};
   const RunOptions* options = nullptr;
@@ -85,6 +86,7 @@ class NodeContext : public StageContext {
   const std::filesystem::path& output_dir() const override { return out_dir; }
   const ComponentFactory& components() const override { return *factory; }
   void log(LogLevel level, const std::string& message) const override;
+  void report_incomplete(const std::string& reason) const;
   int64_t frame_index() const override { return index; }
   double timestamp() const override { return ts; }
   void record_resource(const std::filesystem::path& file) const override {
@@ -164,6 +166,12 @@ void NodeContext::log(LogLevel level, const std::string& message) const {
   if (level >= LogLevel::kWarning) shared->log.push_back(line);
 }
 
+void NodeContext::report_incomplete(const std::string& reason) const {
+  log(LogLevel::kWarning, reason);
+  std::lock_guard lk(shared->mu);
+  shared->incomplete.push_back("node '" + node->spec->id + "': " + redact_urls(reason));
+}
+
 void fail(NodeRuntime& n, Shared& sh, const std::string& when, const std::string& what) {
   n.failed = true;
   sh.abort = true;
@@ -195,6 +203,7 @@ void guarded(NodeRuntime& n, Shared& sh, const std::string& when, F&& f) {
 }
 
 void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
+  IncompleteReportScope incomplete([&n](const std::string& reason) { n.ctx.report_incomplete(reason); });
   int64_t tick = 0;
   double last_ts = 0.0;
   while (true) {
@@ -231,6 +240,7 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
 }
 
 void run_node(NodeRuntime& n, Shared& sh) {
+  IncompleteReportScope incomplete([&n](const std::string& reason) { n.ctx.report_incomplete(reason); });
   const ComponentInfo& info = n.spec->component->info;
   std::map<std::string, Packet> held;  // sticky ports
   while (true) {
@@ -385,6 +395,7 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
   result.interrupted = opt.interrupt && opt.interrupt->load();
   result.errors = sh.errors;
   result.log = sh.log;
+  result.incomplete = sh.incomplete;
   result.resources.assign(sh.resources.begin(), sh.resources.end());
   for (auto& n : nodes) {
     NodeTiming t{n->spec->id, n->spec->component->info.name, n->spec->component->info.kind, n->process_s,

@@ -1,6 +1,8 @@
 // NuScenesSource: keyframes, camera calibration, ego motion and annotations from the nuScenes tables.
 #include "nuscenes_source.hpp"
 
+#include "hazardforge/image_file.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -348,6 +350,8 @@ bool NuScenesSource::next(StageContext& /*ctx*/, Outputs& out) {
   const fs::path file = dataroot_ / k.filename;
   cv::Mat img;
   if (fs::exists(file)) {
+    require_complete_image(file,
+                           "nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) + ")");
     img = cv::imread(file.string(), cv::IMREAD_COLOR);
     if (img.empty())
       throw Error("nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) +

@@ -24,7 +24,8 @@ struct ManifestInput {
   std::string started_at;
 };
 
-// status: "running", "completed", "interrupted", "failed".
+// status: "running", "completed", "incomplete" (a stage used its input only in part, as allowed),
+// "interrupted", "failed".
 Json make_manifest(const ManifestInput& in, const std::string& status, const RunResult* result,
                    const std::string& ended_at);
 
