@@ -238,3 +238,32 @@ TEST(Hardening, CredentialsInArgumentsAreRedactedFromTheManifest) {
 }
 
 }  // namespace
+
+namespace {
+
+// experiment re-runs a run that did not complete into its own folder (--overwrite) and keeps each run's log.
+TEST(Hardening, ExperimentRerunsAnIncompleteRunIntoItsFolder) {
+  Scene s;
+  const fs::path spec = s.dir / "exp.yaml", out = s.dir / "exp";
+  std::ofstream(spec) << "name: exp\nbase: graph.yaml\nruns:\n  - name: one\n    set: [source.max_frames=1]\n"
+                      << "  - name: two\n    set: [source.max_frames=2]\n";
+  const std::string cmd = std::string(HF_EXE) + " experiment " + quote(spec) + " -o " + quote(out);
+  const auto first = hf::test::run_command(cmd);
+  ASSERT_EQ(first.code, 0) << first.out;
+  for (const char* id : {"one", "two"}) {
+    EXPECT_TRUE(fs::exists(out / id / "run.log")) << id;
+    EXPECT_EQ(hf::test::read_json_file(out / id / "manifest.json")["status"], "completed") << id;
+  }
+  // A run left failed (e.g. by an earlier crash) is run again into the same folder.
+  hf::Json m = hf::test::read_json_file(out / "two" / "manifest.json");
+  m["status"] = "failed";
+  std::ofstream(out / "two" / "manifest.json") << m.dump();
+  const auto second = hf::test::run_command(cmd);
+  ASSERT_EQ(second.code, 0) << second.out;
+  EXPECT_TRUE(has(second.out, "experiment: one already complete, skipped")) << second.out;
+  EXPECT_EQ(hf::test::read_json_file(out / "two" / "manifest.json")["status"], "completed");
+  EXPECT_EQ(hf::test::read_json_file(out / "two" / "manifest.json")["frames"], 2);
+  EXPECT_TRUE(fs::exists(out / "two" / "run.log"));
+}
+
+}  // namespace
