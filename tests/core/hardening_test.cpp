@@ -4,6 +4,7 @@
 
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "command.hpp"
 #include "hazardforge/types.hpp"
@@ -264,6 +265,41 @@ TEST(Hardening, ExperimentRerunsAnIncompleteRunIntoItsFolder) {
   EXPECT_EQ(hf::test::read_json_file(out / "two" / "manifest.json")["status"], "completed");
   EXPECT_EQ(hf::test::read_json_file(out / "two" / "manifest.json")["frames"], 2);
   EXPECT_TRUE(fs::exists(out / "two" / "run.log"));
+}
+
+}  // namespace
+
+namespace {
+
+// A cut video: fails by default; with allow_partial the run ends "incomplete", says how many frames, exit 0.
+TEST(Hardening, ACutVideoFailsOrEndsIncomplete) {
+  hf::test::TempDir dir;
+  const fs::path video = dir / "clip.avi", run = dir / "run";
+  {
+    cv::VideoWriter w(video.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25.0, {160, 120});
+    ASSERT_TRUE(w.isOpened());
+    for (int k = 0; k < 38; ++k) w.write(cv::Mat(120, 160, CV_8UC3, cv::Scalar::all(6 * k)));
+  }
+  fs::resize_file(video, fs::file_size(video) * 4 / 10);
+  const fs::path config = dir / "graph.yaml";
+  std::ofstream(config)
+      << "nodes:\n  - id: source\n    stage: video\n    params: {path: clip.avi, hfov_deg: 60}\n"
+      << "  - id: sink\n    stage: jsonl\n    inputs: {records: [source.frames]}\n"
+      << "    params: {csv: false}\n";
+  const std::string exe = std::string(HF_EXE) + " run -q " + quote(config);
+  const auto strict = hf::test::run_command(exe + " -o " + quote(run));
+  EXPECT_EQ(strict.code, 1) << strict.out;
+  EXPECT_TRUE(has(strict.out, "of the 38 frames its container declares")) << strict.out;
+  EXPECT_EQ(hf::test::read_json_file(run / "manifest.json")["status"], "failed");
+  const auto partial =
+      hf::test::run_command(exe + " -o " + quote(run) + " --overwrite --set source.allow_partial=true");
+  EXPECT_EQ(partial.code, 0) << partial.out;
+  EXPECT_TRUE(has(partial.out, "warning: incomplete: node 'source': video file '")) << partial.out;
+  const hf::Json m = hf::test::read_json_file(run / "manifest.json");
+  EXPECT_EQ(m["status"], "incomplete");
+  ASSERT_EQ(m["incomplete"].size(), 1u);
+  EXPECT_TRUE(has(m["incomplete"][0].get<std::string>(), "of the 38 frames its container declares")) << m;
+  EXPECT_LT(m["frames"].get<int>(), 37);
 }
 
 }  // namespace
