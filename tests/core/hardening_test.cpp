@@ -5,6 +5,7 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <sstream>
 
 #include "command.hpp"
 #include "hazardforge/types.hpp"
@@ -300,6 +301,33 @@ TEST(Hardening, ACutVideoFailsOrEndsIncomplete) {
   ASSERT_EQ(m["incomplete"].size(), 1u);
   EXPECT_TRUE(has(m["incomplete"][0].get<std::string>(), "of the 38 frames its container declares")) << m;
   EXPECT_LT(m["frames"].get<int>(), 37);
+}
+
+}  // namespace
+
+namespace {
+
+// A disk that fills up during the run, stood in for by a file-size limit (EFBIG where a full disk gives
+// ENOSPC; the same write path): the run fails naming file and frame, the JSON lines file ends in a whole
+// line, no temporary file is left and the manifest says failed.
+TEST(Hardening, AFullDiskFailsTheRunWithWholeLinesAndNoTemporaries) {
+  Scene s;
+  for (int i = 3; i < 150; ++i)
+    cv::imwrite((s.dir / ("images/" + std::to_string(i) + ".png")).string(), cv::Mat(48, 64, CV_8UC3));
+  // dash counts ulimit -f in 512-byte blocks: 40 = 20 KB, more than the manifest, less than 150 lines.
+  const auto c = hf::test::run_command("trap '' XFSZ; ulimit -f 40; " + std::string(HF_EXE) + " run -q " +
+                                       quote(s.config) + " -o " + quote(s.run));
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, (s.run / "frames.jsonl").string() + ": cannot write: File too large (frame "))
+      << c.out;
+  EXPECT_EQ(s.manifest()["status"], "failed");
+  std::ifstream in(s.run / "frames.jsonl", std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(text.empty());
+  EXPECT_EQ(text.back(), '\n');
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) EXPECT_TRUE(hf::Json::accept(line)) << line;
+  for (const auto& f : files_below(s.run)) EXPECT_EQ(f.find(".tmp."), std::string::npos) << f;
 }
 
 }  // namespace
