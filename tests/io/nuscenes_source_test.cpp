@@ -10,6 +10,7 @@
 #include "hazardforge/testing/stage_runner.hpp"
 #include "io_test_util.hpp"
 #include "nuscenes_source.hpp"
+#include "nuscenes_tables.hpp"
 #include "test_support.hpp"
 
 namespace hf {
@@ -281,6 +282,16 @@ TEST(NuScenesSource, BrokenTablesNameTheFile) {
               "nuScenes table '" + c.table("calibrated_sensor").string() + "': record '" + cam_token +
                   "': field 'camera_intrinsic' is not a 3x3 matrix");
   }
+}
+
+// What fuzz_hazard_reply found for replies holds for tables: a number too large for a double is an
+// out_of_range error in nlohmann, which must still name the table.
+TEST(NuScenesSource, ANumberTooLargeForADoubleNamesTheTable) {
+  TempDir dir;
+  std::ofstream(dir / "t.json") << R"([{"token": "a", "timestamp": 1e999}])";
+  EXPECT_EQ(
+      error_of([&] { source::nuscenes::Table::load(dir / "t.json"); }),
+      "nuScenes table '" + (dir / "t.json").string() + "': invalid JSON: number overflow parsing '1e999'");
 }
 
 // Values valid JSON allows but geometry does not: each fails at load naming the file, record and field.

@@ -39,6 +39,24 @@ TEST(LlmLimits, NestingDepthIsMeasuredOutsideStrings) {
   EXPECT_EQ(llm::json_nesting_depth("no json"), 0);
 }
 
+// Found by fuzz_hazard_reply: nlohmann reports a number too large for a double as out_of_range, not as a
+// parse error, and it escaped the extraction (and with it the retry loop).
+TEST(LlmLimits, ANumberTooLargeForADoubleIsAReplyErrorNotACrash) {
+  try {
+    llm::extract_json_object(R"({"speed_mps": 1e11011})");
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "reply is not valid JSON: number overflow parsing '1e11011'");
+  }
+  try {
+    llm::parse_response("ollama", "http://u:p@h/api/chat", R"({"done": 1e11011})");
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "ollama: POST http://***@h/api/chat: response is not JSON: number overflow parsing '1e11011'");
+  }
+}
+
 TEST(LlmLimits, AReplyNestedDeeperThanTheLimitIsRejectedBeforeParsing) {
   ScriptedServer srv("/api/chat");
   const int levels = 100000;

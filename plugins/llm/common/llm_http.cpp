@@ -126,7 +126,7 @@ Json parse_response(const std::string& who, const std::string& url, const std::s
                 " levels deep (at most " + std::to_string(kMaxJsonDepth) + ")");
   try {
     return Json::parse(body);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // parse errors and numbers too large for a double
     std::string what = e.what();
     if (auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
     throw Error(who + ": POST " + redact_urls(url) + ": response is not JSON: " + what);

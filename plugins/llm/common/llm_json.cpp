@@ -20,7 +20,7 @@ std::string_view trim(std::string_view s) {
 }
 
 // nlohmann's messages start with "[json.exception.parse_error.101] "; the rest is what a reader needs.
-std::string parse_message(const Json::parse_error& e) {
+std::string parse_message(const Json::exception& e) {
   std::string what = e.what();
   if (auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
   return what;
@@ -61,7 +61,8 @@ void try_candidate(std::string_view text, Attempt& a) {
       a.object = std::move(j);
     else if (a.error.empty() && j.is_array())
       a.error = "reply is a JSON array, not an object";
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {
+    // Not only parse errors: a number too large for a double ("1e11011") is an out_of_range error.
     if (a.error.empty()) a.error = "reply is not valid JSON: " + parse_message(e);
   }
 }

@@ -17,7 +17,7 @@ Table Table::load(const fs::path& file) {
   if (!in) throw Error("nuScenes table '" + file.string() + "' cannot be read");
   try {
     t.records_ = Json::parse(in);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // parse errors and numbers too large for a double
     // nlohmann's message carries the line and column; keep it, prefixed by the file.
     std::string what = e.what();
     const std::string tag = "] ";
