@@ -3,6 +3,7 @@
 
 #include "fuzz_input_file.hpp"
 #include "hazardforge/core/graph.hpp"
+#include "hazardforge/json_text.hpp"
 #include "test_stages.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -16,7 +17,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     hf::core::GraphConfig cfg = hf::core::load_graph_config(file);
     hf::core::Graph g = hf::core::build_graph(cfg, *registry);
     (void)g.to_dot();
-    (void)g.resolved().dump();
+    (void)hf::json_text(g.resolved());
   } catch (const hf::Error&) {
   }
   return 0;

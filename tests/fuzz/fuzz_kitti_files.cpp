@@ -2,6 +2,7 @@
 #include <cstdint>
 
 #include "fuzz_input_file.hpp"
+#include "hazardforge/error.hpp"
 #include "kitti_files.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
