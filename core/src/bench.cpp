@@ -14,6 +14,7 @@
 
 #include "hazardforge/core/commands.hpp"
 #include "hazardforge/core/manifest.hpp"
+#include "hazardforge/json_text.hpp"
 
 namespace hf::core {
 
@@ -207,8 +208,9 @@ int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b) {
     stages[n.id] = {{"stage", n.component->info.name}, {"median_ms", ms}};
     std::string inner;
     if (!full.empty() && full.front().inner_ms.count(n.id)) {
-      for (const auto& [label, v0] : full.front().inner_ms.at(n.id)) {
-        (void)v0;
+      for (const auto& entry : full.front().inner_ms.at(n.id)) {
+        // A named copy, not a structured binding: clang before 16 cannot capture bindings in lambdas.
+        const std::string& label = entry.first;
         const double v = med(full, [&](const Sample& x) {
           auto it = x.inner_ms.find(n.id);
           return (it != x.inner_ms.end() && it->second.count(label)) ? it->second.at(label) : 0.0;
@@ -258,7 +260,7 @@ int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b) {
   try {
     std::filesystem::create_directories(out_dir);
     write_file_atomic(out_dir / "bench.md", md.str());
-    write_file_atomic(out_dir / "bench.json", j.dump(2));
+    write_file_atomic(out_dir / "bench.json", hf::json_text(j, 2));
   } catch (const Error& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

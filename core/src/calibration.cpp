@@ -1,6 +1,8 @@
 // Chessboard calibration (OpenCV findChessboardCorners + cornerSubPix + calibrateCamera) and its YAML file.
 #include "hazardforge/core/calibration.hpp"
 
+#include "hazardforge/atomic_file.hpp"
+
 #include "hazardforge/calibration_file.hpp"
 
 #include <unistd.h>
@@ -142,21 +144,10 @@ void write_calibration(const CalibrationResult& r, const fs::path& yaml) {
   e << YAML::EndMap;
   if (!e.good()) throw Error("cannot format calibration for '" + yaml.string() + "': " + e.GetLastError());
 
-  // Same folder as the target so rename() is atomic: a reader never sees half a file.
-  const fs::path dir = yaml.has_parent_path() ? yaml.parent_path() : fs::path(".");
-  std::string tmpl = (dir / ("." + yaml.filename().string() + ".XXXXXX")).string();
-  const int fd = mkstemp(tmpl.data());
-  if (fd < 0)
-    throw Error("cannot write calibration '" + yaml.string() + "': cannot create a file in " + dir.string());
-  const std::string text = std::string(e.c_str()) + "\n";
-  bool ok = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
-  ok = (::fsync(fd) == 0) && ok;
-  ok = (::close(fd) == 0) && ok;
-  std::error_code ec;
-  if (ok) fs::rename(tmpl, yaml, ec);
-  if (!ok || ec) {
-    fs::remove(tmpl, ec);
-    throw Error("cannot write calibration '" + yaml.string() + "'");
+  try {
+    write_file_atomic(yaml, std::string(e.c_str()) + "\n");
+  } catch (const Error& err) {
+    throw Error("cannot write calibration: " + std::string(err.what()));
   }
 }
 

@@ -1,5 +1,7 @@
 // run / validate / plugins / inspect / graph / eval: thin layers over the host facade.
 #include "hazardforge/core/commands.hpp"
+#include "hazardforge/json_text.hpp"
+#include "hazardforge/redact.hpp"
 
 #include <algorithm>
 #include <fstream>
@@ -25,7 +27,8 @@ std::string param_line(const ParamSpec& p) {
   std::ostringstream os;
   os << p.name << " (" << param_type_name(p.type);
   if (p.required()) os << ", required";
-  else os << ", default " << p.default_value.dump();
+  else
+    os << ", default " << hf::json_text(p.default_value);
   if (p.min || p.max) {
     os << ", range ";
     os << (p.min ? num(*p.min) : std::string("-inf")) << ".." << (p.max ? num(*p.max) : std::string("inf"));
@@ -44,6 +47,10 @@ std::string port_flags(const PortSpec& p) {
   else if (p.optional) f += " optional";
   if (p.multi) f += " multi";
   return f;
+}
+
+FolderUse folder_use(const CommonOptions& o) {
+  return o.overwrite ? FolderUse::kOverwrite : o.resume ? FolderUse::kResume : FolderUse::kNew;
 }
 
 }  // namespace
@@ -74,8 +81,8 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
         }
         for (const auto& ch : p.choices) range += (range.empty() ? "" : ", ") + ch;
         os << "| `" << p.name << "` | " << param_type_name(p.type) << " | "
-           << (p.required() ? std::string("*required*") : "`" + p.default_value.dump() + "`") << " | " << range
-           << " | " << p.doc << " |\n";
+           << (p.required() ? std::string("*required*") : "`" + hf::json_text(p.default_value) + "`") << " | "
+           << range << " | " << p.doc << " |\n";
       }
       os << "\n";
     }
@@ -105,9 +112,10 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
 }
 
 int cmd_run(Host& host, const CommonOptions& o) {
-  RunRequest req{o.config, o.overrides, o.output_dir, o.max_frames, true, o.quiet, o.argv, o.interrupt, {}};
+  RunRequest req{o.config, o.overrides, o.output_dir, o.max_frames, true,
+                 o.quiet,  o.argv,      o.interrupt,  {},           folder_use(o)};
   RunOutcome out = run_config(host, req);
-  if (!out.message.empty()) std::cerr << out.message << "\n";
+  if (!out.message.empty()) std::cerr << redact_urls(out.message) << "\n";
   if (out.result && out.exit_code == 0) {
     const RunResult& r = *out.result;
     std::cerr << "done: " << r.frames << " frames in " << std::fixed << std::setprecision(1) << r.wall_s << " s ("
@@ -119,12 +127,12 @@ int cmd_run(Host& host, const CommonOptions& o) {
 
 int cmd_validate(Host& host, const CommonOptions& o) {
   try {
-    Graph g = load_graph(host, o.config, o.overrides);
+    Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins);
     for (const Diagnostic& w : g.warnings) std::cerr << w.str() << "\n";
     std::cout << o.config << ": ok (" << g.nodes.size() << " nodes)\n";
     return 0;
   } catch (const Error& e) {
-    std::cerr << e.what() << "\n";
+    std::cerr << redact_urls(e.what()) << "\n";
     return 1;
   }
 }
@@ -141,7 +149,7 @@ int cmd_plugins(Host& host, bool json) {
                               {"path", p.path.string()},
                               {"description", p.description},
                               {"components", p.components}});
-    std::cout << j.dump(2) << "\n";
+    std::cout << hf::json_text(j, 2) << "\n";
   } else {
     std::cout << "search path:\n";
     for (const auto& p : host.searched()) std::cout << "  " << p.string() << "\n";
@@ -204,19 +212,20 @@ int cmd_inspect_all(Host& host, bool markdown) {
 
 int cmd_graph(Host& host, const CommonOptions& o) {
   try {
-    Graph g = load_graph(host, o.config, o.overrides);
+    Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins);
     std::cout << g.to_dot();
     return 0;
   } catch (const Error& e) {
-    std::cerr << e.what() << "\n";
+    std::cerr << redact_urls(e.what()) << "\n";
     return 1;
   }
 }
 
 int cmd_eval(Host& host, const CommonOptions& o) {
-  RunRequest req{o.config, o.overrides, o.output_dir, o.max_frames, true, o.quiet, o.argv, o.interrupt, {}};
+  RunRequest req{o.config, o.overrides, o.output_dir, o.max_frames, true,
+                 o.quiet,  o.argv,      o.interrupt,  {},           folder_use(o)};
   RunOutcome out = run_config(host, req);
-  if (!out.message.empty()) std::cerr << out.message << "\n";
+  if (!out.message.empty()) std::cerr << redact_urls(out.message) << "\n";
   if (out.exit_code != 0) return out.exit_code;
   // Print every Markdown report the run wrote (evaluation sinks name theirs report.md).
   int printed = 0;

@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "hazardforge/core/commands.hpp"
+#include "hazardforge/json_text.hpp"
 
 extern char** environ;
 
@@ -101,6 +102,10 @@ std::string run_status(const std::filesystem::path& dir) {
   }
 }
 
+std::filesystem::path log_while_running(const std::filesystem::path& dir, const std::string& id) {
+  return dir / (id + ".run.log");
+}
+
 pid_t spawn(const std::vector<std::string>& args, const std::filesystem::path& log) {
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
@@ -182,6 +187,8 @@ int cmd_experiment(Host& /*host*/, const ExperimentOptions& o) {
     const size_t i = running.at(pid);
     running.erase(pid);
     codes[i] = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    std::error_code ec;
+    std::filesystem::rename(log_while_running(dir, runs[i].id), dir / runs[i].id / "run.log", ec);
     std::cerr << "experiment: " << runs[i].id << (codes[i] == 0 ? " completed" : " FAILED (exit " + std::to_string(codes[i]) + ", see " + (dir / runs[i].id / "run.log").string() + ")") << "\n";
   };
   while (next < runs.size() || !running.empty()) {
@@ -200,12 +207,13 @@ int cmd_experiment(Host& /*host*/, const ExperimentOptions& o) {
         ++next;
         continue;
       }
-      std::filesystem::create_directories(rdir);
       std::vector<std::string> args = {exe};
       for (const auto& p : o.plugin_paths) args.insert(args.end(), {"--plugin-path", p});
-      args.insert(args.end(), {"run", base.string(), "-o", rdir.string(), "-q"});
+      // A run not completed (or forced) is re-run from scratch; its folder belongs to the new run.
+      args.insert(args.end(), {"run", base.string(), "-o", rdir.string(), "-q", "--overwrite"});
       for (const auto& s : r.overrides) args.insert(args.end(), {"--set", s});
-      running[spawn(args, rdir / "run.log")] = next;
+      // The log stays beside the run folder while the run owns that folder, and moves into it afterwards.
+      running[spawn(args, log_while_running(dir, r.id))] = next;
       std::cerr << "experiment: started " << r.id << "\n";
       ++next;
       continue;
@@ -248,13 +256,14 @@ int cmd_experiment(Host& /*host*/, const ExperimentOptions& o) {
         for (const auto& c : cols) {
           if (!row.contains(c) || row[c].is_null()) md << " |";
           else if (row[c].is_number_float()) md << " " << std::setprecision(3) << row[c].get<double>() << " |";
-          else md << " " << (row[c].is_string() ? row[c].get<std::string>() : row[c].dump()) << " |";
+          else
+            md << " " << (row[c].is_string() ? row[c].get<std::string>() : hf::json_text(row[c])) << " |";
         }
         md << "\n";
       }
     }
   }
-  write_file_atomic(dir / "comparison.json", cmp.dump(2));
+  write_file_atomic(dir / "comparison.json", hf::json_text(cmp, 2));
   write_file_atomic(dir / "comparison.md", md.str());
   std::cout << md.str();
   std::cerr << "experiment: " << runs.size() - failed << "/" << runs.size() << " runs complete (" << skipped

@@ -5,6 +5,7 @@
 #include <functional>
 #include <set>
 #include <sstream>
+#include <unordered_map>
 
 namespace hf::core {
 
@@ -305,14 +306,19 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
   }
   std::vector<std::string> stream_names;
   for (const auto& [s, p] : producers) stream_names.push_back(s);
+  // Indexes built once keep validation near-linear in nodes and edges (graphs with tens of thousands of
+  // nodes).
+  std::unordered_map<std::string, size_t> json_index;  // node id -> its (last) position in the file
+  for (size_t j = 0; j < jnodes.size(); ++j)
+    if (jnodes[j].is_object() && jnodes[j].contains("id") && jnodes[j]["id"].is_string())
+      json_index[jnodes[j]["id"].get<std::string>()] = j;
   for (size_t i = 0; i < nodes.size(); ++i) {
     const NodeSpec& n = nodes[i];
     for (const auto& [port, streams] : n.inputs) {
       const PortSpec* ip = n.component->info.input(port);
       for (size_t k = 0; k < streams.size(); ++k) {
         std::string p;
-        for (size_t j = 0; j < jnodes.size(); ++j)
-          if (jnodes[j].is_object() && jnodes[j].value("id", "") == n.id) p = "/nodes/" + std::to_string(j);
+        if (auto j = json_index.find(n.id); j != json_index.end()) p = "/nodes/" + std::to_string(j->second);
         p += "/inputs/" + ptr_token(port);
         if (ip->multi && jnodes.is_array()) p += "/" + std::to_string(k);
         const std::string& s = streams[k];
@@ -345,22 +351,41 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
                                 "); a graph is driven by exactly one source");
   }
 
-  // ---- topological order and cycles -----------------------------------------------------------------------------
-  std::map<std::string, std::vector<std::string>> deps;  // node -> upstream nodes
-  for (const NodeSpec& n : nodes)
-    for (const auto& [port, streams] : n.inputs)
+  // ---- topological order and cycles
+  // ----------------------------------------------------------------------------- Depth-first search with an
+  // explicit stack: a chain of 80,000 nodes must not recurse 80,000 calls deep.
+  std::unordered_map<std::string, size_t> index_of;  // node id -> position in `nodes`
+  for (size_t i = 0; i < nodes.size(); ++i) index_of.emplace(nodes[i].id, i);
+  std::vector<std::vector<size_t>> deps(nodes.size());  // node -> upstream nodes
+  for (size_t i = 0; i < nodes.size(); ++i)
+    for (const auto& [port, streams] : nodes[i].inputs)
       for (const auto& s : streams)
-        if (auto it = producers.find(s); it != producers.end()) deps[n.id].push_back(it->second.first->id);
-  std::map<std::string, int> state;  // 0 new, 1 on stack, 2 done
-  std::vector<std::string> order, stack;
+        if (auto it = producers.find(s); it != producers.end())
+          deps[i].push_back(index_of.at(it->second.first->id));
+  std::vector<int> state(nodes.size(), 0);     // 0 new, 1 on the path, 2 done
+  std::vector<size_t> path_pos(nodes.size());  // where a node on the path sits in `path`
+  std::vector<size_t> order;
   std::set<std::string> reported;
-  std::function<void(const std::string&)> visit = [&](const std::string& id) {
-    state[id] = 1;
-    stack.push_back(id);
-    for (const auto& d : deps[id]) {
+  struct Visit {
+    size_t node, next_dep;
+  };
+  for (size_t root_node = 0; root_node < nodes.size(); ++root_node) {
+    if (state[root_node] != 0) continue;
+    std::vector<Visit> path{{root_node, 0}};
+    state[root_node] = 1;
+    path_pos[root_node] = 0;
+    while (!path.empty()) {
+      Visit& v = path.back();
+      if (v.next_dep == deps[v.node].size()) {
+        state[v.node] = 2;
+        order.push_back(v.node);
+        path.pop_back();
+        continue;
+      }
+      const size_t d = deps[v.node][v.next_dep++];
       if (state[d] == 1) {
-        auto from = std::find(stack.begin(), stack.end(), d);
-        std::vector<std::string> cyc(from, stack.end());
+        std::vector<std::string> cyc;
+        for (size_t k = path_pos[d]; k < path.size(); ++k) cyc.push_back(nodes[path[k].node].id);
         std::vector<std::string> key = cyc;
         std::sort(key.begin(), key.end());
         std::string k;
@@ -368,29 +393,21 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
         if (reported.insert(k).second) {
           std::string text;
           for (auto& x : cyc) text += "'" + x + "' -> ";
-          text += "'" + d + "'";
-          const NodeSpec* at = nullptr;
-          for (const auto& nn : nodes)
-            if (nn.id == d) at = &nn;
-          error(at ? at->where : doc.at("/nodes"), "the graph has a cycle: " + text);
+          text += "'" + nodes[d].id + "'";
+          error(nodes[d].where, "the graph has a cycle: " + text);
         }
       } else if (state[d] == 0) {
-        visit(d);
+        state[d] = 1;
+        path_pos[d] = path.size();
+        path.push_back({d, 0});
       }
     }
-    stack.pop_back();
-    state[id] = 2;
-    order.push_back(id);
-  };
-  for (const NodeSpec& n : nodes)
-    if (state[n.id] == 0) visit(n.id);
+  }
 
   if (!diags.empty()) throw DiagnosticError(std::move(diags));
 
   for (const auto& [s, p] : producers) g.producers[s] = {p.first->id, p.second->name};
-  for (const std::string& id : order)
-    for (NodeSpec& n : nodes)
-      if (n.id == id) g.nodes.push_back(std::move(n));
+  for (const size_t i : order) g.nodes.push_back(std::move(nodes[i]));
   return g;
 }
 
@@ -405,12 +422,15 @@ std::string Graph::to_dot() const {
   for (const NodeSpec& n : nodes)
     os << "  " << q(n.id) << " [label=" << q(n.id + "\\n" + n.component->info.kind + "/" + n.component->info.name)
        << "];\n";
+  std::unordered_map<std::string, const NodeSpec*> by_id;
+  for (const NodeSpec& n : nodes) by_id.emplace(n.id, &n);
   for (const NodeSpec& n : nodes)
     for (const auto& [port, streams] : n.inputs)
       for (const auto& s : streams) {
         auto it = producers.find(s);
         if (it == producers.end()) continue;
-        const NodeSpec* src = node(it->second.first);
+        const auto found = by_id.find(it->second.first);
+        const NodeSpec* src = found == by_id.end() ? nullptr : found->second;
         const PortSpec* op = src ? src->component->info.output(it->second.second) : nullptr;
         os << "  " << q(it->second.first) << " -> " << q(n.id) << " [label="
            << q(it->second.second + " → " + port + (op ? "\\n" + op->type_str() : "")) << "];\n";

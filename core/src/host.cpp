@@ -1,11 +1,15 @@
 // Host facade: plugins + config + graph + run + manifest, shared by run/eval/bench/experiment.
 #include "hazardforge/core/host.hpp"
 
+#include "hazardforge/json_text.hpp"
+#include "hazardforge/output_path.hpp"
+
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <mutex>
@@ -23,9 +27,16 @@ std::vector<std::string> Host::load_plugins(const std::vector<std::filesystem::p
 }
 
 Graph load_graph(Host& host, const std::filesystem::path& config, const std::vector<std::string>& overrides,
-                 GraphConfig* config_out) {
+                 GraphConfig* config_out, bool load_config_plugins) {
   GraphConfig cfg = load_graph_config(config, overrides);
-  std::vector<std::string> errors = host.load_plugins(cfg.plugin_paths);
+  std::vector<std::filesystem::path> config_paths;
+  if (load_config_plugins)
+    config_paths = cfg.plugin_paths;
+  else if (!cfg.plugin_paths.empty())
+    std::cerr << config.string()
+              << ": warning: plugin_paths not loaded (loading runs the libraries' code); pass "
+                 "--load-config-plugins to load them\n";
+  std::vector<std::string> errors = host.load_plugins(config_paths);
   if (!errors.empty()) {
     std::vector<Diagnostic> d;
     for (auto& e : errors) d.push_back({Diagnostic::Severity::kError, {}, e});
@@ -102,6 +113,53 @@ class Progress {
 
 }  // namespace
 
+namespace {
+
+bool folder_empty(const std::filesystem::path& dir) {
+  std::error_code ec;
+  return std::filesystem::directory_iterator(dir, ec) == std::filesystem::directory_iterator();
+}
+
+// Makes `dir` ready for a run as `use` allows; throws hf::Error with what to do otherwise.
+void claim_run_folder(const std::filesystem::path& dir, FolderUse use, const Json& config) {
+  std::error_code ec;
+  if (!std::filesystem::exists(dir, ec) || folder_empty(dir)) return;
+  const std::string d = dir.string();
+  const auto manifest_file = dir / "manifest.json";
+  if (!std::filesystem::is_regular_file(manifest_file, ec))
+    throw Error(d +
+                ": the output folder is not empty and holds no run (no manifest.json); a run folder belongs "
+                "to one run: choose a new or empty folder");
+  Json old;
+  try {
+    std::ifstream in(manifest_file);
+    old = Json::parse(in);
+  } catch (const std::exception& e) {
+    throw Error(manifest_file.string() + ": unreadable manifest of an earlier run: " + e.what());
+  }
+  const std::string status = old.value("status", std::string("unknown"));
+  switch (use) {
+    case FolderUse::kNew:
+      throw Error(d + ": the output folder already holds a run (status '" + status +
+                  "'); use --resume to run the same config into it again or --overwrite to clear it first");
+    case FolderUse::kResume: {
+      const Json before = old.value("config_after_overrides", Json());
+      if (before != config) {
+        const Json patch = Json::diff(before, config);
+        const std::string where = patch.empty() ? std::string("/") : patch[0].value("path", std::string("/"));
+        throw Error(d + ": --resume needs the same config, but the earlier run's config differs at '" +
+                    (where.empty() ? std::string("/") : where) + "'; use --overwrite or a new folder");
+      }
+      return;
+    }
+    case FolderUse::kOverwrite:
+      for (const auto& e : std::filesystem::directory_iterator(dir)) std::filesystem::remove_all(e.path());
+      return;
+  }
+}
+
+}  // namespace
+
 RunOutcome run_config(Host& host, const RunRequest& req) {
   RunOutcome o;
   GraphConfig cfg;
@@ -116,22 +174,27 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   if (!req.only_nodes.empty()) graph = graph.subgraph(req.only_nodes);
   if (!req.quiet)
     for (const Diagnostic& w : graph.warnings) std::cerr << w.str() << "\n";
-  o.output_dir = req.output_dir.empty() ? std::filesystem::path("runs") / (graph.name + "-" + utc_stamp())
-                                        : req.output_dir;
-  std::error_code ec;
-  std::filesystem::create_directories(o.output_dir, ec);
-  if (ec) {
+  // The config's name comes from the user: made a single safe path component so it cannot climb out of runs/.
+  o.output_dir = req.output_dir.empty()
+                     ? std::filesystem::path("runs") / (safe_path_component(graph.name) + "-" + utc_stamp())
+                     : req.output_dir;
+  try {
+    claim_run_folder(o.output_dir, req.folder_use, cfg.doc.value);
+    std::error_code ec;
+    std::filesystem::create_directories(o.output_dir, ec);
+    if (ec) throw Error(o.output_dir.string() + ": cannot create output folder: " + ec.message());
+  } catch (const std::exception& e) {
     o.exit_code = 1;
-    o.message = o.output_dir.string() + ": cannot create output folder: " + ec.message();
+    o.message = std::string("error: ") + e.what();
     return o;
   }
   ManifestInput mi{req.argv, &graph, &cfg, &host.loader().plugins(), iso8601_now()};
   const auto manifest_path = o.output_dir / "manifest.json";
   try {
-    write_file_atomic(manifest_path, make_manifest(mi, "running", nullptr, "").dump(2));
-  } catch (const Error& e) {
+    write_file_atomic(manifest_path, json_text(make_manifest(mi, "running", nullptr, ""), 2));
+  } catch (const std::exception& e) {
     o.exit_code = 1;
-    o.message = e.what();
+    o.message = std::string("error: ") + e.what();
     return o;
   }
 
@@ -146,13 +209,29 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
     std::lock_guard lk(pmu);
     progress.update(done, total);
   };
-  RunResult r = run_graph(graph, host.registry(), opt);
-  progress.done();
-  const std::string status = !r.ok() ? "failed" : r.interrupted ? "interrupted" : "completed";
+  RunResult r;
+  // The manifest already says "running": whatever escapes the scheduler must still end up in it.
   try {
-    write_file_atomic(manifest_path, make_manifest(mi, status, &r, iso8601_now()).dump(2));
+    r = run_graph(graph, host.registry(), opt);
+  } catch (const std::exception& e) {
+    r.errors.push_back(e.what());
+  } catch (...) {
+    r.errors.push_back("unknown exception while running the graph");
+  }
+  progress.done();
+  const std::string status = !r.ok()                 ? "failed"
+                             : r.interrupted         ? "interrupted"
+                             : !r.incomplete.empty() ? "incomplete"
+                                                     : "completed";
+  try {
     write_file_atomic(o.output_dir / "timing.md", timing_table(r));
-  } catch (const Error& e) {
+  } catch (const std::exception& e) {
+    r.errors.push_back(e.what());
+  }
+  try {
+    write_file_atomic(manifest_path,
+                      json_text(make_manifest(mi, r.ok() ? status : "failed", &r, iso8601_now()), 2));
+  } catch (const std::exception& e) {
     r.errors.push_back(e.what());
   }
   if (!r.ok()) {
@@ -163,6 +242,11 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   } else if (r.interrupted) {
     o.exit_code = 130;
     o.message = "interrupted after " + std::to_string(r.frames) + " frames; outputs kept in " + o.output_dir.string();
+  } else if (!r.incomplete.empty()) {
+    std::string msg;
+    for (const auto& e : r.incomplete)
+      msg += (msg.empty() ? "" : "\n") + std::string("warning: incomplete: ") + e;
+    o.message = msg;
   }
   o.result = std::move(r);
   return o;

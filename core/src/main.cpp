@@ -9,6 +9,7 @@
 
 #include "hazardforge/core/commands.hpp"
 #include "hazardforge/core/host.hpp"
+#include "hazardforge/redact.hpp"
 
 namespace {
 
@@ -43,9 +44,18 @@ int main(int argc, char** argv) {
   run->add_option("-o,--output", common.output_dir, "Output folder (default runs/<name>-<UTC time>)");
   run->add_option("--max-frames", common.max_frames, "Stop after N frames");
   run->add_flag("-q,--quiet", common.quiet, "No progress or stage log lines");
+  auto add_folder_flags = [&](CLI::App* c) {
+    auto* resume = c->add_flag("--resume", common.resume,
+                               "Run again into an output folder that holds a run of the same config");
+    c->add_flag("--overwrite", common.overwrite, "Clear an output folder that holds an earlier run first")
+        ->excludes(resume);
+  };
+  add_folder_flags(run);
 
   auto* validate = app.add_subcommand("validate", "Validate a graph config; print every problem at once");
   add_config(validate);
+  const char* load_doc = "Also load the libraries in the config's plugin_paths (runs their code)";
+  validate->add_flag("--load-config-plugins", common.load_config_plugins, load_doc);
 
   auto* plugins = app.add_subcommand("plugins", "List plugin libraries, their versions, paths and stages");
   bool plugins_json = false;
@@ -63,6 +73,7 @@ int main(int argc, char** argv) {
   add_config(graph);
   bool dot = false;
   graph->add_flag("--dot", dot, "Graphviz dot output")->required();
+  graph->add_flag("--load-config-plugins", common.load_config_plugins, load_doc);
 
   auto* bench =
       app.add_subcommand("bench", "Benchmark a config: per-stage latency, graph frames/s vs bare detector");
@@ -77,6 +88,7 @@ int main(int argc, char** argv) {
   add_config(eval);
   eval->add_option("-o,--output", common.output_dir, "Output folder");
   eval->add_option("--max-frames", common.max_frames, "Stop after N frames");
+  add_folder_flags(eval);
 
   auto* experiment = app.add_subcommand("experiment", "Run a base config under a matrix of overrides");
   ExperimentOptions eopt;
@@ -145,7 +157,7 @@ int main(int argc, char** argv) {
       return cmd_assets_harvest(host, hopt);
     }
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << "error: " << hf::redact_urls(e.what()) << "\n";
     return 1;
   }
   return 2;

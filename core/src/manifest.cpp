@@ -1,6 +1,8 @@
 // Run manifest, file hashing, atomic writes and the per-stage timing table.
 #include "hazardforge/core/manifest.hpp"
 
+#include "hazardforge/redact.hpp"
+
 #include <openssl/evp.h>
 #include <unistd.h>
 
@@ -61,21 +63,6 @@ std::string iso8601_now() {
   char buf[32];
   std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
   return buf;
-}
-
-void write_file_atomic(const std::filesystem::path& path, const std::string& text) {
-  std::filesystem::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(path.string() + ": cannot write file");
-    out << text;
-    out.flush();
-    if (!out) throw Error(path.string() + ": write failed (disk full?)");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw Error(path.string() + ": cannot move the finished file into place: " + ec.message());
 }
 
 Json timing_json(const RunResult& r) {
@@ -173,9 +160,11 @@ Json make_manifest(const ManifestInput& in, const std::string& status, const Run
     m["wall_seconds"] = result->wall_s;
     m["errors"] = result->errors;
     m["warnings"] = result->log;
+    if (!result->incomplete.empty()) m["incomplete"] = result->incomplete;
     m["timing"] = timing_json(*result);
   }
-  return m;
+  // argv, the config and messages may carry URLs with credentials (an LLM host with user:pass@).
+  return redact_json_urls(m);
 }
 
 }  // namespace hf::core

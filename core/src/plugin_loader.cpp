@@ -1,6 +1,8 @@
 // dlopen-based plugin loading with the descriptor handshake (size, ABI major/minor, ABI tag) checked first.
 #include "hazardforge/core/plugin_loader.hpp"
 
+#include "hazardforge/core/elf_symbols.hpp"
+
 #include <dlfcn.h>
 #include <unistd.h>
 
@@ -30,6 +32,9 @@ void PluginLoader::load(const std::filesystem::path& library) {
   for (const auto& p : plugins_)
     if (std::filesystem::equivalent(p.path, library)) return;  // already loaded
 
+  // dlopen runs a library's constructors: a file that does not even export the entry symbol is refused first.
+  if (!elf_exports_symbol(library, HF_PLUGIN_ENTRY_SYMBOL))
+    throw Error(path + ": not a HazardForge plugin: entry symbol '" HF_PLUGIN_ENTRY_SYMBOL "' not found");
   dlerror();
   void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (!handle) {

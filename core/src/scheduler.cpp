@@ -1,6 +1,9 @@
 // Threaded graph execution with per-edge bounded queues, sticky/optional inputs, timing and clean shutdown.
 #include "hazardforge/core/scheduler.hpp"
 
+#include "hazardforge/redact.hpp"
+#include "hazardforge/run_signals.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -53,6 +56,7 @@ struct Shared {
   std::mutex mu;
   std::vector<std::string> errors;
   std::vector<std::string> log;
+  std::vector<std::string> incomplete;
   std::set<std::filesystem::path> resources;
   std::atomic<bool> abort{false};
   const RunOptions* options = nullptr;
@@ -82,6 +86,7 @@ class NodeContext : public StageContext {
   const std::filesystem::path& output_dir() const override { return out_dir; }
   const ComponentFactory& components() const override { return *factory; }
   void log(LogLevel level, const std::string& message) const override;
+  void report_incomplete(const std::string& reason) const;
   int64_t frame_index() const override { return index; }
   double timestamp() const override { return ts; }
   void record_resource(const std::filesystem::path& file) const override {
@@ -154,17 +159,24 @@ const std::string& NodeContext::node_id() const { return node->spec->id; }
 void NodeContext::log(LogLevel level, const std::string& message) const {
   if (level < shared->options->min_log_level) return;
   static const char* names[] = {"debug", "info", "warning", "error"};
-  const std::string line = "[" + node->spec->id + "] " + names[static_cast<int>(level)] + ": " + message;
+  const std::string line =
+      "[" + node->spec->id + "] " + names[static_cast<int>(level)] + ": " + redact_urls(message);
   std::lock_guard lk(shared->mu);
   if (!shared->options->quiet) std::cerr << line << "\n";
   if (level >= LogLevel::kWarning) shared->log.push_back(line);
+}
+
+void NodeContext::report_incomplete(const std::string& reason) const {
+  log(LogLevel::kWarning, reason);
+  std::lock_guard lk(shared->mu);
+  shared->incomplete.push_back("node '" + node->spec->id + "': " + redact_urls(reason));
 }
 
 void fail(NodeRuntime& n, Shared& sh, const std::string& when, const std::string& what) {
   n.failed = true;
   sh.abort = true;
   std::lock_guard lk(sh.mu);
-  sh.errors.push_back(n.who() + ": " + when + ": " + what);
+  sh.errors.push_back(n.who() + ": " + when + ": " + redact_urls(what));
 }
 
 void send(NodeRuntime& n, int64_t tick, double ts, bool final, NodeOutputs& out) {
@@ -191,6 +203,7 @@ void guarded(NodeRuntime& n, Shared& sh, const std::string& when, F&& f) {
 }
 
 void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
+  IncompleteReportScope incomplete([&n](const std::string& reason) { n.ctx.report_incomplete(reason); });
   int64_t tick = 0;
   double last_ts = 0.0;
   while (true) {
@@ -227,6 +240,7 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
 }
 
 void run_node(NodeRuntime& n, Shared& sh) {
+  IncompleteReportScope incomplete([&n](const std::string& reason) { n.ctx.report_incomplete(reason); });
   const ComponentInfo& info = n.spec->component->info;
   std::map<std::string, Packet> held;  // sticky ports
   while (true) {
@@ -381,6 +395,7 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
   result.interrupted = opt.interrupt && opt.interrupt->load();
   result.errors = sh.errors;
   result.log = sh.log;
+  result.incomplete = sh.incomplete;
   result.resources.assign(sh.resources.begin(), sh.resources.end());
   for (auto& n : nodes) {
     NodeTiming t{n->spec->id, n->spec->component->info.name, n->spec->component->info.kind, n->process_s,

@@ -35,6 +35,8 @@ int cmd_assets_harvest(Host& host, const HarvestOptions& o) {
   req.overrides = o.overrides;
   req.overrides.push_back("harvester.out_dir=" + std::filesystem::absolute(o.output_dir).string());
   req.output_dir = std::filesystem::path(o.output_dir) / "run";
+  // The harvest's own run record is rewritten with the assets it describes.
+  req.folder_use = FolderUse::kOverwrite;
   req.argv = o.argv;
   req.interrupt = o.interrupt;
   RunOutcome out = run_config(host, req);

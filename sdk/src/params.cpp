@@ -1,5 +1,6 @@
 // Parameter declarations, validation against YAML-given values, and typed access for stages.
 #include "hazardforge/params.hpp"
+#include "hazardforge/json_text.hpp"
 
 #include <dlfcn.h>
 
@@ -93,7 +94,7 @@ const Json& Params::raw(const std::string& name) const {
 
 namespace {
 [[noreturn]] void type_error(const std::string& name, const char* want, const Json& v) {
-  throw Error("parameter '" + name + "' should be " + want + ", got " + v.dump());
+  throw Error("parameter '" + name + "' should be " + want + ", got " + hf::json_text(v));
 }
 }  // namespace
 
@@ -251,7 +252,8 @@ Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, con
         if (e.is_number()) e = e.get<double>();
     }
     if (!type_ok(s.type, v)) {
-      err(s.name, what + ": parameter '" + s.name + "' expects " + param_type_name(s.type) + ", got " + v.dump());
+      err(s.name, what + ": parameter '" + s.name + "' expects " + param_type_name(s.type) + ", got " +
+                      hf::json_text(v));
       continue;
     }
     auto check_range = [&](double x) {

@@ -1,6 +1,10 @@
 // StageRunner: drives one stage without a graph, validating params exactly as the host does.
 #include "hazardforge/testing/stage_runner.hpp"
 
+#include <atomic>
+
+#include "hazardforge/run_signals.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -36,11 +40,12 @@ class RunnerContext : public StageContext {
   int64_t frame_index() const override { return index; }
   double timestamp() const override { return ts; }
   void record_resource(const std::filesystem::path&) const override {}
-  bool stop_requested() const override { return false; }
+  bool stop_requested() const override { return stop != nullptr && stop->load(); }
   void record_timing(const std::string& label, double seconds) const override {
     (*timings)[label].push_back(seconds);
   }
   std::map<std::string, std::vector<double>>* timings = nullptr;
+  const std::atomic<bool>* stop = nullptr;
 };
 
 struct Slot {
@@ -99,6 +104,7 @@ struct StageRunner::Impl {
   std::map<std::string, std::vector<double>> timings;
   bool opened = false;
   std::filesystem::path out_dir;
+  std::atomic<bool> stop{false};
 };
 
 StageRunner::StageRunner() : impl_(std::make_unique<Impl>()) {
@@ -138,6 +144,7 @@ void StageRunner::build(const std::string& kind, const std::string& name, const 
   m.ctx.factory = &m.registry;
   m.ctx.log_lines = &m.log;
   m.ctx.timings = &m.timings;
+  m.ctx.stop = &m.stop;
   m.ctx.node = name;
 }
 
@@ -157,6 +164,8 @@ void StageRunner::push(const std::string& port, Packet packet, const std::string
 void StageRunner::run(bool finish, int64_t max_frames) {
   Impl& m = *impl_;
   if (!m.stage) throw Error("StageRunner: build() the stage first");
+  IncompleteReportScope incomplete(
+      [&m](const std::string& reason) { m.log.push_back("incomplete: " + reason); });
   if (!m.opened) {
     m.stage->open(m.ctx);
     m.opened = true;
@@ -212,6 +221,9 @@ const std::vector<Packet>& StageRunner::outputs(const std::string& port) const {
 Stage& StageRunner::stage() { return *impl_->stage; }
 const ComponentInfo& StageRunner::info() const { return impl_->entry->info; }
 const std::filesystem::path& StageRunner::output_dir() const { return impl_->out_dir; }
+void StageRunner::request_stop() {
+  impl_->stop = true;
+}
 const std::vector<std::string>& StageRunner::log() const { return impl_->log; }
 const std::map<std::string, std::vector<double>>& StageRunner::timings() const { return impl_->timings; }
 

@@ -1,7 +1,11 @@
 // Every plugin refusal, each with its exact message; and a good plugin's registration.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
+#include "hazardforge/core/elf_symbols.hpp"
 #include "hazardforge/core/plugin_loader.hpp"
+#include "temp_dir.hpp"
 #include "test_support.hpp"
 
 namespace hf::core {
@@ -62,6 +66,39 @@ TEST(Loader, MissingEntrySymbol) {
   EXPECT_EQ(load_error("fixture_no_entry", reg),
             fixture("fixture_no_entry").string() +
                 ": not a HazardForge plugin: entry symbol 'hazardforge_plugin_entry' not found");
+}
+
+// The entry symbol is looked up in the ELF file before dlopen, so a non-plugin's constructors never run.
+TEST(Loader, NonPluginConstructorsNeverRun) {
+  hf::test::TempDir t;
+  const auto marker = t / "constructor_ran";
+  ::setenv("HF_CTOR_MARKER", marker.c_str(), 1);
+  ComponentRegistry reg;
+  EXPECT_EQ(load_error("fixture_constructor_no_entry", reg),
+            fixture("fixture_constructor_no_entry").string() +
+                ": not a HazardForge plugin: entry symbol 'hazardforge_plugin_entry' not found");
+  ::unsetenv("HF_CTOR_MARKER");
+  EXPECT_FALSE(std::filesystem::exists(marker));
+}
+
+TEST(Loader, FilesThatAreNotElfLibrariesAreRefusedUnread) {
+  hf::test::TempDir t;
+  std::ofstream(t / "libtext.so") << "#!/bin/sh\necho hi\n";
+  ComponentRegistry reg;
+  PluginLoader loader(reg);
+  try {
+    loader.load(t / "libtext.so");
+    FAIL() << "loaded";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              (t / "libtext.so").string() + ": not a HazardForge plugin: not an ELF shared library");
+  }
+  // A cut-off ELF header: the reader stops at the end of the data.
+  const std::string elf_start(
+      "\x7f"
+      "ELF\x02\x01\x01",
+      7);
+  EXPECT_THROW(elf_exports_symbol(elf_start, "x", "cut.so"), Error);
 }
 
 TEST(Loader, UnresolvedSymbolShowsDlerrorVerbatim) {

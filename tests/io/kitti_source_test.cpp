@@ -151,7 +151,7 @@ TEST(KittiSource, BadFilesNameFileAndLine) {
       << "0 0 Car 0 0 -1.7 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1\n"
       << "1 0 Car 0 0 -1.7 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 x13.4 -2.1\n";
   EXPECT_EQ(error_of([&] { source::kitti::read_labels(dir / "labels.txt"); }),
-            (dir / "labels.txt").string() + ":2: error: field 'z' is not a number: 'x13.4'");
+            (dir / "labels.txt").string() + ":2: error: field 'z' is not a finite decimal number: 'x13.4'");
   std::ofstream(dir / "short.txt") << "0 0 Car 0 0\n";
   EXPECT_EQ(error_of([&] {
               run_source<KittiSource>("{layout: raw, images: '" +
@@ -165,6 +165,34 @@ TEST(KittiSource, BadFilesNameFileAndLine) {
               run_source<KittiSource>("{layout: raw, calib: '" + (dir / "calib.txt").string() + "'}");
             }),
             "kitti source: layout 'raw' needs the 'images' folder");
+}
+
+// Values std::stod would take but no KITTI tool writes, and frame numbers that would size arrays.
+TEST(KittiSource, LabelAndCalibrationFieldsMustBeFiniteDecimals) {
+  TempDir dir;
+  const std::string good = "0 0 Car 0 0 -1.7 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1\n";
+  auto label_error = [&](const std::string& second_line) {
+    std::ofstream(dir / "l.txt") << good << second_line << "\n";
+    return error_of([&] { source::kitti::read_labels(dir / "l.txt"); });
+  };
+  const std::string at = (dir / "l.txt").string() + ":2: error: ";
+  EXPECT_EQ(label_error("1 0 Car 0 0 nan 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1"),
+            at + "field 'alpha' is not a finite decimal number: 'nan'");
+  EXPECT_EQ(label_error("1 0 Car 0 0 -1.7 0x10 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1"),
+            at + "field 'x1' is not a finite decimal number: '0x10'");
+  EXPECT_EQ(label_error("1 0 Car 0 0 -1.7 296.7 161.7 455.2 292.3 inf 1.8 4.4 -4.5 1.8 13.4 -2.1"),
+            at + "field 'h' is not a finite decimal number: 'inf'");
+  EXPECT_EQ(label_error("2000000000 0 Car 0 0 -1.7 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1"),
+            at + "field 'frame' = 2000000000 is not an integer in [0, 1000000]");
+  EXPECT_EQ(label_error("1.5 0 Car 0 0 -1.7 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1"),
+            at + "field 'frame' = 1.5 is not an integer in [0, 1000000]");
+  EXPECT_EQ(label_error("-1 0 Car 0 0 -1.7 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1"),
+            at + "field 'frame' = -1 is not an integer in [0, 1000000]");
+  std::ofstream(dir / "c.txt") << "P2: 7.2e+02 0 6e2 0 0 721 1.7e2 0 0 0 1 nan\n";
+  EXPECT_EQ(error_of([&] { source::kitti::read_calibration(dir / "c.txt"); }),
+            (dir / "c.txt").string() + ":1: error: P2 value 12 is not a finite decimal number: 'nan'");
+  std::ofstream(dir / "ok.txt") << "P2: 7.2e+02 0 6e2 0 0 721 1.7e2 0 0 0 1 0\n";
+  EXPECT_DOUBLE_EQ(source::kitti::read_calibration(dir / "ok.txt").fx(), 720.0);
 }
 
 }  // namespace

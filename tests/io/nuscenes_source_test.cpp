@@ -1,6 +1,7 @@
 // The nuscenes source on the real scene-0916 tables, checked against hand computations from the same tables.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
@@ -9,6 +10,7 @@
 #include "hazardforge/testing/stage_runner.hpp"
 #include "io_test_util.hpp"
 #include "nuscenes_source.hpp"
+#include "nuscenes_tables.hpp"
 #include "test_support.hpp"
 
 namespace hf {
@@ -279,6 +281,76 @@ TEST(NuScenesSource, BrokenTablesNameTheFile) {
     EXPECT_EQ(error_of([&] { run_source<NuScenesSource>(c.params()); }),
               "nuScenes table '" + c.table("calibrated_sensor").string() + "': record '" + cam_token +
                   "': field 'camera_intrinsic' is not a 3x3 matrix");
+  }
+}
+
+// What fuzz_hazard_reply found for replies holds for tables: a number too large for a double is an
+// out_of_range error in nlohmann, which must still name the table.
+TEST(NuScenesSource, ANumberTooLargeForADoubleNamesTheTable) {
+  TempDir dir;
+  std::ofstream(dir / "t.json") << R"([{"token": "a", "timestamp": 1e999}])";
+  EXPECT_EQ(
+      error_of([&] { source::nuscenes::Table::load(dir / "t.json"); }),
+      "nuScenes table '" + (dir / "t.json").string() + "': invalid JSON: number overflow parsing '1e999'");
+}
+
+// Values valid JSON allows but geometry does not: each fails at load naming the file, record and field.
+TEST(NuScenesSource, ImpossibleValuesAreRefusedWithTheRecord) {
+  HF_REQUIRE_SHARED(dataroot() / "v1.0-mini/scene.json");
+  // The CAM_FRONT keyframes of the scene in sample-chain order are what the source reads.
+  std::vector<Json> keyframes;
+  for (const Json& r : load("sample_data"))
+    if (r["filename"].get<std::string>().find("CAM_FRONT/") != std::string::npos && r["is_key_frame"])
+      keyframes.push_back(r);
+  std::sort(keyframes.begin(), keyframes.end(),
+            [](const Json& a, const Json& b) { return a["timestamp"] < b["timestamp"]; });
+  ASSERT_GE(keyframes.size(), 2u);
+  // The earliest keyframe starts its scene; the next one in its sample chain follows it.
+  const std::string next_sample = by_token(load("sample"), keyframes[0]["sample_token"])["next"];
+  for (const Json& k : keyframes)
+    if (k["sample_token"] == next_sample) keyframes[1] = k;
+  {
+    BrokenCopy c;
+    Json poses = load("ego_pose");
+    const std::string pose = keyframes[0]["ego_pose_token"];
+    for (Json& r : poses)
+      if (r["token"] == pose) r["rotation"] = Json::array({0, 0, 0, 0});
+    std::ofstream(c.table("ego_pose")) << poses.dump();
+    EXPECT_EQ(error_of([&] { run_source<NuScenesSource>(c.params()); }),
+              "nuScenes table '" + c.table("ego_pose").string() + "': record '" + pose +
+                  "': field 'rotation' = [0, 0, 0, 0] is not a unit quaternion (norm 0)");
+  }
+  {
+    BrokenCopy c;
+    Json ca = load("calibrated_sensor");
+    const std::string cam = keyframes[0]["calibrated_sensor_token"];
+    for (Json& r : ca)
+      if (r["token"] == cam) r["camera_intrinsic"][0][0] = 0;
+    std::ofstream(c.table("calibrated_sensor")) << ca.dump();
+    const std::string e = error_of([&] { run_source<NuScenesSource>(c.params()); });
+    EXPECT_EQ(e.rfind("nuScenes table '" + c.table("calibrated_sensor").string() + "': record '" + cam +
+                          "': field 'camera_intrinsic' has focal lengths fx = 0, fy = ",
+                      0),
+              0u)
+        << e;
+    EXPECT_NE(e.find("; both must be positive"), std::string::npos) << e;
+  }
+  {
+    BrokenCopy c;
+    Json sd = load("sample_data");
+    const std::string second = keyframes[1]["token"];
+    for (Json& r : sd)
+      if (r["token"] == second) r["timestamp"] = keyframes[0]["timestamp"];
+    std::ofstream(c.table("sample_data")) << sd.dump();
+    const std::string t0 = std::to_string(keyframes[0]["timestamp"].get<int64_t>());
+    const std::string e = error_of([&] { run_source<NuScenesSource>(c.params()); });
+    EXPECT_EQ(e.rfind("nuScenes table '" + c.table("sample_data").string() + "': record '" + second +
+                          "': field 'timestamp' = " + t0 + " is not after the previous keyframe's " + t0 +
+                          " (scene ",
+                      0),
+              0u)
+        << e;
+    EXPECT_NE(e.find("); keyframe timestamps must increase strictly"), std::string::npos) << e;
   }
 }
 

@@ -1,6 +1,7 @@
 // The video, image_sequence and camera sources on synthetic files with known content.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
@@ -197,6 +198,62 @@ TEST(VideoSource, TruncatedFileEndsOrNamesTheFrame) {
   } else {
     EXPECT_NE(err.find("video file '" + file.string() + "'"), std::string::npos) << err;
   }
+}
+
+// AVI declares its frame count in the header, before the frames: a cut file keeps the declaration, so the
+// source can tell that frames are missing.
+std::filesystem::path write_avi(const TempDir& dir, int frames) {
+  const auto file = dir / "clip.avi";
+  cv::VideoWriter w(file.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25.0, {320, 240});
+  EXPECT_TRUE(w.isOpened());
+  for (int k = 0; k < frames; ++k) w.write(synthetic(k, {320, 240}));
+  w.release();
+  return file;
+}
+
+TEST(VideoSource, FewerFramesThanDeclaredFailsUnlessPartialIsAllowed) {
+  TempDir dir;
+  const auto file = write_avi(dir, 38);
+  std::filesystem::resize_file(file, std::filesystem::file_size(file) * 4 / 10);
+  const std::string err =
+      error_of([&] { run_source<VideoSource>("{path: '" + file.string() + "', fx: 400}"); });
+  const std::string head = "video file '" + file.string() + "' decodes ";
+  ASSERT_EQ(err.rfind(head, 0), 0u) << err;
+  const int decoded = std::stoi(err.substr(head.size()));
+  EXPECT_LT(decoded, 37);
+  EXPECT_EQ(err, head + std::to_string(decoded) +
+                     " of the 38 frames its container declares (decoding stops at "
+                     "frame " +
+                     std::to_string(decoded) +
+                     "): the file is truncated or corrupt; set allow_partial: "
+                     "true to use the frames that decode");
+  testing::StageRunner r;
+  const auto frames =
+      run_source<VideoSource>("{path: '" + file.string() + "', fx: 400, allow_partial: true}", &r);
+  EXPECT_EQ(static_cast<int>(frames.size()), decoded);
+  const auto& log = r.log();
+  EXPECT_NE(std::find(log.begin(), log.end(),
+                      "incomplete: video file '" + file.string() + "' decodes " + std::to_string(decoded) +
+                          " of the 38 frames its container declares (decoding stops at frame " +
+                          std::to_string(decoded) + "): the file is truncated or corrupt"),
+            log.end());
+}
+
+TEST(ImageSequenceSource, ATruncatedImageFailsNamingTheFrame) {
+  TempDir dir;
+  std::filesystem::create_directories(dir / "imgs");
+  for (int k = 0; k < 3; ++k)
+    cv::imwrite((dir / ("imgs/" + std::to_string(k) + ".jpg")).string(), synthetic(k, {320, 240}));
+  const auto cut = dir / "imgs/1.jpg";
+  std::filesystem::resize_file(cut, std::filesystem::file_size(cut) / 2);
+  EXPECT_EQ(
+      error_of([&] {
+        run_source<ImageSequenceSource>("{path: '" + (dir / "imgs").string() +
+                                        "', pattern: '*.jpg', fx: 400}");
+      }),
+      "image '" + cut.string() +
+          "' (frame 1) is truncated: the JPEG has no end-of-image marker (the decoder would fill the rest "
+          "with grey)");
 }
 
 TEST(ImageSequenceSource, SortedMatchingFilesExactContent) {

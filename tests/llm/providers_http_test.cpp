@@ -27,6 +27,7 @@ std::unique_ptr<OllamaProvider> ollama(const std::string& host, double read_time
                       {"model", "llama3"},
                       {"connect_timeout_s", 2.0},
                       {"read_timeout_s", read_timeout},
+                      {"max_reply_bytes", 1000000},
                       {"keep_alive", ""}}));
   return p;
 }
@@ -39,7 +40,8 @@ std::unique_ptr<OpenAiProvider> openai(const std::string& base, const std::strin
                       {"response_format", format},
                       {"schema_name", "hazard_spec"},
                       {"connect_timeout_s", 2.0},
-                      {"read_timeout_s", 5.0}}));
+                      {"read_timeout_s", 5.0},
+                      {"max_reply_bytes", 1000000}}));
   return p;
 }
 

@@ -1,6 +1,8 @@
 // Feasibility checks for hazard specs and the constant-speed ego replay for kinds without a template.
 #include "feasibility.hpp"
 
+#include <hazardforge/json_text.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -114,7 +116,7 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
                    " (center means |y| <= " + num(lane_half) + " m)");
   if (spec.extra.contains("crossing_from") && spec.extra["crossing_from"].is_string() &&
       spec.extra["crossing_from"] != spec.side)
-    errs.push_back("/extra/crossing_from = " + spec.extra["crossing_from"].dump() +
+    errs.push_back("/extra/crossing_from = " + json_text(spec.extra["crossing_from"]) +
                    " contradicts /side = \"" + spec.side + "\"");
 
   // On the road, or on a sidewalk for people and bicycles.

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include <hazardforge/error.hpp>
+#include <hazardforge/json_text.hpp>
 #include <valijson/adapters/nlohmann_json_adapter.hpp>
 #include <valijson/schema.hpp>
 #include <valijson/schema_parser.hpp>
@@ -102,7 +103,7 @@ std::string json_type(const Json& v) {
 
 std::string join_values(const Json& list, const std::string& sep = ", ") {
   std::string out;
-  for (const Json& v : list) out += (out.empty() ? "" : sep) + (v.is_string() ? v.dump() : show_value(v));
+  for (const Json& v : list) out += (out.empty() ? "" : sep) + (v.is_string() ? json_text(v) : show_value(v));
   return out;
 }
 
@@ -122,7 +123,7 @@ bool starts_with(const std::string& s, const char* prefix) {
 
 std::string show_value(const Json& v) {
   constexpr size_t kMax = 60;
-  std::string s = v.dump();
+  std::string s = json_text(v);
   if (s.size() > kMax) s = s.substr(0, kMax) + "...";
   return s;
 }

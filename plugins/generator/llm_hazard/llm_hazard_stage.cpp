@@ -5,7 +5,11 @@
 #include <chrono>
 #include <cmath>
 
+#include <hazardforge/atomic_file.hpp>
 #include <hazardforge/error.hpp>
+#include <hazardforge/json_text.hpp>
+#include <hazardforge/output_path.hpp>
+#include <hazardforge/run_signals.hpp>
 
 #include "llm_hash.hpp"
 #include "llm_json.hpp"
@@ -201,10 +205,25 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   trigger_ = p.get_string("trigger");
   trigger_frame_ = p.get_int("trigger_frame");
   warmup_frames_ = p.get_int("warmup_frames");
-  calls_ = std::make_unique<CallLog>(ctx.output_dir() / "llm" / "calls.jsonl");
+  calls_ = std::make_unique<CallLog>(resolve_output_path(
+      ctx.output_dir(), "llm/calls.jsonl", "node '" + ctx.node_id() + "': the LLM call record"));
   ctx.log(LogLevel::kInfo,
           "hazards from " + provider_->describe_backend() + "; kinds: " + join(allowed_kinds_, ", "));
 }
+
+namespace {
+
+// Each retry re-sends the whole conversation: a huge reply echoed as is would be sent again with every
+// attempt (and recorded with every call), so only its beginning goes back to the model.
+constexpr size_t kMaxEchoedReply = 8000;
+
+std::string echoed_reply(const std::string& reply) {
+  if (reply.size() <= kMaxEchoedReply) return reply;
+  return reply.substr(0, kMaxEchoedReply) + "\n[... reply cut here: " + std::to_string(reply.size()) +
+         " bytes in all]";
+}
+
+}  // namespace
 
 void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (done_) return;
@@ -235,9 +254,9 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     return;
   }
 
-  HazardSpec spec = generate(ctx, frame, states, risks);
+  std::optional<HazardSpec> spec = generate(ctx, frame, states, risks);
   done_ = true;
-  out.emit("hazard", std::move(spec));
+  if (spec) out.emit("hazard", std::move(*spec));
 }
 
 void LlmHazardGenerator::finish(StageContext& ctx, Outputs&) {
@@ -265,8 +284,9 @@ double LlmHazardGenerator::risk_threshold(const std::vector<const RiskAssessment
               ": no time-to-collision risk input (unit 's'); the hazard's target TTC needs one");
 }
 
-HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, const ObjectStates& states,
-                                        const std::vector<const RiskAssessment*>& risks) {
+std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame,
+                                                       const ObjectStates& states,
+                                                       const std::vector<const RiskAssessment*>& risks) {
   const Params& p = ctx.params();
 
   SceneSettings s;
@@ -346,11 +366,19 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
     LlmReply reply;
     auto t0 = std::chrono::steady_clock::now();
     try {
+      CancellationScope cancel([&ctx] { return ctx.stop_requested(); });
       reply = provider_->complete(req);
     } catch (const Error& e) {
       record["latency_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       record["transport_error"] = e.what();
       record["accepted"] = false;
+      if (ctx.stop_requested()) {
+        // Ctrl-C, not a server fault: the run ends interrupted with the call on record.
+        record["cancelled"] = true;
+        calls_->append(record);
+        ctx.log(LogLevel::kWarning, "no hazard generated: " + std::string(e.what()));
+        return std::nullopt;
+      }
       calls_->append(record);
       throw;  // the host names the node; the provider named the endpoint
     }
@@ -416,14 +444,14 @@ HazardSpec LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame, c
       Json written = spec;
       if (std::vector<std::string> bad = spec_validator_->validate(written); !bad.empty())
         throw Error("internal error: the accepted spec does not follow the schema: " + join(bad, "; "));
-      write_file_atomic(ctx.output_dir() / "hazard_spec.json", written.dump(2) + "\n");
+      write_file_atomic(ctx.output_dir() / "hazard_spec.json", json_text(written, 2) + "\n");
       ctx.log(LogLevel::kInfo, "hazard " + spec.kind + " (" + spec.object_class + ") accepted after " +
                                    std::to_string(attempt) + " attempt(s)");
       return spec;
     }
     ctx.log(LogLevel::kWarning, "attempt " + std::to_string(attempt) + " rejected: " + join(errors, "; "));
     if (attempt < max_attempts) {
-      req.messages.push_back({"assistant", reply.content});
+      req.messages.push_back({"assistant", echoed_reply(reply.content)});
       req.messages.push_back({"user", retry_prompt_->render({{"errors", bullet_list(errors)}})});
     }
   }

@@ -42,8 +42,9 @@ class LlmHazardGenerator : public Stage {
   const std::vector<std::string>& allowed_kinds() const { return allowed_kinds_; }
 
  private:
-  HazardSpec generate(StageContext& ctx, const Frame& frame, const ObjectStates& states,
-                      const std::vector<const RiskAssessment*>& risks);
+  // nullopt when the run is stopping (Ctrl-C) during a model call.
+  std::optional<HazardSpec> generate(StageContext& ctx, const Frame& frame, const ObjectStates& states,
+                                     const std::vector<const RiskAssessment*>& risks);
   double ego_speed(const Frame& frame, const ObjectStates& states) const;
   double risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const;
 

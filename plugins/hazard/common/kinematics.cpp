@@ -336,23 +336,4 @@ std::string num(double v, int decimals) {
   return s;
 }
 
-void write_file_atomic(const std::filesystem::path& path, const std::string& text) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
-  const fs::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(tmp.string() + ": error: cannot open for writing");
-    out << text;
-    out.flush();
-    if (!out) throw Error(tmp.string() + ": error: write failed");
-  }
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path.string() + ": error: cannot replace the file: " + ec.message());
-  }
-}
-
 }  // namespace hf::hazard

@@ -3,18 +3,41 @@
 
 #include <curl/curl.h>
 
+#include <algorithm>
 #include <memory>
 #include <mutex>
 
 #include <hazardforge/error.hpp>
+#include <hazardforge/json_text.hpp>
+#include <hazardforge/redact.hpp>
+#include <hazardforge/run_signals.hpp>
 
 namespace hf::llm {
 
 namespace {
 
+struct BodySink {
+  std::string* body = nullptr;
+  size_t max = 0;
+  bool exceeded = false;
+};
+
+// Stops the transfer as soon as the body would pass the limit: a server streaming without end never gets to
+// allocate more than the limit.
 size_t append_body(char* data, size_t size, size_t n, void* user) {
-  static_cast<std::string*>(user)->append(data, size * n);
+  auto* sink = static_cast<BodySink*>(user);
+  if (sink->body->size() + size * n > sink->max) {
+    sink->exceeded = true;
+    return 0;
+  }
+  sink->body->append(data, size * n);
   return size * n;
+}
+
+// Runs on the calling thread about once a second even while the server is silent, so a stage's
+// CancellationScope (Ctrl-C) ends a call that would otherwise wait for its read timeout.
+int on_progress(void*, curl_off_t, curl_off_t, curl_off_t, curl_off_t) {
+  return cancellation_requested() ? 1 : 0;
 }
 
 // curl_global_init is not thread-safe; run it once for the process.
@@ -32,16 +55,17 @@ long to_ms(double seconds) {
 }  // namespace
 
 HttpResponse post_json(const std::string& who, const std::string& url, const Json& body,
-                       const std::vector<std::string>& headers, const HttpTimeouts& timeouts) {
+                       const std::vector<std::string>& headers, const HttpTimeouts& timeouts,
+                       const HttpLimits& limits) {
   init_curl_once();
   std::unique_ptr<CURL, void (*)(CURL*)> curl(curl_easy_init(), curl_easy_cleanup);
-  if (!curl) throw Error(who + ": POST " + url + " failed: curl_easy_init returned null");
+  if (!curl) throw Error(who + ": POST " + redact_urls(url) + " failed: curl_easy_init returned null");
   curl_slist* list = curl_slist_append(nullptr, "Content-Type: application/json");
   list = curl_slist_append(list, "Accept: application/json");
   for (const std::string& h : headers) list = curl_slist_append(list, h.c_str());
   std::unique_ptr<curl_slist, void (*)(curl_slist*)> header_list(list, curl_slist_free_all);
 
-  const std::string payload = body.dump();
+  const std::string payload = json_text(body);
   HttpResponse res;
   CURL* c = curl.get();
   curl_easy_setopt(c, CURLOPT_URL, url.c_str());
@@ -49,8 +73,13 @@ HttpResponse post_json(const std::string& who, const std::string& url, const Jso
   curl_easy_setopt(c, CURLOPT_POSTFIELDS, payload.c_str());
   curl_easy_setopt(c, CURLOPT_POSTFIELDSIZE_LARGE, static_cast<curl_off_t>(payload.size()));
   curl_easy_setopt(c, CURLOPT_HTTPHEADER, header_list.get());
+  BodySink sink{&res.body, limits.max_body_bytes};
   curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, &append_body);
-  curl_easy_setopt(c, CURLOPT_WRITEDATA, &res.body);
+  curl_easy_setopt(c, CURLOPT_WRITEDATA, &sink);
+  // Refuses a declared Content-Length over the limit before any of the body is read.
+  curl_easy_setopt(c, CURLOPT_MAXFILESIZE_LARGE, static_cast<curl_off_t>(limits.max_body_bytes));
+  curl_easy_setopt(c, CURLOPT_NOPROGRESS, 0L);
+  curl_easy_setopt(c, CURLOPT_XFERINFOFUNCTION, &on_progress);
   curl_easy_setopt(c, CURLOPT_CONNECTTIMEOUT_MS, to_ms(timeouts.connect_s));
   curl_easy_setopt(c, CURLOPT_TIMEOUT_MS, to_ms(timeouts.read_s));
   // Signals cannot be used for timeouts in a multi-threaded host.
@@ -61,7 +90,12 @@ HttpResponse post_json(const std::string& who, const std::string& url, const Jso
   curl_easy_setopt(c, CURLOPT_NOPROXY, "127.0.0.1,localhost,::1");
 
   CURLcode rc = curl_easy_perform(c);
-  if (rc != CURLE_OK) throw Error(who + ": POST " + url + " failed: " + curl_easy_strerror(rc));
+  const std::string post = who + ": POST " + redact_urls(url);
+  if (rc == CURLE_FILESIZE_EXCEEDED || (rc == CURLE_WRITE_ERROR && sink.exceeded))
+    throw Error(post + " failed: the response is larger than max_reply_bytes = " +
+                std::to_string(limits.max_body_bytes));
+  if (rc == CURLE_ABORTED_BY_CALLBACK) throw Error(post + " cancelled: the run is stopping");
+  if (rc != CURLE_OK) throw Error(post + " failed: " + curl_easy_strerror(rc));
   curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &res.status);
   return res;
 }
@@ -77,22 +111,25 @@ std::string http_status_error(const std::string& who, const std::string& url, lo
     else if (e.is_object() && e.contains("message") && e["message"].is_string())
       detail = e["message"];
     else
-      detail = e.dump();
+      detail = json_text(e);
   } else {
     constexpr size_t kMax = 200;
     detail = body.size() > kMax ? body.substr(0, kMax) + "..." : body;
     if (detail.empty()) detail = "(empty body)";
   }
-  return who + ": POST " + url + " returned HTTP " + std::to_string(status) + ": " + detail;
+  return who + ": POST " + redact_urls(url) + " returned HTTP " + std::to_string(status) + ": " + detail;
 }
 
 Json parse_response(const std::string& who, const std::string& url, const std::string& body) {
+  if (const int depth = json_nesting_depth(body); depth > kMaxJsonDepth)
+    throw Error(who + ": POST " + redact_urls(url) + ": response nests JSON " + std::to_string(depth) +
+                " levels deep (at most " + std::to_string(kMaxJsonDepth) + ")");
   try {
     return Json::parse(body);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // parse errors and numbers too large for a double
     std::string what = e.what();
     if (auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
-    throw Error(who + ": POST " + url + ": response is not JSON: " + what);
+    throw Error(who + ": POST " + redact_urls(url) + ": response is not JSON: " + what);
   }
 }
 

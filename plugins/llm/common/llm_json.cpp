@@ -1,6 +1,7 @@
 // JSON object extraction from free-form model replies (bare JSON, prose around it, ``` fences).
 #include "llm_json.hpp"
 
+#include <algorithm>
 #include <optional>
 #include <string_view>
 
@@ -19,7 +20,7 @@ std::string_view trim(std::string_view s) {
 }
 
 // nlohmann's messages start with "[json.exception.parse_error.101] "; the rest is what a reader needs.
-std::string parse_message(const Json::parse_error& e) {
+std::string parse_message(const Json::exception& e) {
   std::string what = e.what();
   if (auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
   return what;
@@ -60,7 +61,8 @@ void try_candidate(std::string_view text, Attempt& a) {
       a.object = std::move(j);
     else if (a.error.empty() && j.is_array())
       a.error = "reply is a JSON array, not an object";
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {
+    // Not only parse errors: a number too large for a double ("1e11011") is an out_of_range error.
     if (a.error.empty()) a.error = "reply is not valid JSON: " + parse_message(e);
   }
 }
@@ -85,9 +87,33 @@ void scan_objects(std::string_view text, Attempt& a) {
 
 }  // namespace
 
+int json_nesting_depth(std::string_view text) {
+  int depth = 0, deepest = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '{' || c == '[') {
+      deepest = std::max(deepest, ++depth);
+    } else if ((c == '}' || c == ']') && depth > 0) {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
 Json extract_json_object(const std::string& reply) {
   std::string_view text = trim(reply);
   if (text.empty()) throw Error("reply is empty");
+  if (const int depth = json_nesting_depth(text); depth > kMaxJsonDepth)
+    throw Error("reply nests JSON " + std::to_string(depth) + " levels deep (at most " +
+                std::to_string(kMaxJsonDepth) + ")");
   Attempt a;
   Json whole = Json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
   if (whole.is_object()) return whole;

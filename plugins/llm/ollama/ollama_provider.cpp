@@ -5,6 +5,7 @@
 #include <cstdlib>
 
 #include <hazardforge/error.hpp>
+#include <hazardforge/redact.hpp>
 
 namespace hf::llm {
 
@@ -18,6 +19,9 @@ ComponentInfo OllamaProvider::describe() {
       ParamSpec::string("model", "llama3").describe("model tag as `ollama list` shows it"),
       ParamSpec::number("connect_timeout_s", 5.0).range(0.1, 600).describe("TCP connect timeout"),
       ParamSpec::number("read_timeout_s", 300.0).range(0.1, 7200).describe("limit for the whole reply"),
+      ParamSpec::integer("max_reply_bytes", 1000000)
+          .range(1000, 1000000000)
+          .describe("largest response body accepted; a bigger one fails the call while it streams in"),
       ParamSpec::string("keep_alive", "")
           .describe("how long the server keeps the model loaded, e.g. '10m'; empty = server default"),
   };
@@ -34,10 +38,11 @@ void OllamaProvider::open(const Params& p) {
   model_ = p.get_string("model");
   keep_alive_ = p.get_string("keep_alive");
   timeouts_ = {p.get_double("connect_timeout_s"), p.get_double("read_timeout_s")};
+  max_reply_bytes_ = static_cast<size_t>(p.get_int("max_reply_bytes"));
 }
 
 std::string OllamaProvider::describe_backend() const {
-  return "ollama " + model_ + " @ " + base_url_;
+  return "ollama " + model_ + " @ " + redact_urls(base_url_);
 }
 
 LlmReply OllamaProvider::complete(const LlmRequest& r) {
@@ -52,7 +57,7 @@ LlmReply OllamaProvider::complete(const LlmRequest& r) {
   if (!keep_alive_.empty()) body["keep_alive"] = keep_alive_;
 
   auto t0 = std::chrono::steady_clock::now();
-  HttpResponse res = post_json("ollama", endpoint_, body, {}, timeouts_);
+  HttpResponse res = post_json("ollama", endpoint_, body, {}, timeouts_, {max_reply_bytes_});
   LlmReply reply;
   reply.latency_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (res.status != 200) throw Error(http_status_error("ollama", endpoint_, res.status, res.body));
@@ -60,9 +65,9 @@ LlmReply OllamaProvider::complete(const LlmRequest& r) {
   const Json& j = reply.raw;
   if (!j.is_object() || !j.contains("message") || !j["message"].is_object() ||
       !j["message"].contains("content") || !j["message"]["content"].is_string())
-    throw Error("ollama: POST " + endpoint_ + ": response has no message.content");
+    throw Error("ollama: POST " + redact_urls(endpoint_) + ": response has no message.content");
   if (j.contains("done") && j["done"].is_boolean() && !j["done"].get<bool>())
-    throw Error("ollama: POST " + endpoint_ +
+    throw Error("ollama: POST " + redact_urls(endpoint_) +
                 ": response is not done (the server streamed although stream was false)");
   reply.content = j["message"]["content"].get<std::string>();
   reply.model = j.contains("model") && j["model"].is_string() ? j["model"].get<std::string>() : model_;

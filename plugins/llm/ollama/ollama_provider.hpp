@@ -28,6 +28,7 @@ class OllamaProvider : public LlmProvider {
   std::string model_;
   std::string keep_alive_;
   HttpTimeouts timeouts_;
+  size_t max_reply_bytes_ = 1000000;
 };
 
 }  // namespace hf::llm

@@ -5,6 +5,7 @@
 #include <cstdlib>
 
 #include <hazardforge/error.hpp>
+#include <hazardforge/redact.hpp>
 
 namespace hf::llm {
 
@@ -25,6 +26,9 @@ ComponentInfo OpenAiProvider::describe() {
       ParamSpec::string("schema_name", "hazard_spec").describe("json_schema.name sent with the schema"),
       ParamSpec::number("connect_timeout_s", 5.0).range(0.1, 600).describe("TCP connect timeout"),
       ParamSpec::number("read_timeout_s", 300.0).range(0.1, 7200).describe("limit for the whole reply"),
+      ParamSpec::integer("max_reply_bytes", 1000000)
+          .range(1000, 1000000000)
+          .describe("largest response body accepted; a bigger one fails the call while it streams in"),
   };
   return i;
 }
@@ -37,10 +41,11 @@ void OpenAiProvider::open(const Params& p) {
   response_format_ = p.get_string("response_format");
   schema_name_ = p.get_string("schema_name");
   timeouts_ = {p.get_double("connect_timeout_s"), p.get_double("read_timeout_s")};
+  max_reply_bytes_ = static_cast<size_t>(p.get_int("max_reply_bytes"));
 }
 
 std::string OpenAiProvider::describe_backend() const {
-  return "openai " + model_ + " @ " + base_url_;
+  return "openai " + model_ + " @ " + redact_urls(base_url_);
 }
 
 LlmReply OpenAiProvider::complete(const LlmRequest& r) {
@@ -60,7 +65,7 @@ LlmReply OpenAiProvider::complete(const LlmRequest& r) {
     headers.push_back(std::string("Authorization: Bearer ") + key);
 
   auto t0 = std::chrono::steady_clock::now();
-  HttpResponse res = post_json("openai", endpoint_, body, headers, timeouts_);
+  HttpResponse res = post_json("openai", endpoint_, body, headers, timeouts_, {max_reply_bytes_});
   LlmReply reply;
   reply.latency_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (res.status != 200) throw Error(http_status_error("openai", endpoint_, res.status, res.body));
@@ -71,8 +76,9 @@ LlmReply OpenAiProvider::complete(const LlmRequest& r) {
     // A refusal comes back as message.refusal with a null content.
     const Json::json_pointer refusal("/choices/0/message/refusal");
     if (j.is_object() && j.contains(refusal) && j.at(refusal).is_string())
-      throw Error("openai: POST " + endpoint_ + ": the model refused: " + j.at(refusal).get<std::string>());
-    throw Error("openai: POST " + endpoint_ + ": response has no choices[0].message.content");
+      throw Error("openai: POST " + redact_urls(endpoint_) +
+                  ": the model refused: " + j.at(refusal).get<std::string>());
+    throw Error("openai: POST " + redact_urls(endpoint_) + ": response has no choices[0].message.content");
   }
   reply.content = j.at(content_ptr).get<std::string>();
   reply.model = j.contains("model") && j["model"].is_string() ? j["model"].get<std::string>() : model_;

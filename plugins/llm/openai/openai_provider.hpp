@@ -30,6 +30,7 @@ class OpenAiProvider : public LlmProvider {
   std::string response_format_;
   std::string schema_name_;
   HttpTimeouts timeouts_;
+  size_t max_reply_bytes_ = 1000000;
 };
 
 }  // namespace hf::llm

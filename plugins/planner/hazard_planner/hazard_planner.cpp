@@ -3,6 +3,9 @@
 
 #include <algorithm>
 
+#include <hazardforge/atomic_file.hpp>
+#include <hazardforge/json_text.hpp>
+#include <hazardforge/output_path.hpp>
 #include "hazardforge/hazard/kinematics.hpp"
 
 namespace hf {
@@ -54,6 +57,7 @@ void HazardPlanner::open(StageContext& ctx) {
   ego_speed_param_ = p.get_double("ego_speed_mps");
   skip_infeasible_ = p.get_string("on_infeasible") == "skip";
   file_ = p.get_string("file");
+  output_param_path(ctx, "file");  // refused at open when it would leave the run folder
   if (file_.empty()) throw Error("node '" + ctx.node_id() + "': parameter 'file' is empty");
 }
 
@@ -112,8 +116,8 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (!reasons.empty()) {
     std::string msg = "hazard spec '" + spec->kind + "' at " + where + " is infeasible: ";
     for (size_t k = 0; k < reasons.size(); ++k) msg += (k ? "; " : "") + reasons[k];
-    hazard::write_file_atomic(ctx.output_dir() / name,
-                              Json{{"planner", planner}, {"spec", *spec}}.dump(2) + "\n");
+    write_file_atomic(ctx.output_dir() / name,
+                      json_text(Json{{"planner", planner}, {"spec", *spec}}, 2) + "\n");
     if (!skip_infeasible_) throw Error(msg);
     ctx.log(LogLevel::kWarning, msg + " (skipped)");
     return;
@@ -121,7 +125,7 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   HazardTrajectory traj = tpl->plan(*spec, scene);
   Json j = traj;
   j["planner"] = planner;
-  hazard::write_file_atomic(ctx.output_dir() / name, j.dump(2) + "\n");
+  write_file_atomic(ctx.output_dir() / name, json_text(j, 2) + "\n");
   ctx.log(LogLevel::kInfo, "planned '" + spec->kind + "' at " + where + ": " +
                                std::to_string(traj.points.size()) + " samples, intended minimum TTC " +
                                hazard::num(traj.intended_min_ttc_s) + " s");

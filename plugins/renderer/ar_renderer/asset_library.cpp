@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "box_geometry.hpp"
+#include "hazardforge/atomic_file.hpp"
 #include "hazardforge/error.hpp"
 #include "hazardforge/yaml_json.hpp"
 
@@ -200,22 +201,15 @@ void save_asset_index(const fs::path& dir, const AssetIndex& index, const std::s
     if (!s.origin.empty()) os << "    origin: " << quoted(s.origin) << "\n";
   }
   fs::create_directories(dir);
-  const fs::path tmp = dir / (std::string(kAssetIndexFile) + ".tmp");
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot write '" + tmp.string() + "'");
-    out << os.str();
-    if (!out) throw Error("cannot write '" + tmp.string() + "'");
-  }
-  fs::rename(tmp, dir / kAssetIndexFile);
+  write_file_atomic(dir / kAssetIndexFile, os.str());
 }
 
 void write_png_atomic(const fs::path& file, const cv::Mat& bgra) {
   fs::create_directories(file.parent_path());
-  const fs::path tmp = file.string() + ".tmp.png";
-  if (!cv::imwrite(tmp.string(), bgra, {cv::IMWRITE_PNG_COMPRESSION, 9}))
-    throw Error("cannot write '" + tmp.string() + "'");
-  fs::rename(tmp, file);
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", bgra, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
+    throw Error("cannot encode '" + file.string() + "'");
+  write_file_atomic(file, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 int LoadedAsset::level_for_height(double target_px) const {

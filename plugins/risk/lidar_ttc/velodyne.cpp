@@ -14,6 +14,7 @@
 #include <set>
 #include <sstream>
 
+#include "hazardforge/atomic_file.hpp"
 #include "hazardforge/error.hpp"
 
 extern char** environ;
@@ -183,7 +184,7 @@ fs::path extract_scans(const fs::path& archive, const fs::path& dest) {
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
       throw Error("tar could not extract '" + archive.string() + "' into '" + dest.string() +
                   "': " + read_text(log));
-    std::ofstream(marker) << id;
+    write_file_atomic(marker, id);
   }
   return find_scan_folder(dest);
 }

@@ -9,6 +9,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "hazardforge/atomic_file.hpp"
+#include "hazardforge/output_path.hpp"
 #include "overlay.hpp"
 
 namespace hf::sink {
@@ -70,16 +72,14 @@ ComponentInfo AnnotatedVideoSink::describe() {
 
 void AnnotatedVideoSink::open(StageContext& ctx) {
   const Params& p = ctx.params();
-  file_ = ctx.output_dir() / p.get_string("file");
-  png_dir_ = ctx.output_dir() / p.get_string("png_dir");
+  file_ = output_param_path(ctx, "file");
   fps_param_ = p.get_double("fps");
   codec_param_ = p.get_string("codec");
   png_every_ = static_cast<int>(p.get_int("png_every"));
   thickness_ = static_cast<int>(p.get_int("thickness"));
   scale_ = p.get_double("scale");
   read_encoder_params(p, encoder_);
-  fs::create_directories(file_.parent_path());
-  if (png_every_ > 0) fs::create_directories(png_dir_);
+  if (png_every_ > 0) png_dir_ = output_param_path(ctx, "png_dir", /*is_dir=*/true);
 }
 
 void AnnotatedVideoSink::start_writer(StageContext& ctx) {
@@ -161,8 +161,10 @@ void AnnotatedVideoSink::process(StageContext& ctx, const Inputs& in, Outputs& /
   if (png_every_ > 0 && frame.index % png_every_ == 0) {
     char name[48];
     std::snprintf(name, sizeof name, "frame_%06lld.png", static_cast<long long>(frame.index));
-    if (!cv::imwrite((png_dir_ / name).string(), img))
-      throw Error("cannot write '" + (png_dir_ / name).string() + "'");
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", img, png)) throw Error("cannot encode '" + (png_dir_ / name).string() + "'");
+    write_file_atomic(png_dir_ / name,
+                      std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
   }
 
   if (!writer_.is_open()) {

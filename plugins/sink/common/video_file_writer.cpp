@@ -1,5 +1,6 @@
 // VideoFileWriter: raw BGR frames piped to `ffmpeg -c:v libx264` (or cv::VideoWriter), .partial then rename.
 #include "hazardforge/sink/video_file_writer.hpp"
+#include "hazardforge/atomic_file.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -208,6 +209,8 @@ void VideoFileWriter::open(const VideoWriterOptions& options, const Warn& warn) 
   std::error_code ec;
   fs::create_directories(partial_.parent_path(), ec);
   if (ec) throw Error("cannot create the folder of video '" + partial_.string() + "': " + ec.message());
+  // The encoder opens the file by name and would write through a symlink planted there.
+  claim_output_file(partial_);
 
   std::vector<std::string> tried;
   for (const std::string& c : opt_.codecs) {

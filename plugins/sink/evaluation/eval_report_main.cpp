@@ -9,22 +9,10 @@
 #include <sstream>
 
 #include "evaluation_report.hpp"
+#include "hazardforge/atomic_file.hpp"
+#include "hazardforge/json_text.hpp"
 
 namespace fs = std::filesystem;
-
-namespace {
-
-void write_file(const fs::path& file, const std::string& text) {
-  fs::path tmp = file;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!(out << text) || !out.flush()) throw hf::Error("cannot write '" + tmp.string() + "'");
-  }
-  fs::rename(tmp, file);
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -70,16 +58,16 @@ int main(int argc, char** argv) {
     for (const std::string& f : inputs) {
       auto r = hf::eval::read_records(f);
       for (auto& rec : r) {
-        jsonl += hf::eval::to_json(rec).dump() + "\n";
+        jsonl += hf::json_text(hf::eval::to_json(rec)) + "\n";
         records.push_back(std::move(rec));
       }
     }
     const hf::Json report = hf::eval::evaluate(records, o);
     fs::create_directories(out_dir);
-    write_file(fs::path(out_dir) / "per_frame.jsonl", jsonl);
-    write_file(fs::path(out_dir) / "report.json", report.dump(2) + "\n");
-    write_file(fs::path(out_dir) / "report.md", hf::eval::render_markdown(report));
-    write_file(fs::path(out_dir) / "report.html", hf::eval::render_html(report, records));
+    hf::write_file_atomic(fs::path(out_dir) / "per_frame.jsonl", jsonl);
+    hf::write_file_atomic(fs::path(out_dir) / "report.json", hf::json_text(report, 2) + "\n");
+    hf::write_file_atomic(fs::path(out_dir) / "report.md", hf::eval::render_markdown(report));
+    hf::write_file_atomic(fs::path(out_dir) / "report.html", hf::eval::render_html(report, records));
     std::cerr << records.size() << " records from " << inputs.size() << " files -> " << out_dir << "\n";
   } catch (const std::exception& e) {
     std::cerr << "hf_eval_report: error: " << e.what() << "\n";

@@ -5,26 +5,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include "hazardforge/atomic_file.hpp"
+#include "hazardforge/json_text.hpp"
+#include "hazardforge/output_path.hpp"
+
 namespace hf {
-
-namespace {
-
-// Write to a sibling temporary file, then rename: a report is either complete or absent.
-void write_atomically(const std::filesystem::path& file, const std::string& text) {
-  std::filesystem::path tmp = file;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot write '" + tmp.string() + "'");
-    out << text;
-    if (!out.flush()) throw Error("cannot write '" + tmp.string() + "'");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, file, ec);
-  if (ec) throw Error("cannot rename '" + tmp.string() + "' to '" + file.string() + "': " + ec.message());
-}
-
-}  // namespace
 
 ComponentInfo EvaluationSink::describe() {
   ComponentInfo i;
@@ -82,13 +67,12 @@ void EvaluationSink::open(StageContext& ctx) {
     if (m != "scene" && m != "lead")
       throw Error("stage 'evaluation': parameter 'compare': '" + m + "' is not one of scene, lead");
   lead_ = std::find(options_.compare.begin(), options_.compare.end(), "lead") != options_.compare.end();
-  dir_ = ctx.output_dir() / p.get_string("dir");
+  dir_ = output_param_path(ctx, "dir", /*is_dir=*/true);
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
   if (ec) throw Error("cannot create '" + dir_.string() + "': " + ec.message());
   records_.clear();
-  jsonl_.open(dir_ / "per_frame.jsonl", std::ios::trunc);
-  if (!jsonl_) throw Error("cannot write '" + (dir_ / "per_frame.jsonl").string() + "'");
+  jsonl_.open(dir_ / "per_frame.jsonl", RecordFile::Mode::kTruncate);
 }
 
 void EvaluationSink::process(StageContext& ctx, const Inputs& in, Outputs&) {
@@ -123,17 +107,16 @@ void EvaluationSink::process(StageContext& ctx, const Inputs& in, Outputs&) {
     r.estimates.emplace_back(label, std::move(v));
   }
   if (r.estimates.empty()) return;
-  jsonl_ << eval::to_json(r).dump() << "\n";
-  jsonl_.flush();
+  jsonl_.write(json_text(eval::to_json(r)) + "\n");
   records_.push_back(std::move(r));
 }
 
 void EvaluationSink::finish(StageContext& ctx, Outputs&) {
   jsonl_.close();
   const Json report = eval::evaluate(records_, options_);
-  write_atomically(dir_ / "report.json", report.dump(2) + "\n");
-  write_atomically(dir_ / "report.md", eval::render_markdown(report));
-  write_atomically(dir_ / "report.html", eval::render_html(report, records_));
+  write_file_atomic(dir_ / "report.json", json_text(report, 2) + "\n");
+  write_file_atomic(dir_ / "report.md", eval::render_markdown(report));
+  write_file_atomic(dir_ / "report.html", eval::render_html(report, records_));
   ctx.log(LogLevel::kInfo,
           "evaluation of " + std::to_string(records_.size()) + " frames written to " + dir_.string());
 }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "evaluation_report.hpp"
+#include "hazardforge/atomic_file.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf {
@@ -35,7 +36,7 @@ class EvaluationSink : public Stage {
   std::string scene_;  // fixed scene name, empty = from the frames
   bool lead_ = false;  // "lead" comparison: record each stream's value for the truth's critical object
   std::vector<eval::FrameRecord> records_;
-  std::ofstream jsonl_;
+  RecordFile jsonl_;
 };
 
 }  // namespace hf

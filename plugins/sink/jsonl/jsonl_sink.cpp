@@ -6,6 +6,9 @@
 #include <cstdio>
 #include <set>
 
+#include "hazardforge/json_text.hpp"
+#include "hazardforge/output_path.hpp"
+
 namespace hf::sink {
 
 namespace fs = std::filesystem;
@@ -32,12 +35,6 @@ std::string opt_number(const std::optional<double>& v) {
   return v ? csv_number(*v) : "";
 }
 
-std::ofstream open_out(const fs::path& file) {
-  if (file.has_parent_path()) fs::create_directories(file.parent_path());
-  std::ofstream o(file, std::ios::trunc);
-  if (!o) throw Error("cannot write '" + file.string() + "'");
-  return o;
-}
 }  // namespace
 
 // ---- CsvTable
@@ -48,20 +45,19 @@ void JsonlSink::CsvTable::open(const fs::path& file, std::vector<std::string> fi
   file_ = file;
   fixed_cols_ = std::move(fixed_columns);
   suffixes_ = std::move(metric_suffixes);
-  out_ = open_out(file_);
-  write_header();
+  out_.open(file_, RecordFile::Mode::kTruncate);
+  out_.write(header());
 }
 
-void JsonlSink::CsvTable::write_header() {
+std::string JsonlSink::CsvTable::header() const {
   std::string line;
   for (const auto& c : fixed_cols_) line += (line.empty() ? "" : ",") + csv_escape(c);
   for (const auto& m : metrics_)
     for (const auto& s : suffixes_) line += "," + csv_escape(m + s);
-  out_ << line << '\n';
-  out_.flush();
+  return line + '\n';
 }
 
-void JsonlSink::CsvTable::write_row(size_t i) {
+std::string JsonlSink::CsvTable::row(size_t i) const {
   const auto& [fixed, metric_values] = rows_[i];
   std::string line;
   for (size_t k = 0; k < fixed.size(); ++k) line += (k ? "," : "") + csv_escape(fixed[k]);
@@ -71,21 +67,16 @@ void JsonlSink::CsvTable::write_row(size_t i) {
     for (size_t s = 0; s < suffixes_.size(); ++s)
       line += "," + (it == metric_values.end() ? std::string() : csv_escape(it->second[s]));
   }
-  out_ << line << '\n';
+  return line + '\n';
 }
 
 void JsonlSink::CsvTable::rewrite() {
-  // Temporary file + rename: readers see the old table or the new one, never a half-written one.
+  // Replaced atomically: readers see the old table or the new one, never a half-written one.
   out_.close();
-  const fs::path tmp = file_.string() + ".tmp";
-  out_ = open_out(tmp);
-  write_header();
-  for (size_t i = 0; i < rows_.size(); ++i) write_row(i);
-  out_.flush();
-  out_.close();
-  fs::rename(tmp, file_);
-  out_.open(file_, std::ios::app);
-  if (!out_) throw Error("cannot write '" + file_.string() + "'");
+  std::string text = header();
+  for (size_t i = 0; i < rows_.size(); ++i) text += row(i);
+  write_file_atomic(file_, text);
+  out_.open(file_, RecordFile::Mode::kAppend);
 }
 
 void JsonlSink::CsvTable::add(std::vector<std::string> fixed, MetricValues values) {
@@ -99,17 +90,12 @@ void JsonlSink::CsvTable::add(std::vector<std::string> fixed, MetricValues value
   if (widened) {
     rewrite();
   } else {
-    write_row(rows_.size() - 1);
-    out_.flush();
+    out_.write(row(rows_.size() - 1));
   }
-  if (!out_) throw Error("cannot write '" + file_.string() + "'");
 }
 
 void JsonlSink::CsvTable::close() {
-  if (out_.is_open()) {
-    out_.flush();
-    out_.close();
-  }
+  out_.close();
 }
 
 // ---- JsonlSink
@@ -141,16 +127,16 @@ ComponentInfo JsonlSink::describe() {
 
 void JsonlSink::open(StageContext& ctx) {
   const Params& p = ctx.params();
-  file_ = ctx.output_dir() / p.get_string("file");
-  out_ = open_out(file_);
+  file_ = output_param_path(ctx, "file");
+  out_.open(file_, RecordFile::Mode::kTruncate);
   csv_ = p.get_bool("csv");
   if (csv_) {
     objects_.open(
-        ctx.output_dir() / p.get_string("objects_file"),
+        output_param_path(ctx, "objects_file"),
         {"frame", "timestamp", "states", "track_id", "label", "score", "box_x", "box_y", "box_w", "box_h",
          "distance_m", "lateral_m", "vx_mps", "vy_mps", "speed_mps", "heading_rad", "in_path"},
         {""});
-    scenes_.open(ctx.output_dir() / p.get_string("scenes_file"), {"frame", "timestamp"},
+    scenes_.open(output_param_path(ctx, "scenes_file"), {"frame", "timestamp"},
                  {"", "_label", "_critical_track"});
   }
 }
@@ -181,10 +167,11 @@ void JsonlSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
     }
   }
   // Invalid UTF-8 in free text (dataset descriptions) must not cost the line.
-  out_ << line.dump(-1, ' ', false, Json::error_handler_t::replace) << '\n';
-  out_.flush();
-  if (!out_)
-    throw Error("cannot write '" + file_.string() + "' (frame " + std::to_string(ctx.frame_index()) + ")");
+  try {
+    out_.write(json_text(line) + '\n');
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + " (frame " + std::to_string(ctx.frame_index()) + ")");
+  }
   ++lines_;
   if (!csv_) return;
 
@@ -217,7 +204,6 @@ void JsonlSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
 }
 
 void JsonlSink::finish(StageContext& ctx, Outputs& /*out*/) {
-  out_.flush();
   out_.close();
   objects_.close();
   scenes_.close();

@@ -1,11 +1,11 @@
 // Sink writing one JSON line per frame, plus per-object and per-scene CSV tables.
 #pragma once
 
-#include <fstream>
 #include <map>
 #include <string>
 #include <vector>
 
+#include "hazardforge/atomic_file.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::sink {
@@ -40,17 +40,17 @@ class JsonlSink : public Stage {
     void close();
 
    private:
-    void write_header();
-    void write_row(size_t i);
+    std::string header() const;
+    std::string row(size_t i) const;
     void rewrite();
     std::filesystem::path file_;
-    std::ofstream out_;
+    RecordFile out_;
     std::vector<std::string> fixed_cols_, suffixes_, metrics_;
     std::vector<std::pair<std::vector<std::string>, MetricValues>> rows_;
   };
 
   std::filesystem::path file_;
-  std::ofstream out_;
+  RecordFile out_;
   bool csv_ = true;
   CsvTable objects_, scenes_;
   int64_t lines_ = 0;

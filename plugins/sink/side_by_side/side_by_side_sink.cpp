@@ -8,7 +8,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "hazardforge/atomic_file.hpp"
 #include "hazardforge/error.hpp"
+#include "hazardforge/output_path.hpp"
 
 namespace hf::render {
 
@@ -27,10 +29,6 @@ void label(cv::Mat& img, const std::string& text, cv::Point org, double scale) {
   cv::Mat roi = img(bg);
   roi.convertTo(roi, -1, 0.35, 0);  // darkened backdrop keeps the text readable on any scene
   cv::putText(img, text, org, font, fs, cv::Scalar(255, 255, 255), th, cv::LINE_AA);
-}
-
-fs::path below(const fs::path& base, const fs::path& p) {
-  return p.is_absolute() ? p : base / p;
 }
 
 }  // namespace
@@ -64,7 +62,7 @@ ComponentInfo SideBySideSink::describe() {
       ParamSpec::string_list("labels", {"original", "augmented"}).describe("captions of the two halves"),
       ParamSpec::int_list("stills", {}).describe("frame indices written as PNG stills"),
       ParamSpec::string("stills_dir", "stills")
-          .describe("folder for stills; relative = below the run's output folder"),
+          .describe("folder for stills, relative to the run's output folder"),
       ParamSpec::number("stills_scale", 0.5).range(0.05, 2.0).describe("scale of each half in the stills"),
       ParamSpec::boolean("draw_hazard_box", false)
           .describe("outline the inserted object on the augmented half"),
@@ -78,8 +76,8 @@ void SideBySideSink::open(StageContext& ctx) {
   const fs::path file = p.get_string("file");
   if (file.empty() || file.extension() != ".mp4")
     throw Error("file '" + file.string() + "' must end in .mp4");
-  file_ = below(ctx.output_dir(), file);
-  stills_dir_ = below(ctx.output_dir(), p.get_string("stills_dir"));
+  file_ = output_param_path(ctx, "file");
+  if (!p.get_ints("stills").empty()) stills_dir_ = output_param_path(ctx, "stills_dir", /*is_dir=*/true);
   fps_ = p.get_double("fps");
   fourcc_ = p.get_string("fourcc");
   if (fourcc_.size() != 4) throw Error("fourcc '" + fourcc_ + "' must have four characters");
@@ -157,12 +155,11 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
                 " is paired with augmented frame " + std::to_string(b.index));
   const HazardInstance* hz = in.get<HazardInstance>("hazard");
   if (stills_.count(b.index)) {
-    fs::create_directories(stills_dir_);
     const fs::path still = stills_dir_ / ("before_after_" + std::to_string(b.index) + ".png");
-    const fs::path tmp = stills_dir_ / ("before_after_" + std::to_string(b.index) + ".partial.png");
-    if (!cv::imwrite(tmp.string(), compose(a, b, hz, stills_scale_)))
-      throw Error("cannot write '" + tmp.string() + "'");
-    fs::rename(tmp, still);
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", compose(a, b, hz, stills_scale_), png))
+      throw Error("cannot encode '" + still.string() + "'");
+    write_file_atomic(still, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
   }
   cv::Mat img = compose(a, b, hz, scale_);
   if (!writer_.is_open()) {

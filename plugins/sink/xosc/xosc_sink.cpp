@@ -3,6 +3,8 @@
 
 #include <filesystem>
 
+#include <hazardforge/atomic_file.hpp>
+#include <hazardforge/output_path.hpp>
 #include "hazardforge/geometry.hpp"
 #include "hazardforge/hazard/template_base.hpp"
 #include "xosc_writer.hpp"
@@ -121,8 +123,12 @@ ComponentInfo XoscSink::describe() {
 void XoscSink::open(StageContext& ctx) {
   const Params& p = ctx.params();
   file_ = p.get_string("file");
+  output_param_path(ctx, "file");  // refused at open when it would leave the run folder
   if (file_.empty()) throw Error("node '" + ctx.node_id() + "': parameter 'file' is empty");
   catalog_ = p.get_string("catalog");
+  // Refused before the first frame when a name would leave the run folder.
+  output_param_path(ctx, "file");
+  if (!catalog_.empty()) output_param_path(ctx, "catalog");
   ego_mode_ = p.get_string("ego");
   lead_in_ = p.get_double("lead_in_s");
   after_ = p.get_double("after_s");
@@ -190,11 +196,15 @@ void XoscSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
   const std::filesystem::path xodr_name = with_suffix(file_, written_, ".xodr");
   opt.road_file = xodr_name.filename().string();
   const XoscExport ex = export_scenario(*traj, opt);
-  // The road first: a scenario is never on disk without the road it names.
-  hazard::write_file_atomic(ctx.output_dir() / xodr_name, ex.xodr);
-  hazard::write_file_atomic(ctx.output_dir() / xosc_name, ex.xosc);
+  // Every name stays inside the run folder (the output-path policy). The road first: a scenario is never on
+  // disk without the road it names.
+  const std::string what = "node '" + ctx.node_id() + "': param 'file'";
+  write_file_atomic(resolve_output_path(ctx.output_dir(), xodr_name.string(), what), ex.xodr);
+  write_file_atomic(resolve_output_path(ctx.output_dir(), xosc_name.string(), what), ex.xosc);
   if (!catalog_.empty() && !catalog_written_) {
-    hazard::write_file_atomic(ctx.output_dir() / catalog_, write_hazard_catalog());
+    write_file_atomic(
+        resolve_output_path(ctx.output_dir(), catalog_, "node '" + ctx.node_id() + "': param 'catalog'"),
+        write_hazard_catalog());
     catalog_written_ = true;
   }
   const XoscSummary& s = ex.summary;

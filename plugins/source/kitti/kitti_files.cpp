@@ -1,7 +1,11 @@
 // Parsers for KITTI calib (P2) and tracking label files.
 #include "kitti_files.hpp"
 
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "hazardforge/error.hpp"
@@ -9,6 +13,32 @@
 namespace hf::source::kitti {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// KITTI files hold plain decimals. std::stod would also take "nan", "inf" and hex ("0x10" = 16), none of
+// which a KITTI tool writes: they mean a corrupt or hand-edited file, so they are refused, not read.
+std::optional<double> strict_decimal(const std::string& t) {
+  size_t i = 0, digits = 0;
+  if (i < t.size() && (t[i] == '+' || t[i] == '-')) ++i;
+  for (; i < t.size() && std::isdigit(static_cast<unsigned char>(t[i])); ++i) ++digits;
+  if (i < t.size() && t[i] == '.')
+    for (++i; i < t.size() && std::isdigit(static_cast<unsigned char>(t[i])); ++i) ++digits;
+  if (digits == 0) return std::nullopt;
+  if (i < t.size() && (t[i] == 'e' || t[i] == 'E')) {
+    size_t exp_digits = 0;
+    ++i;
+    if (i < t.size() && (t[i] == '+' || t[i] == '-')) ++i;
+    for (; i < t.size() && std::isdigit(static_cast<unsigned char>(t[i])); ++i) ++exp_digits;
+    if (exp_digits == 0) return std::nullopt;
+  }
+  if (i != t.size()) return std::nullopt;
+  const double v = std::strtod(t.c_str(), nullptr);
+  if (!std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
+}  // namespace
 
 cv::Vec3d Calibration::cam0_to_cam2() const {
   // P2 = K [I | t]; K is upper triangular without skew.
@@ -30,9 +60,14 @@ Calibration read_calibration(const fs::path& file) {
     if (key != "P2" && key != "P_rect_02") continue;
     std::istringstream ss(line.substr(colon + 1));
     std::vector<double> v;
-    double x;
-    while (ss >> x) v.push_back(x);
-    if (v.size() != 12 || !ss.eof())
+    for (std::string t; ss >> t;) {
+      const std::optional<double> x = strict_decimal(t);
+      if (!x)
+        throw Error(file.string() + ":" + std::to_string(n) + ": error: " + key + " value " +
+                    std::to_string(v.size() + 1) + " is not a finite decimal number: '" + t + "'");
+      v.push_back(*x);
+    }
+    if (v.size() != 12)
       throw Error(file.string() + ":" + std::to_string(n) + ": error: " + key + " needs 12 numbers");
     Calibration c;
     for (int i = 0; i < 12; ++i) c.P2(i / 4, i % 4) = v[static_cast<size_t>(i)];
@@ -64,22 +99,25 @@ std::map<int, std::vector<Label>> read_labels(const fs::path& file) {
                   ": error: expected 17 fields (frame track_id type ... " + "rotation_y), got " +
                   std::to_string(tok.size()));
     auto num = [&](size_t i) {
-      size_t used = 0;
-      double v = 0;
-      try {
-        v = std::stod(tok[i], &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used != tok[i].size())
+      const std::optional<double> v = strict_decimal(tok[i]);
+      if (!v)
         throw Error(file.string() + ":" + std::to_string(n) + ": error: field '" + kFields[i] +
-                    "' is not a number: '" + tok[i] + "'");
-      return v;
+                    "' is not a finite decimal number: '" + tok[i] + "'");
+      return *v;
+    };
+    // Frame numbers index arrays of frames: a corrupt one (2e9) must not become an allocation of that size.
+    auto integer = [&](size_t i, long long lo, long long hi) {
+      const double v = num(i);
+      if (v != std::floor(v) || v < static_cast<double>(lo) || v > static_cast<double>(hi))
+        throw Error(file.string() + ":" + std::to_string(n) + ": error: field '" + kFields[i] +
+                    "' = " + tok[i] + " is not an integer in [" + std::to_string(lo) + ", " +
+                    std::to_string(hi) + "]");
+      return static_cast<int>(v);
     };
     Label l;
     l.line = n;
-    l.frame = static_cast<int>(num(0));
-    l.track_id = static_cast<int>(num(1));
+    l.frame = integer(0, 0, kMaxFrameNumber);
+    l.track_id = integer(1, -1, kMaxFrameNumber);
     l.type = tok[2];
     l.truncated = num(3);
     l.occluded = static_cast<int>(num(4));
@@ -90,7 +128,6 @@ std::map<int, std::vector<Label>> read_labels(const fs::path& file) {
     l.l = num(12);
     l.location = cv::Vec3d(num(13), num(14), num(15));
     l.rotation_y = num(16);
-    if (l.frame < 0) throw Error(file.string() + ":" + std::to_string(n) + ": error: negative frame number");
     out[l.frame].push_back(l);
   }
   return out;

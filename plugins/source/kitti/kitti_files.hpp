@@ -38,7 +38,12 @@ struct Label {
   int line = 0;
 };
 
-// All labels of a file, by frame. Throws hf::Error "<file>:<line>: error: ..." on a malformed line.
+// Largest frame number (and track id) a label may carry: KITTI sequences have at most a few thousand frames,
+// and the source makes one entry per frame up to the largest number.
+inline constexpr long long kMaxFrameNumber = 1000000;
+
+// All labels of a file, by frame. Throws hf::Error "<file>:<line>: error: ..." on a malformed line, a field
+// that is not a finite decimal number (nan, inf, 0x10), or a frame number outside [0, kMaxFrameNumber].
 std::map<int, std::vector<Label>> read_labels(const std::filesystem::path& file);
 
 }  // namespace hf::source::kitti

@@ -1,6 +1,8 @@
 // KittiSource: KITTI tracking / raw frames, P2 intrinsics and tracking labels converted to the ego frame.
 #include "kitti_source.hpp"
 
+#include "hazardforge/image_file.hpp"
+
 #include <fnmatch.h>
 
 #include <algorithm>
@@ -247,6 +249,8 @@ bool KittiSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.index = static_cast<int64_t>(pos_);
   f.timestamp = (it.kitti_frame - first) / fps_;
   if (!it.image.empty()) {
+    require_complete_image(
+        it.image, "KITTI image '" + it.image.string() + "' (frame " + std::to_string(it.kitti_frame) + ")");
     f.image = cv::imread(it.image.string(), cv::IMREAD_COLOR);
     if (f.image.empty())
       throw Error("KITTI image '" + it.image.string() + "' (frame " + std::to_string(it.kitti_frame) +

@@ -1,9 +1,12 @@
 // NuScenesSource: keyframes, camera calibration, ego motion and annotations from the nuScenes tables.
 #include "nuscenes_source.hpp"
 
+#include "hazardforge/image_file.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <sstream>
 #include <unordered_map>
 
 #include <opencv2/imgcodecs.hpp>
@@ -14,7 +17,6 @@
 namespace hf::source {
 
 namespace fs = std::filesystem;
-using nuscenes::quaternion_to_matrix;
 using nuscenes::Table;
 using nuscenes::Tables;
 
@@ -195,7 +197,7 @@ void NuScenesSource::open(StageContext& ctx) {
           for (const Json& row : *it)
             if (row.is_array() && row.size() == 3)
               for (const Json& x : row)
-                if (x.is_number()) v.push_back(x.get<double>());
+                if (x.is_number() && std::isfinite(x.get<double>())) v.push_back(x.get<double>());
         if (v.size() != 9)
           throw Error("nuScenes table '" + T.calibrated_sensor.file().string() + "': record '" +
                       T.calibrated_sensor.str(cs, "token") +
@@ -204,16 +206,28 @@ void NuScenesSource::open(StageContext& ctx) {
       }();
       k.camera.width = static_cast<int>(T.sample_data.i64(sd, "width"));
       k.camera.height = static_cast<int>(T.sample_data.i64(sd, "height"));
+      if (!(K[0] > 0) || !(K[4] > 0)) {
+        std::ostringstream os;
+        os << "field 'camera_intrinsic' has focal lengths fx = " << K[0] << ", fy = " << K[4]
+           << "; both must be positive";
+        T.calibrated_sensor.bad_record(cs, os.str());
+      }
       k.camera.fx = K[0];
       k.camera.cx = K[2];
       k.camera.fy = K[4];
       k.camera.cy = K[5];
-      k.camera.R_ego_cam = quaternion_to_matrix(T.calibrated_sensor.nums(cs, "rotation", 4));
+      k.camera.R_ego_cam = T.calibrated_sensor.rotation(cs, "rotation");
       k.camera.t_ego_cam = vec3(T.calibrated_sensor.nums(cs, "translation", 3));
       const Json& pose = T.ego_pose.at(T.sample_data.str(sd, "ego_pose_token"), sd_ref);
-      k.R_world_ego = quaternion_to_matrix(T.ego_pose.nums(pose, "rotation", 4));
+      k.R_world_ego = T.ego_pose.rotation(pose, "rotation");
       k.t_world_ego = vec3(T.ego_pose.nums(pose, "translation", 3));
       k.pose_timestamp_us = T.ego_pose.i64(pose, "timestamp");
+      // Velocities are differences over time: a repeated or backwards timestamp doubles or flips them.
+      if (!kfs.empty() && k.timestamp_us <= kfs.back().timestamp_us)
+        T.sample_data.bad_record(sd, "field 'timestamp' = " + std::to_string(k.timestamp_us) +
+                                         " is not after the previous keyframe's " +
+                                         std::to_string(kfs.back().timestamp_us) + " (scene " + name +
+                                         "); keyframe timestamps must increase strictly");
       kfs.push_back(std::move(k));
       tok = T.sample.str(sample, "next");
     }
@@ -284,7 +298,7 @@ void NuScenesSource::open(StageContext& ctx) {
           o.center_ego = R_ew * (c_world - k.t_world_ego);
           const std::vector<double> wlh = T.sample_annotation.nums(a, "size", 3);
           o.size_lwh = cv::Vec3d(wlh[1], wlh[0], wlh[2]);  // nuScenes stores [w, l, h]
-          o.yaw_ego = yaw_of(R_ew * quaternion_to_matrix(T.sample_annotation.nums(a, "rotation", 4)));
+          o.yaw_ego = yaw_of(R_ew * T.sample_annotation.rotation(a, "rotation"));
           o.num_points = static_cast<int>(T.sample_annotation.i64(a, "num_lidar_pts") +
                                           T.sample_annotation.i64(a, "num_radar_pts"));
           // The devkit's box_velocity: neighbouring annotations of the instance, centred when both exist.
@@ -336,6 +350,8 @@ bool NuScenesSource::next(StageContext& /*ctx*/, Outputs& out) {
   const fs::path file = dataroot_ / k.filename;
   cv::Mat img;
   if (fs::exists(file)) {
+    require_complete_image(file,
+                           "nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) + ")");
     img = cv::imread(file.string(), cv::IMREAD_COLOR);
     if (img.empty())
       throw Error("nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) +

@@ -17,7 +17,7 @@ Table Table::load(const fs::path& file) {
   if (!in) throw Error("nuScenes table '" + file.string() + "' cannot be read");
   try {
     t.records_ = Json::parse(in);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // parse errors and numbers too large for a double
     // nlohmann's message carries the line and column; keep it, prefixed by the file.
     std::string what = e.what();
     const std::string tag = "] ";
@@ -44,11 +44,14 @@ const Json& Table::at(const std::string& token, const std::string& referenced_by
   return records_[it->second];
 }
 
-void Table::bad_field(const Json& rec, const char* name, const char* type) const {
+void Table::bad_record(const Json& rec, const std::string& message) const {
   const std::string token =
       rec.contains("token") && rec["token"].is_string() ? rec["token"].get<std::string>() : "?";
-  throw Error("nuScenes table '" + file_.string() + "': record '" + token + "': field '" + name +
-              "' is missing or not " + type);
+  throw Error("nuScenes table '" + file_.string() + "': record '" + token + "': " + message);
+}
+
+void Table::bad_field(const Json& rec, const char* name, const char* type) const {
+  bad_record(rec, std::string("field '") + name + "' is missing or not " + type);
 }
 
 std::string Table::str(const Json& rec, const char* name) const {
@@ -58,7 +61,8 @@ std::string Table::str(const Json& rec, const char* name) const {
 }
 double Table::num(const Json& rec, const char* name) const {
   auto it = rec.find(name);
-  if (it == rec.end() || !it->is_number()) bad_field(rec, name, "a number");
+  if (it == rec.end() || !it->is_number() || !std::isfinite(it->get<double>()))
+    bad_field(rec, name, "a finite number");
   return it->get<double>();
 }
 int64_t Table::i64(const Json& rec, const char* name) const {
@@ -74,15 +78,28 @@ bool Table::boolean(const Json& rec, const char* name) const {
 std::vector<double> Table::nums(const Json& rec, const char* name, size_t expected) const {
   auto it = rec.find(name);
   const std::string type =
-      expected ? "a list of " + std::to_string(expected) + " numbers" : "a list of numbers";
+      expected ? "a list of " + std::to_string(expected) + " finite numbers" : "a list of finite numbers";
   if (it == rec.end() || !it->is_array() || (expected && it->size() != expected))
     bad_field(rec, name, type.c_str());
   std::vector<double> v;
   for (const Json& x : *it) {
-    if (!x.is_number()) bad_field(rec, name, type.c_str());
+    if (!x.is_number() || !std::isfinite(x.get<double>())) bad_field(rec, name, type.c_str());
     v.push_back(x.get<double>());
   }
   return v;
+}
+
+cv::Matx33d Table::rotation(const Json& rec, const char* name) const {
+  const std::vector<double> q = nums(rec, name, 4);
+  const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  // nuScenes stores normalised quaternions; 1e-3 allows for the printed digits, not for a wrong value.
+  if (!(std::abs(norm - 1.0) <= 1e-3)) {
+    std::ostringstream os;
+    os << "field '" << name << "' = [" << q[0] << ", " << q[1] << ", " << q[2] << ", " << q[3]
+       << "] is not a unit quaternion (norm " << norm << ")";
+    bad_record(rec, os.str());
+  }
+  return quaternion_to_matrix(q);
 }
 
 cv::Matx33d quaternion_to_matrix(const std::vector<double>& q) {

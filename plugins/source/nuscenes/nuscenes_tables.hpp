@@ -31,6 +31,11 @@ class Table {
   int64_t i64(const Json& rec, const char* name) const;
   bool boolean(const Json& rec, const char* name) const;
   std::vector<double> nums(const Json& rec, const char* name, size_t expected) const;  // 0 = any length
+  // Rotation of a [w, x, y, z] field; throws naming the record when it is not a unit quaternion (a zero
+  // quaternion would otherwise turn every yaw into NaN, far from where it came from).
+  cv::Matx33d rotation(const Json& rec, const char* name) const;
+  // Throws "<file>: record '<token>': <message>".
+  [[noreturn]] void bad_record(const Json& rec, const std::string& message) const;
 
  private:
   [[noreturn]] void bad_field(const Json& rec, const char* name, const char* type) const;

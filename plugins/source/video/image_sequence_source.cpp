@@ -1,6 +1,8 @@
 // ImageSequenceSource: a sorted folder of images as a frame stream.
 #include "image_sequence_source.hpp"
 
+#include "hazardforge/image_file.hpp"
+
 #include <fnmatch.h>
 
 #include <algorithm>
@@ -62,6 +64,7 @@ void ImageSequenceSource::open(StageContext& ctx) {
 bool ImageSequenceSource::next(StageContext& ctx, Outputs& out) {
   if (pos_ >= files_.size()) return false;
   const fs::path& file = files_[pos_];
+  require_complete_image(file, "image '" + file.string() + "' (frame " + std::to_string(pos_) + ")");
   cv::Mat raw = cv::imread(file.string(), cv::IMREAD_COLOR);
   if (raw.empty())
     throw Error("image '" + file.string() + "' (frame " + std::to_string(pos_) + ") cannot be read");

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <filesystem>
 
+#include "hazardforge/run_signals.hpp"
+
 namespace hf::source {
 
 namespace fs = std::filesystem;
@@ -22,6 +24,9 @@ ComponentInfo VideoSource::describe() {
       ParamSpec::number("fps", 0.0).range(0, 1000).describe("frame rate for timestamps (0 = from the file)"),
       ParamSpec::integer("start_frame", 0).range(0, std::nullopt).describe("first file frame to emit"),
       ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = all)"),
+      ParamSpec::boolean("allow_partial", false)
+          .describe("when the file decodes fewer frames than its container declares (truncated or corrupt), "
+                    "use the frames that decode and end the run 'incomplete' instead of failing"),
   };
   for (ParamSpec& p : CameraSetup::params()) i.params.push_back(std::move(p));
   return i;
@@ -37,6 +42,7 @@ void VideoSource::open(StageContext& ctx) {
     throw Error("cannot open video file '" + path_ + "': not a video OpenCV/FFmpeg can decode");
   start_ = p.get_int("start_frame");
   max_frames_ = p.get_int("max_frames");
+  allow_partial_ = p.get_bool("allow_partial");
   fps_ = p.get_double("fps");
   if (fps_ <= 0) {
     fps_ = cap_.get(cv::CAP_PROP_FPS);
@@ -69,7 +75,7 @@ void VideoSource::open(StageContext& ctx) {
                                " frames; intrinsics from " + setup_.intrinsics_source());
 }
 
-bool VideoSource::next(StageContext& ctx, Outputs& out) {
+bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
   if (max_frames_ >= 0 && emitted_ >= max_frames_) return false;
   const int64_t file_frame = start_ + emitted_;
   cv::Mat raw;
@@ -79,10 +85,15 @@ bool VideoSource::next(StageContext& ctx, Outputs& out) {
   } else {
     // grab() false = end of stream; grab() true but retrieve() false = a frame that is there but broken.
     if (!cap_.grab()) {
-      if (file_frames_ > 0 && file_frame < file_frames_ - 1)
-        ctx.log(LogLevel::kWarning, "video file '" + path_ + "' ended at frame " +
-                                        std::to_string(file_frame) + " although it reports " +
-                                        std::to_string(file_frames_) + " frames");
+      // Containers estimate their frame count; one frame less is within that error, more is a damaged file.
+      if (file_frames_ > 0 && file_frame < file_frames_ - 1) {
+        const std::string what = "video file '" + path_ + "' decodes " + std::to_string(file_frame) +
+                                 " of the " + std::to_string(file_frames_) +
+                                 " frames its container declares (decoding stops at frame " +
+                                 std::to_string(file_frame) + "): the file is truncated or corrupt";
+        if (!allow_partial_) throw Error(what + "; set allow_partial: true to use the frames that decode");
+        report_incomplete(what);
+      }
       return false;
     }
     if (!cap_.retrieve(raw) || raw.empty())

@@ -16,7 +16,8 @@ namespace hf::source {
 // Ports: out `frames` (Frame, BGR 8-bit, undistorted when calibrated, resized when asked).
 // Timestamps: emitted index / fps (the file's rate unless `fps` is set), so the first emitted frame is t = 0;
 //   meta.file_frame keeps the frame's position in the file.
-// Params: path, fps, start_frame, max_frames + the camera params of CameraSetup.
+// Params: path, fps, start_frame, max_frames, allow_partial + the camera params of CameraSetup. A file that
+// decodes fewer frames than its container declares fails unless allow_partial (then the run ends incomplete).
 class VideoSource : public SourceStage {
  public:
   static ComponentInfo describe();
@@ -30,6 +31,7 @@ class VideoSource : public SourceStage {
   CameraSetup setup_;
   double fps_ = 0;
   int64_t start_ = 0;
+  bool allow_partial_ = false;
   int64_t max_frames_ = -1;
   int64_t emitted_ = 0;
   int64_t file_frames_ = -1;  // as reported by the container; an estimate for some formats

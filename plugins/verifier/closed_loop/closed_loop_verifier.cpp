@@ -5,6 +5,9 @@
 #include <cmath>
 #include <numeric>
 
+#include <hazardforge/atomic_file.hpp>
+#include <hazardforge/json_text.hpp>
+#include <hazardforge/output_path.hpp>
 #include "hazardforge/hazard/kinematics.hpp"
 
 namespace hf {
@@ -123,8 +126,7 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
   state_origin_ = p.get_string("state_distance_origin");
   ego_front_ = p.get_double("ego_front_m");
   near_face_ = p.get_string("intended_distance_at") == "near_face";
-  file_ = p.get_string("file");
-  if (file_.empty()) throw Error("node '" + ctx.node_id() + "': parameter 'file' is empty");
+  file_ = output_param_path(ctx, "file");
 }
 
 double ClosedLoopVerifier::origin_offset(StageContext& ctx, const Inputs& in) const {
@@ -352,7 +354,7 @@ void ClosedLoopVerifier::finish(StageContext& ctx, Outputs& out) {
   if (finished_) return;
   finished_ = true;
   const Json s = summary();
-  hazard::write_file_atomic(ctx.output_dir() / file_, s.dump(2) + "\n");
+  write_file_atomic(file_, json_text(s, 2) + "\n");
   ctx.log(s["passed"].get<bool>() ? LogLevel::kInfo : LogLevel::kWarning,
           std::string("scenario ") + (s["passed"].get<bool>() ? "passed" : "failed") + " verification" +
               (s["reasons"].empty() ? std::string() : ": " + s["reasons"][0].get<std::string>()));

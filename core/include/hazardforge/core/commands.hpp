@@ -15,6 +15,9 @@ struct CommonOptions {
   std::string output_dir;
   int64_t max_frames = -1;
   bool quiet = false;
+  bool resume = false;               // --resume: run the same config again into a folder that holds its run
+  bool overwrite = false;            // --overwrite: clear a folder that holds an earlier run first
+  bool load_config_plugins = false;  // validate/graph: also load the config's plugin_paths
   std::vector<std::string> argv;
   const std::atomic<bool>* interrupt = nullptr;
 };

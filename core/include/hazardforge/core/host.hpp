@@ -33,10 +33,18 @@ class Host {
   std::vector<std::filesystem::path> searched_;
 };
 
+// What a run may do with an output folder that already holds something. A run folder belongs to one run:
+// mixing two runs' files in one folder makes both unreadable.
+enum class FolderUse {
+  kNew,        // the folder must be absent or empty
+  kResume,     // the folder holds a run of the same config (manifest.json); run again into it
+  kOverwrite,  // the folder holds a run (manifest.json); its contents are removed first
+};
+
 struct RunRequest {
   std::filesystem::path config;
   std::vector<std::string> overrides;
-  std::filesystem::path output_dir;  // empty = runs/<config name>-<UTC time>
+  std::filesystem::path output_dir;  // empty = runs/<config name, made path-safe>-<UTC time>
   int64_t max_frames = -1;
   bool progress = true;  // progress bar on a terminal, periodic lines otherwise
   bool quiet = false;
@@ -44,6 +52,7 @@ struct RunRequest {
   const std::atomic<bool>* interrupt = nullptr;
   // Keep only these nodes (and nothing downstream of a dropped node); empty = all. For benchmarks.
   std::vector<std::string> only_nodes;
+  FolderUse folder_use = FolderUse::kNew;
 };
 
 struct RunOutcome {
@@ -54,11 +63,14 @@ struct RunOutcome {
 };
 
 // Loads the config and plugins, validates the whole graph, runs it, and writes manifest.json (at start with
-// status "running", at the end with the outcome) and timing.md into the output folder.
+// status "running", at the end with the outcome) and timing.md into the output folder. Once the manifest says
+// "running" it always ends "completed", "interrupted" or "failed" (with the message), whatever was thrown.
 RunOutcome run_config(Host& host, const RunRequest& request);
 
-// Validated graph for `config` (loads plugins as needed). Throws hf::Error / hf::DiagnosticError.
+// Validated graph for `config` (loads plugins as needed). Throws hf::Error / hf::DiagnosticError. Without
+// `load_config_plugins` the config's plugin_paths are not loaded (a warning says so): loading a library runs
+// its code, and validating or drawing a config someone sent must not.
 Graph load_graph(Host& host, const std::filesystem::path& config, const std::vector<std::string>& overrides,
-                 GraphConfig* config_out = nullptr);
+                 GraphConfig* config_out = nullptr, bool load_config_plugins = true);
 
 }  // namespace hf::core

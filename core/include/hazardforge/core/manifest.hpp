@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "hazardforge/atomic_file.hpp"
 #include "hazardforge/core/graph.hpp"
 #include "hazardforge/core/plugin_loader.hpp"
 #include "hazardforge/core/scheduler.hpp"
@@ -15,10 +16,6 @@ std::string sha256_file(const std::filesystem::path& file);  // hex; throws hf::
 std::string sha256_text(const std::string& text);
 std::string iso8601_now();
 
-// Writes `text` to `path` via a temporary file in the same folder and rename(), so readers never see a
-// half-written file and an interrupted write leaves the previous version.
-void write_file_atomic(const std::filesystem::path& path, const std::string& text);
-
 struct ManifestInput {
   std::vector<std::string> argv;
   const Graph* graph = nullptr;
@@ -27,7 +24,8 @@ struct ManifestInput {
   std::string started_at;
 };
 
-// status: "running", "completed", "interrupted", "failed".
+// status: "running", "completed", "incomplete" (a stage used its input only in part, as allowed),
+// "interrupted", "failed".
 Json make_manifest(const ManifestInput& in, const std::string& status, const RunResult* result,
                    const std::string& ended_at);
 

@@ -41,6 +41,7 @@ struct RunResult {
   std::vector<NodeTiming> timings;
   std::vector<std::filesystem::path> resources;
   std::vector<std::string> log;  // warnings and errors stages logged
+  std::vector<std::string> incomplete;  // "node 'x': reason" for inputs a stage could use only in part
   bool ok() const { return errors.empty(); }
 };
 

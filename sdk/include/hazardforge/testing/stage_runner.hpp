@@ -62,6 +62,8 @@ class StageRunner {
   Stage& stage();
   const ComponentInfo& info() const;
   const std::filesystem::path& output_dir() const;
+  // What Ctrl-C does in a run: from now on ctx.stop_requested() is true. Safe to call from another thread.
+  void request_stop();
   // Log lines the stage wrote, "level: message".
   const std::vector<std::string>& log() const;
   // Inner timings the stage reported with ctx.record_timing(), by label.

@@ -142,7 +142,4 @@ std::vector<std::string> exceeded_limits(const MotionStats& stats, const Kinemat
 // Compact number for messages: at most `decimals` decimals, trailing zeros removed ("12", "1.25", "inf").
 std::string num(double v, int decimals = 2);
 
-// Writes `text` to `path` through a temporary file and a rename, so readers never see half a file.
-void write_file_atomic(const std::filesystem::path& path, const std::string& text);
-
 }  // namespace hf::hazard

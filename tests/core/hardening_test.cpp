@@ -1,0 +1,333 @@
+// Hostile and careless use of `hazardforge run`: output paths, run-folder ownership, invalid UTF-8, the
+// manifest.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+#include <sstream>
+
+#include "command.hpp"
+#include "hazardforge/types.hpp"
+#include "temp_dir.hpp"
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using hf::test::quote;
+
+// Three small synthetic frames and a graph image_sequence -> jsonl whose sink file is `file`.
+struct Scene {
+  hf::test::TempDir dir;
+  fs::path config = dir / "graph.yaml";
+  fs::path run = dir / "run";
+  explicit Scene(const std::string& file = "frames.jsonl", const std::string& name = "hardening") {
+    fs::create_directories(dir / "images");
+    for (int i = 0; i < 3; ++i)
+      cv::imwrite((dir / ("images/" + std::to_string(i) + ".png")).string(),
+                  cv::Mat(48, 64, CV_8UC3, cv::Scalar(40 * i, 80, 120)));
+    std::ofstream(config)
+        << "name: \"" << name << "\"\nnodes:\n"
+        << "  - id: source\n    stage: image_sequence\n    params: {path: images, hfov_deg: 60}\n"
+        << "  - id: sink\n    stage: jsonl\n    inputs: {records: [source.frames]}\n"
+        << "    params: {file: \"" << file << "\", csv: false}\n";
+  }
+  hf::test::CommandResult run_cli(const std::string& extra = "", const std::string& cwd = "") const {
+    std::string cmd = std::string(HF_EXE) + " run -q " + quote(config) + " " + extra;
+    if (cwd.empty()) cmd += " -o " + quote(run);
+    return hf::test::run_command((cwd.empty() ? "" : "cd " + quote(cwd) + " && ") + cmd);
+  }
+  hf::Json manifest() const { return hf::test::read_json_file(run / "manifest.json"); }
+};
+
+// Every file below `root`, relative; used to show that nothing appeared outside the run folder.
+std::vector<std::string> files_below(const fs::path& root) {
+  std::vector<std::string> v;
+  for (const auto& e : fs::recursive_directory_iterator(root))
+    v.push_back(fs::relative(e.path(), root).string());
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+bool has(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TEST(Hardening, SinkFileWithDotDotIsRefusedAndTheManifestSaysFailed) {
+  Scene s("../escaped.jsonl");
+  const auto before = files_below(s.dir.path());
+  const auto c = s.run_cli();
+  EXPECT_EQ(c.code, 1) << c.out;
+  const std::string msg =
+      "node 'sink': param 'file' = '../escaped.jsonl' contains '..'; output paths must stay inside the run "
+      "folder";
+  EXPECT_TRUE(has(c.out, msg)) << c.out;
+  EXPECT_FALSE(fs::exists(s.dir / "escaped.jsonl"));
+  const hf::Json m = s.manifest();
+  EXPECT_EQ(m["status"], "failed");
+  ASSERT_EQ(m["errors"].size(), 1u);
+  EXPECT_TRUE(has(m["errors"][0].get<std::string>(), msg)) << m["errors"];
+  for (const auto& f : files_below(s.dir.path()))
+    EXPECT_TRUE(f.rfind("run", 0) == 0 || std::find(before.begin(), before.end(), f) != before.end()) << f;
+}
+
+TEST(Hardening, SinkFileWithAnAbsolutePathIsRefused) {
+  hf::test::TempDir victim;
+  Scene s((victim / "passwd").string());
+  { std::ofstream(victim / "passwd") << "root:x:0:0\n"; }
+  const auto c = s.run_cli();
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, "node 'sink': param 'file' = '" + (victim / "passwd").string() +
+                             "' is an absolute path; output paths must be relative to the run folder"))
+      << c.out;
+  std::ifstream in(victim / "passwd");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "root:x:0:0");
+  EXPECT_EQ(s.manifest()["status"], "failed");
+}
+
+TEST(Hardening, ConfigNameCannotPlaceTheDefaultRunFolderOutsideRuns) {
+  Scene s("frames.jsonl", "../../../escaped");
+  fs::create_directories(s.dir / "cwd/a/b");
+  const fs::path cwd = s.dir / "cwd/a/b";
+  const auto c = s.run_cli("", cwd.string());
+  EXPECT_EQ(c.code, 0) << c.out;
+  std::vector<std::string> runs;
+  for (const auto& e : fs::directory_iterator(cwd / "runs")) runs.push_back(e.path().filename().string());
+  ASSERT_EQ(runs.size(), 1u);
+  EXPECT_EQ(runs[0].rfind("_.._.._escaped-", 0), 0u) << runs[0];
+  EXPECT_TRUE(fs::exists(cwd / "runs" / runs[0] / "frames.jsonl"));
+  EXPECT_FALSE(fs::exists(s.dir / "cwd/escaped-"));
+  for (const auto& f : files_below(s.dir / "cwd")) EXPECT_EQ(f.rfind("a", 0), 0u) << f;
+}
+
+TEST(Hardening, ASecondRunIntoTheSameFolderIsRefused) {
+  Scene s;
+  ASSERT_EQ(s.run_cli().code, 0);
+  const std::string first = hf::test::read_json_file(s.run / "manifest.json")["started_at"];
+  const auto c = s.run_cli("--set source.max_frames=1");
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_EQ(c.out,
+            "error: " + s.run.string() +
+                ": the output folder already holds a run (status 'completed'); use --resume to run the "
+                "same config into it again or --overwrite to clear it first\n");
+  EXPECT_EQ(s.manifest()["status"], "completed");
+  EXPECT_EQ(s.manifest()["started_at"], first);
+}
+
+TEST(Hardening, ANonEmptyFolderWithoutARunIsRefused) {
+  Scene s;
+  fs::create_directories(s.run);
+  { std::ofstream(s.run / "notes.txt") << "mine"; }
+  const auto c = s.run_cli("--overwrite");
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_EQ(c.out, "error: " + s.run.string() +
+                       ": the output folder is not empty and holds no run (no manifest.json); a run folder "
+                       "belongs to one run: choose a new or empty folder\n");
+  EXPECT_TRUE(fs::exists(s.run / "notes.txt"));
+}
+
+TEST(Hardening, OverwriteClearsTheEarlierRun) {
+  Scene s;
+  ASSERT_EQ(s.run_cli().code, 0);
+  { std::ofstream(s.run / "stale_from_first_run.json") << "{}"; }
+  const auto c = s.run_cli("--overwrite --set source.max_frames=2");
+  EXPECT_EQ(c.code, 0) << c.out;
+  EXPECT_FALSE(fs::exists(s.run / "stale_from_first_run.json"));
+  EXPECT_EQ(s.manifest()["frames"], 2);
+  EXPECT_EQ(s.manifest()["status"], "completed");
+}
+
+TEST(Hardening, ResumeNeedsTheSameConfig) {
+  Scene s;
+  ASSERT_EQ(s.run_cli().code, 0);
+  const auto bad = s.run_cli("--resume --set source.max_frames=1");
+  EXPECT_EQ(bad.code, 1) << bad.out;
+  EXPECT_EQ(bad.out, "error: " + s.run.string() +
+                         ": --resume needs the same config, but the earlier run's config differs at "
+                         "'/nodes/0/params/max_frames'; use --overwrite or a new folder\n");
+  const auto ok = s.run_cli("--resume");
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_EQ(s.manifest()["status"], "completed");
+}
+
+TEST(Hardening, ResumeDoesNotWriteThroughSymlinksPlantedInTheRunFolder) {
+  Scene s("sub/frames.jsonl");
+  ASSERT_EQ(s.run_cli().code, 0);
+  hf::test::TempDir outside;
+  fs::remove_all(s.run / "sub");
+  fs::create_directory_symlink(outside.path(), s.run / "sub");
+  const auto c = s.run_cli("--resume");
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, "node 'sink': param 'file' = 'sub/frames.jsonl': " + (s.run / "sub").string() +
+                             " is a symlink leading outside the run folder"))
+      << c.out;
+  EXPECT_TRUE(fs::is_empty(outside.path()));
+  EXPECT_EQ(s.manifest()["status"], "failed");
+}
+
+TEST(Hardening, ResumeRefusesASymlinkPlantedAtARecordFile) {
+  Scene s;
+  ASSERT_EQ(s.run_cli().code, 0);
+  hf::test::TempDir outside;
+  { std::ofstream(outside / "victim") << "keep"; }
+  fs::remove(s.run / "frames.jsonl");
+  fs::create_symlink(outside / "victim", s.run / "frames.jsonl");
+  const auto c = s.run_cli("--resume");
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(
+      has(c.out, (s.run / "frames.jsonl").string() +
+                     ": cannot write: it is a symlink (refused: it could point outside the run folder)"))
+      << c.out;
+  std::ifstream in(outside / "victim");
+  std::string text;
+  std::getline(in, text);
+  EXPECT_EQ(text, "keep");
+  EXPECT_EQ(s.manifest()["status"], "failed");
+}
+
+TEST(Hardening, InvalidUtf8InAnErrorEndsInTheManifestNotInAnException) {
+  Scene s;
+  // An override whose value is not UTF-8 and makes the source fail: the error text carries the byte.
+  const auto c = s.run_cli("--set 'source.pattern=\xff*.png'");
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, "has no file matching '\xff*.png'")) << c.out;
+  EXPECT_FALSE(has(c.out, "type_error")) << c.out;
+  const hf::Json m = s.manifest();
+  EXPECT_EQ(m["status"], "failed");
+  ASSERT_EQ(m["errors"].size(), 1u);
+  EXPECT_TRUE(has(m["errors"][0].get<std::string>(), "has no file matching '\xEF\xBF\xBD*.png'"))
+      << m["errors"];
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Hardening, ValidateDoesNotLoadLibrariesNamedOnlyByTheConfig) {
+  Scene s;
+  const fs::path lib_dir = fs::path(HF_FIXTURE_DIR) / "fixture_good_a";
+  std::ofstream(s.config)
+      << "plugin_paths: [" << lib_dir.string() << "]\nnodes:\n"
+      << "  - id: source\n    stage: image_sequence\n    params: {path: images, hfov_deg: 60}\n"
+      << "  - id: det\n    stage: dup_detector\n    inputs: {frames: source.frames}\n";
+  const auto plain = hf::test::run_command(std::string(HF_EXE) + " validate " + quote(s.config));
+  EXPECT_EQ(plain.code, 1) << plain.out;
+  EXPECT_TRUE(
+      has(plain.out, s.config.string() +
+                         ": warning: plugin_paths not loaded (loading runs the libraries' code); pass "
+                         "--load-config-plugins to load them\n"))
+      << plain.out;
+  EXPECT_TRUE(has(plain.out, "'dup_detector'")) << plain.out;
+  const auto asked =
+      hf::test::run_command(std::string(HF_EXE) + " validate --load-config-plugins " + quote(s.config));
+  EXPECT_FALSE(has(asked.out, "warning: plugin_paths not loaded")) << asked.out;
+  EXPECT_FALSE(has(asked.out, "'dup_detector'")) << asked.out;
+}
+
+TEST(Hardening, CredentialsInArgumentsAreRedactedFromTheManifest) {
+  Scene s;
+  const auto c = s.run_cli("--set 'sink.file=http://alice:s3cret@h/x.jsonl?token=t0k'");
+  EXPECT_EQ(c.code, 0) << c.out;
+  std::ifstream in(s.run / "manifest.json");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.find("s3cret"), std::string::npos);
+  EXPECT_EQ(text.find("t0k"), std::string::npos);
+  EXPECT_NE(text.find("http://***@h/x.jsonl?***"), std::string::npos);
+}
+
+}  // namespace
+
+namespace {
+
+// experiment re-runs a run that did not complete into its own folder (--overwrite) and keeps each run's log.
+TEST(Hardening, ExperimentRerunsAnIncompleteRunIntoItsFolder) {
+  Scene s;
+  const fs::path spec = s.dir / "exp.yaml", out = s.dir / "exp";
+  std::ofstream(spec) << "name: exp\nbase: graph.yaml\nruns:\n  - name: one\n    set: [source.max_frames=1]\n"
+                      << "  - name: two\n    set: [source.max_frames=2]\n";
+  const std::string cmd = std::string(HF_EXE) + " experiment " + quote(spec) + " -o " + quote(out);
+  const auto first = hf::test::run_command(cmd);
+  ASSERT_EQ(first.code, 0) << first.out;
+  for (const char* id : {"one", "two"}) {
+    EXPECT_TRUE(fs::exists(out / id / "run.log")) << id;
+    EXPECT_EQ(hf::test::read_json_file(out / id / "manifest.json")["status"], "completed") << id;
+  }
+  // A run left failed (e.g. by an earlier crash) is run again into the same folder.
+  hf::Json m = hf::test::read_json_file(out / "two" / "manifest.json");
+  m["status"] = "failed";
+  std::ofstream(out / "two" / "manifest.json") << m.dump();
+  const auto second = hf::test::run_command(cmd);
+  ASSERT_EQ(second.code, 0) << second.out;
+  EXPECT_TRUE(has(second.out, "experiment: one already complete, skipped")) << second.out;
+  EXPECT_EQ(hf::test::read_json_file(out / "two" / "manifest.json")["status"], "completed");
+  EXPECT_EQ(hf::test::read_json_file(out / "two" / "manifest.json")["frames"], 2);
+  EXPECT_TRUE(fs::exists(out / "two" / "run.log"));
+}
+
+}  // namespace
+
+namespace {
+
+// A cut video: fails by default; with allow_partial the run ends "incomplete", says how many frames, exit 0.
+TEST(Hardening, ACutVideoFailsOrEndsIncomplete) {
+  hf::test::TempDir dir;
+  const fs::path video = dir / "clip.avi", run = dir / "run";
+  {
+    cv::VideoWriter w(video.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25.0, {160, 120});
+    ASSERT_TRUE(w.isOpened());
+    for (int k = 0; k < 38; ++k) w.write(cv::Mat(120, 160, CV_8UC3, cv::Scalar::all(6 * k)));
+  }
+  fs::resize_file(video, fs::file_size(video) * 4 / 10);
+  const fs::path config = dir / "graph.yaml";
+  std::ofstream(config)
+      << "nodes:\n  - id: source\n    stage: video\n    params: {path: clip.avi, hfov_deg: 60}\n"
+      << "  - id: sink\n    stage: jsonl\n    inputs: {records: [source.frames]}\n"
+      << "    params: {csv: false}\n";
+  const std::string exe = std::string(HF_EXE) + " run -q " + quote(config);
+  const auto strict = hf::test::run_command(exe + " -o " + quote(run));
+  EXPECT_EQ(strict.code, 1) << strict.out;
+  EXPECT_TRUE(has(strict.out, "of the 38 frames its container declares")) << strict.out;
+  EXPECT_EQ(hf::test::read_json_file(run / "manifest.json")["status"], "failed");
+  const auto partial =
+      hf::test::run_command(exe + " -o " + quote(run) + " --overwrite --set source.allow_partial=true");
+  EXPECT_EQ(partial.code, 0) << partial.out;
+  EXPECT_TRUE(has(partial.out, "warning: incomplete: node 'source': video file '")) << partial.out;
+  const hf::Json m = hf::test::read_json_file(run / "manifest.json");
+  EXPECT_EQ(m["status"], "incomplete");
+  ASSERT_EQ(m["incomplete"].size(), 1u);
+  EXPECT_TRUE(has(m["incomplete"][0].get<std::string>(), "of the 38 frames its container declares")) << m;
+  EXPECT_LT(m["frames"].get<int>(), 37);
+}
+
+}  // namespace
+
+namespace {
+
+// A disk that fills up during the run, stood in for by a file-size limit (EFBIG where a full disk gives
+// ENOSPC; the same write path): the run fails naming file and frame, the JSON lines file ends in a whole
+// line, no temporary file is left and the manifest says failed.
+TEST(Hardening, AFullDiskFailsTheRunWithWholeLinesAndNoTemporaries) {
+  Scene s;
+  for (int i = 3; i < 150; ++i)
+    cv::imwrite((s.dir / ("images/" + std::to_string(i) + ".png")).string(), cv::Mat(48, 64, CV_8UC3));
+  // dash counts ulimit -f in 512-byte blocks: 40 = 20 KB, more than the manifest, less than 150 lines.
+  const auto c = hf::test::run_command("trap '' XFSZ; ulimit -f 40; " + std::string(HF_EXE) + " run -q " +
+                                       quote(s.config) + " -o " + quote(s.run));
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, (s.run / "frames.jsonl").string() + ": cannot write: File too large (frame "))
+      << c.out;
+  EXPECT_EQ(s.manifest()["status"], "failed");
+  std::ifstream in(s.run / "frames.jsonl", std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(text.empty());
+  EXPECT_EQ(text.back(), '\n');
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) EXPECT_TRUE(hf::Json::accept(line)) << line;
+  for (const auto& f : files_below(s.run)) EXPECT_EQ(f.find(".tmp."), std::string::npos) << f;
+}
+
+}  // namespace
