@@ -147,7 +147,13 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
   Graph g;
   g.file = cfg.file;
   g.dir = cfg.dir;
-  g.name = root.value("name", cfg.file.stem().string());
+  g.name = cfg.file.stem().string();
+  if (root.contains("name")) {
+    if (root["name"].is_string())
+      g.name = root["name"].get<std::string>();
+    else
+      error(doc.at("/name"), "'name' must be a string");
+  }
   g.description = root.contains("description") && root["description"].is_string() ? root["description"].get<std::string>() : "";
 
   for (auto it = root.begin(); it != root.end(); ++it) {
