@@ -188,6 +188,9 @@ TEST(KittiSource, LabelAndCalibrationFieldsMustBeFiniteDecimals) {
             at + "field 'frame' = 1.5 is not an integer in [0, 1000000]");
   EXPECT_EQ(label_error("-1 0 Car 0 0 -1.7 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1"),
             at + "field 'frame' = -1 is not an integer in [0, 1000000]");
+  // Found by fuzz_kitti_files: an occlusion state too large for an int was converted unchecked.
+  EXPECT_EQ(label_error("1 0 Car 0 6e21 -1.7 296.7 161.7 455.2 292.3 2.0 1.8 4.4 -4.5 1.8 13.4 -2.1"),
+            at + "field 'occluded' = 6e21 is not an integer in [-1, 3]");
   std::ofstream(dir / "c.txt") << "P2: 7.2e+02 0 6e2 0 0 721 1.7e2 0 0 0 1 nan\n";
   EXPECT_EQ(error_of([&] { source::kitti::read_calibration(dir / "c.txt"); }),
             (dir / "c.txt").string() + ":1: error: P2 value 12 is not a finite decimal number: 'nan'");

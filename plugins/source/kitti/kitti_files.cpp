@@ -120,7 +120,7 @@ std::map<int, std::vector<Label>> read_labels(const fs::path& file) {
     l.track_id = integer(1, -1, kMaxFrameNumber);
     l.type = tok[2];
     l.truncated = num(3);
-    l.occluded = static_cast<int>(num(4));
+    l.occluded = integer(4, -1, 3);  // KITTI: 0 visible .. 3 unknown, -1 for DontCare
     l.alpha = num(5);
     l.box2d = cv::Rect2d(num(6), num(7), num(8) - num(6), num(9) - num(7));
     l.h = num(10);
