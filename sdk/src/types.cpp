@@ -14,6 +14,23 @@ double CameraModel::pitch() const {
   return std::atan2(-axis[2], std::hypot(axis[0], axis[1]));
 }
 
+double CameraModel::roll() const {
+  // Heights (ego z) of the camera's right and down axes: a camera turned clockwise by r, pitched by p, has
+  // right_z = -cos p sin r and down_z = -cos p cos r.
+  const cv::Vec3d right = R_ego_cam * cv::Vec3d(1, 0, 0);
+  const cv::Vec3d down = R_ego_cam * cv::Vec3d(0, 1, 0);
+  return std::atan2(-right[2], -down[2]);
+}
+
+std::optional<double> CameraModel::horizon_y(double x) const {
+  // Points at infinity on the ground plane: directions d = (cos a, sin a, 0) in ego axes. The vanishing line is
+  // the set of pixels whose viewing ray has zero ego z: n . K^-1 (x, y, 1) = 0 with n = R^T e_z.
+  const cv::Vec3d n = R_ego_cam.t() * cv::Vec3d(0, 0, 1);  // ego up in camera axes
+  // ray_cam = ((x - cx)/fx, (y - cy)/fy, 1); n0*(x-cx)/fx + n1*(y-cy)/fy + n2 = 0
+  if (std::abs(n[1]) < 1e-12) return std::nullopt;
+  return cy - fy * (n[0] * (x - cx) / fx + n[2]) / n[1];
+}
+
 cv::Vec3d CameraModel::ego_to_cam(const cv::Vec3d& p_ego) const { return R_ego_cam.t() * (p_ego - t_ego_cam); }
 cv::Vec3d CameraModel::cam_to_ego(const cv::Vec3d& p_cam) const { return R_ego_cam * p_cam + t_ego_cam; }
 
@@ -47,7 +64,7 @@ CameraModel CameraModel::scaled_to(int w, int h) const {
 }
 
 CameraModel CameraModel::pinhole(int w, int h, double fx, double fy, double cx, double cy, double height,
-                                 double pitch_rad, double forward) {
+                                 double pitch_rad, double forward, double roll_rad) {
   CameraModel c;
   c.width = w;
   c.height = h;
@@ -59,7 +76,9 @@ CameraModel CameraModel::pinhole(int w, int h, double fx, double fy, double cx, 
   const cv::Matx33d level(0, 0, 1, -1, 0, 0, 0, -1, 0);
   const double cp = std::cos(pitch_rad), sp = std::sin(pitch_rad);
   const cv::Matx33d pitch_cam(1, 0, 0, 0, cp, sp, 0, -sp, cp);  // rotates the optical axis downwards
-  c.R_ego_cam = level * pitch_cam;
+  const double cr = std::cos(roll_rad), sr = std::sin(roll_rad);
+  const cv::Matx33d roll_cam(cr, -sr, 0, sr, cr, 0, 0, 0, 1);  // rotates the camera about its optical axis
+  c.R_ego_cam = level * pitch_cam * roll_cam;
   c.t_ego_cam = cv::Vec3d(forward, 0.0, height);
   return c;
 }

@@ -39,6 +39,12 @@ struct CameraModel {
   double height_above_ground() const { return t_ego_cam[2]; }
   // Downward pitch of the optical axis (rad, positive = looking down), derived from R_ego_cam.
   double pitch() const;
+  // Roll about the optical axis (rad, positive = the camera turned clockwise as seen from behind it, so the
+  // horizon in the image rises to the right), derived from R_ego_cam.
+  double roll() const;
+  // Image row where the ground plane's horizon crosses column x (the vanishing line of the ego's x-y plane);
+  // nullopt when the camera looks straight up or down.
+  std::optional<double> horizon_y(double x) const;
 
   cv::Vec3d ego_to_cam(const cv::Vec3d& p_ego) const;
   cv::Vec3d cam_to_ego(const cv::Vec3d& p_cam) const;
@@ -50,9 +56,10 @@ struct CameraModel {
   // Same camera for an image resized to (w, h).
   CameraModel scaled_to(int w, int h) const;
 
-  // A level camera (zero roll/pitch) mounted `height` m above the ground, `forward` m ahead of the rear axle.
+  // A camera mounted `height` m above the ground, `forward` m ahead of the rear axle, looking along the ego's
+  // x axis pitched down by `pitch_rad` and rolled by `roll_rad` (conventions of pitch() and roll()).
   static CameraModel pinhole(int w, int h, double fx, double fy, double cx, double cy, double height = 1.5,
-                             double pitch_rad = 0.0, double forward = 1.5);
+                             double pitch_rad = 0.0, double forward = 1.5, double roll_rad = 0.0);
 };
 
 // What is known about the ego vehicle at a frame.
