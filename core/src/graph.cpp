@@ -1,6 +1,8 @@
 // Graph config loading, overrides, expansion and whole-graph validation with compiler-style diagnostics.
 #include "hazardforge/core/graph.hpp"
 
+#include "hazardforge/scene.hpp"
+
 #include <algorithm>
 #include <functional>
 #include <set>
@@ -13,7 +15,7 @@ namespace {
 
 using Severity = Diagnostic::Severity;
 
-const std::vector<std::string> kTopKeys = {"name", "description", "nodes", "plugin_paths", "meta"};
+const std::vector<std::string> kTopKeys = {"name", "description", "scene", "nodes", "plugin_paths", "meta"};
 const std::vector<std::string> kNodeKeys = {"id", "stage", "params", "inputs", "outputs"};
 
 std::string ptr_token(const std::string& s) {
@@ -55,6 +57,22 @@ void apply_override(GraphConfig& cfg, const std::string& text, std::vector<Diagn
     diags.push_back({Severity::kError, where, std::string("cannot parse the value: ") + e.what()});
     return;
   }
+  if (node_id == "scene") {  // --set scene.road.lanes_left=2
+    Json* target = &cfg.doc.value["scene"];
+    std::string ptr = "/scene";
+    std::stringstream ss(key_path);
+    std::vector<std::string> parts;
+    for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);
+    for (const std::string& part : parts) {
+      if (!target->is_object()) *target = Json::object();
+      target = &(*target)[part];
+      ptr += "/" + ptr_token(part);
+    }
+    *target = value;
+    cfg.doc.locations[ptr] = where;
+    cfg.doc.locations[ptr + "#key"] = where;
+    return;
+  }
   Json& nodes = cfg.doc.value["nodes"];
   if (!nodes.is_array()) {
     diags.push_back({Severity::kError, where, "the config has no nodes to override"});
@@ -86,6 +104,7 @@ void apply_override(GraphConfig& cfg, const std::string& text, std::vector<Diagn
       }
       target = &(*target)[parts.back()];
       base += "/" + ptr_token(parts.back());
+      cfg.params_overridden.insert(node_id + "/" + parts.front());
     }
     *target = value;
     cfg.doc.locations[base] = where;
@@ -95,6 +114,189 @@ void apply_override(GraphConfig& cfg, const std::string& text, std::vector<Diagn
   std::string near = nearest_name(node_id, ids);
   diags.push_back({Severity::kError, where,
                    "no node '" + node_id + "'" + (near.empty() ? "" : "; did you mean '" + near + "'?")});
+}
+
+// ---- include: subgraphs ------------------------------------------------------------------------------------------
+
+const std::vector<std::string> kIncludeKeys = {"include", "prefix", "inputs", "params"};
+const std::vector<std::string> kSubgraphKeys = {"description", "inputs", "nodes"};
+
+// Moves the locations of `from` below pointer `from_ptr` to `to_ptr` in `to`.
+void copy_locations(const LocationMap& from, const std::string& from_ptr, LocationMap& to, const std::string& to_ptr) {
+  for (auto it = from.lower_bound(from_ptr); it != from.end() && it->first.rfind(from_ptr, 0) == 0; ++it) {
+    const std::string rest = it->first.substr(from_ptr.size());
+    if (!rest.empty() && rest[0] != '/' && rest[0] != '#') continue;  // "/nodes/1" must not take "/nodes/10"
+    to[to_ptr + rest] = it->second;
+  }
+}
+
+// Replaces every `- include: FILE` entry of doc's nodes by the subgraph's nodes, renamed with the entry's prefix
+// and with its inputs bound; keeps every location (nodes from a subgraph point into the subgraph file).
+void expand_includes(YamlDocument& doc, const std::filesystem::path& dir, std::vector<std::filesystem::path>& stack,
+                     std::vector<Diagnostic>& diags) {
+  Json& nodes = doc.value["nodes"];
+  if (!nodes.is_array()) return;
+  bool any = false;
+  for (const Json& n : nodes) any = any || (n.is_object() && n.contains("include"));
+  if (!any) return;
+  auto error = [&](const SourceLocation& w, std::string m) { diags.push_back({Severity::kError, w, std::move(m)}); };
+  Json out = Json::array();
+  LocationMap locs;
+  for (auto it = doc.locations.begin(); it != doc.locations.end(); ++it)
+    if (it->first.rfind("/nodes/", 0) != 0) locs.insert(*it);
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const std::string base = "/nodes/" + std::to_string(i);
+    const Json& entry = nodes[i];
+    if (!entry.is_object() || !entry.contains("include")) {
+      copy_locations(doc.locations, base, locs, "/nodes/" + std::to_string(out.size()));
+      out.push_back(entry);
+      continue;
+    }
+    for (auto it = entry.begin(); it != entry.end(); ++it)
+      if (std::find(kIncludeKeys.begin(), kIncludeKeys.end(), it.key()) == kIncludeKeys.end()) {
+        const std::string near = nearest_name(it.key(), kIncludeKeys);
+        error(doc.at(base + "/" + ptr_token(it.key()) + "#key"),
+              "unknown include key '" + it.key() + "'" + (near.empty() ? "" : "; did you mean '" + near + "'?"));
+      }
+    if (!entry["include"].is_string()) {
+      error(doc.at(base + "/include"), "'include' names a subgraph file");
+      continue;
+    }
+    std::filesystem::path file = entry["include"].get<std::string>();
+    if (file.is_relative()) file = dir / file;
+    file = file.lexically_normal();
+    if (std::find(stack.begin(), stack.end(), file) != stack.end()) {
+      error(doc.at(base + "/include"), "subgraph '" + file.string() + "' includes itself");
+      continue;
+    }
+    if (!std::filesystem::exists(file)) {
+      error(doc.at(base + "/include"), "subgraph file '" + file.string() + "' not found");
+      continue;
+    }
+    const std::string prefix = entry.contains("prefix") && entry["prefix"].is_string() ? entry["prefix"].get<std::string>() : "";
+    if (entry.contains("prefix") && !entry["prefix"].is_string())
+      error(doc.at(base + "/prefix"), "'prefix' is a string put before every node id of the subgraph");
+    YamlDocument sub;
+    try {
+      sub = load_yaml_file(file.string());
+    } catch (const Error& e) {
+      diags.push_back({Severity::kError, doc.at(base + "/include"), e.what()});
+      continue;
+    }
+    if (!sub.value.is_object() || !sub.value.contains("nodes") || !sub.value["nodes"].is_array()) {
+      error(sub.at(""), "a subgraph is a mapping with 'nodes' (and 'inputs' it takes)");
+      continue;
+    }
+    for (auto it = sub.value.begin(); it != sub.value.end(); ++it)
+      if (std::find(kSubgraphKeys.begin(), kSubgraphKeys.end(), it.key()) == kSubgraphKeys.end()) {
+        const std::string near = nearest_name(it.key(), kSubgraphKeys);
+        error(sub.at("/" + ptr_token(it.key()) + "#key"), "unknown subgraph key '" + it.key() + "'" +
+                                                              (near.empty() ? "" : "; did you mean '" + near + "'?"));
+      }
+    stack.push_back(file);
+    expand_includes(sub, file.parent_path(), stack, diags);
+    stack.pop_back();
+    // Declared inputs and their bindings.
+    std::set<std::string> declared;
+    if (sub.value.contains("inputs")) {
+      if (!sub.value["inputs"].is_object())
+        error(sub.at("/inputs"), "a subgraph's 'inputs' maps each input name to what it carries");
+      else
+        for (auto it = sub.value["inputs"].begin(); it != sub.value["inputs"].end(); ++it) declared.insert(it.key());
+    }
+    std::map<std::string, Json> bound;
+    if (entry.contains("inputs")) {
+      if (!entry["inputs"].is_object()) {
+        error(doc.at(base + "/inputs"), "an include's 'inputs' binds the subgraph's inputs to streams");
+      } else {
+        for (auto it = entry["inputs"].begin(); it != entry["inputs"].end(); ++it) {
+          if (!declared.count(it.key())) {
+            const std::string near = nearest_name(it.key(), {declared.begin(), declared.end()});
+            error(doc.at(base + "/inputs/" + ptr_token(it.key()) + "#key"),
+                  "subgraph '" + file.filename().string() + "' has no input '" + it.key() + "'" +
+                      (near.empty() ? "" : "; did you mean '" + near + "'?"));
+            continue;
+          }
+          bound[it.key()] = it.value();
+        }
+      }
+    }
+    for (const std::string& d : declared)
+      if (!bound.count(d))
+        error(doc.at(base + "/include"),
+              "include of '" + file.filename().string() + "': input '" + d + "' is not bound (inputs: {" + d + ": NODE.PORT})");
+    std::set<std::string> ids;
+    for (const Json& n : sub.value["nodes"])
+      if (n.is_object() && n.contains("id") && n["id"].is_string()) ids.insert(n["id"].get<std::string>());
+    // Param additions per subgraph node id.
+    Json extra = entry.contains("params") ? entry["params"] : Json::object();
+    if (!extra.is_object()) {
+      error(doc.at(base + "/params"), "an include's 'params' maps subgraph node ids to params");
+      extra = Json::object();
+    }
+    for (auto it = extra.begin(); it != extra.end(); ++it)
+      if (!ids.count(it.key())) {
+        const std::string near = nearest_name(it.key(), {ids.begin(), ids.end()});
+        error(doc.at(base + "/params/" + ptr_token(it.key()) + "#key"),
+              "subgraph '" + file.filename().string() + "' has no node '" + it.key() + "'" +
+                  (near.empty() ? "" : "; did you mean '" + near + "'?"));
+      }
+    // Renames a stream reference of a subgraph node.
+    auto rename = [&](const Json& ref, const SourceLocation& where) -> Json {
+      if (!ref.is_string()) return ref;
+      const std::string r = ref.get<std::string>();
+      if (!r.empty() && r[0] == '$') {
+        auto b = bound.find(r.substr(1));
+        if (b != bound.end()) return b->second;
+        if (!declared.count(r.substr(1)))
+          error(where, "'" + r + "' is not an input the subgraph declares");
+        return ref;
+      }
+      const auto dot = r.find('.');
+      if (dot != std::string::npos && ids.count(r.substr(0, dot))) return prefix + r;
+      error(where, "stream '" + r + "' is not produced inside subgraph '" + file.filename().string() +
+                       "'; declare it under 'inputs' and refer to it as $NAME");
+      return ref;
+    };
+    for (size_t k = 0; k < sub.value["nodes"].size(); ++k) {
+      Json n = sub.value["nodes"][k];
+      const std::string sub_base = "/nodes/" + std::to_string(k);
+      const std::string to = "/nodes/" + std::to_string(out.size());
+      copy_locations(sub.locations, sub_base, locs, to);
+      if (n.is_object() && n.contains("id") && n["id"].is_string()) {
+        const std::string id = n["id"].get<std::string>();
+        n["id"] = prefix + id;
+        if (n.contains("inputs") && n["inputs"].is_object()) {
+          for (auto it = n["inputs"].begin(); it != n["inputs"].end(); ++it) {
+            const std::string ip = sub_base + "/inputs/" + ptr_token(it.key());
+            if (it->is_array()) {
+              Json list = Json::array();
+              for (size_t e = 0; e < it->size(); ++e) list.push_back(rename((*it)[e], sub.at(ip + "/" + std::to_string(e))));
+              *it = list;
+            } else {
+              *it = rename(*it, sub.at(ip));
+            }
+          }
+        }
+        if (n.contains("outputs") && n["outputs"].is_object())
+          for (auto it = n["outputs"].begin(); it != n["outputs"].end(); ++it)
+            if (it->is_string()) *it = prefix + it->get<std::string>();
+        if (extra.contains(id) && extra[id].is_object()) {
+          if (!n.contains("params") || !n["params"].is_object()) n["params"] = Json::object();
+          for (auto it = extra[id].begin(); it != extra[id].end(); ++it) {
+            n["params"][it.key()] = it.value();
+            locs[to + "/params/" + ptr_token(it.key())] = doc.at(base + "/params/" + ptr_token(id) + "/" + ptr_token(it.key()));
+            locs[to + "/params/" + ptr_token(it.key()) + "#key"] =
+                doc.at(base + "/params/" + ptr_token(id) + "/" + ptr_token(it.key()) + "#key");
+          }
+        }
+      }
+      out.push_back(std::move(n));
+    }
+  }
+  nodes = std::move(out);
+  locs["/nodes"] = doc.at("/nodes");
+  doc.locations = std::move(locs);
 }
 
 }  // namespace
@@ -110,6 +312,8 @@ GraphConfig load_graph_config(const std::filesystem::path& file, const std::vect
   if (!cfg.doc.value.is_object()) {
     throw DiagnosticError({{Severity::kError, cfg.doc.at(""), "a graph config is a mapping with 'nodes'"}});
   }
+  std::vector<std::filesystem::path> stack = {std::filesystem::absolute(file).lexically_normal()};
+  expand_includes(cfg.doc, cfg.dir, stack, diags);
   for (const std::string& o : overrides) apply_override(cfg, o, diags);
   const std::map<std::string, std::string> vars = {{"CONFIG_DIR", cfg.dir.string()}};
   expand_strings(cfg.doc.value, "", cfg.doc, vars, diags);
@@ -168,6 +372,12 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
     throw DiagnosticError(std::move(diags));
   }
 
+  // ---- the scene: facts stated once, filled into every parameter bound to them ---------------------------------
+  if (root.contains("scene")) {
+    validate_scene(root["scene"], [&](const std::string& p) { return doc.at("/scene" + p); }, diags);
+    if (root["scene"].is_object()) g.scene = root["scene"];
+  }
+
   // ---- nodes, stages, params -----------------------------------------------------------------------------------
   std::vector<NodeSpec> nodes;
   std::set<std::string> ids;
@@ -224,6 +434,29 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
         it = given.erase(it);
       }
     }
+    // Parameters bound to a scene fact the scene states take its value; the node restating it is an error.
+    auto scene_ptr = [](const std::string& key) {
+      const auto dot = key.find('.');
+      return "/scene/" + (dot == std::string::npos ? ptr_token(key)
+                                                   : ptr_token(key.substr(0, dot)) + "/" + ptr_token(key.substr(dot + 1)));
+    };
+    std::vector<std::string> from_scene;
+    if (given.is_object() && !g.scene.empty()) {
+      const Json stated = given;
+      for (const std::string& name : fill_from_scene(info.params, g.scene, given)) {
+        const ParamSpec* ps = info.param(name);
+        if (cfg.params_overridden.count(n.id + "/" + name)) {  // the command line wins over the scene
+          g.warnings.push_back({Severity::kWarning, doc.at(base + "/params/" + ptr_token(name)),
+                                who + ": --set " + n.id + "." + name + " overrides scene." + ps->scene_key});
+          continue;
+        }
+        error(doc.at(base + "/params/" + ptr_token(name) + "#key"),
+              who + ": parameter '" + name + "' restates scene." + ps->scene_key + " (" +
+                  doc.at(scene_ptr(ps->scene_key)).str() + "); state it once, in the scene block");
+      }
+      for (auto it = given.begin(); it != given.end(); ++it)
+        if (!stated.contains(it.key())) from_scene.push_back(it.key());
+    }
     ParamLocations locs;
     if (given.is_object())
       for (auto it = given.begin(); it != given.end(); ++it) {
@@ -232,6 +465,7 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
         // Unknown names are best pointed at by their key.
         if (!info.param(it.key())) locs[it.key()] = doc.at(p + "#key");
       }
+    for (const std::string& name : from_scene) locs[name] = doc.at(scene_ptr(info.param(name)->scene_key));
     n.params = validate_params(info.params, given.is_null() ? Json::object() : given, owner, doc.at(base + "/stage"),
                                locs, diags);
     // inputs
@@ -446,7 +680,7 @@ std::string Graph::to_dot() const {
 }
 
 Json Graph::resolved() const {
-  Json j = {{"name", name}, {"file", file.string()}, {"nodes", Json::array()}};
+  Json j = {{"name", name}, {"file", file.string()}, {"scene", scene}, {"nodes", Json::array()}};
   for (const NodeSpec& n : nodes) {
     Json jn = {{"id", n.id},
                {"stage", n.component->info.kind + "/" + n.component->info.name},

@@ -70,6 +70,23 @@ struct Edge {
 
 struct NodeRuntime;
 
+// Creates components with the run's scene block filling their scene-bound params.
+class SceneFactory : public ComponentFactory {
+ public:
+  SceneFactory(const ComponentRegistry& registry, Json scene) : registry_(registry), scene_(std::move(scene)) {}
+  std::unique_ptr<Component> create_component(const std::string& kind, const std::string& name,
+                                              const Json& params) const override {
+    return registry_.create_component(kind, name, params, scene_);
+  }
+  std::vector<std::string> component_names(const std::string& kind) const override {
+    return registry_.component_names(kind);
+  }
+
+ private:
+  const ComponentRegistry& registry_;
+  Json scene_;
+};
+
 class NodeContext : public StageContext {
  public:
   NodeRuntime* node = nullptr;
@@ -317,6 +334,7 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
     return result;
   }
 
+  const SceneFactory factory(registry, graph.scene);
   std::vector<std::unique_ptr<NodeRuntime>> nodes;
   std::map<std::string, NodeRuntime*> by_id;
   for (const NodeSpec& spec : graph.nodes) {
@@ -324,7 +342,7 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
     n->spec = &spec;
     n->ctx.node = n.get();
     n->ctx.shared = &sh;
-    n->ctx.factory = &registry;
+    n->ctx.factory = &factory;
     n->ctx.params_ = Params(spec.params, graph.dir);
     n->ctx.out_dir = opt.output_dir;
     by_id[spec.id] = n.get();

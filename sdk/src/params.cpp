@@ -77,6 +77,11 @@ ParamSpec& ParamSpec::describe(std::string text) {
   return *this;
 }
 
+ParamSpec& ParamSpec::from_scene(std::string key) {
+  scene_key = std::move(key);
+  return *this;
+}
+
 // ---- Params ----------------------------------------------------------------------------------------------------
 
 Params::Params(Json values, std::filesystem::path base_dir)

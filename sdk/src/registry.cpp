@@ -1,6 +1,8 @@
 // Component registry: registration with duplicate detection, lookup with suggestions, creation.
 #include "hazardforge/registry.hpp"
 
+#include "hazardforge/scene.hpp"
+
 namespace hf {
 
 void ComponentRegistry::set_origin(std::string library, std::string plugin_name, std::string plugin_version) {
@@ -65,6 +67,11 @@ Params ComponentRegistry::make_params(const ComponentInfo& info, const Json& giv
 
 std::unique_ptr<Component> ComponentRegistry::create_component(const std::string& kind, const std::string& name,
                                                                const Json& params) const {
+  return create_component(kind, name, params, Json::object());
+}
+
+std::unique_ptr<Component> ComponentRegistry::create_component(const std::string& kind, const std::string& name,
+                                                               const Json& params, const Json& scene) const {
   const RegisteredComponent* e = find(kind, name);
   if (!e) {
     std::string near = nearest_name(name, component_names(kind));
@@ -72,7 +79,9 @@ std::unique_ptr<Component> ComponentRegistry::create_component(const std::string
   }
   std::unique_ptr<Component> c = e->make();
   // Providers and templates take their params through open(); validate here so messages are uniform.
-  Params p = make_params(e->info, params, {}, kind + " '" + name + "'");
+  Json given = params.is_null() ? Json::object() : params;
+  fill_from_scene(e->info.params, scene, given);
+  Params p = make_params(e->info, given, {}, kind + " '" + name + "'");
   if (auto* llm = dynamic_cast<LlmProvider*>(c.get())) llm->open(p);
   if (auto* tpl = dynamic_cast<HazardTemplate*>(c.get())) tpl->open(p);
   return c;

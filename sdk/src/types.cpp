@@ -1,6 +1,8 @@
 // Camera geometry and the JSON forms of the SDK payload types.
 #include "hazardforge/types.hpp"
 
+#include "hazardforge/error.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -81,6 +83,40 @@ CameraModel CameraModel::pinhole(int w, int h, double fx, double fy, double cx, 
   c.R_ego_cam = level * pitch_cam * roll_cam;
   c.t_ego_cam = cv::Vec3d(forward, 0.0, height);
   return c;
+}
+
+// ---- EgoTrack ---------------------------------------------------------------------------------------------------
+
+void EgoTrack::validate(const std::string& where) const {
+  for (size_t k = 0; k < samples.size(); ++k) {
+    const EgoTrackSample& s = samples[k];
+    const std::string at = where + ": ego track sample " + std::to_string(k);
+    for (double v : {s.t, s.x, s.y, s.yaw, s.speed_mps, s.yaw_rate})
+      if (!std::isfinite(v)) throw Error(at + " has a value that is not finite");
+    if (k > 0 && !(s.t > samples[k - 1].t))
+      throw Error(at + ": t=" + std::to_string(s.t) + " s does not come after the previous sample's t=" +
+                  std::to_string(samples[k - 1].t) + " s");
+  }
+}
+
+EgoTrackSample EgoTrack::at(double t) const {
+  if (samples.empty()) return {};
+  if (t <= samples.front().t) return samples.front();
+  if (t >= samples.back().t) return samples.back();
+  auto it = std::upper_bound(samples.begin(), samples.end(), t,
+                             [](double tt, const EgoTrackSample& s) { return tt < s.t; });
+  const EgoTrackSample& b = *it;
+  const EgoTrackSample& a = *(it - 1);
+  const double u = (t - a.t) / (b.t - a.t);
+  double dyaw = std::remainder(b.yaw - a.yaw, 2 * CV_PI);
+  EgoTrackSample r;
+  r.t = t;
+  r.x = a.x + u * (b.x - a.x);
+  r.y = a.y + u * (b.y - a.y);
+  r.yaw = a.yaw + u * dyaw;
+  r.speed_mps = a.speed_mps + u * (b.speed_mps - a.speed_mps);
+  r.yaw_rate = a.yaw_rate + u * (b.yaw_rate - a.yaw_rate);
+  return r;
 }
 
 const char* to_string(SafetyLabel l) { return l == SafetyLabel::kUnsafe ? "Unsafe" : "Safe"; }

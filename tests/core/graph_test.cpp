@@ -9,6 +9,7 @@
 
 #include "hazardforge/core/graph.hpp"
 #include "test_stages.hpp"
+#include "temp_dir.hpp"
 #include "test_support.hpp"
 
 namespace hf::core {
@@ -232,6 +233,155 @@ std::filesystem::path chain_config(int n, bool close_cycle) {
 // Validation is near-linear: 20,000 nodes validate in well under a second of work (a quadratic lookup made
 // 16,000 take 85 s) and the depth-first search does not recurse once per node.
 // HF_GRAPH_SCALE_NODES=80000 measures a bigger chain (docs/reliability.md); the default keeps the test fast.
+// ---- scene block ---------------------------------------------------------------------------------------------------
+
+std::string build_error(const std::filesystem::path& file, const std::vector<std::string>& overrides = {}) {
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  try {
+    build_graph(load_graph_config(file, overrides), reg);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return {};
+}
+
+TEST(SceneBlock, FillsBoundParamsAndTheCommandLineCanChangeIt) {
+  const hf::test::TempDir tmp;
+  const std::filesystem::path dir = tmp.path();
+  const auto file = dir / "scene.yaml";
+  std::ofstream(file) << R"(name: scene
+scene:
+  road: {lanes_left: 3, driving_side: left}
+nodes:
+  - id: source
+    stage: test_source
+  - id: detector
+    stage: test_detector
+    inputs: {frames: source.frames}
+)";
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  Graph g = build_graph(load_graph_config(file), reg);
+  EXPECT_EQ(g.node("detector")->params["lanes"], 3);
+  EXPECT_EQ(g.scene["road"]["driving_side"], "left");
+  EXPECT_EQ(g.resolved()["scene"]["road"]["lanes_left"], 3);
+  Graph g2 = build_graph(load_graph_config(file, {"scene.road.lanes_left=2"}), reg);
+  EXPECT_EQ(g2.node("detector")->params["lanes"], 2);
+  // A --set on the node itself wins over the scene, with a warning.
+  Graph g3 = build_graph(load_graph_config(file, {"detector.lanes=4"}), reg);
+  EXPECT_EQ(g3.node("detector")->params["lanes"], 4);
+  ASSERT_EQ(g3.warnings.size(), 1u);
+  EXPECT_NE(g3.warnings[0].message.find("overrides scene.road.lanes_left"), std::string::npos);
+  // Out of the bound param's range: the message points at the scene line.
+  const std::string e = build_error(file, {"scene.road.lanes_left=9"});
+  EXPECT_NE(e.find("--set scene.road.lanes_left=9"), std::string::npos) << e;
+  EXPECT_NE(e.find("'lanes'"), std::string::npos) << e;
+}
+
+TEST(SceneBlock, AFactStatedTwiceAndUnknownKeysAreErrors) {
+  const hf::test::TempDir tmp;
+  const std::filesystem::path dir = tmp.path();
+  const auto file = dir / "twice.yaml";
+  std::ofstream(file) << R"(name: twice
+scene:
+  road: {lanes_left: 3, lane_widht_m: 3.2}
+  camra: {}
+nodes:
+  - id: source
+    stage: test_source
+  - id: detector
+    stage: test_detector
+    inputs: {frames: source.frames}
+    params: {lanes: 3}
+)";
+  const std::string e = build_error(file);
+  const std::string f = file.string();
+  EXPECT_NE(e.find(f + ":3:25: error: unknown key 'scene.road.lane_widht_m'; did you mean 'lane_width_m'?"),
+            std::string::npos) << e;
+  EXPECT_NE(e.find(f + ":4:3: error: unknown scene section 'camra'; did you mean 'camera'?"), std::string::npos) << e;
+  EXPECT_NE(e.find(f + ":11:14: error: node 'detector': parameter 'lanes' restates scene.road.lanes_left (" + f +
+                   ":3:22); state it once, in the scene block"),
+            std::string::npos) << e;
+}
+
+// ---- include: subgraphs ------------------------------------------------------------------------------------------
+
+TEST(Include, ASubgraphWrittenOnceIsInstantiatedTwice) {
+  const hf::test::TempDir tmp;
+  const std::filesystem::path dir = tmp.path();
+  std::filesystem::create_directories(dir / "sub");
+  std::ofstream(dir / "sub" / "detect.yaml") << R"(description: a detector and a filter on one frame stream
+inputs: {frames: the frames to look at}
+nodes:
+  - id: detector
+    stage: test_detector
+    inputs: {frames: $frames}
+    params: {mode: accurate}
+  - id: filter
+    stage: test_filter
+    inputs: {detections: detector.detections}
+)";
+  const auto file = dir / "main.yaml";
+  std::ofstream(file) << R"(name: twice
+nodes:
+  - id: source
+    stage: test_source
+  - include: sub/detect.yaml
+    inputs: {frames: source.frames}
+  - include: sub/detect.yaml
+    prefix: re_
+    inputs: {frames: source.frames}
+    params: {detector: {conf_threshold: 0.9}}
+  - id: sink
+    stage: test_sink
+    inputs: {records: [filter.detections, re_filter.detections]}
+)";
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  Graph g = build_graph(load_graph_config(file, {"re_detector.mode=fast"}), reg);
+  ASSERT_EQ(g.nodes.size(), 6u);
+  EXPECT_EQ(g.node("detector")->params["mode"], "accurate");
+  EXPECT_DOUBLE_EQ(g.node("detector")->params["conf_threshold"].get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(g.node("re_detector")->params["conf_threshold"].get<double>(), 0.9);
+  EXPECT_EQ(g.node("re_detector")->params["mode"], "fast");
+  EXPECT_EQ(g.node("re_filter")->inputs.at("detections").at(0), "re_detector.detections");
+  EXPECT_EQ(g.node("re_detector")->inputs.at("frames").at(0), "source.frames");
+  // Errors inside a subgraph point into the subgraph file.
+  std::ofstream(dir / "sub" / "bad.yaml") << R"(inputs: {frames: frames}
+nodes:
+  - id: detector
+    stage: test_detector
+    inputs: {frames: $frames}
+    params: {conf_threshold: 7}
+  - id: filter
+    stage: test_filter
+    inputs: {detections: source.detections}
+)";
+  std::ofstream(dir / "bad_main.yaml") << R"(name: bad
+nodes:
+  - id: source
+    stage: test_source
+  - include: sub/bad.yaml
+    prefix: b_
+  - include: sub/nothere.yaml
+)";
+  const std::string e = build_error(dir / "bad_main.yaml");
+  const std::string sub = (dir / "sub" / "bad.yaml").string();
+  EXPECT_NE(e.find("include of 'bad.yaml': input 'frames' is not bound"), std::string::npos) << e;
+  EXPECT_NE(e.find(sub + ":9:26: error: stream 'source.detections' is not produced inside subgraph 'bad.yaml'"),
+            std::string::npos) << e;
+  EXPECT_NE(e.find("subgraph file '" + (dir / "sub" / "nothere.yaml").string() + "' not found"), std::string::npos) << e;
+}
+
+TEST(Include, ASubgraphIncludingItselfIsRefused) {
+  const hf::test::TempDir tmp;
+  const std::filesystem::path dir = tmp.path();
+  std::ofstream(dir / "loop.yaml") << "nodes:\n  - include: loop.yaml\n";
+  std::ofstream(dir / "main.yaml") << "name: m\nnodes:\n  - include: loop.yaml\n";
+  EXPECT_NE(build_error(dir / "main.yaml").find("includes itself"), std::string::npos) << build_error(dir / "main.yaml");
+}
+
 TEST(GraphScale, TwentyThousandNodeChainValidates) {
   ComponentRegistry reg;
   hf::test::register_test_stages(reg);

@@ -24,15 +24,16 @@ constexpr double kPi = std::numbers::pi;
 
 // A drive along a circle of radius r (positive = turning left) at speed v, sampled at 2 Hz like nuScenes
 // keyframes, in a world frame where it starts at (100, 50) heading 30 degrees.
-Json circle_track(double r, double v, double t_end = 12.0) {
+std::shared_ptr<EgoTrack> circle_track(double r, double v, double t_end = 12.0) {
   const double h0 = 30 * kPi / 180;
   const cv::Vec2d p0(100, 50), centre = p0 + r * cv::Vec2d(-std::sin(h0), std::cos(h0));
-  Json track = Json::array();
+  auto track = std::make_shared<EgoTrack>();
+  track->source = "dataset";
   for (double t = 0; t <= t_end + 1e-9; t += 0.5) {
     const double turn = v * t / r;
     const double phi = h0 - kPi / 2 + turn;
     const cv::Vec2d p = centre + r * cv::Vec2d(std::cos(phi), std::sin(phi));
-    track.push_back({{"t", t}, {"x", p[0]}, {"y", p[1]}, {"yaw", h0 + turn}});
+    track->samples.push_back({t, p[0], p[1], h0 + turn, v, v / r});
   }
   return track;
 }
@@ -49,7 +50,7 @@ SceneContext turning_scene(double r, double v, double anchor = 2.0) {
   s.ego_speed_mps = v;
   // nuScenes-like front camera: 1600x900, f = 1266 px, 1.5 m high, 1.5 m ahead of the rear axle.
   s.camera = CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.0, 1.5);
-  s.meta = {{"ego_track", circle_track(r, v)}};
+  s.ego_track = circle_track(r, v);
   return s;
 }
 
@@ -74,7 +75,7 @@ hazard::TtcSample seen_by(const EgoPath& ego, const HazardTrajectory& tr, size_t
 
 TEST(EgoPath, FollowsACircularTrackInTheAnchorFrame) {
   const double r = 20, v = 5;
-  const auto track = hazard::parse_ego_track(circle_track(r, v), "test");
+  const auto track = circle_track(r, v)->samples;
   // Unsmoothed: the interpolating spline of the poses.
   const EgoPath ego = EgoPath::recorded(track, 2.0, "test", 0.0);
   ASSERT_TRUE(ego.is_recorded());
@@ -130,25 +131,24 @@ TEST(EgoPath, StraightIsTheConstantSpeedPlan) {
 }
 
 TEST(EgoPath, MalformedTracksAreNamed) {
-  auto msg = [](const Json& j) {
+  auto msg = [](std::vector<EgoTrackSample> samples, double anchor = 0.25) {
     try {
-      EgoPath::recorded(hazard::parse_ego_track(j, "frame 4"), 0.25, "frame 4");
+      EgoTrack t;
+      t.samples = std::move(samples);
+      t.validate("frame 4");
+      EgoPath::recorded(t.samples, anchor, "frame 4");
     } catch (const Error& e) {
       return std::string(e.what());
     }
     return std::string();
   };
-  EXPECT_EQ(msg(Json::object()), "frame 4: ego_track must be a list of {t, x, y, yaw}, got {}");
-  EXPECT_EQ(msg(Json::array({{{"t", 0}, {"x", 1}, {"y", 2}}})),
-            "frame 4: ego_track[0]: field 'yaw' is missing or not a number");
-  EXPECT_EQ(msg(Json::array(
-                {{{"t", 0}, {"x", 1}, {"y", 2}, {"yaw", 0}}, {{"t", 0}, {"x", 1}, {"y", 2}, {"yaw", 0}}})),
-            "frame 4: ego_track[1]: t=0 s does not come after the previous sample's t=0 s");
-  EXPECT_EQ(msg(Json::array({{{"t", 0}, {"x", 1}, {"y", 2}, {"yaw", 0}}})),
-            "frame 4: ego_track has 1 sample(s); a recorded path needs at least two");
-  EXPECT_EQ(msg(Json::array(
-                {{{"t", 1}, {"x", 1}, {"y", 2}, {"yaw", 0}}, {{"t", 2}, {"x", 2}, {"y", 2}, {"yaw", 0}}})),
-            "frame 4: the anchor time 0.25 s is outside the ego_track's span [1, 2] s");
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(msg({{0, 1, 2, nan}}), "frame 4: ego track sample 0 has a value that is not finite");
+  EXPECT_EQ(msg({{0, 1, 2, 0}, {0, 1, 2, 0}}),
+            "frame 4: ego track sample 1: t=0.000000 s does not come after the previous sample's t=0.000000 s");
+  EXPECT_EQ(msg({{0, 1, 2, 0}}), "frame 4: ego_track has 1 sample(s); a recorded path needs at least two");
+  EXPECT_EQ(msg({{1, 1, 2, 0}, {2, 2, 2, 0}}), "frame 4: the anchor time 0.25 s is outside the ego_track's span [1, 2] s");
+  EXPECT_EQ(msg({{1, 1, 2, 0}, {2, 2, 2, 0}}, 1.5), "");
 }
 
 HazardSpec pedestrian(double x, double y, double speed, double target) {
@@ -184,7 +184,7 @@ TEST(RecordedEgoTrack, PedestrianIsInTheTurningEgosPathWhenItArrives) {
   // At the collision time the person is in the path of the real (turning) ego: within its corridor (|y| < 1.8
   // m) and within one sample of contact.
   ASSERT_TRUE(o.notes.contains("contact_time_s"));
-  const EgoPath real = EgoPath::recorded(hazard::parse_ego_track(scene.meta["ego_track"], "t"), 2.0, "t");
+  const EgoPath real = EgoPath::recorded(scene.ego_track->samples, 2.0, "t");
   const hazard::TtcSample last = seen_by(real, tr, tr.points.size() - 1);
   EXPECT_TRUE(last.in_path);
   EXPECT_LT(std::abs(last.y_rel), 1.0);
@@ -219,7 +219,7 @@ TEST(RecordedEgoTrack, PedestrianStopsInTheLaneAndStays) {
   auto tpl = make("pedestrian_crossing", {{"stop_in_path", true}, {"stop_offset_m", 0.3}});
   const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
-  const EgoPath real = EgoPath::recorded(hazard::parse_ego_track(scene.meta["ego_track"], "t"), 2.0, "t");
+  const EgoPath real = EgoPath::recorded(scene.ego_track->samples, 2.0, "t");
   // Once in the ego's corridor it never leaves it, and it stands still (0.3 m left of the path's centre line)
   // before the ego arrives.
   size_t first_in = 0;
@@ -259,7 +259,7 @@ TEST(RecordedEgoTrack, SuddenStopLeadFollowsTheBendUntilContact) {
   auto tpl = make("sudden_stop");
   const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
-  const EgoPath real = EgoPath::recorded(hazard::parse_ego_track(scene.meta["ego_track"], "t"), 2.0, "t");
+  const EgoPath real = EgoPath::recorded(scene.ego_track->samples, 2.0, "t");
   // On the road the turning ego follows at every sample (the straight corridor of the TTC protocol only holds
   // it near the end: 14 m down a 25 m bend is 3.9 m to the side of the ego's heading), and the plan ends at
   // contact, in the ego's path.
@@ -301,7 +301,7 @@ TEST(RecordedEgoTrack, CutInEndsInTheCurvingLaneAtTheTargetGap) {
   auto tpl = make("cut_in", {{"duration_s", 8.0}});
   const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
-  const EgoPath real = EgoPath::recorded(hazard::parse_ego_track(scene.meta["ego_track"], "t"), 2.0, "t");
+  const EgoPath real = EgoPath::recorded(scene.ego_track->samples, 2.0, "t");
   const double t_end = o.notes["cut_in_end_s"].get<double>();
   const size_t k = static_cast<size_t>(std::lround(t_end * 20));
   ASSERT_LT(k, o.trajectory.points.size());
@@ -317,13 +317,13 @@ TEST(RecordedEgoTrack, PoseNoiseIsSmoothedAwayForAnAdjacentLane) {
   // A straight drive at 8 m/s whose recorded positions wobble by up to 1.5 cm sideways (localisation noise):
   // the interpolating spline's curvature then wiggles, and a vehicle a lane to the side, following the road
   // at 12 m/s, gets jerk spikes the car limit refuses. The default 0.25 s smoothing removes them.
-  Json track = Json::array();
+  auto track = std::make_shared<EgoTrack>();
   for (int k = 0; k <= 24; ++k) {
     const double wobble = 0.015 * ((k * 7) % 5 - 2) / 2.0;
-    track.push_back({{"t", 0.5 * k}, {"x", 4.0 * k}, {"y", wobble}, {"yaw", 0.0}});
+    track->samples.push_back({0.5 * k, 4.0 * k, wobble, 0.0, 8.0, 0.0});
   }
   SceneContext scene = turning_scene(60, 8);
-  scene.meta = {{"ego_track", track}};
+  scene.ego_track = track;
   HazardSpec spec;
   spec.kind = "cut_in";
   spec.object_class = "car";
@@ -342,7 +342,7 @@ TEST(RecordedEgoTrack, PoseNoiseIsSmoothedAwayForAnAdjacentLane) {
 
 TEST(RecordedEgoTrack, RecordedPlanWithoutATrackIsRefused) {
   SceneContext scene = turning_scene(20, 5);
-  scene.meta = Json::object();
+  scene.ego_track = nullptr;
   auto tpl = make("sudden_stop", {{"ego_plan", "recorded"}});
   HazardSpec spec;
   spec.kind = "sudden_stop";
@@ -352,8 +352,8 @@ TEST(RecordedEgoTrack, RecordedPlanWithoutATrackIsRefused) {
   spec.deceleration_mps2 = 6;
   EXPECT_EQ(
       tpl->check(spec, scene),
-      std::vector<std::string>{"ego_plan 'recorded' needs the scene's recorded ego track (meta ego_track), "
-                               "which this scene does not carry"});
+      std::vector<std::string>{"ego_plan 'recorded' needs the recording's ego track (from dataset poses or "
+                               "estimated from the video), which this scene does not carry"});
 }
 
 TEST(NuScenesEgoTrack, EveryFrameCarriesTheWholeRecordedTrack) {
@@ -365,7 +365,10 @@ TEST(NuScenesEgoTrack, EveryFrameCarriesTheWholeRecordedTrack) {
   const auto frames = r.collect<Frame>("frames");
   ASSERT_EQ(frames.size(), 6u);
   for (const Frame& f : frames) {
-    const auto track = hazard::parse_ego_track(f.meta["ego_track"], "frame " + std::to_string(f.index));
+    ASSERT_TRUE(f.ego_track);
+    EXPECT_EQ(f.ego_track->source, "dataset");
+    EXPECT_EQ(f.ego.source, "dataset");
+    const auto& track = f.ego_track->samples;
     // The whole scene (41 keyframes), even though only 6 frames are emitted.
     ASSERT_EQ(track.size(), 41u);
     const EgoTrackSample& own = track[static_cast<size_t>(f.index)];
@@ -376,13 +379,14 @@ TEST(NuScenesEgoTrack, EveryFrameCarriesTheWholeRecordedTrack) {
     EXPECT_DOUBLE_EQ(own.yaw, std::atan2(T(1, 0), T(0, 0)));
   }
   // Scene-0916 turns right by 44 degrees over its first 2.4 s (yaw -73.5 -> -117.9 deg).
-  const auto track = hazard::parse_ego_track(frames[0].meta["ego_track"], "frame 0");
+  const auto& track = frames[0].ego_track->samples;
+  EXPECT_NEAR(track[3].speed_mps, *frames[3].ego.speed_mps, 1e-9);
   EXPECT_NEAR((track[5].yaw - track[0].yaw) * 180 / kPi, -44.4, 0.1);
   auto off = testing::StageRunner::create<source::NuScenesSource>("{dataroot: '" + root.string() +
                                                                   "', annotations: false, max_frames: 1, "
                                                                   "ego_track: false}");
   off.run();
-  EXPECT_FALSE(off.collect<Frame>("frames").front().meta.contains("ego_track"));
+  EXPECT_FALSE(off.collect<Frame>("frames").front().ego_track);
 }
 
 }  // namespace

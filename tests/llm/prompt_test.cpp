@@ -68,12 +68,14 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
   EXPECT_EQ(sum.scene["objects"][0]["track_id"], 7);
   EXPECT_EQ(sum.scene["road"]["edge_left_m"], 5.25);
   // No recorded ego track on this frame: the templates plan against a straight ego.
-  EXPECT_FALSE(sum.context.meta.contains("ego_track"));
-  // With one (the nuscenes source attaches it to every frame), the templates get it too.
-  f.meta["ego_track"] = Json::array({{{"t", 2.5}, {"x", 0.0}, {"y", 0.0}, {"yaw", 0.0}},
-                                     {{"t", 3.5}, {"x", 10.0}, {"y", 0.0}, {"yaw", 0.0}}});
+  EXPECT_FALSE(sum.context.ego_track);
+  // With one (dataset poses or the video's ego motion), the templates get it too.
+  auto track = std::make_shared<EgoTrack>();
+  track->source = "video";
+  track->samples = {{2.5, 0.0, 0.0, 0.0, 10.0, 0.0}, {3.5, 10.0, 0.0, 0.0, 10.0, 0.0}};
+  f.ego_track = track;
   const SceneSummary with_track = summarize_scene(f, st, {&r}, s, limits, sizes);
-  EXPECT_EQ(with_track.context.meta["ego_track"], f.meta["ego_track"]);
+  EXPECT_EQ(with_track.context.ego_track, f.ego_track);
 }
 
 TEST(SceneRules, AutoResolutionFromText) {

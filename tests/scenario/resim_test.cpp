@@ -36,16 +36,14 @@ struct Case {
 };
 
 // A left turn of radius r at speed v recorded at 2 Hz (world frame: starts at (100, 50) heading 30 degrees).
-Json arc_track(double r, double v, double t_end) {
+std::shared_ptr<EgoTrack> arc_track(double r, double v, double t_end) {
   const double h0 = kPi / 6;
   const double cx = 100 - r * std::sin(h0), cy = 50 + r * std::cos(h0);
-  Json track = Json::array();
+  auto track = std::make_shared<EgoTrack>();
+  track->source = "dataset";
   for (double t = 0; t <= t_end + 1e-9; t += 0.5) {
     const double turn = v * t / r;
-    track.push_back({{"t", t},
-                     {"x", cx + r * std::sin(h0 + turn)},
-                     {"y", cy - r * std::cos(h0 + turn)},
-                     {"yaw", h0 + turn}});
+    track->samples.push_back({t, cx + r * std::sin(h0 + turn), cy - r * std::cos(h0 + turn), h0 + turn, v, v / r});
   }
   return track;
 }
@@ -169,13 +167,13 @@ TEST(Resimulation, PedestrianInABendOfTheRecordedPath) {
   // the recorded path, and the walker still meets it.
   HF_REQUIRE_SHARED(test::xosc_schema());
   SceneContext scene = test::test_scene(8.0, 4.0);
-  scene.meta = {{"ego_track", arc_track(120, 8, 16)}};
+  scene.ego_track = arc_track(120, 8, 16);
   HazardSpec s;
   s.kind = "pedestrian_crossing", s.object_class = "person", s.initial_distance_m = 45, s.side = "right";
   s.speed_mps = 1.4, s.target_ttc_s = 1.4;
   Case c{"pedestrian_crossing_bend", plan("pedestrian_crossing", s, scene), options(1, 0, "sidewalk")};
   c.opt.ego_path =
-      hazard::EgoPath::recorded(hazard::parse_ego_track(scene.meta["ego_track"], "test"), 4.0, "test");
+      hazard::EgoPath::recorded(scene.ego_track->samples, 4.0, "test");
   const Measured m = run_case(c);
   expect_meets(c, m);
   // The lane-keeping ego drives the recorded path: within a few centimetres of the plan's ego (the anchor
@@ -196,16 +194,16 @@ TEST(Resimulation, ReplayedEgoThatSpeedsUpMeetsThePedestrianWhenPlanned) {
   // initial speed and comes late; the replayed one follows the recording and meets the walker when the plan
   // says.
   HF_REQUIRE_SHARED(test::xosc_schema());
-  Json track = Json::array();
+  auto track = std::make_shared<EgoTrack>();
   for (double t = 0; t <= 16 + 1e-9; t += 0.5)
-    track.push_back({{"t", t}, {"x", 20 + 6 * t + 0.25 * t * t}, {"y", -10.0}, {"yaw", 0.0}});
+    track->samples.push_back({t, 20 + 6 * t + 0.25 * t * t, -10.0, 0.0, 6 + 0.5 * t, 0.0});
   SceneContext scene = test::test_scene(8.0, 4.0);
-  scene.meta = {{"ego_track", track}};
+  scene.ego_track = track;
   HazardSpec s;
   s.kind = "pedestrian_crossing", s.object_class = "person", s.initial_distance_m = 60, s.side = "right";
   s.speed_mps = 1.4, s.target_ttc_s = 1.4;
   Case c{"pedestrian_crossing_replay", plan("pedestrian_crossing", s, scene), options(1, 0, "sidewalk")};
-  c.opt.ego_path = hazard::EgoPath::recorded(hazard::parse_ego_track(track, "test"), 4.0, "test");
+  c.opt.ego_path = hazard::EgoPath::recorded(track->samples, 4.0, "test");
   c.opt.ego_mode = "replay";
   const fs::path dir = test::unique_temp_dir();
   const XoscExport ex = export_scenario(c.traj, c.opt);

@@ -227,8 +227,7 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                       {"threshold_s", s.threshold_s},         {"target_ttc_s", s.target_ttc_s}};
   // The recorded ego track (e.g. nuScenes), so the templates check a spec against where the ego really goes,
   // as the planner will: a spec planned against a straight ego can be infeasible on the recorded path.
-  if (frame.meta.is_object() && frame.meta.contains("ego_track"))
-    out.context.meta["ego_track"] = frame.meta["ego_track"];
+  out.context.ego_track = frame.ego_track;
   return out;
 }
 

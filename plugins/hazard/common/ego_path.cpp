@@ -57,35 +57,7 @@ double eval_spline(const std::vector<double>& t, const std::vector<double>& v, c
   return a * v[i] + b * v[i + 1] + ((a * a * a - a) * m[i] + (b * b * b - b) * m[i + 1]) * h * h / 6;
 }
 
-double number_field(const Json& e, const char* field, const std::string& where, size_t k) {
-  if (!e.contains(field) || !e[field].is_number())
-    throw Error(where + ": ego_track[" + std::to_string(k) + "]: field '" + field +
-                "' is missing or not a number");
-  const double v = e[field].get<double>();
-  if (!std::isfinite(v))
-    throw Error(where + ": ego_track[" + std::to_string(k) + "]: field '" + field + "' is not finite");
-  return v;
-}
-
 }  // namespace
-
-std::vector<EgoTrackSample> parse_ego_track(const Json& track, const std::string& where) {
-  if (!track.is_array())
-    throw Error(where + ": ego_track must be a list of {t, x, y, yaw}, got " + track.dump());
-  std::vector<EgoTrackSample> out;
-  for (size_t k = 0; k < track.size(); ++k) {
-    const Json& e = track[k];
-    if (!e.is_object())
-      throw Error(where + ": ego_track[" + std::to_string(k) + "] must be an object {t, x, y, yaw}");
-    EgoTrackSample s{number_field(e, "t", where, k), number_field(e, "x", where, k),
-                     number_field(e, "y", where, k), number_field(e, "yaw", where, k)};
-    if (!out.empty() && !(s.t > out.back().t))
-      throw Error(where + ": ego_track[" + std::to_string(k) + "]: t=" + num(s.t, 3) +
-                  " s does not come after the previous sample's t=" + num(out.back().t, 3) + " s");
-    out.push_back(s);
-  }
-  return out;
-}
 
 EgoPath EgoPath::straight(double speed) {
   EgoPath p;

@@ -202,12 +202,12 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
 
   // The ego plan: the recorded track when the scene carries one (so the hazard is planned against where the
   // ego really goes), else straight on at the frame's speed.
-  const bool has_track = scene.meta.is_object() && scene.meta.contains("ego_track");
+  const bool has_track = scene.ego_track && scene.ego_track->samples.size() >= 2;
   EgoPath ego = EgoPath::straight(*scene.ego_speed_mps);
   if (ego_plan_ == "recorded" && !has_track) {
     reasons.push_back(
-        "ego_plan 'recorded' needs the scene's recorded ego track (meta ego_track), which this "
-        "scene does not carry");
+        "ego_plan 'recorded' needs the recording's ego track (from dataset poses or estimated from the "
+        "video), which this scene does not carry");
     return out;
   }
   // An under-way hazard is designed from its start, under_way s before the anchor time, against the ego's
@@ -215,7 +215,7 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   EgoPath design_ego = ego;
   if (ego_plan_ != "constant_speed" && has_track) {
     const std::string where = "scene at t=" + num(scene.timestamp, 3) + " s";
-    const auto track = parse_ego_track(scene.meta["ego_track"], where);
+    const auto& track = scene.ego_track->samples;
     ego = EgoPath::recorded(track, scene.timestamp, where, ego_smoothing_s_);
     design_ego = ego;
     if (under_way > 0) {

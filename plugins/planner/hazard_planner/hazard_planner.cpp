@@ -84,6 +84,7 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   scene.timestamp = frame.timestamp;
   scene.camera = frame.camera;
   scene.meta = frame.meta;
+  scene.ego_track = frame.ego_track;
   const ObjectStates* states = in.get<ObjectStates>("states");
   if (states) scene.objects = states->objects;
   if (frame.ego.speed_mps)

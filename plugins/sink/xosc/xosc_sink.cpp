@@ -183,12 +183,12 @@ void XoscSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
   opt.ego_mode = ego_mode_;
   opt.lead_in_s = lead_in_;
   opt.after_s = after_;
-  // The recorded ego track (nuScenes) carries the road before and after the plan.
+  // The recording's ego track (dataset poses or the video's ego motion) carries the road before and after
+  // the plan.
   if (const Frame* f = in.get<Frame>("frames"); f && std::abs(f->timestamp - traj->anchor_time) < 1e-6 &&
-                                                f->meta.is_object() && f->meta.contains("ego_track")) {
-    const std::string where = "xosc: frame " + std::to_string(f->index) + " meta";
-    opt.ego_path = hazard::EgoPath::recorded(hazard::parse_ego_track(f->meta["ego_track"], where),
-                                             traj->anchor_time, where);
+                                                f->ego_track && f->ego_track->samples.size() >= 2) {
+    const std::string where = "xosc: frame " + std::to_string(f->index) + " (" + f->ego_track->source + " ego track)";
+    opt.ego_path = hazard::EgoPath::recorded(f->ego_track->samples, traj->anchor_time, where);
   }
   ++written_;
   const std::filesystem::path xosc_name =

@@ -106,9 +106,9 @@ ComponentInfo NuScenesSource::describe() {
           .describe("time inserted between consecutive scenes, s"),
       ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = all)"),
       ParamSpec::boolean("ego_track", true)
-          .describe("attach the scene's whole recorded ego track to every frame (meta ego_track: [{t, x, y, "
-                    "yaw}] in the world frame, t in stream seconds), so planners can plan against where the "
-                    "ego really goes"),
+          .describe("attach the scene's whole recorded ego track (Frame::ego_track, source 'dataset': poses "
+                    "in the world frame, t in stream seconds) to every frame, so planners can plan against "
+                    "where the ego really goes"),
   };
   return i;
 }
@@ -262,6 +262,7 @@ void NuScenesSource::open(StageContext& ctx) {
         T_we(r, 3) = k.t_world_ego[r];
       }
       k.ego.T_world_ego = T_we;
+      k.ego.source = "dataset";
       auto v =
           central(pos, pose_ts, i, [](const cv::Vec3d& b, const cv::Vec3d& a) { return cv::Vec3d(b - a); });
       if (v) {
@@ -322,10 +323,12 @@ void NuScenesSource::open(StageContext& ctx) {
       k.annotations = std::move(ann);
     }
     // The recorded ego track of the whole scene, known in advance from the poses.
-    auto track = std::make_shared<Json>(Json::array());
+    auto track = std::make_shared<EgoTrack>();
+    track->source = "dataset";
     for (const KeyFrame& k : kfs)
-      track->push_back(
-          {{"t", k.t}, {"x", k.t_world_ego[0]}, {"y", k.t_world_ego[1]}, {"yaw", yaw_of(k.R_world_ego)}});
+      track->samples.push_back({k.t, k.t_world_ego[0], k.t_world_ego[1], yaw_of(k.R_world_ego),
+                                k.ego.speed_mps.value_or(0.0), k.ego.yaw_rate.value_or(0.0)});
+    track->validate("nuScenes scene " + (kfs.empty() ? std::string() : kfs.front().scene));
     for (KeyFrame& k : kfs) {
       if (ego_track_) k.ego_track = track;
       frames_.push_back(std::move(k));
@@ -387,7 +390,8 @@ bool NuScenesSource::next(StageContext& /*ctx*/, Outputs& out) {
             {"sample_data_token", k.sample_data_token},
             {"timestamp_us", k.timestamp_us},
             {"file", k.filename}};
-  if (k.ego_track) f.meta["ego_track"] = *k.ego_track;
+  f.ego_track = k.ego_track;
+  f.stream_end = frames_.back().t;
   f.annotations = k.annotations;
   const double ts = f.timestamp;
   out.emit_packet("frames", Packet::make<Frame>(std::move(f), ts));

@@ -17,7 +17,7 @@ namespace hf::source {
 // Timestamps: seconds since the first emitted keyframe (nuScenes timestamps are microseconds); a later scene
 //   continues `scene_gap_s` after the previous one ends, so time never goes backwards.
 // Params: dataroot, version, scenes, channel, annotations, max_velocity_dt, label_map, images_required,
-//   resize_width, resize_height, scene_gap_s, max_frames, ego_track (meta["ego_track"]: the scene's recorded
+//   resize_width, resize_height, scene_gap_s, max_frames, ego_track (Frame::ego_track: the scene's recorded
 //   ego poses [{t, x, y, yaw}], world frame, stream seconds, on every frame of the scene).
 class NuScenesSource : public SourceStage {
  public:
@@ -32,7 +32,7 @@ class NuScenesSource : public SourceStage {
     cv::Vec3d t_world_ego;
     EgoState ego;
     std::shared_ptr<const Annotations> annotations;
-    std::shared_ptr<const Json> ego_track;  // the scene's recorded ego track (shared by its keyframes)
+    std::shared_ptr<const EgoTrack> ego_track;  // the scene's recorded ego track (shared by its keyframes)
   };
 
   static ComponentInfo describe();

@@ -175,7 +175,10 @@ cv::Mat CameraSetup::prepare(const cv::Mat& native, const std::string& what) con
 
 EgoState CameraSetup::ego() const {
   EgoState e;
-  if (ego_speed_ >= 0) e.speed_mps = ego_speed_;
+  if (ego_speed_ >= 0) {
+    e.speed_mps = ego_speed_;
+    e.source = "param";
+  }
   return e;
 }
 

@@ -31,6 +31,10 @@ struct ParamSpec {
   std::optional<double> max;
   std::vector<std::string> choices;  // for strings: the allowed values (empty = any)
   std::string doc;
+  // A scene fact this parameter stands for ("road.lanes_left", hazardforge/scene.hpp): when the config's
+  // `scene:` block states it, the host fills the parameter from there, and giving it on the node too is an
+  // error (a fact is stated once). Empty = not bound.
+  std::string scene_key;
 
   bool required() const { return default_value.is_null(); }
 
@@ -50,6 +54,7 @@ struct ParamSpec {
   ParamSpec& range(std::optional<double> lo, std::optional<double> hi);
   ParamSpec& one_of(std::vector<std::string> values);
   ParamSpec& describe(std::string text);
+  ParamSpec& from_scene(std::string key);
 };
 
 // Where each given value came from, keyed by parameter name, so validation errors point at the YAML.

@@ -36,6 +36,10 @@ class ComponentRegistry : public Registrar, public ComponentFactory {
   std::unique_ptr<Component> create_component(const std::string& kind, const std::string& name,
                                               const Json& params) const override;
   std::vector<std::string> component_names(const std::string& kind) const override;
+  // Same, with the run's `scene:` block filling the component's scene-bound params (a value the creating
+  // stage passes wins).
+  std::unique_ptr<Component> create_component(const std::string& kind, const std::string& name, const Json& params,
+                                              const Json& scene) const;
 
   // Validates `given` against the component's declared params; throws hf::DiagnosticError.
   static Params make_params(const ComponentInfo& info, const Json& given, const std::filesystem::path& base_dir,

@@ -262,6 +262,7 @@ struct SceneContext {
   std::optional<double> ego_speed_mps;
   CameraModel camera;
   std::vector<ObjectState> objects;
+  std::shared_ptr<const EgoTrack> ego_track;  // the recording's ego motion, when known (Frame::ego_track)
   Json meta = Json::object();  // environment, road type, dataset description
 };
 

@@ -64,13 +64,34 @@ struct CameraModel {
 
 // What is known about the ego vehicle at a frame.
 struct EgoState {
-  std::optional<double> speed_mps;                   // from dataset poses / CAN / a param
+  std::optional<double> speed_mps;                   // from dataset poses / the video / a param
   std::optional<double> yaw_rate;                    // rad/s, positive = turning left
   std::optional<cv::Matx44d> T_world_ego;            // ego pose in the dataset's world frame
   std::optional<cv::Vec3d> velocity_world;           // m/s in the world frame
+  std::string source;  // where speed_mps and yaw_rate came from: "dataset", "video", "param"; "" = unknown
 };
 
-// A dataset annotation carried with the frame, in the ego frame of that frame.
+// One sample of the ego's motion.
+struct EgoTrackSample {
+  double t = 0;         // stream seconds
+  double x = 0, y = 0;  // position on the ground plane of the track's frame, m
+  double yaw = 0;       // heading in that frame, rad
+  double speed_mps = 0;
+  double yaw_rate = 0;  // rad/s, positive = turning left
+};
+
+// The ego's motion over the whole recording, shared by all its frames: the dataset's poses, the motion
+// estimated from the video, or a stated constant speed. The planner, the renderer, the corridor and the
+// exporter read it.
+struct EgoTrack {
+  std::string source;                   // "dataset", "video" or "param" (as EgoState::source)
+  std::vector<EgoTrackSample> samples;  // increasing t
+  // Throws hf::Error naming `where` and the sample when t does not increase or a value is not finite.
+  void validate(const std::string& where) const;
+  // Linear interpolation of position, heading (unwrapped), speed and yaw rate; clamped at the ends.
+  EgoTrackSample at(double t) const;
+};
+
 struct AnnotatedObject {
   std::string instance_id;
   std::string category;  // dataset category, e.g. "vehicle.car"
@@ -100,6 +121,8 @@ struct Frame {
   CameraModel camera;
   EgoState ego;
   std::string source_id;  // file name / dataset token
+  std::shared_ptr<const EgoTrack> ego_track;  // the whole recording's ego motion, when known
+  std::optional<double> stream_end;           // timestamp of the stream's last frame, when the source knows it
   Json meta = Json::object();  // source-specific (scene description, sample token, ...)
   std::shared_ptr<const Annotations> annotations;  // dataset ground truth, when the source carries it
 };

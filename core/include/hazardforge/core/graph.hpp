@@ -19,6 +19,7 @@ struct GraphConfig {
   std::vector<std::filesystem::path> plugin_paths;
   std::vector<std::string> overrides;
   std::set<std::string> stage_overridden;  // node ids whose stage a --set NODE.stage=... replaced
+  std::set<std::string> params_overridden;  // "node/param" a --set replaced (wins over the scene block)
 };
 
 // Reads the file, applies `--set node.key[.sub]=value` overrides (`--set node.stage=NAME` swaps the stage; the
@@ -39,6 +40,7 @@ struct NodeSpec {
 struct Graph {
   std::string name;
   std::string description;
+  Json scene = Json::object();  // the config's `scene:` block (validated)
   std::filesystem::path file;
   std::filesystem::path dir;
   std::vector<NodeSpec> nodes;  // topological order; the source first

@@ -11,16 +11,8 @@
 
 namespace hf::hazard {
 
-// One recorded ego pose in the dataset's world frame (ground plane), at a stream time.
-struct EgoTrackSample {
-  double t = 0;  // stream seconds
-  double x = 0, y = 0;
-  double yaw = 0;  // rad
-};
-
-// Parses Frame::meta["ego_track"]: [{t, x, y, yaw}, ...] with increasing t. Throws hf::Error naming `where`
-// and the offending entry/field.
-std::vector<EgoTrackSample> parse_ego_track(const Json& track, const std::string& where);
+// One ego pose of a recording's track (hf::EgoTrack, SDK): t, x, y, yaw (+ speed, yaw rate).
+using hf::EgoTrackSample;
 
 // Where the ego goes after the anchor time, and the road coordinates along it.
 //
