@@ -466,6 +466,9 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
         if (!info.param(it.key())) locs[it.key()] = doc.at(p + "#key");
       }
     for (const std::string& name : from_scene) locs[name] = doc.at(scene_ptr(info.param(name)->scene_key));
+    if (given.is_object())
+      for (auto it = given.begin(); it != given.end(); ++it)
+        if (!it->is_null()) n.stated.insert(it.key());
     n.params = validate_params(info.params, given.is_null() ? Json::object() : given, owner, doc.at(base + "/stage"),
                                locs, diags);
     // inputs

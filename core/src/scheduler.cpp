@@ -344,6 +344,7 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
     n->ctx.shared = &sh;
     n->ctx.factory = &factory;
     n->ctx.params_ = Params(spec.params, graph.dir);
+    n->ctx.params_.set_stated(spec.stated);
     n->ctx.out_dir = opt.output_dir;
     by_id[spec.id] = n.get();
     nodes.push_back(std::move(n));

@@ -62,7 +62,13 @@ Params ComponentRegistry::make_params(const ComponentInfo& info, const Json& giv
   std::vector<Diagnostic> diags;
   Json values = validate_params(info.params, given, owner, {}, {}, diags);
   if (!diags.empty()) throw DiagnosticError(std::move(diags));
-  return Params(std::move(values), base_dir);
+  Params p(std::move(values), base_dir);
+  std::set<std::string> stated;
+  if (given.is_object())
+    for (auto it = given.begin(); it != given.end(); ++it)
+      if (!it->is_null()) stated.insert(it.key());
+  p.set_stated(std::move(stated));
+  return p;
 }
 
 std::unique_ptr<Component> ComponentRegistry::create_component(const std::string& kind, const std::string& name,

@@ -140,6 +140,11 @@ void StageRunner::build(const std::string& kind, const std::string& name, const 
   m.stage = dynamic_cast<Stage*>(m.component.get());
   if (!m.stage) throw Error("StageRunner: '" + name + "' is not a stage");
   m.ctx.params_ = Params(std::move(values), std::filesystem::current_path());
+  std::set<std::string> stated;
+  if (doc.value.is_object())
+    for (auto it = doc.value.begin(); it != doc.value.end(); ++it)
+      if (!it->is_null()) stated.insert(it.key());
+  m.ctx.params_.set_stated(std::move(stated));
   m.ctx.out_dir = m.out_dir;
   m.ctx.factory = &m.registry;
   m.ctx.log_lines = &m.log;

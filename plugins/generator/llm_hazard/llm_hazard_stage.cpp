@@ -85,19 +85,19 @@ ComponentInfo LlmHazardGenerator::describe() {
       ParamSpec::integer("warmup_frames", 5)
           .range(0, std::nullopt)
           .describe("frames skipped by first_safe so tracks have velocities"),
-      ParamSpec::string("environment", "")
+      ParamSpec::string("environment", "").from_scene("environment")
           .describe("scene environment for the prompt; empty = dataset description"),
-      ParamSpec::string("road_type", "").describe("road type for the prompt, e.g. 'urban two-lane street'"),
-      ParamSpec::string("sidewalks", "auto").one_of({"auto", "yes", "no"}).describe("pedestrians allowed"),
-      ParamSpec::string("intersection", "auto")
+      ParamSpec::string("road_type", "").from_scene("road.type").describe("road type for the prompt, e.g. 'urban two-lane street'"),
+      ParamSpec::string("sidewalks", "auto").from_scene("road.sidewalks").one_of({"auto", "yes", "no"}).describe("pedestrians allowed"),
+      ParamSpec::string("intersection", "auto").from_scene("road.intersection")
           .one_of({"auto", "yes", "no"})
           .describe("crossing vehicles allowed"),
-      ParamSpec::string("multi_lane", "auto").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
-      ParamSpec::string("driving_side", "right")
+      ParamSpec::string("multi_lane", "auto").from_scene("road.multi_lane").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
+      ParamSpec::string("driving_side", "right").from_scene("road.driving_side")
           .one_of({"right", "left"})
           .describe("the side of the road traffic keeps to (left: e.g. Singapore, UK); exported scenarios "
                     "lay out their road by it"),
-      ParamSpec::number("sidewalk_width_m", 3.0).range(0, 15).describe("sidewalk width beyond the road edge"),
+      ParamSpec::number("sidewalk_width_m", 3.0).from_scene("road.sidewalk_width_m").range(0, 15).describe("sidewalk width beyond the road edge"),
       ParamSpec::boolean("pedestrians_without_sidewalks", false)
           .describe("edge-case tests: a person may appear on a road without sidewalks, on the shoulder "
                     "(sidewalk_width_m beyond the road edge) — e.g. someone who left a broken-down car. "
@@ -107,10 +107,11 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe("longest extra.under_way_s a spec may give (hazards already under way when they appear, "
                     "for recordings too short to show the whole manoeuvre); passed to the templates; 0 = "
                     "every hazard starts when it appears"),
-      ParamSpec::number("horizon_s", 6.0)
-          .range(1, 60)
-          .describe("how long hazards are planned/replayed for the TTC check (templates' duration_s)"),
-      ParamSpec::number("ego_speed_mps", -1.0)
+      ParamSpec::number("horizon_s", 0.0)
+          .range(0, 60)
+          .describe("how long hazards are planned/replayed for the TTC check (templates' duration_s); 0 = what "
+                    "is left of the clip after the trigger (Frame::stream_end), at least 1 s and at most 6 s"),
+      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
           .range(-1, 80)
           .describe("ego speed if the data has none; negative = from ObjectStates / Frame.ego"),
       ParamSpec::path("prompt_template", "")
@@ -130,6 +131,43 @@ ComponentInfo LlmHazardGenerator::describe() {
 
 LlmHazardGenerator::LlmHazardGenerator() = default;
 LlmHazardGenerator::~LlmHazardGenerator() = default;
+
+// The templates of the allowed kinds, configured with the generator's road, TTC conventions and horizon.
+void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std::string>& registered) {
+  const Params& p = ctx.params();
+  std::string limits_file = share_file(p, "limits", "hazard_limits.yaml");
+  std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
+  templates_.clear();
+  const Json shared = {{"limits", limits_file},
+                       {"class_sizes", sizes_file},
+                       {"lane_width_m", road_.lane_width},
+                       {"lanes_left", road_.lanes_left},
+                       {"lanes_right", road_.lanes_right},
+                       {"kerb_offset_m", road_.kerb_offset},
+                       {"corridor_half_width", ttc_.corridor.ego_half_width},
+                       {"corridor_margin", ttc_.corridor.margin},
+                       {"corridor_path", ttc_.corridor.follow_path ? "ego_path" : "straight"},
+                       {"ego_front_m", ttc_.ego_front},
+                       {"min_closing_mps", ttc_.min_closing},
+                       {"duration_s", horizon_s_},
+                       {"max_under_way_s", p.get_double("max_under_way_s")}};
+  for (const std::string& k : allowed_kinds_) {
+    if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
+      ctx.log(LogLevel::kWarning,
+              "no hazard_template '" + k + "' is registered: the generic kinematic checks apply");
+      continue;
+    }
+    try {
+      templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, shared);
+    } catch (const DiagnosticError&) {
+      // Not built on the shared template kit: it declares its own params and keeps its own defaults.
+      templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, Json::object());
+      ctx.log(LogLevel::kWarning, "hazard_template '" + k +
+                                      "' does not take the road/TTC params; it checks with its own defaults");
+    }
+  }
+
+}
 
 void LlmHazardGenerator::open(StageContext& ctx) {
   const Params& p = ctx.params();
@@ -162,35 +200,8 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   ttc_ = hazard::TtcConventions::from(p);
   std::string limits_file = share_file(p, "limits", "hazard_limits.yaml");
   std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
-  const Json shared = {{"limits", limits_file},
-                       {"class_sizes", sizes_file},
-                       {"lane_width_m", road_.lane_width},
-                       {"lanes_left", road_.lanes_left},
-                       {"lanes_right", road_.lanes_right},
-                       {"kerb_offset_m", road_.kerb_offset},
-                       {"corridor_half_width", ttc_.corridor.ego_half_width},
-                       {"corridor_margin", ttc_.corridor.margin},
-                       {"corridor_path", ttc_.corridor.follow_path ? "ego_path" : "straight"},
-                       {"ego_front_m", ttc_.ego_front},
-                       {"min_closing_mps", ttc_.min_closing},
-                       {"duration_s", p.get_double("horizon_s")},
-                       {"max_under_way_s", p.get_double("max_under_way_s")}};
-  for (const std::string& k : allowed_kinds_) {
-    if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
-      ctx.log(LogLevel::kWarning,
-              "no hazard_template '" + k + "' is registered: the generic kinematic checks apply");
-      continue;
-    }
-    try {
-      templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, shared);
-    } catch (const DiagnosticError&) {
-      // Not built on the shared template kit: it declares its own params and keeps its own defaults.
-      templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, Json::object());
-      ctx.log(LogLevel::kWarning, "hazard_template '" + k +
-                                      "' does not take the road/TTC params; it checks with its own defaults");
-    }
-  }
-
+  horizon_s_ = p.get_double("horizon_s") > 0 ? p.get_double("horizon_s") : 6.0;
+  make_templates(ctx, registered);
   std::string schema_file = share_file(p, "schema", "schemas/hazard_spec.schema.json");
   spec_schema_ = load_schema_file(schema_file);
   reply_validator_.emplace(reply_schema(spec_schema_, allowed_kinds_));
@@ -256,7 +267,11 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
 
   std::optional<HazardSpec> spec = generate(ctx, frame, states, risks);
   done_ = true;
-  if (spec) out.emit("hazard", std::move(*spec));
+  if (spec) {
+    spec->horizon_s = horizon_s_;
+    spec->max_under_way_s = ctx.params().get_double("max_under_way_s");
+    out.emit("hazard", std::move(*spec));
+  }
 }
 
 void LlmHazardGenerator::finish(StageContext& ctx, Outputs&) {
@@ -311,7 +326,17 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   if (s.ego_speed_mps < 0)
     throw Error("the ego speed at frame " + std::to_string(frame.index) +
                 " is unknown (neither ObjectStates nor the frame carry it); set param ego_speed_mps");
-  s.horizon_s = p.get_double("horizon_s");
+  if (p.get_double("horizon_s") <= 0 && frame.stream_end) {
+    // What is left of the clip: a hazard planned beyond its end could never be seen.
+    const double left = std::clamp(*frame.stream_end - frame.timestamp, 1.0, 6.0);
+    if (std::abs(left - horizon_s_) > 1e-9) {
+      horizon_s_ = left;
+      make_templates(ctx, ctx.components().component_names(kind::kHazardTemplate));
+    }
+    ctx.log(LogLevel::kInfo, "horizon " + num(horizon_s_) + " s: what is left of the clip after frame " +
+                                 std::to_string(frame.index) + " (at least 1 s, at most 6 s)");
+  }
+  s.horizon_s = horizon_s_;
   s.sidewalk_width_m = p.get_double("sidewalk_width_m");
   s.pedestrians_without_sidewalks = p.get_bool("pedestrians_without_sidewalks");
   s.max_under_way_s = p.get_double("max_under_way_s");

@@ -8,13 +8,13 @@
 namespace hf::hazard {
 
 std::vector<ParamSpec> RoadModel::params() {
-  return {ParamSpec::number("lane_width_m", 3.5)
+  return {ParamSpec::number("lane_width_m", 3.5).from_scene("road.lane_width_m")
               .range(2, 6)
               .describe("lane width (m); the ego lane is centred on y = 0"),
-          ParamSpec::integer("lanes_left", 1)
+          ParamSpec::integer("lanes_left", 1).from_scene("road.lanes_left")
               .range(0, 10)
               .describe("lanes left of the ego lane (road edge position)"),
-          ParamSpec::integer("lanes_right", 1)
+          ParamSpec::integer("lanes_right", 1).from_scene("road.lanes_right")
               .range(0, 10)
               .describe("lanes right of the ego lane (road edge position)"),
           ParamSpec::number("kerb_offset_m", 0.5)

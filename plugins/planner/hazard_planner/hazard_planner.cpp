@@ -28,7 +28,7 @@ ComponentInfo HazardPlanner::describe() {
   i.params = {
       ParamSpec::object("templates")
           .describe("per hazard kind, the params of its template, e.g. {cut_in: {duration_s: 4}}"),
-      ParamSpec::number("ego_speed_mps", -1.0)
+      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
           .range(-1, 100)
           .describe("ego speed when neither the frame nor the object states carry one (-1 = none)"),
       ParamSpec::string("on_infeasible", "error")
@@ -100,8 +100,20 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
         "ego_speed_mps");
   if (!frame.camera.valid()) throw Error("hazard spec at " + where + ": the frame has no valid camera model");
 
-  const Json tpl_params = templates_.contains(spec->kind) ? templates_[spec->kind] : Json::object();
-  auto tpl = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, spec->kind, tpl_params);
+  Json tpl_params = templates_.contains(spec->kind) ? templates_[spec->kind] : Json::object();
+  // The generator's bounds (horizon, how long a hazard may be under way) unless the template params state them.
+  Json with_bounds = tpl_params;
+  if (spec->horizon_s && !with_bounds.contains("duration_s")) with_bounds["duration_s"] = *spec->horizon_s;
+  if (spec->max_under_way_s && !with_bounds.contains("max_under_way_s"))
+    with_bounds["max_under_way_s"] = *spec->max_under_way_s;
+  std::unique_ptr<HazardTemplate> tpl;
+  try {
+    tpl = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, spec->kind, with_bounds);
+  } catch (const DiagnosticError&) {
+    if (with_bounds == tpl_params) throw;
+    // A template not built on the shared kit does not take the bounds: it plans with its own.
+    tpl = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, spec->kind, tpl_params);
+  }
   const std::vector<std::string> reasons = tpl->check(*spec, scene);
 
   ++planned_;

@@ -233,7 +233,7 @@ ComponentInfo ArRenderer::describe() {
           .one_of({"auto", "poses", "flow", "constant_speed"})
           .describe(
               "how the hazard is kept fixed in the world: auto = poses when frames carry them, else flow"),
-      ParamSpec::number("ego_speed_mps", -1.0)
+      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
           .range(-1.0, 80.0)
           .describe(
               "ego speed for constant_speed and when flow is degenerate (frame speed first); -1 = unknown"),

@@ -5,6 +5,12 @@
 #include <cmath>
 
 #include <opencv2/calib3d.hpp>
+
+#include "hazardforge/atomic_file.hpp"
+#include "hazardforge/footage/ego_motion.hpp"
+#include "hazardforge/footage/horizon.hpp"
+#include "hazardforge/json_text.hpp"
+#include "hazardforge/output_path.hpp"
 #include <opencv2/imgproc.hpp>
 
 namespace hf::source {
@@ -19,28 +25,41 @@ std::string size_str(cv::Size s) {
 
 std::vector<ParamSpec> CameraSetup::params() {
   return {
-      ParamSpec::path("calibration", "")
+      ParamSpec::path("calibration", "").from_scene("camera.calibration")
           .describe("calibration YAML (from `hazardforge calibrate`); overrides fx/fy/cx/cy/hfov_deg"),
-      ParamSpec::number("fx", 0.0).range(0, 1e6).describe(
+      ParamSpec::number("fx", 0.0).range(0, 1e6).from_scene("camera.fx").describe(
           "focal length x in px at the native size (0 = unset)"),
-      ParamSpec::number("fy", 0.0).range(0, 1e6).describe("focal length y in px (0 = fx)"),
-      ParamSpec::number("cx", 0.0).range(0, 1e6).describe("principal point x in px (0 = image centre)"),
-      ParamSpec::number("cy", 0.0).range(0, 1e6).describe("principal point y in px (0 = image centre)"),
-      ParamSpec::number("hfov_deg", 0.0)
+      ParamSpec::number("fy", 0.0).range(0, 1e6).from_scene("camera.fy").describe("focal length y in px (0 = fx)"),
+      ParamSpec::number("cx", 0.0).range(0, 1e6).from_scene("camera.cx").describe("principal point x in px (0 = image centre)"),
+      ParamSpec::number("cy", 0.0).range(0, 1e6).from_scene("camera.cy").describe("principal point y in px (0 = image centre)"),
+      ParamSpec::number("hfov_deg", 0.0).from_scene("camera.hfov_deg")
           .range(0, 179)
           .describe("horizontal field of view when no calibration/fx is given (0 = assume 60 deg, warned)"),
-      ParamSpec::number("camera_height", 1.5).range(0.1, 10).describe("camera height above the ground, m"),
-      ParamSpec::number("camera_pitch_deg", 0.0).range(-45, 45).describe("downward pitch of the camera, deg"),
-      ParamSpec::number("camera_forward", 1.5)
+      ParamSpec::number("camera_height", 1.5).range(0.1, 10).from_scene("camera.height_m").describe("camera height above the ground, m"),
+      ParamSpec::number("camera_pitch_deg", 0.0)
+          .range(-45, 45)
+          .from_scene("camera.pitch_deg")
+          .describe("downward pitch of the camera, deg (not stated = estimated from the video's horizon)"),
+      ParamSpec::number("camera_roll_deg", 0.0)
+          .range(-30, 30)
+          .from_scene("camera.roll_deg")
+          .describe("camera roll, deg, + = the horizon rises to the right (not stated = estimated)"),
+      ParamSpec::int_list("intrinsics_size", {})
+          .from_scene("camera.intrinsics_size")
+          .describe("[width, height] of the images fx/fy/cx/cy refer to (empty = the native frames)"),
+      ParamSpec::number("camera_forward", 1.5).from_scene("camera.forward_m")
           .range(-10, 10)
           .describe("camera position ahead of the rear axle, m"),
+      ParamSpec::boolean("self_calibrate", true)
+          .describe("estimate from the footage what is not stated: pitch and roll from the horizon, ego speed "
+                    "and yaw rate from ground-plane odometry (written to camera.json and ego_motion.jsonl)"),
       ParamSpec::boolean("undistort", true)
           .describe("undistort frames with the calibrated K when the calibration has distortion"),
       ParamSpec::integer("resize_width", 0)
           .range(0, 16384)
           .describe("output width (0 = keep; aspect kept if only one is set)"),
       ParamSpec::integer("resize_height", 0).range(0, 16384).describe("output height (0 = keep)"),
-      ParamSpec::number("ego_speed_mps", -1.0)
+      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
           .range(-1, 100)
           .describe("constant ego speed, m/s (-1 = unknown)"),
   };
@@ -60,6 +79,16 @@ void CameraSetup::configure(StageContext& ctx) {
   hfov_deg_ = p.get_double("hfov_deg");
   height_ = p.get_double("camera_height");
   pitch_deg_ = p.get_double("camera_pitch_deg");
+  roll_deg_ = p.get_double("camera_roll_deg");
+  pitch_stated_ = p.stated("camera_pitch_deg");
+  roll_stated_ = p.stated("camera_roll_deg");
+  height_stated_ = p.stated("camera_height");
+  speed_stated_ = p.stated("ego_speed_mps") && p.get_double("ego_speed_mps") >= 0;
+  self_calibrate_ = p.get_bool("self_calibrate");
+  intrinsics_size_ = p.get_ints("intrinsics_size");
+  if (!intrinsics_size_.empty() &&
+      (intrinsics_size_.size() != 2 || intrinsics_size_[0] <= 0 || intrinsics_size_[1] <= 0))
+    throw Error("parameter 'intrinsics_size' is [width, height] in px, got " + Json(intrinsics_size_).dump());
   forward_ = p.get_double("camera_forward");
   undistort_ = p.get_bool("undistort");
   resize_w_ = static_cast<int>(p.get_int("resize_width"));
@@ -105,6 +134,41 @@ void CameraSetup::init(cv::Size native, const std::string& what, StageContext& c
     cx = cx_ > 0 ? cx_ : w / 2.0;
     cy = cy_ > 0 ? cy_ : h / 2.0;
     intrinsics_source_ = "params";
+    if (!intrinsics_size_.empty()) {
+      const cv::Size ref(static_cast<int>(intrinsics_size_[0]), static_cast<int>(intrinsics_size_[1]));
+      if (cx_ <= 0) cx = ref.width / 2.0;
+      if (cy_ <= 0) cy = ref.height / 2.0;
+      if (ref != native) {
+        const double ra = static_cast<double>(ref.width) / ref.height, rb = static_cast<double>(w) / h;
+        if (std::abs(ra / rb - 1.0) > 0.01)
+          throw Error("fx/fy/cx/cy are stated for " + size_str(ref) + " images (intrinsics_size) but " + what +
+                      " is " + size_str(native) + " (different aspect ratio: a crop, which the intrinsics do not "
+                      "describe)");
+        const double sx = static_cast<double>(w) / ref.width, sy = static_cast<double>(h) / ref.height;
+        fx *= sx, cx *= sx, fy *= sy, cy *= sy;
+        ctx.log(LogLevel::kInfo, "scaling the stated intrinsics from " + size_str(ref) + " to " + size_str(native));
+      }
+    } else {
+      // Without the size they refer to, check that they fit these frames: a principal point far from the
+      // centre, or a field of view no dash camera has, means they were measured on another image size.
+      const bool centre_off = (cx_ > 0 && std::abs(cx_ - w / 2.0) > 0.2 * w) ||
+                              (cy_ > 0 && std::abs(cy_ - h / 2.0) > 0.2 * h);
+      if (centre_off)
+        throw Error("the stated principal point (" + std::to_string(cx) + ", " + std::to_string(cy) +
+                    ") is far from the centre of the " + size_str(native) + " frames of " + what +
+                    "; it fits a " + size_str({static_cast<int>(std::lround(2 * cx)), static_cast<int>(std::lround(2 * cy))}) +
+                    " image: state camera.intrinsics_size: [W, H] for the size fx/cx/cy were measured on");
+      const double hfov = 2 * std::atan(w / (2 * fx)) * 180 / CV_PI;
+      if (hfov < 20 || hfov > 140) {
+        const double fits_w = 2 * fx * std::tan(30 * CV_PI / 180);
+        ctx.log(LogLevel::kWarning,
+                "fx " + std::to_string(fx) + " px gives a " + std::to_string(static_cast<int>(hfov)) +
+                    " deg horizontal field of view on the " + size_str(native) + " frames of " + what +
+                    "; it fits images about " + std::to_string(static_cast<int>(fits_w)) +
+                    " px wide for a 60 deg dash camera: if fx was measured on another size, state "
+                    "camera.intrinsics_size");
+      }
+    }
   } else {
     double hfov = hfov_deg_;
     intrinsics_source_ = "hfov";
@@ -120,7 +184,16 @@ void CameraSetup::init(cv::Size native, const std::string& what, StageContext& c
     cx = w / 2.0;
     cy = h / 2.0;
   }
-  CameraModel cam = CameraModel::pinhole(w, h, fx, fy, cx, cy, height_, pitch_deg_ * CV_PI / 180.0, forward_);
+  CameraModel cam = CameraModel::pinhole(w, h, fx, fy, cx, cy, height_, pitch_deg_ * CV_PI / 180.0, forward_,
+                                         roll_deg_ * CV_PI / 180.0);
+  provenance_["intrinsics"] = intrinsics_source_ == "calibration" ? "calibration file " + calib_path_.string()
+                              : intrinsics_source_ == "params"    ? std::string("stated fx/fy/cx/cy")
+                              : intrinsics_source_ == "hfov"      ? "stated hfov_deg " + std::to_string(hfov_deg_)
+                                                                  : "assumed " + std::to_string(static_cast<int>(kAssumedHfovDeg)) +
+                                                                        " deg horizontal field of view (nothing stated)";
+  provenance_["height_m"] = height_stated_ ? "stated" : "default 1.5 m (not stated; distances and speeds scale with it)";
+  provenance_["pitch_deg"] = pitch_stated_ ? "stated" : "default 0 (not stated, not estimated)";
+  provenance_["roll_deg"] = roll_stated_ ? "stated" : "default 0 (not stated, not estimated)";
   const bool has_dist = std::any_of(dist.begin(), dist.end(), [](double d) { return d != 0.0; });
   map1_.release();
   map2_.release();
@@ -173,13 +246,153 @@ cv::Mat CameraSetup::prepare(const cv::Mat& native, const std::string& what) con
   return img.data == native.data ? img.clone() : img;
 }
 
-EgoState CameraSetup::ego() const {
+EgoState CameraSetup::ego_at(int64_t k) const {
   EgoState e;
-  if (ego_speed_ >= 0) {
+  if (k >= 0 && static_cast<size_t>(k) < ego_.size()) e = ego_[static_cast<size_t>(k)];
+  if (speed_stated_) {
     e.speed_mps = ego_speed_;
     e.source = "param";
   }
   return e;
+}
+
+void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t frames, double fps,
+                                        StageContext& ctx) {
+  if (!self_calibrate_ || frames == 0) {
+    if (!speed_stated_) provenance_["ego_speed"] = "unknown (not stated; self_calibrate off)";
+    return;
+  }
+  // Pass 1, horizon: every frame of short clips; pairs of consecutive frames spread over long ones (about 300
+  // frames in all keeps long clips cheap).
+  const int64_t stride = frames > 300 ? (frames + 149) / 150 : 1;
+  footage::HorizonEstimator horizon(camera_);
+  {
+    auto next_native = open_pass();
+    cv::Mat native;
+    for (int64_t k = 0; next_native(native); ++k) {
+      if (ctx.stop_requested()) return;
+      if (stride == 1 || k % stride <= 1)
+        horizon.add(prepare(native, "frame " + std::to_string(k)), static_cast<double>(k) / fps);
+    }
+  }
+  const auto est = horizon.result();
+  const double deg = 180.0 / CV_PI;
+  if (est) {
+    const double est_pitch = est->pitch_rad * deg;
+    const std::string how = est->method + ", confidence " + std::to_string(est->confidence).substr(0, 4) + ", " +
+                            std::to_string(est->frames_used) + " frames";
+    if (pitch_stated_) {
+      if (std::abs(est_pitch - pitch_deg_) > 1.0)
+        ctx.log(LogLevel::kWarning, "the stated camera pitch " + std::to_string(pitch_deg_) +
+                                        " deg disagrees with the footage's horizon, which gives " +
+                                        std::to_string(est_pitch) + " deg (" + how +
+                                        "); keeping the stated value");
+      provenance_["pitch_deg_estimated"] = est_pitch;
+    }
+    if (!pitch_stated_ || !roll_stated_) {
+      footage::HorizonEstimate use = *est;
+      if (pitch_stated_) use.pitch_rad = pitch_deg_ / deg;
+      if (roll_stated_) use.roll_rad = roll_deg_ / deg;
+      camera_ = footage::HorizonEstimator::apply(camera_, use);
+      if (!pitch_stated_) provenance_["pitch_deg"] = "estimated from the video (" + how + ")";
+      if (!roll_stated_) provenance_["roll_deg"] = "estimated from the video (" + how + ")";
+    }
+    provenance_["horizon_confidence"] = est->confidence;
+    if (!est->notes.empty()) provenance_["horizon_notes"] = est->notes;
+  } else if (!pitch_stated_) {
+    provenance_["pitch_deg"] = "default 0: the footage gave no usable horizon evidence";
+    ctx.log(LogLevel::kWarning, "no horizon could be estimated from the footage; camera pitch 0 assumed (state "
+                                "camera.pitch_deg): ground distances rest on that assumption");
+  }
+  // Pass 2, ego motion: ground-plane odometry over every frame with the final camera.
+  footage::GroundOdometry odo(camera_);
+  std::vector<footage::EgoMotionSample> raw;
+  {
+    auto next_native = open_pass();
+    cv::Mat native;
+    for (int64_t k = 0; next_native(native); ++k) {
+      if (ctx.stop_requested()) return;
+      raw.push_back(odo.add(prepare(native, "frame " + std::to_string(k)), k, static_cast<double>(k) / fps));
+    }
+  }
+  if (raw.empty()) return;
+  const auto smooth = footage::smooth_ego_motion(raw);
+  size_t measured = 0;
+  for (const auto& r : raw) measured += r.measured ? 1 : 0;
+  if (measured == 0) {
+    if (!speed_stated_) {
+      provenance_["ego_speed"] = "unknown: the road gave no usable odometry";
+      ctx.log(LogLevel::kWarning, "the ego's speed could not be estimated from the footage (no usable road "
+                                  "texture); state ego.speed_mps");
+    }
+    return;
+  }
+  ego_.assign(smooth.size(), EgoState{});
+  auto track = std::make_shared<EgoTrack>();
+  track->source = speed_stated_ ? "param" : "video";
+  double x = 0, y = 0, yaw = 0;
+  for (size_t i = 0; i < smooth.size(); ++i) {
+    const double v = speed_stated_ ? ego_speed_ : smooth[i].speed_mps;
+    if (i > 0) {
+      const double dt = smooth[i].t - smooth[i - 1].t;
+      const double v0 = speed_stated_ ? ego_speed_ : smooth[i - 1].speed_mps;
+      const double mid_yaw = yaw + 0.5 * smooth[i - 1].yaw_rate * dt;
+      x += 0.5 * (v0 + v) * dt * std::cos(mid_yaw);
+      y += 0.5 * (v0 + v) * dt * std::sin(mid_yaw);
+      yaw += 0.5 * (smooth[i - 1].yaw_rate + smooth[i].yaw_rate) * dt;
+    }
+    EgoState& e = ego_[i];
+    e.speed_mps = v;
+    e.yaw_rate = smooth[i].yaw_rate;
+    e.source = speed_stated_ ? "param" : "video";
+    track->samples.push_back({smooth[i].t, x, y, yaw, v, smooth[i].yaw_rate});
+  }
+  track->validate("ego track estimated from the video");
+  track_ = track;
+  raw_motion_ = raw;
+  smooth_motion_ = smooth;
+  provenance_["ego_speed"] = speed_stated_ ? "stated" : "estimated from the video (ground-plane odometry, " +
+                                                            std::to_string(measured) + " of " +
+                                                            std::to_string(raw.size()) + " frames measured)";
+  provenance_["ego_yaw_rate"] = "estimated from the video (ground-plane odometry)";
+}
+
+void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, const std::string& fps_source) const {
+  const double deg = 180.0 / CV_PI;
+  Json cam = {{"image_size", {camera_.width, camera_.height}},
+              {"native_size", {native_.width, native_.height}},
+              {"fx", camera_.fx},
+              {"fy", camera_.fy},
+              {"cx", camera_.cx},
+              {"cy", camera_.cy},
+              {"hfov_deg", 2 * std::atan(camera_.width / (2 * camera_.fx)) * deg},
+              {"height_m", camera_.height_above_ground()},
+              {"pitch_deg", camera_.pitch() * deg},
+              {"roll_deg", camera_.roll() * deg},
+              {"horizon_y", camera_.horizon_y(camera_.cx).value_or(std::numeric_limits<double>::quiet_NaN())},
+              {"fps", fps},
+              {"frames", frames},
+              {"undistorted", !map1_.empty()},
+              {"sources", provenance_}};
+  cam["sources"]["fps"] = fps_source;
+  write_file_atomic(resolve_output_path(ctx.output_dir(), "camera.json", "camera.json"), json_text(cam, 2) + "\n");
+  std::string lines;
+  for (int64_t k = 0; k < frames; ++k) {
+    const EgoState e = ego_at(k);
+    Json l = {{"frame", k}, {"timestamp", static_cast<double>(k) / fps}};
+    l["speed_mps"] = e.speed_mps ? Json(*e.speed_mps) : Json();
+    l["yaw_rate_dps"] = e.yaw_rate ? Json(*e.yaw_rate * deg) : Json();
+    l["source"] = e.source.empty() ? "unknown" : e.source;
+    if (static_cast<size_t>(k) < smooth_motion_.size()) {
+      const auto& m = smooth_motion_[static_cast<size_t>(k)];
+      l["speed_sigma_mps"] = m.speed_sigma;
+      l["measured"] = m.measured;
+      if (static_cast<size_t>(k) < raw_motion_.size() && raw_motion_[static_cast<size_t>(k)].measured)
+        l["raw_speed_mps"] = raw_motion_[static_cast<size_t>(k)].speed_mps;
+    }
+    lines += json_text(l) + "\n";
+  }
+  write_file_atomic(resolve_output_path(ctx.output_dir(), "ego_motion.jsonl", "ego_motion.jsonl"), lines);
 }
 
 }  // namespace hf::source

@@ -2,6 +2,8 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -9,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "hazardforge/calibration_file.hpp"
+#include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::source {
@@ -33,15 +36,33 @@ class CameraSetup {
   const CameraModel& camera() const { return camera_; }
   cv::Size native_size() const { return native_; }
   cv::Size output_size() const { return {camera_.width, camera_.height}; }
-  EgoState ego() const;
+  // The ego state of frame k: the stated speed, else the speed and yaw rate estimated from the video.
+  EgoState ego_at(int64_t k) const;
+  // The clip's ego track (estimated from the video, or a stated constant speed); null when unknown.
+  std::shared_ptr<const EgoTrack> ego_track() const { return track_; }
   // Where the intrinsics came from: "calibration", "params", "hfov", "assumed_hfov".
   const std::string& intrinsics_source() const { return intrinsics_source_; }
+
+  // Reads the clip from its first frame (native frames in order, false at the end), twice, and
+  // estimates what was not stated: the camera's pitch and roll from the horizon (vanishing point of the road's
+  // lines, focus of expansion, road homography) and the ego's speed and yaw rate from ground-plane odometry.
+  // A stated pitch that the footage contradicts by more than 1 deg is kept, with a warning naming both.
+  // `open_pass` starts a new pass over the clip and returns its reader.
+  using FrameReader = std::function<bool(cv::Mat&)>;
+  using FramePass = std::function<FrameReader()>;
+  void estimate_from_footage(const FramePass& open_pass, int64_t frames, double fps, StageContext& ctx);
+  // Writes camera.json (the geometry used and where each value came from) and ego_motion.jsonl (one line per
+  // frame) below the run folder.
+  void write_reports(StageContext& ctx, int64_t frames, double fps, const std::string& fps_source) const;
 
  private:
   std::optional<CalibrationFile> calib_;
   std::filesystem::path calib_path_;
   double fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0, hfov_deg_ = 0;
-  double height_ = 1.5, pitch_deg_ = 0, forward_ = 1.5;
+  double height_ = 1.5, pitch_deg_ = 0, roll_deg_ = 0, forward_ = 1.5;
+  bool pitch_stated_ = false, roll_stated_ = false, height_stated_ = false, speed_stated_ = false;
+  bool self_calibrate_ = true;
+  std::vector<long long> intrinsics_size_;
   bool undistort_ = true;
   int resize_w_ = 0, resize_h_ = 0;
   double ego_speed_ = -1;
@@ -50,6 +71,10 @@ class CameraSetup {
   CameraModel camera_;
   cv::Mat map1_, map2_;  // undistortion maps at native size; empty = no undistortion
   std::string intrinsics_source_;
+  Json provenance_ = Json::object();  // value name -> where it came from
+  std::vector<EgoState> ego_;         // per frame, from the video (empty = not estimated)
+  std::vector<footage::EgoMotionSample> raw_motion_, smooth_motion_;
+  std::shared_ptr<const EgoTrack> track_;
 };
 
 // Horizontal field of view assumed when nothing else describes the camera.

@@ -33,7 +33,9 @@ ComponentInfo ImageSequenceSource::describe() {
   i.params = {
       ParamSpec::path("path", std::nullopt).describe("folder of images"),
       ParamSpec::string("pattern", "*.png").describe("file name glob (fnmatch), e.g. *.jpg"),
-      ParamSpec::number("fps", 10.0).range(0.001, 1000).describe("frame rate for timestamps"),
+      ParamSpec::number("fps", 0.0)
+          .range(0, 1000)
+          .describe("frame rate for timestamps (0 = not stated: 10 fps is assumed, with a warning)"),
       ParamSpec::integer("start_frame", 0)
           .range(0, std::nullopt)
           .describe("index of the first image to emit"),
@@ -58,23 +60,49 @@ void ImageSequenceSource::open(StageContext& ctx) {
   if (const long long m = p.get_int("max_frames"); m >= 0 && static_cast<size_t>(m) < files_.size())
     files_.resize(static_cast<size_t>(m));
   fps_ = p.get_double("fps");
+  std::string fps_source = "stated";
+  if (fps_ <= 0) {
+    fps_ = 10.0;
+    fps_source = "assumed 10 fps: an image folder has no frame rate (state the source's fps)";
+    ctx.log(LogLevel::kWarning, "image folder '" + folder.string() + "': no frame rate stated; ASSUMING 10 fps. "
+                                "Every speed, TTC and time in this run scales with it: set fps");
+  }
   setup_.configure(ctx);
+  setup_.init(read(0).size(), "image '" + files_[0].string() + "'", ctx);
+  setup_.estimate_from_footage(
+      [this]() -> CameraSetup::FrameReader {
+        auto k = std::make_shared<size_t>(0);
+        return [this, k](cv::Mat& out) {
+          if (*k >= files_.size()) return false;
+          out = read((*k)++);
+          return true;
+        };
+      },
+      static_cast<int64_t>(files_.size()), fps_, ctx);
+  setup_.write_reports(ctx, static_cast<int64_t>(files_.size()), fps_, fps_source);
 }
 
-bool ImageSequenceSource::next(StageContext& ctx, Outputs& out) {
+cv::Mat ImageSequenceSource::read(size_t k) const {
+  const fs::path& file = files_[k];
+  const std::string what = "image '" + file.string() + "' (frame " + std::to_string(k) + ")";
+  require_complete_image(file, what);
+  cv::Mat raw = cv::imread(file.string(), cv::IMREAD_COLOR);
+  if (raw.empty()) throw Error(what + " cannot be read");
+  return raw;
+}
+
+bool ImageSequenceSource::next(StageContext& /*ctx*/, Outputs& out) {
   if (pos_ >= files_.size()) return false;
   const fs::path& file = files_[pos_];
-  require_complete_image(file, "image '" + file.string() + "' (frame " + std::to_string(pos_) + ")");
-  cv::Mat raw = cv::imread(file.string(), cv::IMREAD_COLOR);
-  if (raw.empty())
-    throw Error("image '" + file.string() + "' (frame " + std::to_string(pos_) + ") cannot be read");
-  if (!setup_.initialised()) setup_.init(raw.size(), "image '" + file.string() + "'", ctx);
+  cv::Mat raw = read(pos_);
   Frame f;
   f.index = static_cast<int64_t>(pos_);
   f.timestamp = static_cast<double>(pos_) / fps_;
   f.image = setup_.prepare(raw, "image '" + file.string() + "'");
   f.camera = setup_.camera();
-  f.ego = setup_.ego();
+  f.ego = setup_.ego_at(static_cast<int64_t>(pos_));
+  f.ego_track = setup_.ego_track();
+  f.stream_end = static_cast<double>(files_.size() - 1) / fps_;
   f.source_id = file.filename().string();
   f.meta = {{"file", file.string()}, {"intrinsics", setup_.intrinsics_source()}};
   const double ts = f.timestamp;

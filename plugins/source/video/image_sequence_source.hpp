@@ -25,6 +25,7 @@ class ImageSequenceSource : public SourceStage {
   CameraSetup setup_;
   double fps_ = 10;
   size_t pos_ = 0;
+  cv::Mat read(size_t k) const;
 };
 
 // Files of `folder` whose names match the glob `pattern` (fnmatch), sorted by name.

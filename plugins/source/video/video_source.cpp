@@ -4,7 +4,12 @@
 #include <cmath>
 #include <filesystem>
 
+#include "hazardforge/image_file.hpp"
 #include "hazardforge/run_signals.hpp"
+
+#include <algorithm>
+
+#include <opencv2/imgcodecs.hpp>
 
 namespace hf::source {
 
@@ -18,10 +23,18 @@ ComponentInfo VideoSource::describe() {
       "comes from a calibration file, fx/fy/cx/cy, or a horizontal FOV (60 deg assumed, with a warning). "
       "With "
       "a calibration that has distortion, frames are undistorted with the calibrated K and the model's "
-      "distortion is cleared. Resizing scales the model.";
+      "distortion is cleared. Resizing scales the model. What is not stated is estimated from the footage "
+      "before the first frame is emitted (self_calibrate): the camera's pitch and roll from the horizon, the "
+      "ego's speed and yaw rate from ground-plane odometry; every frame then carries them (EgoState source "
+      "'video') and the clip's ego track. The run folder gets camera.json (the geometry used and where each "
+      "value came from) and ego_motion.jsonl (one line per frame).";
   i.params = {
-      ParamSpec::path("path", std::nullopt).describe("video file"),
-      ParamSpec::number("fps", 0.0).range(0, 1000).describe("frame rate for timestamps (0 = from the file)"),
+      ParamSpec::path("path", std::nullopt)
+          .describe("video file, or a folder of images (png/jpg/jpeg/bmp/tif, sorted by name)"),
+      ParamSpec::number("fps", 0.0)
+          .range(0, 1000)
+          .describe("frame rate for timestamps (0 = from the file; an image folder needs it stated, else "
+                    "10 fps is assumed with a warning)"),
       ParamSpec::integer("start_frame", 0).range(0, std::nullopt).describe("first file frame to emit"),
       ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = all)"),
       ParamSpec::boolean("allow_partial", false)
@@ -32,47 +45,116 @@ ComponentInfo VideoSource::describe() {
   return i;
 }
 
+namespace {
+
+bool is_image_file(const fs::path& p) {
+  std::string e = p.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".bmp" || e == ".tif" || e == ".tiff";
+}
+
+}  // namespace
+
 void VideoSource::open(StageContext& ctx) {
   const Params& p = ctx.params();
   path_ = p.get_path("path").string();
-  if (!fs::exists(path_)) throw Error("video file '" + path_ + "' does not exist");
-  if (fs::is_directory(path_)) throw Error("video file '" + path_ + "' is a folder");
+  if (!fs::exists(path_)) throw Error("video file or image folder '" + path_ + "' does not exist");
   setup_.configure(ctx);
-  if (!cap_.open(path_, cv::CAP_FFMPEG) || !cap_.isOpened())
-    throw Error("cannot open video file '" + path_ + "': not a video OpenCV/FFmpeg can decode");
   start_ = p.get_int("start_frame");
   max_frames_ = p.get_int("max_frames");
   allow_partial_ = p.get_bool("allow_partial");
   fps_ = p.get_double("fps");
-  if (fps_ <= 0) {
-    fps_ = cap_.get(cv::CAP_PROP_FPS);
-    if (!(fps_ > 0 && fps_ < 1000))
-      throw Error("video file '" + path_ + "' reports no usable frame rate; set the 'fps' parameter");
-  }
-  const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
-  file_frames_ = n > 0 ? static_cast<int64_t>(std::llround(n)) : -1;
-  // Skip by decoding rather than seeking: FFmpeg seeks land on keyframes, which would shift the start.
-  for (int64_t k = 0; k < start_; ++k)
-    if (!cap_.grab())
-      throw Error("video file '" + path_ + "' ends at frame " + std::to_string(k) + ", before start_frame " +
+  fps_source_ = "stated";
+  if (fs::is_directory(path_)) {
+    for (const auto& e : fs::directory_iterator(path_))
+      if (e.is_regular_file() && is_image_file(e.path())) files_.push_back(e.path());
+    std::sort(files_.begin(), files_.end());
+    if (files_.empty()) throw Error("image folder '" + path_ + "' has no png/jpg/jpeg/bmp/tif image");
+    if (start_ >= static_cast<int64_t>(files_.size()))
+      throw Error("image folder '" + path_ + "' has " + std::to_string(files_.size()) + " images, start_frame is " +
                   std::to_string(start_));
-  if (!cap_.grab())
-    throw Error("video file '" + path_ + "' has no decodable frame at frame " + std::to_string(start_));
-  if (!cap_.retrieve(pending_) || pending_.empty())
-    throw Error("video file '" + path_ + "': frame " + std::to_string(start_) + " cannot be decoded");
-  setup_.init(pending_.size(), "video file '" + path_ + "'", ctx);
-  if (file_frames_ > 0) {
-    int64_t c = std::max<int64_t>(file_frames_ - start_, 0);
-    if (max_frames_ >= 0) c = std::min(c, max_frames_);
-    count_ = c;
-  } else if (max_frames_ >= 0) {
-    count_ = max_frames_;
+    files_.erase(files_.begin(), files_.begin() + start_);
+    if (max_frames_ >= 0 && static_cast<size_t>(max_frames_) < files_.size())
+      files_.resize(static_cast<size_t>(max_frames_));
+    count_ = static_cast<int64_t>(files_.size());
+    if (fps_ <= 0) {
+      fps_ = 10.0;
+      fps_source_ = "assumed 10 fps: an image folder has no frame rate (state source.fps)";
+      ctx.log(LogLevel::kWarning, "image folder '" + path_ + "': no frame rate stated; ASSUMING 10 fps. Every "
+                                  "speed, TTC and time in this run scales with it: set source.fps");
+    }
+    pending_ = read_image(0);
+    setup_.init(pending_.size(), "image '" + files_[0].string() + "'", ctx);
+  } else {
+    if (!cap_.open(path_, cv::CAP_FFMPEG) || !cap_.isOpened())
+      throw Error("cannot open video file '" + path_ + "': not a video OpenCV/FFmpeg can decode");
+    if (fps_ <= 0) {
+      fps_ = cap_.get(cv::CAP_PROP_FPS);
+      fps_source_ = "the video container";
+      if (!(fps_ > 0 && fps_ < 1000))
+        throw Error("video file '" + path_ + "' reports no usable frame rate; set the 'fps' parameter");
+    }
+    const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
+    file_frames_ = n > 0 ? static_cast<int64_t>(std::llround(n)) : -1;
+    // Skip by decoding rather than seeking: FFmpeg seeks land on keyframes, which would shift the start.
+    for (int64_t k = 0; k < start_; ++k)
+      if (!cap_.grab())
+        throw Error("video file '" + path_ + "' ends at frame " + std::to_string(k) + ", before start_frame " +
+                    std::to_string(start_));
+    if (!cap_.grab())
+      throw Error("video file '" + path_ + "' has no decodable frame at frame " + std::to_string(start_));
+    if (!cap_.retrieve(pending_) || pending_.empty())
+      throw Error("video file '" + path_ + "': frame " + std::to_string(start_) + " cannot be decoded");
+    setup_.init(pending_.size(), "video file '" + path_ + "'", ctx);
+    if (file_frames_ > 0) {
+      int64_t c = std::max<int64_t>(file_frames_ - start_, 0);
+      if (max_frames_ >= 0) c = std::min(c, max_frames_);
+      count_ = c;
+    } else if (max_frames_ >= 0) {
+      count_ = max_frames_;
+    }
   }
   ctx.record_resource(path_);
-  ctx.log(LogLevel::kInfo, "video '" + path_ + "': " + std::to_string(pending_.cols) + "x" +
-                               std::to_string(pending_.rows) + " at " + std::to_string(fps_) + " fps, " +
-                               (file_frames_ > 0 ? std::to_string(file_frames_) : std::string("unknown")) +
-                               " frames; intrinsics from " + setup_.intrinsics_source());
+  // What the footage must tell: two passes over the clip before the first frame is emitted.
+  setup_.estimate_from_footage(
+      [this]() -> CameraSetup::FrameReader {
+        if (!files_.empty()) {
+          auto k = std::make_shared<size_t>(0);
+          return [this, k](cv::Mat& out) {
+            if (*k >= files_.size()) return false;
+            out = read_image((*k)++);
+            return true;
+          };
+        }
+        auto cap = std::make_shared<cv::VideoCapture>(path_, cv::CAP_FFMPEG);
+        auto k = std::make_shared<int64_t>(0);
+        for (int64_t s = 0; s < start_ && cap->grab(); ++s) {
+        }
+        return [this, cap, k](cv::Mat& out) {
+          if (max_frames_ >= 0 && *k >= max_frames_) return false;
+          if (!cap->grab() || !cap->retrieve(out) || out.empty()) return false;
+          ++*k;
+          return true;
+        };
+      },
+      count_.value_or(-1), fps_, ctx);
+  written_frames_ = count_.value_or(0);
+  setup_.write_reports(ctx, written_frames_, fps_, fps_source_);
+  const auto& cam = setup_.camera();
+  ctx.log(LogLevel::kInfo, "'" + path_ + "': " + std::to_string(pending_.cols) + "x" + std::to_string(pending_.rows) +
+                               " at " + std::to_string(fps_) + " fps (" + fps_source_ + "), " +
+                               (count_ ? std::to_string(*count_) : std::string("unknown")) +
+                               " frames; intrinsics from " + setup_.intrinsics_source() + "; pitch " +
+                               std::to_string(cam.pitch() * 180 / CV_PI) + " deg");
+}
+
+cv::Mat VideoSource::read_image(size_t k) const {
+  const fs::path& file = files_[k];
+  const std::string what = "image '" + file.string() + "' (frame " + std::to_string(k) + ")";
+  require_complete_image(file, what);
+  cv::Mat raw = cv::imread(file.string(), cv::IMREAD_COLOR);
+  if (raw.empty()) throw Error(what + " cannot be read");
+  return raw;
 }
 
 bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
@@ -82,6 +164,9 @@ bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
   if (!pending_.empty()) {
     raw = pending_;
     pending_.release();
+  } else if (!files_.empty()) {
+    if (static_cast<size_t>(emitted_) >= files_.size()) return false;
+    raw = read_image(static_cast<size_t>(emitted_));
   } else {
     // grab() false = end of stream; grab() true but retrieve() false = a frame that is there but broken.
     if (!cap_.grab()) {
@@ -102,11 +187,18 @@ bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
   Frame f;
   f.index = emitted_;
   f.timestamp = static_cast<double>(emitted_) / fps_;
-  f.image = setup_.prepare(raw, "video file '" + path_ + "' frame " + std::to_string(file_frame));
+  f.image = setup_.prepare(raw, "'" + path_ + "' frame " + std::to_string(file_frame));
   f.camera = setup_.camera();
-  f.ego = setup_.ego();
-  f.source_id = fs::path(path_).filename().string() + ":" + std::to_string(file_frame);
-  f.meta = {{"file", path_}, {"file_frame", file_frame}, {"intrinsics", setup_.intrinsics_source()}};
+  f.ego = setup_.ego_at(emitted_);
+  f.ego_track = setup_.ego_track();
+  if (count_ && *count_ > 0) f.stream_end = static_cast<double>(*count_ - 1) / fps_;
+  if (!files_.empty()) {
+    f.source_id = files_[static_cast<size_t>(emitted_)].filename().string();
+    f.meta = {{"file", files_[static_cast<size_t>(emitted_)].string()}, {"intrinsics", setup_.intrinsics_source()}};
+  } else {
+    f.source_id = fs::path(path_).filename().string() + ":" + std::to_string(file_frame);
+    f.meta = {{"file", path_}, {"file_frame", file_frame}, {"intrinsics", setup_.intrinsics_source()}};
+  }
   const double ts = f.timestamp;
   out.emit_packet("frames", Packet::make<Frame>(std::move(f), ts));
   ++emitted_;
@@ -171,7 +263,7 @@ bool CameraSource::next(StageContext& ctx, Outputs& out) {
   f.timestamp = std::chrono::duration<double>(now - t0_).count();
   f.image = setup_.prepare(raw, what_ + " frame " + std::to_string(emitted_));
   f.camera = setup_.camera();
-  f.ego = setup_.ego();
+  f.ego = setup_.ego_at(-1);
   f.source_id = what_;
   f.meta = {{"intrinsics", setup_.intrinsics_source()}};
   const double ts = f.timestamp;

@@ -2,6 +2,8 @@
 #pragma once
 
 #include <chrono>
+#include <filesystem>
+#include <vector>
 #include <optional>
 #include <string>
 
@@ -37,6 +39,10 @@ class VideoSource : public SourceStage {
   int64_t file_frames_ = -1;  // as reported by the container; an estimate for some formats
   std::optional<int64_t> count_;
   cv::Mat pending_;  // the first frame, decoded in open() to validate the file
+  std::vector<std::filesystem::path> files_;  // image-folder mode
+  std::string fps_source_;
+  int64_t written_frames_ = 0;
+  cv::Mat read_image(size_t k) const;
 };
 
 // Reads a live device (`device: "0"` or a device path) or a stream URL (`url: rtsp://...`).

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -80,10 +81,15 @@ class Params {
   std::vector<long long> get_ints(const std::string& name) const;
   std::vector<std::string> get_strings(const std::string& name) const;
   const std::filesystem::path& base_dir() const { return base_dir_; }
+  // Whether the value was stated (on the node, by the scene block or on the command line) rather than left at
+  // its default: lets a stage tell "estimate it" from "the user said 0".
+  bool stated(const std::string& name) const { return stated_.count(name) > 0; }
+  void set_stated(std::set<std::string> names) { stated_ = std::move(names); }
 
  private:
   Json values_ = Json::object();
   std::filesystem::path base_dir_;
+  std::set<std::string> stated_;
 };
 
 // Checks `given` against `specs`: unknown names (with the nearest suggestion), wrong types, out-of-range values,

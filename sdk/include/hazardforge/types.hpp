@@ -253,6 +253,11 @@ struct HazardSpec {
   Json extra = Json::object();              // kind-specific fields
   std::string rationale;
   Json provenance = Json::object();  // backend, model, prompt hash, retries ...
+  // The bounds the generator designed and checked the hazard under (not part of an LLM's reply): how long it
+  // is planned for from its start, and how long it may already be under way when it appears. The planner plans
+  // within the same bounds, so they are stated once, on the generator.
+  std::optional<double> horizon_s;
+  std::optional<double> max_under_way_s;
 };
 
 struct TrajectoryPoint {

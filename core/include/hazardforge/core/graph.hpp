@@ -32,6 +32,7 @@ struct NodeSpec {
   std::string stage;  // as written
   const RegisteredComponent* component = nullptr;
   Json params;  // validated, defaults filled
+  std::set<std::string> stated;  // params given on the node, by the scene block or on the command line
   SourceLocation where;
   std::map<std::string, std::vector<std::string>> inputs;  // port -> stream names
   std::map<std::string, std::string> outputs;              // port -> stream name
