@@ -211,44 +211,108 @@ cv::Point2d BevTracker::bev_to_image(const cv::Point2f& b) const {
   return px ? *px : cv::Point2d(-1, -1);
 }
 
-cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur) const {
-  auto prepare = [&](const cv::Mat& bev) {
-    cv::Mat f;
-    cv::resize(bev, f, weight_.size(), 0, 0, cv::INTER_AREA);
-    f.convertTo(f, CV_32F);
-    const double m = cv::mean(f, weight_ > 0.5)[0];
-    f = (f - m).mul(weight_);
-    return f;
-  };
-  const cv::Mat a = prepare(prev), b = prepare(cur);
-  const cv::Point2f centre(0.5f * a.cols, 0.5f * a.rows);
-  double best_response = -1;
-  cv::Matx23d best_inv;
-  cv::Point2d best_shift;
-  for (double deg = -opt_.max_rotation_deg; deg <= opt_.max_rotation_deg + 1e-9; deg += opt_.rotation_step_deg) {
-    const cv::Mat M = cv::getRotationMatrix2D(centre, deg, 1.0);  // current view -> rotated
-    cv::Mat rotated;
-    cv::warpAffine(b, rotated, M, b.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
-    double response = 0;
-    const cv::Point2d s = cv::phaseCorrelate(a, rotated, cv::noArray(), &response);
-    if (response > best_response) {
-      best_response = response;
-      cv::Mat inv;
-      cv::invertAffineTransform(M, inv);
-      best_inv = cv::Matx23d(inv);
-      best_shift = s;
-    }
-  }
-  // A previous-view pixel x (half resolution) sits at x + shift in the rotated current view, i.e. at
-  // M^-1 (x + shift) in the current view. In full-resolution view pixels: 2 M^-1 (x/2 + shift).
-  const cv::Matx23d& Mi = best_inv;
-  const cv::Vec2d off(Mi(0, 0) * best_shift.x + Mi(0, 1) * best_shift.y + Mi(0, 2),
-                      Mi(1, 0) * best_shift.x + Mi(1, 1) * best_shift.y + Mi(1, 2));
-  return {Mi(0, 0), Mi(0, 1), 2 * off[0], Mi(1, 0), Mi(1, 1), 2 * off[1]};
+cv::Matx23d BevTracker::motion_to_pixels(double dist, double yaw, double k) const {
+  // Car-like (non-holonomic) motion: the ego origin moves along the chord of an arc, p = R(yaw) q + t with
+  // t = dist (cos yaw/2, sin yaw/2). In view pixels (c, r) at k times the view's pixel size:
+  // ego = B (c, r) + b, B = [[0, -k res], [-k res, 0]]. Returns the map current-view pixel -> previous-view pixel.
+  const double res = opt_.bev_resolution_m * k;
+  const double bx = cam_.t_ego_cam[0] + opt_.far_m - 0.5 * res, by = cam_.t_ego_cam[1] + opt_.half_width_m - 0.5 * res;
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  const double tx = dist * std::cos(0.5 * yaw), ty = dist * std::sin(0.5 * yaw);
+  // B^-1 R B = [[c, s], [s, c]] (B is res times a swap with a sign flip); offset B^-1 (R b + t - b).
+  const double ox = c * bx - s * by + tx - bx, oy = s * bx + c * by + ty - by;
+  return {c, s, -oy / res, s, c, -ox / res};
 }
 
-std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr) {
+cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur, double dt,
+                                         std::optional<double> prior_speed) const {
+  // Search over distance and yaw change only (a car does not slide sideways), scoring the zero-mean normalised
+  // correlation of the current view's textured pixels with the previous view at the predicted places. A free 2-D
+  // search (phase correlation) locks onto the streaks that tall objects leave in a bird's-eye view.
+  auto search = [&](double k, double d0, double d1, double dstep, double y0, double y1, double ystep, double& bd,
+                    double& by) {
+    const cv::Size sz(static_cast<int>(std::lround(cur.cols / k)), static_cast<int>(std::lround(cur.rows / k)));
+    cv::Mat a, b, va, vb, gx, gy, mag;
+    cv::resize(prev, a, sz, 0, 0, cv::INTER_AREA);
+    cv::resize(cur, b, sz, 0, 0, cv::INTER_AREA);
+    cv::resize(valid_, va, sz, 0, 0, cv::INTER_NEAREST);
+    cv::erode(va, va, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
+    cv::Sobel(b, gx, CV_32F, 1, 0);
+    cv::Sobel(b, gy, CV_32F, 0, 1);
+    cv::magnitude(gx, gy, mag);
+    std::vector<std::pair<float, cv::Point>> cand;
+    for (int r = 0; r < sz.height; ++r)
+      for (int c = 0; c < sz.width; ++c)
+        if (va.at<uchar>(r, c)) cand.emplace_back(mag.at<float>(r, c), cv::Point(c, r));
+    if (cand.size() < 50) return -1.0;
+    const size_t keep = std::min<size_t>(1000, cand.size() / 2);
+    std::nth_element(cand.begin(), cand.begin() + static_cast<std::ptrdiff_t>(keep), cand.end(),
+                     [](const auto& x, const auto& y) { return x.first > y.first; });
+    cand.resize(keep);
+    std::vector<float> bv(keep);
+    for (size_t i = 0; i < keep; ++i) bv[i] = b.at<uchar>(cand[i].second);
+    cv::Mat af;
+    a.convertTo(af, CV_32F);
+    double best = -2;
+    for (double yaw = y0; yaw <= y1 + 1e-12; yaw += ystep) {
+      for (double d = d0; d <= d1 + 1e-12; d += dstep) {
+        const cv::Matx23d M = motion_to_pixels(d, yaw, k);
+        double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+        int n = 0;
+        for (size_t i = 0; i < keep; ++i) {
+          const cv::Point& q = cand[i].second;
+          const double x = M(0, 0) * q.x + M(0, 1) * q.y + M(0, 2), y = M(1, 0) * q.x + M(1, 1) * q.y + M(1, 2);
+          const int x0 = static_cast<int>(std::floor(x)), y0i = static_cast<int>(std::floor(y));
+          if (x0 < 0 || y0i < 0 || x0 + 1 >= sz.width || y0i + 1 >= sz.height) continue;
+          if (!va.at<uchar>(y0i, x0) || !va.at<uchar>(y0i + 1, x0 + 1)) continue;
+          const double fx = x - x0, fy = y - y0i;
+          const float* r0 = af.ptr<float>(y0i);
+          const float* r1 = af.ptr<float>(y0i + 1);
+          const double va_ = (1 - fx) * (1 - fy) * r0[x0] + fx * (1 - fy) * r0[x0 + 1] + (1 - fx) * fy * r1[x0] +
+                             fx * fy * r1[x0 + 1];
+          const double vb_ = bv[i];
+          sa += va_;
+          sb += vb_;
+          saa += va_ * va_;
+          sbb += vb_ * vb_;
+          sab += va_ * vb_;
+          ++n;
+        }
+        if (n < 0.3 * static_cast<double>(keep) || n < 30) continue;
+        const double cov = sab - sa * sb / n, var_a = saa - sa * sa / n, var_b = sbb - sb * sb / n;
+        if (var_a <= 1e-6 || var_b <= 1e-6) continue;
+        const double zncc = cov / std::sqrt(var_a * var_b);
+        if (zncc > best) {
+          best = zncc;
+          bd = d;
+          by = yaw;
+        }
+      }
+    }
+    return best;
+  };
+  const double yaw_max = std::max(2.0 * kDeg, opt_.max_yaw_rate * dt);
+  const double d_max = std::min(opt_.max_speed_mps * dt + 0.3, 0.7 * (opt_.far_m - opt_.near_m));
+  double d_lo = -0.5, d_hi = d_max;
+  if (prior_speed) {
+    // Speed changes slowly: within prior_accel * dt plus a relative margin of the last measured speed.
+    const double centre = *prior_speed * dt;
+    const double margin = opt_.prior_accel_mps2 * dt * dt + opt_.prior_relative * std::abs(centre) + 0.2;
+    d_lo = std::max(d_lo, centre - margin);
+    d_hi = std::min(d_hi, centre + margin);
+  }
+  double d = 0, yaw = 0;
+  const double coarse = search(4.0, d_lo, d_hi, 0.2, -yaw_max, yaw_max, 1.0 * kDeg, d, yaw);
+  if (coarse > -1) search(2.0, d - 0.2, d + 0.2, 0.05, yaw - 1.0 * kDeg, yaw + 1.0 * kDeg, 0.25 * kDeg, d, yaw);
+  last_coarse_yaw_ = coarse > -1 ? std::optional<double>(yaw) : std::nullopt;
+  cv::Mat inv;
+  cv::invertAffineTransform(cv::Mat(motion_to_pixels(d, yaw, 1.0)), inv);
+  return cv::Matx23d(inv);
+}
+
+std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::optional<double> prior_speed) {
   std::vector<GroundMatch> out;
+  last_coarse_yaw_.reset();
   if (bgr.empty()) {
     reset();
     return out;
@@ -274,7 +338,7 @@ std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr) {
   std::vector<cv::Point2f> f0, f1, back;
   cv::goodFeaturesToTrack(prev, f0, opt_.max_corners, opt_.corner_quality, opt_.min_corner_distance_px, mask);
   if (f0.size() < static_cast<size_t>(opt_.min_inliers)) return out;
-  cv::Matx23d A = coarse_alignment(prev, bev);
+  cv::Matx23d A = coarse_alignment(prev, bev, dt, prior_speed);
   f1.reserve(f0.size());
   for (const cv::Point2f& p : f0)
     f1.emplace_back(static_cast<float>(A(0, 0) * p.x + A(0, 1) * p.y + A(0, 2)),

@@ -2,6 +2,7 @@
 // odometry (which fits the rigid motion) and the horizon estimator (which asks which pitch and roll make it rigid).
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -31,11 +32,14 @@ Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Poi
 class BevTracker {
  public:
   BevTracker(const CameraModel& camera, const OdometryOptions& opt);
-  // Pushes a frame; returns the ground points tracked from the previous frame (empty for the first one).
-  std::vector<GroundMatch> add(const cv::Mat& bgr);
+  // Pushes a frame taken dt seconds after the previous one; returns the ground points tracked from the previous
+  // frame (empty for the first one). prior_speed (m/s), when given, narrows the coarse distance search.
+  std::vector<GroundMatch> add(const cv::Mat& bgr, double dt, std::optional<double> prior_speed = std::nullopt);
   void reset() { prev_bev_.release(); }
   int bonnet_rows() const { return bonnet_rows_; }
   const cv::Mat& last_bev() const { return prev_bev_; }
+  // Yaw change (rad, left positive) of the coarse alignment of the last pair; nullopt when there was none.
+  std::optional<double> last_coarse_yaw() const { return last_coarse_yaw_; }
 
  private:
   void build_maps();
@@ -43,9 +47,11 @@ class BevTracker {
   bool patch_agrees(const cv::Mat& a, const cv::Mat& b, cv::Point2f pa, cv::Point2f pb) const;
   cv::Point2d bev_to_ego(const cv::Point2f& b) const;
   cv::Point2d bev_to_image(const cv::Point2f& b) const;
-  // Coarse rigid alignment of two views (rotation search + phase correlation) as the KLT starting guess:
-  // returns the 2x3 map from previous-view pixels to current-view pixels.
-  cv::Matx23d coarse_alignment(const cv::Mat& prev, const cv::Mat& cur) const;
+  // Coarse alignment of two views (search over distance and yaw) as the KLT starting guess: returns the 2x3 map
+  // from previous-view pixels to current-view pixels.
+  cv::Matx23d coarse_alignment(const cv::Mat& prev, const cv::Mat& cur, double dt,
+                               std::optional<double> prior_speed) const;
+  cv::Matx23d motion_to_pixels(double dist, double yaw, double k) const;
   CameraModel cam_;
   OdometryOptions opt_;
   double scale_ = 1.0;
@@ -54,6 +60,7 @@ class BevTracker {
   int bonnet_rows_ = 0;
   int maps_bonnet_rows_ = -1;
   std::vector<double> bonnet_votes_;
+  mutable std::optional<double> last_coarse_yaw_;
 };
 
 }  // namespace hf::footage::detail

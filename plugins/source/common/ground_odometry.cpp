@@ -1,6 +1,7 @@
 // Ground-plane visual odometry: ground points tracked in the bird's-eye view and a RANSAC rigid fit give the
 // distance travelled and the yaw change between consecutive frames.
 #include <cmath>
+#include <optional>
 
 #include "bev_tracker.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
@@ -13,6 +14,8 @@ struct GroundOdometry::Impl {
   detail::BevTracker tracker;
   double prev_t = 0;
   bool have_prev = false;
+  std::optional<double> last_measured_t;
+  double last_speed = 0;
 };
 
 GroundOdometry::GroundOdometry(const CameraModel& camera, OdometryOptions opt)
@@ -30,7 +33,9 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   Impl& s = *impl_;
   const double dt = timestamp - s.prev_t;
   const bool had_prev = s.have_prev;
-  const auto matches = s.tracker.add(bgr);
+  std::optional<double> prior;
+  if (s.last_measured_t && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s) prior = s.last_speed;
+  const auto matches = s.tracker.add(bgr, had_prev ? dt : 0.0, prior);
   s.have_prev = !bgr.empty();
   s.prev_t = timestamp;
   if (!had_prev || !(dt > 1e-6)) return out;
@@ -63,6 +68,10 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   out.speed_sigma = sigma / std::sqrt(static_cast<double>(k)) / dt;
   out.yaw_rate_sigma = sigma / std::sqrt(std::max(spread, 1e-6)) / dt;
   out.measured = k >= s.opt.min_inliers && out.quality >= s.opt.min_inlier_fraction;
+  if (out.measured) {
+    s.last_measured_t = timestamp;
+    s.last_speed = out.speed_mps;
+  }
   return out;
 }
 

@@ -252,7 +252,7 @@ HorizonEstimator::HorizonEstimator(const CameraModel& intrinsics, HorizonOptions
                                    static_cast<int>(std::lround(intrinsics.height * scale_)));
 }
 
-void HorizonEstimator::add(const cv::Mat& bgr, double /*timestamp*/) {
+void HorizonEstimator::add(const cv::Mat& bgr, double timestamp) {
   const int frame = frame_++;
   if (bgr.empty()) {
     prev_gray_.release();
@@ -271,7 +271,8 @@ void HorizonEstimator::add(const cv::Mat& bgr, double /*timestamp*/) {
     return;
   }
 
-  ground_motion_cue(bgr, frame);
+  ground_motion_cue(bgr, frame, timestamp - prev_t_);
+  prev_t_ = timestamp;
 
   if (auto vp = road_vanishing_point(gray, opt_)) {
     Sample s{Sample::kVanishingPoint, vp->x * inv, vp->y * inv, 0, 0, frame};
@@ -295,7 +296,20 @@ void HorizonEstimator::add(const cv::Mat& bgr, double /*timestamp*/) {
         a.push_back(p0[i]);
         b.push_back(p1[i]);
       }
-      if (auto foe = focus_of_expansion(a, b, gray.size(), opt_)) {
+      // The FOE is that of translation only: undo the yaw the ground tracker saw (a turning car's flow is the
+      // expansion plus a sideways sweep that drags the apparent FOE off the horizon).
+      std::vector<cv::Point2f> b_derot = b;
+      if (const auto yaw = ground_->tracker.last_coarse_yaw(); yaw && std::abs(*yaw) > 1e-4) {
+        const cv::Matx33d K = work_cam_.K(), R = ground_->nominal.R_ego_cam;
+        const double c = std::cos(*yaw), s = std::sin(*yaw);
+        const cv::Matx33d Rz(c, -s, 0, s, c, 0, 0, 0, 1);
+        const cv::Matx33d H = K * R.t() * Rz * R * K.inv();
+        for (cv::Point2f& pt : b_derot) {
+          const cv::Vec3d v = H * cv::Vec3d(pt.x, pt.y, 1.0);
+          pt = cv::Point2f(static_cast<float>(v[0] / v[2]), static_cast<float>(v[1] / v[2]));
+        }
+      }
+      if (auto foe = focus_of_expansion(a, b_derot, gray.size(), opt_)) {
         samples_.push_back(Sample{Sample::kFoe, foe->x * inv, foe->y * inv, 0, 0, frame});
       }
       // Road points: below the horizon seen so far (or the lower half before any evidence), homography of the
@@ -347,8 +361,8 @@ void HorizonEstimator::add(const cv::Mat& bgr, double /*timestamp*/) {
   prev_gray_ = gray;
 }
 
-void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame) {
-  const std::vector<detail::GroundMatch> m = ground_->tracker.add(bgr);
+void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double dt) {
+  const std::vector<detail::GroundMatch> m = ground_->tracker.add(bgr, dt);
   if (static_cast<int>(m.size()) < opt_.ground_min_matches) return;
   // Inliers of the rigid motion at the nominal (level) pitch, with a loose threshold since the pitch is unknown.
   std::vector<cv::Point2d> p, q;
@@ -496,13 +510,14 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   std::sort(frames.begin(), frames.end());
   est.frames_used = static_cast<int>(std::unique(frames.begin(), frames.end()) - frames.begin());
   const double mean = std::accumulate(in_rows.begin(), in_rows.end(), 0.0) / in_rows.size();
+  const double centre = median(in_rows);  // the estimate: median of the inliers (few, skewed samples)
   double var = 0;
   for (double r : in_rows) var += (r - mean) * (r - mean);
   const double sd = in_rows.size() > 1 ? std::sqrt(var / (in_rows.size() - 1)) : 0.0;
-  est.horizon_y = mean;
+  est.horizon_y = centre;
   est.horizon_sigma_px = sd;
   est.roll_rad = roll;
-  est.pitch_rad = std::atan((cam_.cy - mean) * std::cos(roll) / cam_.fy);
+  est.pitch_rad = std::atan((cam_.cy - centre) * std::cos(roll) / cam_.fy);
   est.vanishing_points = static_cast<int>(cue_rows[Sample::kVanishingPoint].size());
   est.foe_points = static_cast<int>(cue_rows[Sample::kFoe].size());
   est.homographies = static_cast<int>(cue_rows[Sample::kHomography].size());
@@ -527,7 +542,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   }
   for (int c = 0; c < 4; ++c) {
     if (cue_rows[c].size() < 3) continue;
-    const double d = median(cue_rows[c]) - mean;
+    const double d = median(cue_rows[c]) - centre;
     if (std::abs(d) > 0.5 * gate) {
       est.notes.push_back(std::string(names[c]) + " rows sit " + std::to_string(static_cast<int>(std::lround(d))) +
                           " px from the combined horizon (road slope, curve or turning bias)");

@@ -33,10 +33,16 @@ struct OdometryOptions {
   int max_corners = 500;
   double corner_quality = 0.005;
   double min_corner_distance_px = 6;
-  // Coarse alignment before KLT (frames far apart, turning): the current view is rotated by each candidate angle
-  // and phase-correlated with the previous one; the best peak seeds the tracks.
-  double max_rotation_deg = 18.0;   // 0.6 rad/s at 2 Hz keyframes
-  double rotation_step_deg = 1.5;
+  // Coarse alignment before KLT (frames far apart, turning): distance driven and yaw change are searched within
+  // these limits (times the frame interval) for the best correlation of the two views; the best seeds the tracks.
+  double max_speed_mps = 45.0;
+  double max_yaw_rate = 0.6;  // rad/s
+  // After a measured frame (within prior_max_age_s) the distance search is narrowed to the last measured speed
+  // +- (prior_accel_mps2 * dt + prior_relative * speed) * dt: weak texture along the lane lines leaves the
+  // driven distance ambiguous, the speed does not jump.
+  double prior_max_age_s = 1.0;
+  double prior_accel_mps2 = 4.0;
+  double prior_relative = 0.25;
   int klt_window = 21;
   int klt_levels = 2;
   double fb_max_px = 1.0;      // forward-backward tracking error above this drops a track

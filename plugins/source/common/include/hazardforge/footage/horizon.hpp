@@ -92,7 +92,8 @@ class HorizonEstimator {
   int frame_ = 0;
   cv::Mat prev_gray_;
   std::vector<Sample> samples_;
-  void ground_motion_cue(const cv::Mat& bgr, int frame);
+  void ground_motion_cue(const cv::Mat& bgr, int frame, double dt);
+  double prev_t_ = 0;
   struct Ground;
   std::shared_ptr<Ground> ground_;  // bird's-eye tracker of the ground-motion cue
 };
