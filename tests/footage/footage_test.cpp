@@ -223,7 +223,7 @@ TEST(GroundOdometry, StandingStillMeasuresZero) {
   EXPECT_NEAR(s.yaw_rate, 0.0, 0.01);
 }
 
-TEST(Smoother, RejectsAnOutlierAndFillsGaps) {
+TEST(EgoMotionSmoother, RejectsAnOutlierAndFillsGaps) {
   std::vector<EgoMotionSample> raw;
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 0.1);
@@ -258,7 +258,7 @@ TEST(Smoother, RejectsAnOutlierAndFillsGaps) {
   }
 }
 
-TEST(Smoother, NoMeasurementsGivesUnmeasuredOutput) {
+TEST(EgoMotionSmoother, NoMeasurementsGivesUnmeasuredOutput) {
   std::vector<EgoMotionSample> raw(5);
   for (int i = 0; i < 5; ++i) raw[i].t = 0.1 * i;
   const auto out = smooth_ego_motion(raw);

@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
   app.add_option("--cy", cy, "default image centre");
   app.add_option("--hfov", hfov, "horizontal field of view, deg (when fx is not given)");
   app.add_option("--height", height, "camera height above the road, m");
+  double forward = 1.5;
+  app.add_option("--forward", forward, "camera position ahead of the rear axle, m (the yaw pivot)");
   app.add_option("--dist", dist, "distortion k1,k2,p1,p2[,k3]: frames are undistorted with K first");
   app.add_option("--max-frames", max_frames, "use at most this many frames (0 = all)");
   app.add_option("--pitch-deg", pitch_deg, "use this pitch for the odometry instead of the estimated one");
@@ -156,7 +158,7 @@ int main(int argc, char** argv) {
   if (fy <= 0) fy = fx;
   if (cx < 0) cx = 0.5 * w;
   if (cy < 0) cy = 0.5 * h;
-  hf::CameraModel intr = hf::CameraModel::pinhole(w, h, fx, fy, cx, cy, height, 0.0, 1.5, 0.0);
+  hf::CameraModel intr = hf::CameraModel::pinhole(w, h, fx, fy, cx, cy, height, 0.0, forward, 0.0);
   if (!dist.empty()) {
     const std::vector<double> d = parse_list(dist);
     const cv::Mat K(intr.K());

@@ -426,15 +426,15 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   double roll = 0;
   bool roll_known = false;
   const double max_sigma = opt_.max_roll_sigma_deg * kDeg;
-  if (rolls.size() >= 3) {
+  if (static_cast<int>(rolls.size()) >= opt_.min_roll_samples) {
     const double m = median(rolls);
     const double sig = mad_sigma(rolls, m);
-    if (sig < 3 * max_sigma) {
+    if (sig < max_sigma) {
       std::vector<double> in;
       for (double r : rolls)
         if (std::abs(r - m) <= std::max(3 * sig, 0.2 * kDeg)) in.push_back(r);
-      const double se = sig / std::sqrt(static_cast<double>(in.size()));
-      if (se < max_sigma) {
+      const double se = 1.2533 * sig / std::sqrt(static_cast<double>(in.size()));  // standard error of a median
+      if (static_cast<int>(in.size()) >= opt_.min_roll_samples && se < opt_.max_roll_error_deg * kDeg) {
         roll = median(in);
         est.roll_sigma_rad = std::max(se, 1e-4);
         roll_known = true;
@@ -474,7 +474,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
         const double se_b = std::sqrt(res / std::max(1, n - 2) / sxx2);
         const double r = std::atan(-b * cam_.fx / cam_.fy);
         const double se_r = se_b * cam_.fx / cam_.fy;
-        if (se_r < max_sigma) {
+        if (se_r < opt_.max_roll_error_deg * kDeg) {
           roll = r;
           est.roll_sigma_rad = se_r;
           roll_known = true;

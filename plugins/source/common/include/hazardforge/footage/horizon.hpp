@@ -63,7 +63,13 @@ struct HorizonOptions {
   // Combination over the clip.
   double inlier_gate_fraction = 0.02;  // per-frame rows farther than max(3 MAD, this * height) from the median
   int full_confidence_frames = 10;
-  double max_roll_sigma_deg = 1.0;     // roll evidence more scattered than this is reported as unobservable
+  // Roll is reported only from at least min_roll_samples plane samples (homography / ground motion) whose spread
+  // (scaled MAD) is below max_roll_sigma_deg and whose median has a standard error below max_roll_error_deg, or
+  // from a horizon line through the vanishing points / FOEs with a slope error below max_roll_error_deg;
+  // otherwise it is 0 with a note.
+  int min_roll_samples = 8;
+  double max_roll_sigma_deg = 1.0;
+  double max_roll_error_deg = 0.25;
 };
 
 // Accumulates horizon evidence over a clip. `intrinsics` gives K and the image size; its pitch/roll are ignored.
