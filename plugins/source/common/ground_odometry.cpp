@@ -1,0 +1,78 @@
+// Ground-plane visual odometry: ground points tracked in the bird's-eye view and a RANSAC rigid fit give the
+// distance travelled and the yaw change between consecutive frames.
+#include <cmath>
+#include <optional>
+
+#include "bev_tracker.hpp"
+#include "hazardforge/footage/ego_motion.hpp"
+
+namespace hf::footage {
+
+struct GroundOdometry::Impl {
+  Impl(const CameraModel& c, const OdometryOptions& o) : opt(o), tracker(c, o) {}
+  OdometryOptions opt;
+  detail::BevTracker tracker;
+  double prev_t = 0;
+  bool have_prev = false;
+  std::optional<double> last_measured_t;
+  double last_speed = 0;
+};
+
+GroundOdometry::GroundOdometry(const CameraModel& camera, OdometryOptions opt)
+    : impl_(std::make_unique<Impl>(camera, opt)) {}
+GroundOdometry::~GroundOdometry() = default;
+GroundOdometry::GroundOdometry(GroundOdometry&&) noexcept = default;
+GroundOdometry& GroundOdometry::operator=(GroundOdometry&&) noexcept = default;
+int GroundOdometry::bonnet_rows() const { return impl_->tracker.bonnet_rows(); }
+const cv::Mat& GroundOdometry::last_bev() const { return impl_->tracker.last_bev(); }
+
+EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double timestamp) {
+  EgoMotionSample out;
+  out.frame = frame;
+  out.t = timestamp;
+  Impl& s = *impl_;
+  const double dt = timestamp - s.prev_t;
+  const bool had_prev = s.have_prev;
+  std::optional<double> prior;
+  if (s.last_measured_t && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s) prior = s.last_speed;
+  const auto matches = s.tracker.add(bgr, had_prev ? dt : 0.0, prior);
+  s.have_prev = !bgr.empty();
+  s.prev_t = timestamp;
+  if (!had_prev || !(dt > 1e-6)) return out;
+  const int n = static_cast<int>(matches.size());
+  if (n < s.opt.min_inliers) return out;
+  std::vector<cv::Point2d> p, q;
+  for (const auto& m : matches) {
+    p.push_back(m.p);
+    q.push_back(m.q);
+  }
+  std::vector<int> best;
+  const detail::Rigid2 m = detail::ransac_rigid(p, q, s.opt.ransac_threshold_m, s.opt.ransac_iterations, best);
+  const int k = static_cast<int>(best.size());
+  if (k < 2) return out;
+  out.inliers = k;
+  out.quality = static_cast<double>(k) / n;
+  double ss = 0, spread = 0;
+  cv::Point2d mq(0, 0);
+  for (int i : best) mq += q[i];
+  mq *= 1.0 / k;
+  for (int i : best) {
+    const cv::Point2d r = p[i] - m.apply(q[i]);
+    ss += r.dot(r);
+    spread += (q[i] - mq).dot(q[i] - mq);
+  }
+  const double sigma = std::sqrt(ss / std::max(1, 2 * k - 3));  // per-axis residual, m
+  // p = R q + t: t is where the current ego origin sits in the previous ego frame; its x is the distance driven.
+  out.speed_mps = m.t.x / dt;
+  out.yaw_rate = m.theta / dt;
+  out.speed_sigma = sigma / std::sqrt(static_cast<double>(k)) / dt;
+  out.yaw_rate_sigma = sigma / std::sqrt(std::max(spread, 1e-6)) / dt;
+  out.measured = k >= s.opt.min_inliers && out.quality >= s.opt.min_inlier_fraction;
+  if (out.measured) {
+    s.last_measured_t = timestamp;
+    s.last_speed = out.speed_mps;
+  }
+  return out;
+}
+
+}  // namespace hf::footage

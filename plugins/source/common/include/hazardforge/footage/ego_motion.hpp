@@ -1,0 +1,110 @@
+// Metric ego motion (forward speed, yaw rate) from a monocular front camera over a flat road.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "hazardforge/types.hpp"
+
+namespace hf::footage {
+
+struct EgoMotionSample {
+  int64_t frame = 0;
+  double t = 0;
+  double speed_mps = 0;   // forward speed
+  double yaw_rate = 0;    // rad/s, positive = turning left
+  bool measured = false;  // false = no usable measurement at this frame (filled by the filter/smoother)
+  double speed_sigma = 0, yaw_rate_sigma = 0;  // 1-sigma (raw: from the fit residuals; smoothed: posterior)
+  double quality = 0;     // inlier fraction of the raw measurement
+  int inliers = 0;        // ground points that agreed with the fitted motion
+};
+
+struct OdometryOptions {
+  // Bird's-eye view of the road in ego coordinates (x forward of the rear axle, y left), metres.
+  double bev_resolution_m = 0.05;
+  double near_m = 3.0;         // raised automatically to the first visible road row (and above the bonnet)
+  double far_m = 22;         // longitudinal footprint of a pixel grows with distance^2; beyond this it is mush
+  double half_width_m = 6.0;   // the ego lane and its neighbours; parked cars and kerbs beyond add outliers
+  double horizon_margin_deg = 2.0;  // rows closer to the horizon than this are never used
+  // Features in the bird's-eye view and their KLT tracks.
+  int max_corners = 500;
+  double corner_quality = 0.005;
+  double min_corner_distance_px = 6;
+  // Coarse alignment before KLT (frames far apart, turning): distance driven and yaw change are searched within
+  // these limits (times the frame interval) for the best correlation of the two views; the best seeds the tracks.
+  double max_speed_mps = 45.0;
+  double max_yaw_rate = 0.6;  // rad/s
+  // After a measured frame (within prior_max_age_s) the distance search is narrowed to the last measured speed
+  // +- (prior_accel_mps2 * dt + prior_relative * speed) * dt: weak texture along the lane lines leaves the
+  // driven distance ambiguous, the speed does not jump.
+  double prior_max_age_s = 1.0;
+  double prior_accel_mps2 = 4.0;
+  double prior_relative = 0.25;
+  int klt_window = 21;
+  int klt_levels = 2;
+  double fb_max_px = 1.0;      // forward-backward tracking error above this drops a track
+  // A track also needs a patch (2 r + 1 square) with this much contrast (grey-level std) in both views and a
+  // zero-mean normalised cross-correlation of at least min_patch_zncc between them.
+  int patch_radius_px = 7;
+  double min_patch_contrast = 3.0;
+  double min_patch_zncc = 0.8;
+  // Rigid 2-D fit on the ground (RANSAC on point pairs, then least squares on the inliers).
+  double ransac_threshold_m = 0.15;
+  int ransac_iterations = 300;
+  int min_inliers = 12;
+  double min_inlier_fraction = 0.3;
+  // Bonnet detection: bottom rows whose frame-to-frame change (relative to their own vertical gradient) stays
+  // below this fraction of the upper quartile of the bottom band's rows (the road there streams past fastest).
+  double bonnet_change_ratio = 0.5;
+  double bonnet_max_fraction = 0.3;  // never more than this fraction of the image height is taken as bonnet
+};
+
+// Ground-plane visual odometry: camera with known pitch, roll, height (CameraModel) -> metric motion between
+// consecutive frames. The road in front of the car is warped to a metric bird's-eye view once per frame; a flat
+// road then moves between frames by a 2-D rigid transform which KLT tracks and a RANSAC fit recover (moving
+// vehicles are outliers).
+class GroundOdometry {
+ public:
+  explicit GroundOdometry(const CameraModel& camera, OdometryOptions opt = {});
+  // Raw (unfiltered) motion from the previous frame to this one; measured=false for the first frame or when the
+  // road gives no reliable measurement.
+  EgoMotionSample add(const cv::Mat& bgr, int64_t frame, double timestamp);
+  // Rows at the bottom of the image taken to be the bonnet (0 until two frames were seen).
+  int bonnet_rows() const;
+  // The latest bird's-eye view (for inspection).
+  const cv::Mat& last_bev() const;
+  ~GroundOdometry();
+  GroundOdometry(GroundOdometry&&) noexcept;
+  GroundOdometry& operator=(GroundOdometry&&) noexcept;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+struct SmoothOptions {
+  double accel_noise = 1.0;        // m/s^3 white jerk driving the acceleration (comfortable driving changes)
+  double yaw_accel_noise = 0.3;    // rad/s^2 random walk of the yaw rate
+  double speed_sigma_floor = 0.2;  // m/s added in quadrature to every raw speed sigma
+  double yaw_sigma_floor = 0.02;   // rad/s
+  double accel_tau = 2.0;          // s: the acceleration is a first-order Markov process with this time constant
+  double gate_sigma = 4.0;         // innovations beyond this many sigma are outliers ...
+  int restart_after = 3;           // ... unless this many in a row are: then the filter restarts from them
+  // Before filtering, a raw sample farther from the median of its +-median_window measured neighbours than
+  // max(median_gate_mps, median_gate_rel * |median|) in speed, or median_gate_yaw in yaw rate, is dropped.
+  int median_window = 2;
+  double median_gate_mps = 1.5;
+  double median_gate_rel = 0.25;
+  double median_gate_yaw = 0.1;
+  double initial_speed_sigma = 10.0;
+};
+
+// Filters a whole clip's raw samples (forward Kalman + RTS smoother over speed, acceleration, yaw rate), with
+// outlier rejection, so every frame gets a value and a sigma. Samples marked measured on output are the raw
+// measurements that were kept; rejected ones come back measured=false with filled values.
+std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample>& raw, SmoothOptions opt = {});
+
+}  // namespace hf::footage
