@@ -215,17 +215,21 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   EgoPath design_ego = ego;
   if (ego_plan_ != "constant_speed" && has_track) {
     const std::string where = "scene at t=" + num(scene.timestamp, 3) + " s";
-    const auto& track = scene.ego_track->samples;
+    std::vector<EgoTrackSample> track = scene.ego_track->samples;
+    // A hazard under way since before the recording began: the ego drove straight on at its first speed
+    // before the track's first sample (the recording says nothing else about that time).
+    if (under_way > 0 && scene.timestamp - under_way < track.front().t - 1e-9) {
+      EgoTrackSample before = track.front();
+      const double dt = track.front().t - (scene.timestamp - under_way) + 0.1;
+      before.t -= dt;
+      before.x -= before.speed_mps * dt * std::cos(before.yaw);
+      before.y -= before.speed_mps * dt * std::sin(before.yaw);
+      before.yaw_rate = 0;
+      track.insert(track.begin(), before);
+    }
     ego = EgoPath::recorded(track, scene.timestamp, where, ego_smoothing_s_);
     design_ego = ego;
-    if (under_way > 0) {
-      if (scene.timestamp - under_way < track.front().t - 1e-9) {
-        reasons.push_back("extra.under_way_s " + num(under_way) + " s reaches back before the recorded ego track (" +
-                          num(track.front().t, 3) + " s)");
-        return out;
-      }
-      design_ego = EgoPath::recorded(track, scene.timestamp - under_way, where, ego_smoothing_s_);
-    }
+    if (under_way > 0) design_ego = EgoPath::recorded(track, scene.timestamp - under_way, where, ego_smoothing_s_);
   }
   // Arc length the ego covers from the hazard's start to the anchor time (road x of the design -> of the anchor).
   const double ego_shift = under_way > 0 ? design_ego.s_at(under_way) : 0.0;
