@@ -82,7 +82,7 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
         for (const auto& ch : p.choices) range += (range.empty() ? "" : ", ") + ch;
         os << "| `" << p.name << "` | " << param_type_name(p.type) << " | "
            << (p.required() ? std::string("*required*") : "`" + hf::json_text(p.default_value) + "`") << " | "
-           << range << " | " << p.doc << " |\n";
+           << range << " | " << p.doc << (p.scene_key.empty() ? "" : " (scene: `" + p.scene_key + "`)") << " |\n";
       }
       os << "\n";
     }
@@ -106,7 +106,7 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
   }
   if (!i.params.empty()) {
     os << "\nparams:\n";
-    for (const auto& p : i.params) os << "  " << param_line(p) << (p.doc.empty() ? "" : "\n      " + p.doc) << "\n";
+    for (const auto& p : i.params) os << "  " << param_line(p) << (p.doc.empty() ? "" : "\n      " + p.doc) << (p.scene_key.empty() ? "" : "\n      from scene." + p.scene_key) << "\n";
   }
   return os.str();
 }

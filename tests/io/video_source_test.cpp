@@ -12,6 +12,7 @@
 
 #include "hazardforge/core/calibration.hpp"
 #include "image_sequence_source.hpp"
+#include "synthetic_road.hpp"
 #include "io_test_util.hpp"
 #include "test_support.hpp"
 #include "video_source.hpp"
@@ -114,7 +115,14 @@ TEST(VideoSource, AssumedFovIsWarnedAndUsed) {
   testing::StageRunner r2;
   frames = run_source<VideoSource>("{path: '" + file.string() + "', hfov_deg: 90}", &r2);
   EXPECT_NEAR(frames[0].camera.fx, 160, 1e-9);
-  for (const auto& l : r2.log()) EXPECT_EQ(l.rfind("warning: ", 0), std::string::npos) << l;
+  // (These flat frames show no road: the warnings left say so, and no FOV warning is among them.)
+  for (const auto& l : r2.log()) {
+    if (l.rfind("warning: ", 0) != 0) continue;
+    EXPECT_EQ(l.find("field of view"), std::string::npos) << l;
+    EXPECT_TRUE(l.find("no horizon could be estimated") != std::string::npos ||
+                l.find("speed could not be estimated") != std::string::npos)
+        << l;
+  }
 }
 
 TEST(VideoSource, CalibrationUndistortsAndScales) {
@@ -168,7 +176,7 @@ TEST(VideoSource, BadFilesGiveOneClearMessage) {
   TempDir dir;
   const auto missing = dir / "nope.mp4";
   EXPECT_EQ(error_of([&] { run_source<VideoSource>("{path: '" + missing.string() + "'}"); }),
-            "video file '" + missing.string() + "' does not exist");
+            "video file or image folder '" + missing.string() + "' does not exist");
   const auto junk = dir / "junk.mp4";
   std::ofstream(junk) << "this is not a video\n";
   EXPECT_EQ(error_of([&] { run_source<VideoSource>("{path: '" + junk.string() + "'}"); }),
@@ -319,6 +327,121 @@ TEST(ImageSequenceSource, KittiRawFolder) {
   EXPECT_EQ(frames[2].image.size(), cv::Size(1242, 375));
   EXPECT_NEAR(frames[2].timestamp, 0.2, 1e-12);
   EXPECT_EQ(frames[0].source_id, "0000000000.png");
+}
+
+// A folder of rendered road frames: a camera pitched down 3 deg, 1.5 m high, driving 12 m/s while turning at
+// 0.1 rad/s, 10 fps.
+std::filesystem::path write_drive(const TempDir& dir, int frames) {
+  const auto folder = dir / "drive";
+  std::filesystem::create_directories(folder);
+  const CameraModel cam = CameraModel::pinhole(640, 360, 576, 576, 320, 180, 1.5, 3.0 * CV_PI / 180, 1.5);
+  for (int k = 0; k < frames; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%04d.png", k);
+    cv::imwrite((folder / name).string(), test::road::render(cam, test::road::pose_at(0.1 * k, 12.0, 0.1)));
+  }
+  return folder;
+}
+
+Json read_json(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return Json::parse(in);
+}
+
+TEST(VideoSource, AnImageFolderTellsItsPitchAndEgoMotion) {
+  TempDir dir;
+  const auto folder = write_drive(dir, 16);
+  testing::StageRunner r;
+  const auto frames = run_source<VideoSource>("{path: '" + folder.string() + "', fps: 10, fx: 576}", &r);
+  ASSERT_EQ(frames.size(), 16u);
+  // What the run says about itself: the geometry used and where each value came from.
+  const Json cam = read_json(r.output_dir() / "camera.json");
+  EXPECT_NEAR(cam["pitch_deg"].get<double>(), 3.0, 0.5) << cam.dump(2);
+  EXPECT_NEAR(cam["horizon_y"].get<double>(), 180 - 576 * std::tan(3.0 * CV_PI / 180), 5.0);
+  EXPECT_EQ(cam["fps"], 10.0);
+  EXPECT_EQ(cam["sources"]["fps"], "stated");
+  EXPECT_EQ(cam["sources"]["intrinsics"], "stated fx/fy/cx/cy");
+  EXPECT_EQ(cam["sources"]["pitch_deg"].get<std::string>().rfind("estimated from the video", 0), 0u);
+  EXPECT_EQ(cam["sources"]["height_m"].get<std::string>().rfind("default 1.5 m", 0), 0u);
+  // Every frame carries the pitch, its speed and yaw rate (source video) and the clip's ego track.
+  std::vector<double> speeds, yaw_rates;
+  for (const Frame& f : frames) {
+    EXPECT_NEAR(f.camera.pitch() * 180 / CV_PI, cam["pitch_deg"].get<double>(), 1e-9);
+    ASSERT_TRUE(f.ego.speed_mps);
+    EXPECT_EQ(f.ego.source, "video");
+    speeds.push_back(*f.ego.speed_mps);
+    yaw_rates.push_back(*f.ego.yaw_rate);
+    ASSERT_TRUE(f.ego_track);
+    EXPECT_EQ(f.ego_track->source, "video");
+    EXPECT_EQ(f.ego_track->samples.size(), 16u);
+    ASSERT_TRUE(f.stream_end);
+    EXPECT_NEAR(*f.stream_end, 1.5, 1e-9);
+  }
+  std::sort(speeds.begin(), speeds.end());
+  std::sort(yaw_rates.begin(), yaw_rates.end());
+  EXPECT_NEAR(speeds[8], 12.0, 1.2);
+  EXPECT_NEAR(yaw_rates[8], 0.1, 0.03);
+  // The ego track integrates them: 1.5 s at 12 m/s.
+  const auto& last = frames.back().ego_track->samples.back();
+  EXPECT_NEAR(std::hypot(last.x, last.y), 18.0, 2.0);
+  // One line per frame.
+  std::ifstream lines(r.output_dir() / "ego_motion.jsonl");
+  int n = 0;
+  for (std::string l; std::getline(lines, l); ++n) {
+    const Json j = Json::parse(l);
+    EXPECT_EQ(j["frame"], n);
+    EXPECT_NEAR(j["timestamp"].get<double>(), 0.1 * n, 1e-9);
+    EXPECT_EQ(j["source"], "video");
+    EXPECT_TRUE(j["speed_mps"].is_number());
+    EXPECT_TRUE(j["yaw_rate_dps"].is_number());
+  }
+  EXPECT_EQ(n, 16);
+}
+
+TEST(VideoSource, StatedValuesWinAndAnUnstatedFrameRateIsSaidLoudly) {
+  TempDir dir;
+  const auto folder = write_drive(dir, 6);
+  testing::StageRunner r;
+  const auto frames = run_source<VideoSource>(
+      "{path: '" + folder.string() + "', fx: 576, camera_pitch_deg: 0, ego_speed_mps: 7}", &r);
+  ASSERT_EQ(frames.size(), 6u);
+  const Json cam = read_json(r.output_dir() / "camera.json");
+  EXPECT_EQ(cam["fps"], 10.0);
+  EXPECT_EQ(cam["sources"]["fps"].get<std::string>().rfind("assumed 10 fps", 0), 0u);
+  EXPECT_EQ(cam["pitch_deg"], 0.0);  // stated 0, kept
+  EXPECT_EQ(cam["sources"]["pitch_deg"], "stated");
+  bool fps_warned = false, pitch_warned = false;
+  for (const std::string& l : r.log()) {
+    fps_warned = fps_warned || l.find("ASSUMING 10 fps") != std::string::npos;
+    pitch_warned = pitch_warned || (l.find("the stated camera pitch 0") != std::string::npos &&
+                                    l.find("disagrees with the footage") != std::string::npos);
+  }
+  EXPECT_TRUE(fps_warned);
+  EXPECT_TRUE(pitch_warned) << "a stated pitch the footage contradicts by 3 deg is warned about";
+  for (const Frame& f : frames) {
+    EXPECT_EQ(*f.ego.speed_mps, 7.0);
+    EXPECT_EQ(f.ego.source, "param");
+  }
+}
+
+TEST(VideoSource, IntrinsicsAreStatedForTheirImageSize) {
+  TempDir dir;
+  const auto folder = write_drive(dir, 2);
+  // Measured on 1280x720 frames: scaled to these 640x360 ones.
+  testing::StageRunner r;
+  const auto frames = run_source<VideoSource>("{path: '" + folder.string() + "', fps: 10, fx: 1152, cx: 640, cy: 360, "
+                                              "intrinsics_size: [1280, 720], self_calibrate: false}", &r);
+  EXPECT_DOUBLE_EQ(frames[0].camera.fx, 576);
+  EXPECT_DOUBLE_EQ(frames[0].camera.cx, 320);
+  // Without the size, a principal point that fits another image is an error naming the size it fits.
+  EXPECT_NE(error_of([&] {
+              run_source<VideoSource>("{path: '" + folder.string() + "', fps: 10, fx: 1152, cx: 640, cy: 360}");
+            }).find("it fits a 1280x720 image: state camera.intrinsics_size"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              run_source<VideoSource>("{path: '" + folder.string() + "', fps: 10, fx: 1152, intrinsics_size: [1000, 1000]}");
+            }).find("different aspect ratio"),
+            std::string::npos);
 }
 
 TEST(CameraSource, NonexistentDeviceOrUrlFails) {

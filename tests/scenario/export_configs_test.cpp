@@ -1,6 +1,5 @@
 // Every shipped scenario config exports a scenario and road that validate and whose hazard the ego meets.
 #include <gtest/gtest.h>
-#include <yaml-cpp/yaml.h>
 
 #include <filesystem>
 #include <fstream>
@@ -10,6 +9,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "hazardforge/core/graph.hpp"
 #include "resimulation.hpp"
 #include "xml_files.hpp"
 
@@ -18,15 +18,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The config cut down to what the export needs: the xosc node and, transitively, the nodes it reads from; the
-// source stops one frame after the generator's trigger frame.
+// The config (subgraphs expanded by the host's loader) cut down to what the export needs: the xosc node and,
+// transitively, the nodes it reads from, over the whole recording (the generator's horizon follows the clip's end).
 std::string export_only(const fs::path& config) {
-  YAML::Node root = YAML::LoadFile(config.string());
-  std::map<std::string, YAML::Node> nodes;
+  Json root = core::load_graph_config(config).doc.value;
+  std::map<std::string, Json> nodes;
   std::vector<std::string> todo;
-  for (const YAML::Node& n : root["nodes"]) {
-    nodes[n["id"].as<std::string>()] = n;
-    if (n["stage"].as<std::string>() == "xosc") todo.push_back(n["id"].as<std::string>());
+  for (const Json& n : root["nodes"]) {
+    nodes[n["id"].get<std::string>()] = n;
+    if (n["stage"] == "xosc") todo.push_back(n["id"].get<std::string>());
   }
   EXPECT_EQ(todo.size(), 1u) << config;
   std::set<std::string> keep;
@@ -34,42 +34,39 @@ std::string export_only(const fs::path& config) {
     const std::string id = todo.back();
     todo.pop_back();
     if (!keep.insert(id).second) continue;
-    auto add = [&](const YAML::Node& v) {
-      const std::string ref = v.as<std::string>();
+    auto add = [&](const Json& v) {
+      const std::string ref = v.get<std::string>();
       todo.push_back(ref.substr(0, ref.find('.')));
     };
-    for (const auto& in : nodes[id]["inputs"]) {
-      if (in.second.IsSequence())
-        for (const YAML::Node& v : in.second) add(v);
+    for (const auto& in : nodes[id]["inputs"].items()) {
+      if (in.value().is_array())
+        for (const Json& v : in.value()) add(v);
       else
-        add(in.second);
+        add(in.value());
     }
   }
-  // Paths in params are relative to the config's folder; the cut config lives elsewhere.
-  for (auto& [id, n] : nodes)
-    for (auto p : n["params"])
-      if (p.second.IsScalar()) {
-        const std::string v = p.second.as<std::string>();
-        if (!v.empty() && v[0] != '/' && v.find("${") == std::string::npos &&
-            fs::exists(config.parent_path() / v))
-          p.second = fs::weakly_canonical(config.parent_path() / v).string();
-      }
-  YAML::Node out;
-  out["name"] = root["name"].as<std::string>() + "_export";
-  for (const YAML::Node& n : root["nodes"]) {
-    if (!keep.count(n["id"].as<std::string>())) continue;
-    out["nodes"].push_back(YAML::Clone(n));
+  // Paths are relative to the config's folder; the cut config lives elsewhere.
+  auto absolute = [&](Json& v) {
+    if (!v.is_string()) return;
+    const std::string s = v.get<std::string>();
+    if (!s.empty() && s[0] != '/' && s.find("${") == std::string::npos && fs::exists(config.parent_path() / s))
+      v = fs::weakly_canonical(config.parent_path() / s).string();
+  };
+  Json out = {{"name", root["name"].get<std::string>() + "_export"}, {"nodes", Json::array()}};
+  if (root.contains("scene")) {
+    out["scene"] = root["scene"];
+    for (auto& sec : out["scene"].items())
+      if (sec.value().is_object())
+        for (auto& kv : sec.value().items()) absolute(kv.value());
   }
-  int trigger = -1;
-  for (const YAML::Node& n : out["nodes"])
-    if (n["stage"].as<std::string>() == "llm_hazard" && n["params"]["trigger_frame"])
-      trigger = n["params"]["trigger_frame"].as<int>();
-  if (trigger >= 0)
-    for (YAML::Node n : out["nodes"])
-      if (n["id"].as<std::string>() == "source") n["params"]["max_frames"] = trigger + 1;
-  YAML::Emitter e;
-  e << out;
-  return e.c_str();
+  for (const Json& n : root["nodes"]) {
+    if (!keep.count(n["id"].get<std::string>())) continue;
+    Json c = n;
+    if (c.contains("params"))
+      for (auto& kv : c["params"].items()) absolute(kv.value());
+    out["nodes"].push_back(c);
+  }
+  return out.dump(2);
 }
 
 class ShippedConfig : public ::testing::TestWithParam<std::string> {};

@@ -102,11 +102,12 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe("edge-case tests: a person may appear on a road without sidewalks, on the shoulder "
                     "(sidewalk_width_m beyond the road edge) — e.g. someone who left a broken-down car. "
                     "Relaxes the rule 'no pedestrians without sidewalks' explicitly; the prompt says so"),
-      ParamSpec::number("max_under_way_s", 0.0)
-          .range(0, 30)
+      ParamSpec::number("max_under_way_s", -1.0)
+          .range(-1, 30)
           .describe("longest extra.under_way_s a spec may give (hazards already under way when they appear, "
                     "for recordings too short to show the whole manoeuvre); passed to the templates; 0 = "
-                    "every hazard starts when it appears"),
+                    "every hazard starts when it appears; -1 = what the clip cannot show: 6 s minus the "
+                    "horizon when the clip's end cut the horizon short, else 0"),
       ParamSpec::number("horizon_s", 0.0)
           .range(0, 60)
           .describe("how long hazards are planned/replayed for the TTC check (templates' duration_s); 0 = what "
@@ -150,7 +151,7 @@ void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std
                        {"ego_front_m", ttc_.ego_front},
                        {"min_closing_mps", ttc_.min_closing},
                        {"duration_s", horizon_s_},
-                       {"max_under_way_s", p.get_double("max_under_way_s")}};
+                       {"max_under_way_s", max_under_way_s_}};
   for (const std::string& k : allowed_kinds_) {
     if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
       ctx.log(LogLevel::kWarning,
@@ -201,6 +202,7 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   std::string limits_file = share_file(p, "limits", "hazard_limits.yaml");
   std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
   horizon_s_ = p.get_double("horizon_s") > 0 ? p.get_double("horizon_s") : 6.0;
+  max_under_way_s_ = std::max(0.0, p.get_double("max_under_way_s"));
   make_templates(ctx, registered);
   std::string schema_file = share_file(p, "schema", "schemas/hazard_spec.schema.json");
   spec_schema_ = load_schema_file(schema_file);
@@ -269,7 +271,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
   done_ = true;
   if (spec) {
     spec->horizon_s = horizon_s_;
-    spec->max_under_way_s = ctx.params().get_double("max_under_way_s");
+    spec->max_under_way_s = max_under_way_s_;
     out.emit("hazard", std::move(*spec));
   }
 }
@@ -329,17 +331,20 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   if (p.get_double("horizon_s") <= 0 && frame.stream_end) {
     // What is left of the clip: a hazard planned beyond its end could never be seen.
     const double left = std::clamp(*frame.stream_end - frame.timestamp, 1.0, 6.0);
-    if (std::abs(left - horizon_s_) > 1e-9) {
+    const double under_way = p.get_double("max_under_way_s") < 0 ? 6.0 - left : max_under_way_s_;
+    if (std::abs(left - horizon_s_) > 1e-9 || std::abs(under_way - max_under_way_s_) > 1e-9) {
       horizon_s_ = left;
+      max_under_way_s_ = under_way;
       make_templates(ctx, ctx.components().component_names(kind::kHazardTemplate));
     }
     ctx.log(LogLevel::kInfo, "horizon " + num(horizon_s_) + " s: what is left of the clip after frame " +
-                                 std::to_string(frame.index) + " (at least 1 s, at most 6 s)");
+                                 std::to_string(frame.index) + " (at least 1 s, at most 6 s); hazards may be under "
+                                 "way for up to " + num(max_under_way_s_) + " s when they appear");
   }
   s.horizon_s = horizon_s_;
   s.sidewalk_width_m = p.get_double("sidewalk_width_m");
   s.pedestrians_without_sidewalks = p.get_bool("pedestrians_without_sidewalks");
-  s.max_under_way_s = p.get_double("max_under_way_s");
+  s.max_under_way_s = max_under_way_s_;
   s.ttc = ttc_;
   s.road = road_;
   ctx.log(LogLevel::kInfo,

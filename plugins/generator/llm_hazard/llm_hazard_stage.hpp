@@ -51,7 +51,8 @@ class LlmHazardGenerator : public Stage {
   std::unique_ptr<LlmProvider> provider_;
   std::string provider_name_;
   std::map<std::string, std::unique_ptr<HazardTemplate>> templates_;
-  double horizon_s_ = 6.0;  // templates' duration_s: the param, or what is left of the clip at the trigger
+  double horizon_s_ = 6.0;
+  double max_under_way_s_ = 0.0;  // the param, or what the clip cannot show (-1)  // templates' duration_s: the param, or what is left of the clip at the trigger
   void make_templates(StageContext& ctx, const std::vector<std::string>& registered);
   std::vector<std::string> allowed_kinds_;
   Json spec_schema_;

@@ -269,10 +269,10 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
   {
     auto next_native = open_pass();
     cv::Mat native;
-    for (int64_t k = 0; next_native(native); ++k) {
+    std::string what;
+    for (int64_t k = 0; next_native(native, what); ++k) {
       if (ctx.stop_requested()) return;
-      if (stride == 1 || k % stride <= 1)
-        horizon.add(prepare(native, "frame " + std::to_string(k)), static_cast<double>(k) / fps);
+      if (stride == 1 || k % stride <= 1) horizon.add(prepare(native, what), static_cast<double>(k) / fps);
     }
   }
   const auto est = horizon.result();
@@ -295,7 +295,11 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
       if (roll_stated_) use.roll_rad = roll_deg_ / deg;
       camera_ = footage::HorizonEstimator::apply(camera_, use);
       if (!pitch_stated_) provenance_["pitch_deg"] = "estimated from the video (" + how + ")";
-      if (!roll_stated_) provenance_["roll_deg"] = "estimated from the video (" + how + ")";
+      bool roll_seen = true;
+      for (const std::string& n : est->notes) roll_seen = roll_seen && n.find("roll not observable") == std::string::npos;
+      if (!roll_stated_)
+        provenance_["roll_deg"] = roll_seen ? "estimated from the video (" + how + ")"
+                                            : std::string("default 0: roll is not observable from this clip");
     }
     provenance_["horizon_confidence"] = est->confidence;
     if (!est->notes.empty()) provenance_["horizon_notes"] = est->notes;
@@ -304,15 +308,23 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     ctx.log(LogLevel::kWarning, "no horizon could be estimated from the footage; camera pitch 0 assumed (state "
                                 "camera.pitch_deg): ground distances rest on that assumption");
   }
+  if (speed_stated_) {
+    // A stated speed is a constant-speed, straight ego (EgoState source "param"; no track: planners and the
+    // exporter then use a straight line at that speed); the video's yaw rate is not mixed in. Leave
+    // ego.speed_mps unstated to follow the footage's speed and turns.
+    provenance_["ego_speed"] = "stated (constant, straight ahead)";
+    return;
+  }
   // Pass 2, ego motion: ground-plane odometry over every frame with the final camera.
   footage::GroundOdometry odo(camera_);
   std::vector<footage::EgoMotionSample> raw;
   {
     auto next_native = open_pass();
     cv::Mat native;
-    for (int64_t k = 0; next_native(native); ++k) {
+    std::string what;
+    for (int64_t k = 0; next_native(native, what); ++k) {
       if (ctx.stop_requested()) return;
-      raw.push_back(odo.add(prepare(native, "frame " + std::to_string(k)), k, static_cast<double>(k) / fps));
+      raw.push_back(odo.add(prepare(native, what), k, static_cast<double>(k) / fps));
     }
   }
   if (raw.empty()) return;

@@ -48,7 +48,7 @@ class CameraSetup {
   // lines, focus of expansion, road homography) and the ego's speed and yaw rate from ground-plane odometry.
   // A stated pitch that the footage contradicts by more than 1 deg is kept, with a warning naming both.
   // `open_pass` starts a new pass over the clip and returns its reader.
-  using FrameReader = std::function<bool(cv::Mat&)>;
+  using FrameReader = std::function<bool(cv::Mat& native, std::string& what)>;  // what: names the frame in errors
   using FramePass = std::function<FrameReader()>;
   void estimate_from_footage(const FramePass& open_pass, int64_t frames, double fps, StageContext& ctx);
   // Writes camera.json (the geometry used and where each value came from) and ego_motion.jsonl (one line per

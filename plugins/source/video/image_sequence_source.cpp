@@ -72,8 +72,9 @@ void ImageSequenceSource::open(StageContext& ctx) {
   setup_.estimate_from_footage(
       [this]() -> CameraSetup::FrameReader {
         auto k = std::make_shared<size_t>(0);
-        return [this, k](cv::Mat& out) {
+        return [this, k](cv::Mat& out, std::string& what) {
           if (*k >= files_.size()) return false;
+          what = "image '" + files_[*k].string() + "'";
           out = read((*k)++);
           return true;
         };

@@ -120,8 +120,9 @@ void VideoSource::open(StageContext& ctx) {
       [this]() -> CameraSetup::FrameReader {
         if (!files_.empty()) {
           auto k = std::make_shared<size_t>(0);
-          return [this, k](cv::Mat& out) {
+          return [this, k](cv::Mat& out, std::string& what) {
             if (*k >= files_.size()) return false;
+            what = "image '" + files_[*k].string() + "'";
             out = read_image((*k)++);
             return true;
           };
@@ -130,9 +131,10 @@ void VideoSource::open(StageContext& ctx) {
         auto k = std::make_shared<int64_t>(0);
         for (int64_t s = 0; s < start_ && cap->grab(); ++s) {
         }
-        return [this, cap, k](cv::Mat& out) {
+        return [this, cap, k](cv::Mat& out, std::string& what) {
           if (max_frames_ >= 0 && *k >= max_frames_) return false;
           if (!cap->grab() || !cap->retrieve(out) || out.empty()) return false;
+          what = "video file '" + path_ + "' frame " + std::to_string(start_ + *k);
           ++*k;
           return true;
         };
