@@ -84,12 +84,7 @@ void ImageSequenceSource::open(StageContext& ctx) {
 }
 
 cv::Mat ImageSequenceSource::read(size_t k) const {
-  const fs::path& file = files_[k];
-  const std::string what = "image '" + file.string() + "' (frame " + std::to_string(k) + ")";
-  require_complete_image(file, what);
-  cv::Mat raw = cv::imread(file.string(), cv::IMREAD_COLOR);
-  if (raw.empty()) throw Error(what + " cannot be read");
-  return raw;
+  return read_image_file(files_[k], "image '" + files_[k].string() + "' (frame " + std::to_string(k) + ")");
 }
 
 bool ImageSequenceSource::next(StageContext& /*ctx*/, Outputs& out) {
