@@ -214,6 +214,22 @@ TEST(Verifier, NeverVisibleHazardFails) {
   EXPECT_EQ(s["redetection"]["rate"], Json());
 }
 
+TEST(Verifier, NoPlannedHazardSaysSoInsteadOfNeverVisible) {
+  // The renderer had no trajectory (the generator or planner failed): its instances carry no kind.
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>();
+  for (int i = 0; i < 3; ++i) {
+    HazardInstance h;
+    h.frame_index = i;
+    r.push("hazard", h, 0.1 * i);
+    r.push("detections", detections(i, {}), 0.1 * i);
+  }
+  r.run();
+  const Json s = r.collect<Record>("records").back().data;
+  EXPECT_EQ(s["reasons"], Json::array({"no hazard was inserted: no planned trajectory arrived (the generator or "
+                                       "the planner produced none; the run's errors say why)"}));
+  EXPECT_EQ(s["passed"], false);
+}
+
 TEST(Verifier, UnsafeOnlyCountsWhileTheHazardIsVisible) {
   auto r = testing::StageRunner::create<ClosedLoopVerifier>("min_redetection_rate: 0");
   r.push("hazard", instance(0, false, 1.0), 0.0);

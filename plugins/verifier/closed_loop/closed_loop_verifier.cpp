@@ -143,6 +143,7 @@ double ClosedLoopVerifier::origin_offset(StageContext& ctx, const Inputs& in) co
 
 void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (const HazardTrajectory* tr = in.get<HazardTrajectory>("trajectory")) {
+    trajectory_seen_ = true;
     intended_traj_min_ = tr->intended_min_ttc_s;
     length_ = tr->size_lwh[0];
     kind_ = tr->kind;
@@ -272,7 +273,10 @@ Json ClosedLoopVerifier::summary() const {
   const double rate = visible_ > 0 ? static_cast<double>(redetected_) / visible_ : 0.0;
   const double intended =
       std::isfinite(intended_visible_min_) ? intended_visible_min_ : intended_traj_min_.value_or(kInf);
-  if (visible_ == 0) {
+  if (visible_ == 0 && !trajectory_seen_ && kind_.empty()) {
+    reasons.push_back("no hazard was inserted: no planned trajectory arrived (the generator or the planner "
+                      "produced none; the run's errors say why)");
+  } else if (visible_ == 0) {
     reasons.push_back("the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
   } else if (rate < min_rate_) {
     reasons.push_back("re-detection rate " + num(rate) + " is below min_redetection_rate " + num(min_rate_) +

@@ -55,6 +55,7 @@ class ClosedLoopVerifier : public Stage {
   bool saw_risk_ = false;
   std::vector<std::string> unsafe_by_;
   bool finished_ = false;
+  bool trajectory_seen_ = false;  // a planned trajectory arrived
 };
 
 }  // namespace hf
