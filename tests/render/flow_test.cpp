@@ -95,6 +95,41 @@ TEST(FlowEgoMotion, DegenerateWithoutTextureAndFallsBackToSpeed) {
   EXPECT_NEAR(ego.current()(0, 3), 1.2, 1e-9);
 }
 
+TEST(EgoTrajectoryTrack, FollowsTheRecordingsEgoTrackInAutoMode) {
+  // No poses, but the source estimated the ego's motion (a left arc at 10 m/s, 0.2 rad/s): auto picks the track
+  // and the poses are the track's, interpolated between its samples.
+  const CameraModel cam = test_camera();
+  const cv::Mat flat(900, 1600, CV_8UC3, cv::Scalar(100, 100, 100));
+  auto track = std::make_shared<EgoTrack>();
+  track->source = "video";
+  for (int k = 0; k <= 10; ++k) {
+    const double t = 0.1 * k, yaw = 0.2 * t;
+    track->samples.push_back({t, 50.0 * std::sin(yaw), 50.0 * (1 - std::cos(yaw)), yaw, 10.0, 0.2});
+  }
+  EgoTrajectory ego(EgoTrajectory::Options{});
+  for (int k = 0; k <= 4; ++k) {
+    Frame f = hf::test::make_frame(k, 0.25 * k, flat, cam);
+    f.ego_track = track;
+    ego.update(f, {});
+    EXPECT_EQ(ego.last_source(), "track (video)");
+    const EgoTrackSample want = track->at(0.25 * k);
+    EXPECT_NEAR(ego.current()(0, 3), want.x, 1e-9);
+    EXPECT_NEAR(ego.current()(1, 3), want.y, 1e-9);
+  }
+  EXPECT_NEAR(*ego.yaw_rate(), 0.2, 0.01);
+  // Asked for explicitly on a frame without a track: one message naming the frame.
+  EgoTrajectory::Options o;
+  o.mode = EgoMotionMode::kTrack;
+  EgoTrajectory strict(o);
+  try {
+    strict.update(hf::test::make_frame(3, 0.3, flat, cam), {});
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("ego_motion 'track' needs the recording's ego track"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(FlowEgoMotion, AnchorsAHazardWithoutPoses) {
   // Ego drives 1 m per frame (10 m/s at 10 Hz) over the textured road; frames carry no poses, so the renderer
   // anchors with flow (ego_motion: auto). A parked car 30 m ahead must come 1 m closer each frame.

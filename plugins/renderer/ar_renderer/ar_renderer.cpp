@@ -230,9 +230,11 @@ ComponentInfo ArRenderer::describe() {
       ParamSpec::boolean("fallback_assets", true)
           .describe("use the default set for classes/views assets_dir lacks"),
       ParamSpec::string("ego_motion", "auto")
-          .one_of({"auto", "poses", "flow", "constant_speed"})
+          .one_of({"auto", "poses", "track", "flow", "constant_speed"})
           .describe(
-              "how the hazard is kept fixed in the world: auto = poses when frames carry them, else flow"),
+              "how the hazard is kept fixed in the world: auto = poses when frames carry them, else the "
+              "recording's ego track (Frame.ego_track: what the video source estimated), else the renderer's "
+              "own flow"),
       ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
           .range(-1.0, 80.0)
           .describe(

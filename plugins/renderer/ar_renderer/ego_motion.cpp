@@ -70,6 +70,7 @@ EgoMotionMode parse_ego_motion_mode(const std::string& s) {
   if (s == "poses") return EgoMotionMode::kPoses;
   if (s == "flow") return EgoMotionMode::kFlow;
   if (s == "constant_speed") return EgoMotionMode::kConstantSpeed;
+  if (s == "track") return EgoMotionMode::kTrack;
   throw Error("ego_motion '" + s + "' is not one of auto, poses, flow, constant_speed");
 }
 
@@ -289,7 +290,10 @@ std::vector<std::string> EgoTrajectory::take_warnings() {
 void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclude) {
   if (!resolved_) {
     EgoMotionMode m = opt_.mode;
-    if (m == EgoMotionMode::kAuto) m = f.ego.T_world_ego ? EgoMotionMode::kPoses : EgoMotionMode::kFlow;
+    if (m == EgoMotionMode::kAuto)
+      m = f.ego.T_world_ego ? EgoMotionMode::kPoses
+          : f.ego_track && f.ego_track->samples.size() >= 2 ? EgoMotionMode::kTrack
+                                                             : EgoMotionMode::kFlow;
     resolved_ = m;
   }
   const double t = f.timestamp;
@@ -302,6 +306,14 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
                   "frame lacks; use ego_motion: flow or constant_speed for sources without poses");
     current_ = *f.ego.T_world_ego;
     last_source_ = "poses";
+  } else if (*resolved_ == EgoMotionMode::kTrack) {
+    if (!f.ego_track || f.ego_track->samples.size() < 2)
+      throw Error(frame_name(f) +
+                  ": ego_motion 'track' needs the recording's ego track (Frame.ego_track: dataset poses or the "
+                  "ego motion the video source estimated), which this frame lacks");
+    const EgoTrackSample e = f.ego_track->at(t);
+    current_ = planar_pose(e.x, e.y, e.yaw);
+    last_source_ = "track (" + f.ego_track->source + ")";
   } else if (!have_prev_) {
     current_ = cv::Matx44d::eye();  // odometry starts at the first frame
     last_source_ = *resolved_ == EgoMotionMode::kFlow ? "flow" : "constant_speed";

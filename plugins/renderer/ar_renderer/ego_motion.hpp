@@ -83,7 +83,7 @@ cv::Matx44d planar_pose(double x, double y, double yaw);
 cv::Matx44d invert_rigid(const cv::Matx44d& T);
 double yaw_of(const cv::Matx44d& T);
 
-enum class EgoMotionMode { kAuto, kPoses, kFlow, kConstantSpeed };
+enum class EgoMotionMode { kAuto, kPoses, kTrack, kFlow, kConstantSpeed };
 EgoMotionMode parse_ego_motion_mode(const std::string& s);
 
 // Keeps one world_from_ego pose per frame seen so far, from the configured source, and answers
@@ -108,7 +108,7 @@ class EgoTrajectory {
   // Ego yaw rate (rad/s, positive = left): the frame's when it carries one, else the heading change between
   // the last two poses (dataset poses, flow or dead reckoning); unknown on the first frame.
   std::optional<double> yaw_rate() const { return yaw_rate_; }
-  // What produced the last pose: "poses", "flow", "constant_speed", "hold".
+  // What produced the last pose: "poses", "track (video)", "flow", "constant_speed", "hold".
   const std::string& last_source() const { return last_source_; }
   const PlanarMotion& last_flow() const { return last_flow_; }
   double first_time() const { return history_.empty() ? 0.0 : history_.begin()->first; }
