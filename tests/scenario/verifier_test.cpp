@@ -214,6 +214,49 @@ TEST(Verifier, NeverVisibleHazardFails) {
   EXPECT_EQ(s["redetection"]["rate"], Json());
 }
 
+// Three Unsafe frames (scene TTC 1.0 s): frame 0 another object is critical; frame 1 the hazard is critical but
+// its plan says TTC 14 s there (a tracking artefact closing in); frame 2 the hazard is critical and planned at
+// 1.3 s (`credited` decides whether that frame exists).
+Json attribution_run(bool credited) {
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>(
+      "{require_hazard_critical: true, state_distance_origin: ego_origin}");
+  r.push("trajectory", trajectory(1.3), 0.0);
+  const double planned[] = {14.0, 14.0, 1.3};
+  for (int i = 0; i < (credited ? 3 : 2); ++i) {
+    const double t = 0.1 * i;
+    r.push("hazard", instance(i, true, planned[i]), t);
+    r.push("detections", detections(i, {near_box()}), t);
+    RiskAssessment k = risk(i, 1.0);
+    k.critical_track = i == 0 ? 9 : 4;  // the hazard's state is track 4
+    r.push("risk", k, t, "ttc");
+    r.push("states", states(i, 20.0), t);
+  }
+  r.run();
+  const auto recs = r.collect<Record>("records");
+  EXPECT_EQ(recs[0].data["attribution"], "spurious: the inserted object is not the critical track");
+  EXPECT_EQ(recs[1].data["attribution"],
+            "spurious: the hazard's planned TTC 14 s is not below the threshold 1.5 s + 0.5 s");
+  if (credited) {
+    EXPECT_EQ(recs[2].data["attribution"], "hazard");
+  }
+  return recs.back().data;
+}
+
+TEST(Verifier, OnlyUnsafeFramesTheHazardCausesAsPlannedMakeAPass) {
+  const Json artefacts = attribution_run(false);
+  EXPECT_EQ(artefacts["passed"], false);
+  EXPECT_EQ(artefacts["reasons"],
+            Json::array({"none of the 2 Unsafe visible frames is the hazard's: 1 with another object critical, 1 "
+                         "where the plan does not make the hazard critical (spurious Unsafe frames never pass)"}));
+  EXPECT_EQ(artefacts["unsafe"]["attributed_frames"], 0);
+  EXPECT_EQ(artefacts["unsafe"]["spurious_frames"].size(), 2u);
+  const Json real = attribution_run(true);
+  EXPECT_EQ(real["passed"], true) << real["reasons"];
+  EXPECT_EQ(real["unsafe"]["attributed_frames"], 1);
+  EXPECT_EQ(real["unsafe"]["first_hazard_critical_frame"], 2);
+  EXPECT_EQ(real["unsafe"]["spurious_frames"].size(), 2u);  // still reported
+}
+
 TEST(Verifier, NoPlannedHazardSaysSoInsteadOfNeverVisible) {
   // The renderer had no trajectory (the generator or planner failed): its instances carry no kind.
   auto r = testing::StageRunner::create<ClosedLoopVerifier>();

@@ -83,8 +83,13 @@ ComponentInfo ClosedLoopVerifier::describe() {
       ParamSpec::boolean("require_unsafe", true)
           .describe("pass: some frame is Unsafe while the hazard is visible"),
       ParamSpec::boolean("require_hazard_critical", false)
-          .describe("pass: in some visible Unsafe frame the inserted object is the TTC metric's critical "
-                    "track (the Unsafe verdict is caused by the hazard, not by another road user)"),
+          .describe("pass: some visible Unsafe frame is the hazard's: the inserted object is the TTC metric's "
+                    "critical track AND its planned TTC there is below the threshold (+ planned_ttc_tolerance_s); "
+                    "every other Unsafe frame is reported as spurious and never makes a pass"),
+      ParamSpec::number("planned_ttc_tolerance_s", 0.5)
+          .range(0, 10)
+          .describe("how far above the risk threshold the hazard's planned TTC may be in a frame that is "
+                    "credited to it (the re-assessment's TTC lags and scatters around the plan)"),
       ParamSpec::boolean("require_class_match", true)
           .describe("a re-detection must have the inserted class (car/truck/bus and bicycle/motorcycle "
                     "interchangeable)"),
@@ -119,6 +124,7 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
   min_rate_ = p.get_double("min_redetection_rate");
   require_unsafe_ = p.get_bool("require_unsafe");
   require_critical_ = p.get_bool("require_hazard_critical");
+  planned_tolerance_ = p.get_double("planned_ttc_tolerance_s");
   require_class_match_ = p.get_bool("require_class_match");
   ttc_metric_ = p.get_string("ttc_metric");
   unsafe_metrics_ = p.get_strings("unsafe_metrics");
@@ -229,6 +235,22 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   rec["labels"] = labels;
   rec["unsafe"] = unsafe;
   rec["hazard_is_critical"] = ttc && match && ttc->critical_track == match->track_id;
+  // Attribution: an Unsafe frame is the hazard's only when the hazard is the critical object and the plan also
+  // says it is critical there; otherwise it is an artefact (another road user, a tracking error) — spurious.
+  const double threshold = ttc ? ttc->threshold : 1.5;
+  const bool planned_critical = inst->intended_ttc_s < threshold + planned_tolerance_;
+  bool attributed = false;
+  if (unsafe && inst->visible) {
+    attributed = rec["hazard_is_critical"].get<bool>() && planned_critical;
+    if (attributed)
+      rec["attribution"] = "hazard";
+    else if (!rec["hazard_is_critical"].get<bool>())
+      rec["attribution"] = "spurious: the inserted object is not the critical track";
+    else
+      rec["attribution"] = "spurious: the hazard's planned TTC " + num(inst->intended_ttc_s) +
+                           " s is not below the threshold " + num(threshold) + " s + " + num(planned_tolerance_) +
+                           " s";
+  }
 
   if (inst->visible) {
     ++visible_;
@@ -257,15 +279,21 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
       ++unsafe_frames_;
       if (!first_unsafe_frame_) first_unsafe_frame_ = frame;
     }
-    if (rec["hazard_is_critical"].get<bool>()) {
-      ++critical_frames_;
-      if (unsafe) {
-        ++unsafe_critical_frames_;
-        if (!first_unsafe_critical_frame_) first_unsafe_critical_frame_ = frame;
-      }
+    if (rec["hazard_is_critical"].get<bool>()) ++critical_frames_;
+    if (attributed) {
+      ++unsafe_critical_frames_;
+      if (!first_unsafe_critical_frame_) first_unsafe_critical_frame_ = frame;
+    } else if (unsafe) {
+      spurious_frames_.push_back({frame, rec["attribution"].get<std::string>()});
     }
   }
   out.emit("records", Record{"verification", std::move(rec)});
+}
+
+Json ClosedLoopVerifier::spurious_json() const {
+  Json a = Json::array();
+  for (const auto& [f, why] : spurious_frames_) a.push_back({{"frame", f}, {"why", why}});
+  return a;
 }
 
 Json ClosedLoopVerifier::summary() const {
@@ -289,10 +317,14 @@ Json ClosedLoopVerifier::summary() const {
                                                    : "minimum scene TTC " + num(achieved_min_ttc_) + " s";
     reasons.push_back("the scene never becomes Unsafe while the hazard is visible (" + why + ")");
   }
-  if (require_critical_ && visible_ > 0 && first_unsafe_frame_ && !first_unsafe_critical_frame_)
-    reasons.push_back("the inserted object is the critical track in none of the " +
-                      std::to_string(unsafe_frames_) +
-                      " Unsafe visible frames (another road user made them Unsafe)");
+  if (require_critical_ && visible_ > 0 && first_unsafe_frame_ && !first_unsafe_critical_frame_) {
+    int other = 0, plan = 0;
+    for (const auto& [f, why] : spurious_frames_) (why.find("not the critical track") != std::string::npos ? other : plan)++;
+    reasons.push_back("none of the " + std::to_string(unsafe_frames_) +
+                      " Unsafe visible frames is the hazard's: " + std::to_string(other) +
+                      " with another object critical, " + std::to_string(plan) +
+                      " where the plan does not make the hazard critical (spurious Unsafe frames never pass)");
+  }
   else if (require_critical_ && visible_ > 0 && !first_unsafe_frame_ && !require_unsafe_)
     reasons.push_back(
         "the scene never becomes Unsafe while the hazard is visible, so the inserted object is never "
@@ -325,6 +357,8 @@ Json ClosedLoopVerifier::summary() const {
                  {"first_frame", first_unsafe_frame_ ? Json(*first_unsafe_frame_) : Json()},
                  {"frames", unsafe_frames_},
                  {"hazard_critical_frames", unsafe_critical_frames_},
+                 {"attributed_frames", unsafe_critical_frames_},
+                 {"spurious_frames", spurious_json()},
                  {"first_hazard_critical_frame",
                   first_unsafe_critical_frame_ ? Json(*first_unsafe_critical_frame_) : Json()},
                  {"metrics", unsafe_by_}};
@@ -347,6 +381,7 @@ Json ClosedLoopVerifier::summary() const {
                    {"min_redetection_rate", min_rate_},
                    {"require_unsafe", require_unsafe_},
                    {"require_hazard_critical", require_critical_},
+                   {"planned_ttc_tolerance_s", planned_tolerance_},
                    {"require_class_match", require_class_match_},
                    {"max_ttc_error_s", max_ttc_error_}};
   if (near_face_ && !length_ && !dist_abs_.empty())

@@ -56,6 +56,9 @@ class ClosedLoopVerifier : public Stage {
   std::vector<std::string> unsafe_by_;
   bool finished_ = false;
   bool trajectory_seen_ = false;  // a planned trajectory arrived
+  double planned_tolerance_ = 0.5;
+  std::vector<std::pair<int64_t, std::string>> spurious_frames_;  // Unsafe visible frames not the hazard's, why
+  Json spurious_json() const;
 };
 
 }  // namespace hf
