@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
 #include "synthetic_road.hpp"
@@ -116,6 +117,41 @@ TEST(GroundOdometry, StandingStillMeasuresZero) {
   ASSERT_TRUE(s.measured);
   EXPECT_NEAR(s.speed_mps, 0.0, 0.05);
   EXPECT_NEAR(s.yaw_rate, 0.0, 0.01);
+}
+
+// Camera height from the lane lines: the rendered road's lanes are 3.5 m wide (line centres), the camera is
+// 1.5 m high; the estimator is told a wrong height and the true lane width.
+void check_height(double stated_height, double yaw_rate) {
+  const CameraModel truth = test_camera(3.0, 1.5);
+  const CameraModel told = with_height(truth, stated_height);
+  HeightOptions opt;
+  opt.lane_width_m = 3.5;
+  CameraHeightEstimator est(told, opt);
+  for (int i = 0; i < 20; ++i) est.add(render(truth, pose_at(0.1 * i, 12.0, yaw_rate, Pose{0, 0.3, 0.03})));
+  const auto h = est.result();
+  ASSERT_TRUE(h.has_value());
+  EXPECT_NEAR(h->height_m, 1.5, 0.03 * 1.5);
+  EXPECT_GE(h->frames_used, 6);  // the nearest 4.5 m of the view must show a piece of a dash
+  EXPECT_GT(h->confidence, 0.4);
+  EXPECT_GT(h->sigma_m, 0.05);  // the lane-width assumption's spread is part of it
+}
+
+TEST(CameraHeight, LaneLinesGiveTheHeightFromTooLow) { check_height(1.2, 0.0); }
+TEST(CameraHeight, LaneLinesGiveTheHeightFromTooHighWhileTurning) { check_height(2.0, 0.05); }
+
+TEST(CameraHeight, NoLinesGiveNoEstimate) {
+  const CameraModel cam = test_camera(3.0, 0.0);
+  cv::Mat grey(450, 800, CV_8UC3, cv::Scalar::all(90));
+  cv::RNG rng(7);
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 8; ++i) {
+    cv::Mat f = grey.clone();
+    cv::Mat noise(f.size(), CV_8UC3);
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 20);
+    f += noise;
+    frames.push_back(f);
+  }
+  EXPECT_FALSE(estimate_camera_height(frames, cam).has_value());
 }
 
 TEST(EgoMotionSmoother, RejectsAnOutlierAndFillsGaps) {

@@ -362,7 +362,11 @@ TEST(VideoSource, AnImageFolderTellsItsPitchAndEgoMotion) {
   EXPECT_EQ(cam["sources"]["fps"], "stated");
   EXPECT_EQ(cam["sources"]["intrinsics"], "stated fx/fy/cx/cy");
   EXPECT_EQ(cam["sources"]["pitch_deg"].get<std::string>().rfind("estimated from the video", 0), 0u);
-  EXPECT_EQ(cam["sources"]["height_m"].get<std::string>().rfind("default 1.5 m", 0), 0u);
+  // The height is not stated: the lane lines (3.5 m apart in the rendered road; 3.6 m assumed) give it.
+  EXPECT_EQ(cam["sources"]["height_m"].get<std::string>().rfind("estimated from the lane lines", 0), 0u)
+      << cam.dump(2);
+  EXPECT_NEAR(cam["height_m"].get<double>(), 1.5 * 3.6 / 3.5, 0.05);
+  for (const Frame& f : frames) EXPECT_NEAR(f.camera.height_above_ground(), cam["height_m"].get<double>(), 1e-9);
   // Every frame carries the pitch, its speed and yaw rate (source video) and the clip's ego track.
   std::vector<double> speeds, yaw_rates;
   for (const Frame& f : frames) {
@@ -410,6 +414,8 @@ TEST(VideoSource, StatedValuesWinAndAnUnstatedFrameRateIsSaidLoudly) {
   EXPECT_EQ(cam["sources"]["fps"].get<std::string>().rfind("assumed 10 fps", 0), 0u);
   EXPECT_EQ(cam["pitch_deg"], 0.0);  // stated 0, kept
   EXPECT_EQ(cam["sources"]["pitch_deg"], "stated");
+  // The speed is stated but the height is not: the lane lines are still looked at (6 frames may be too few).
+  EXPECT_NE(cam["sources"]["height_m"].get<std::string>().find("lane lines"), std::string::npos) << cam.dump(2);
   bool fps_warned = false, pitch_warned = false;
   for (const std::string& l : r.log()) {
     fps_warned = fps_warned || l.find("ASSUMING 10 fps") != std::string::npos;

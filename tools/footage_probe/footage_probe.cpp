@@ -18,6 +18,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
 
@@ -54,7 +55,7 @@ Json num(double v) { return std::isfinite(v) ? Json(std::round(v * 1e4) / 1e4) :
 int main(int argc, char** argv) {
   CLI::App app{"Horizon and ego motion from a monocular front-camera clip, as JSON"};
   std::string images, video, list;
-  double fps = 0, fx = 0, fy = 0, cx = -1, cy = -1, hfov = 0, height = 1.5, ref_horizon = std::nan("");
+  double fps = 0, fx = 0, fy = 0, cx = -1, cy = -1, hfov = 0, ref_horizon = std::nan("");
   std::string dist;
   int max_frames = 0;
   std::optional<double> pitch_deg, roll_deg;
@@ -67,7 +68,9 @@ int main(int argc, char** argv) {
   app.add_option("--cx", cx, "default image centre");
   app.add_option("--cy", cy, "default image centre");
   app.add_option("--hfov", hfov, "horizontal field of view, deg (when fx is not given)");
-  app.add_option("--height", height, "camera height above the road, m");
+  std::optional<double> height_opt;
+  app.add_option("--height", height_opt,
+                 "camera height above the road, m (default: from the lane-line spacing, else 1.5 as the pipeline)");
   double forward = 1.5;
   app.add_option("--forward", forward, "camera position ahead of the rear axle, m (the yaw pivot)");
   app.add_option("--dist", dist, "distortion k1,k2,p1,p2[,k3]: frames are undistorted with K first");
@@ -148,6 +151,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const int w = clip.frames[0].cols, h = clip.frames[0].rows;
+  const double height = height_opt.value_or(1.5);
   if (fx <= 0) {
     if (hfov <= 0) {
       std::cerr << "give --fx or --hfov\n";
@@ -223,6 +227,24 @@ int main(int argc, char** argv) {
   t0 = Clock::now();
   for (size_t i = 0; i < clip.frames.size(); ++i) raw.push_back(odo.add(clip.frames[i], static_cast<int64_t>(i), clip.t[i]));
   const double odo_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  // Camera height from the lane-line spacing (the same pass in the pipeline): speeds scale with the height.
+  t0 = Clock::now();
+  hf::footage::CameraHeightEstimator height_est(cam);
+  for (const cv::Mat& f : clip.frames) height_est.add(f);
+  const auto hest = height_est.result();
+  out["height_ms_per_frame"] = num(std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / clip.frames.size());
+  out["height_estimate"] = hest ? Json{{"height_m", num(hest->height_m)}, {"sigma_m", num(hest->sigma_m)},
+                                       {"confidence", num(hest->confidence)}, {"frames_used", hest->frames_used},
+                                       {"note", hest->note}}
+                                : Json(nullptr);
+  double used_height = height;
+  if (!height_opt && hest) used_height = hest->height_m;
+  out["odometry_height_m"] = num(used_height);
+  out["odometry_height_from"] = height_opt ? "command line" : hest ? "lane-line spacing" : "default 1.5 m";
+  for (auto& r : raw) {
+    r.speed_mps *= used_height / height;
+    r.speed_sigma *= used_height / height;
+  }
   if (!debug_dir.empty()) {
     fs::create_directories(debug_dir);
     hf::footage::GroundOdometry dbg(cam);

@@ -9,6 +9,7 @@
 
 #include "hazardforge/atomic_file.hpp"
 #include "hazardforge/image_file.hpp"
+#include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
 #include "hazardforge/json_text.hpp"
@@ -317,15 +318,20 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     ctx.log(LogLevel::kWarning, "no horizon could be estimated from the footage; camera pitch 0 assumed (state "
                                 "camera.pitch_deg): ground distances rest on that assumption");
   }
-  if (speed_stated_) {
+  if (speed_stated_ && height_stated_) {
     // A stated speed is a constant-speed, straight ego (EgoState source "param"; no track: planners and the
     // exporter then use a straight line at that speed); the video's yaw rate is not mixed in. Leave
     // ego.speed_mps unstated to follow the footage's speed and turns.
     provenance_["ego_speed"] = "stated (constant, straight ahead)";
     return;
   }
-  // Pass 2, ego motion: ground-plane odometry over every frame with the final camera.
-  footage::GroundOdometry odo(camera_);
+  // Pass 2, ego motion (ground-plane odometry over every frame with the final camera) and, when the height is
+  // not stated, the camera height from the lane-line spacing (speeds scale with the height, so the odometry runs
+  // at the default height and its speeds are rescaled).
+  std::optional<footage::GroundOdometry> odo;
+  if (!speed_stated_) odo.emplace(camera_);
+  std::optional<footage::CameraHeightEstimator> height_est;
+  if (!height_stated_) height_est.emplace(camera_);
   std::vector<footage::EgoMotionSample> raw;
   {
     auto next_native = open_pass();
@@ -333,8 +339,30 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     std::string what;
     for (int64_t k = 0; next_native(native, what); ++k) {
       if (ctx.stop_requested()) return;
-      raw.push_back(odo.add(prepare(native, what), k, static_cast<double>(k) / fps));
+      const cv::Mat img = prepare(native, what);
+      if (odo) raw.push_back(odo->add(img, k, static_cast<double>(k) / fps));
+      if (height_est) height_est->add(img);
     }
+  }
+  if (height_est) {
+    const double h0 = camera_.height_above_ground();
+    if (const auto he = height_est->result()) {
+      camera_ = footage::with_height(camera_, he->height_m);
+      for (auto& r : raw) {
+        r.speed_mps *= he->height_m / h0;
+        r.speed_sigma *= he->height_m / h0;
+      }
+      provenance_["height_m"] = "estimated from the lane lines (" + he->note + "; sigma " +
+                                std::to_string(he->sigma_m).substr(0, 4) + " m, confidence " +
+                                std::to_string(he->confidence).substr(0, 4) + ")";
+    } else {
+      provenance_["height_m"] = "default 1.5 m (not stated; no lane lines to measure it from in " +
+                                std::to_string(frames) + " frames; distances and speeds scale with it)";
+    }
+  }
+  if (speed_stated_) {
+    provenance_["ego_speed"] = "stated (constant, straight ahead)";
+    return;
   }
   if (raw.empty()) return;
   const auto smooth = footage::smooth_ego_motion(raw);

@@ -1,0 +1,227 @@
+// Camera height from the lane-line spacing seen in a bird's-eye view of the road.
+#include "hazardforge/footage/camera_height.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+namespace hf::footage {
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr int kWorkWidth = 960;
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const size_t m = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m), v.end());
+  return v[m];
+}
+
+}  // namespace
+
+CameraModel with_height(const CameraModel& camera, double height_m) {
+  CameraModel c = camera;
+  c.t_ego_cam[2] = height_m;
+  return c;
+}
+
+struct CameraHeightEstimator::Impl {
+  CameraModel cam;
+  HeightOptions opt;
+  double scale = 1.0;
+  cv::Mat map_x, map_y, valid;
+  std::vector<double> widths;
+  std::optional<double> last;
+  int seen = 0;
+
+  Impl(const CameraModel& c, const HeightOptions& o) : cam(c), opt(o) {
+    scale = cam.width > kWorkWidth ? static_cast<double>(kWorkWidth) / cam.width : 1.0;
+    const double res = opt.resolution_m;
+    const int rows = static_cast<int>(std::ceil((opt.far_m - opt.near_m) / res));
+    const int cols = static_cast<int>(std::ceil(2 * opt.half_width_m / res));
+    map_x.create(rows, cols, CV_32F);
+    map_y.create(rows, cols, CV_32F);
+    valid = cv::Mat::zeros(rows, cols, CV_8U);
+    const double hcam = cam.height_above_ground();
+    const double bottom = cam.height * (1.0 - opt.bonnet_fraction);
+    for (int r = 0; r < rows; ++r) {
+      const double fwd = opt.far_m - (r + 0.5) * res;
+      for (int c = 0; c < cols; ++c) {
+        const double lat = opt.half_width_m - (c + 0.5) * res;
+        const auto px = cam.project_ego(cv::Vec3d(cam.t_ego_cam[0] + fwd, cam.t_ego_cam[1] + lat, 0.0));
+        float mx = -1, my = -1;
+        if (px && px->x >= 1 && px->x < cam.width - 2 && px->y >= 1 && px->y < bottom &&
+            std::atan2(hcam, std::hypot(fwd, lat)) > opt.horizon_margin_deg * kDeg) {
+          mx = static_cast<float>(px->x * scale);
+          my = static_cast<float>(px->y * scale);
+          valid.at<uchar>(r, c) = 255;
+        }
+        map_x.at<float>(r, c) = mx;
+        map_y.at<float>(r, c) = my;
+      }
+    }
+  }
+
+  // Ego-lane width (m at the stated height) in one frame, or nullopt.
+  std::optional<double> measure(const cv::Mat& bgr) const {
+    if (bgr.empty()) return std::nullopt;
+    cv::Mat gray;
+    if (bgr.channels() == 3)
+      cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+    else if (bgr.channels() == 4)
+      cv::cvtColor(bgr, gray, cv::COLOR_BGRA2GRAY);
+    else
+      gray = bgr;
+    if (gray.depth() != CV_8U) gray.convertTo(gray, CV_8U);
+    if (gray.cols != cam.width || gray.rows != cam.height) cv::resize(gray, gray, cv::Size(cam.width, cam.height));
+    if (scale < 1.0) cv::resize(gray, gray, cv::Size(), scale, scale, cv::INTER_AREA);
+    cv::Mat bev;
+    cv::remap(gray, bev, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::GaussianBlur(bev, bev, cv::Size(3, 3), 0.8);
+    const double res = opt.resolution_m;
+    const int k = std::max(2, static_cast<int>(std::lround(opt.ridge_offset_m / res)));
+    const int rows = bev.rows, cols = bev.cols;
+    // Ridge pixels: brighter than both sides (lateral offset k) by min_contrast.
+    std::vector<cv::Point> ridge;
+    for (int r = 0; r < rows; ++r) {
+      const uchar* b = bev.ptr<uchar>(r);
+      const uchar* v = valid.ptr<uchar>(r);
+      for (int c = k; c < cols - k; ++c) {
+        if (!v[c] || !v[c - k] || !v[c + k]) continue;
+        const int d = std::min(b[c] - b[c - k], b[c] - b[c + k]);
+        if (d >= opt.min_contrast) ridge.emplace_back(c, r);
+      }
+    }
+    if (ridge.size() < 20) return std::nullopt;
+    // Lines are parallel in the bird's-eye view (for a correct pitch and a straight road): the heading whose
+    // lateral profile of ridge pixels is most concentrated is the lanes' heading.
+    const int pad = rows;  // |tan| <= ~0.2 keeps the shift within +- rows / 4
+    const int bins = cols + 2 * pad;
+    double best_score = -1, best_tan = 0;
+    std::vector<double> best_prof;
+    for (double hd = -opt.max_heading_deg; hd <= opt.max_heading_deg + 1e-9; hd += 0.5) {
+      const double tn = std::tan(hd * kDeg);
+      std::vector<double> prof(static_cast<size_t>(bins), 0.0);
+      // Lateral offset measured along the row at the camera (row index of the camera = far_m / res).
+      const double r_cam = opt.far_m / res;
+      for (const cv::Point& p : ridge) {
+        const int b = static_cast<int>(std::lround(p.x - (r_cam - p.y) * tn)) + pad;
+        if (b >= 0 && b < bins) prof[static_cast<size_t>(b)] += 1.0;
+      }
+      std::vector<double> sm(prof.size(), 0.0);
+      for (size_t i = 1; i + 1 < prof.size(); ++i) sm[i] = 0.25 * prof[i - 1] + 0.5 * prof[i] + 0.25 * prof[i + 1];
+      double score = 0;
+      for (double x : sm) score += x * x;
+      if (score > best_score) {
+        best_score = score;
+        best_tan = tn;
+        best_prof = sm;
+      }
+    }
+    // Near support: a vehicle ahead leaves bright streaks in a bird's-eye view too, but they start at its wheels;
+    // the road just in front of the camera is nearly always road, so a lane line must show in the nearest
+    // near_support_m of the visible view.
+    int r_bottom = -1;
+    for (int r = rows - 1; r >= 0 && r_bottom < 0; --r)
+      if (cv::countNonZero(valid.row(r)) > cols / 4) r_bottom = r;
+    const int r_near = r_bottom - static_cast<int>(std::lround(opt.near_support_m / res));
+    std::vector<double> near_prof(static_cast<size_t>(bins), 0.0);
+    {
+      const double r_cam = opt.far_m / res;
+      for (const cv::Point& p : ridge) {
+        if (p.y < r_near) continue;
+        const int b = static_cast<int>(std::lround(p.x - (r_cam - p.y) * best_tan)) + pad;
+        if (b >= 0 && b < bins) near_prof[static_cast<size_t>(b)] += 1.0;
+      }
+    }
+    const double min_near = opt.min_near_support_m / res * 2.0;
+    auto near_support = [&](int i) {
+      double n = 0;
+      for (int j = std::max(0, i - 2); j <= std::min(bins - 1, i + 2); ++j) n += near_prof[static_cast<size_t>(j)];
+      return n;
+    };
+    // Peaks: local maxima over +- 0.4 m, covering min_line_fill of the searched length.
+    const double cosh = 1.0 / std::sqrt(1.0 + best_tan * best_tan);
+    const double min_count = opt.min_line_fill * (opt.far_m - opt.near_m) / res * 2.0;  // ~2 ridge px per row
+    const int win = std::max(3, static_cast<int>(std::lround(0.4 / res)));
+    const double cam_col = opt.half_width_m / res - 0.5 + pad;  // lateral 0 (the camera) in profile bins
+    std::optional<double> left, right;  // nearest line on each side, in bins (sub-bin)
+    for (int i = win; i < bins - win; ++i) {
+      const double v = best_prof[static_cast<size_t>(i)];
+      if (v < min_count) continue;
+      bool is_max = true;
+      for (int j = i - win; j <= i + win && is_max; ++j)
+        if (best_prof[static_cast<size_t>(j)] > v || (best_prof[static_cast<size_t>(j)] == v && j < i)) is_max = false;
+      if (!is_max || near_support(i) < min_near) continue;
+      const double a = best_prof[static_cast<size_t>(i - 1)], c = best_prof[static_cast<size_t>(i + 1)];
+      const double den = a - 2 * v + c;
+      const double pos = i + (std::abs(den) > 1e-9 ? 0.5 * (a - c) / den : 0.0);
+      if (pos < cam_col) {  // smaller column = left of the camera
+        if (!left || pos > *left) left = pos;
+      } else {
+        if (!right || pos < *right) right = pos;
+      }
+    }
+    if (!left || !right) return std::nullopt;
+    const double w = (*right - *left) * res * cosh;
+    if (w < opt.lane_width_m / opt.max_ratio || w > opt.lane_width_m * opt.max_ratio) return std::nullopt;
+    return w;
+  }
+};
+
+CameraHeightEstimator::CameraHeightEstimator(const CameraModel& camera, HeightOptions opt)
+    : impl_(std::make_unique<Impl>(camera, opt)) {}
+CameraHeightEstimator::~CameraHeightEstimator() = default;
+CameraHeightEstimator::CameraHeightEstimator(CameraHeightEstimator&&) noexcept = default;
+CameraHeightEstimator& CameraHeightEstimator::operator=(CameraHeightEstimator&&) noexcept = default;
+
+void CameraHeightEstimator::add(const cv::Mat& bgr) {
+  ++impl_->seen;
+  impl_->last = impl_->measure(bgr);
+  if (impl_->last) impl_->widths.push_back(*impl_->last);
+}
+
+std::optional<double> CameraHeightEstimator::last_lane_width() const { return impl_->last; }
+
+std::optional<HeightEstimate> CameraHeightEstimator::result() const {
+  const Impl& s = *impl_;
+  const int n = static_cast<int>(s.widths.size());
+  if (n < s.opt.min_frames) return std::nullopt;
+  const double med = median_of(s.widths);
+  std::vector<double> dev;
+  for (double w : s.widths) dev.push_back(std::abs(w - med));
+  const double spread = 1.4826 * median_of(dev) / med;
+  if (spread > s.opt.max_frame_spread) return std::nullopt;
+  HeightEstimate e;
+  const double h0 = s.cam.height_above_ground();
+  e.height_m = h0 * s.opt.lane_width_m / med;
+  const double rel_assume = s.opt.lane_width_sigma_m / s.opt.lane_width_m;
+  const double rel_meas = spread / std::sqrt(static_cast<double>(n));
+  e.sigma_m = e.height_m * std::sqrt(rel_assume * rel_assume + rel_meas * rel_meas);
+  e.frames_used = n;
+  e.frames_seen = s.seen;
+  e.lane_width_at_assumed_height_m = med;
+  e.frame_spread = spread;
+  e.confidence = std::min(1.0, static_cast<double>(n) / s.opt.full_confidence_frames) *
+                 std::exp(-0.5 * std::pow(spread / 0.05, 2));
+  std::ostringstream note;
+  note.precision(3);
+  note << "lane lines " << med << " m apart at " << h0 << " m in " << n << " of " << s.seen
+       << " frames (spread " << 100 * spread << " %), assumed lane width " << s.opt.lane_width_m << " +- "
+       << s.opt.lane_width_sigma_m << " m";
+  e.note = note.str();
+  return e;
+}
+
+std::optional<HeightEstimate> estimate_camera_height(const std::vector<cv::Mat>& frames, const CameraModel& camera,
+                                                     HeightOptions opt) {
+  CameraHeightEstimator est(camera, opt);
+  for (const cv::Mat& f : frames) est.add(f);
+  return est.result();
+}
+
+}  // namespace hf::footage
