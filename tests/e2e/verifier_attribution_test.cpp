@@ -72,8 +72,8 @@ TEST(VerifierAttribution, UnsafeCausedBySomeoneElseFailsWhenRequired) {
   const Json strict = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 9);
   EXPECT_FALSE(strict["passed"].get<bool>());
   EXPECT_EQ(strict["reasons"],
-            Json::array({"the inserted object is the critical track in none of the 1 Unsafe visible frames "
-                         "(another road user made them Unsafe)"}));
+            Json::array({"none of the 1 Unsafe visible frames is the hazard's: 1 with another object critical, 0 where "
+                           "the plan does not make the hazard critical (spurious Unsafe frames never pass)"}));
 }
 
 }  // namespace
