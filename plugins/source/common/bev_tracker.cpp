@@ -1,6 +1,7 @@
 // Internal: bird's-eye view of the road, bonnet detection, coarse-to-fine tracking of ground points between
 // consecutive views, and the rigid 2-D fits.
 #include "bev_tracker.hpp"
+#include "gray.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -22,17 +23,6 @@ double median_of(std::vector<double> v) {
   return v[m];
 }
 
-cv::Mat gray_of(const cv::Mat& bgr) {
-  cv::Mat g;
-  if (bgr.channels() == 3)
-    cv::cvtColor(bgr, g, cv::COLOR_BGR2GRAY);
-  else if (bgr.channels() == 4)
-    cv::cvtColor(bgr, g, cv::COLOR_BGRA2GRAY);
-  else
-    g = bgr;
-  if (g.depth() != CV_8U) g.convertTo(g, CV_8U);
-  return g;
-}
 
 }  // namespace
 
@@ -317,7 +307,7 @@ std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::opt
     reset();
     return out;
   }
-  cv::Mat gray = gray_of(bgr);
+  cv::Mat gray = detail::gray8(bgr);
   if (gray.cols != cam_.width || gray.rows != cam_.height) cv::resize(gray, gray, cv::Size(cam_.width, cam_.height));
   if (scale_ < 1.0) cv::resize(gray, gray, cv::Size(), scale_, scale_, cv::INTER_AREA);
   update_bonnet(gray);

@@ -1,6 +1,8 @@
 // Camera height from the lane-line spacing seen in a bird's-eye view of the road.
 #include "hazardforge/footage/camera_height.hpp"
 
+#include "gray.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -69,14 +71,7 @@ struct CameraHeightEstimator::Impl {
   // Ego-lane width (m at the stated height) in one frame, or nullopt.
   std::optional<double> measure(const cv::Mat& bgr) const {
     if (bgr.empty()) return std::nullopt;
-    cv::Mat gray;
-    if (bgr.channels() == 3)
-      cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
-    else if (bgr.channels() == 4)
-      cv::cvtColor(bgr, gray, cv::COLOR_BGRA2GRAY);
-    else
-      gray = bgr;
-    if (gray.depth() != CV_8U) gray.convertTo(gray, CV_8U);
+    cv::Mat gray = detail::gray8(bgr);
     if (gray.cols != cam.width || gray.rows != cam.height) cv::resize(gray, gray, cv::Size(cam.width, cam.height));
     if (scale < 1.0) cv::resize(gray, gray, cv::Size(), scale, scale, cv::INTER_AREA);
     cv::Mat bev;

@@ -2,6 +2,8 @@
 // robust combination over a clip.
 #include "hazardforge/footage/horizon.hpp"
 
+#include "gray.hpp"
+
 #include "bev_tracker.hpp"
 
 #include <algorithm>
@@ -38,14 +40,7 @@ double mad_sigma(const std::vector<double>& v, double med) {
 }
 
 cv::Mat to_gray(const cv::Mat& bgr, double scale) {
-  cv::Mat gray;
-  if (bgr.channels() == 3)
-    cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
-  else if (bgr.channels() == 4)
-    cv::cvtColor(bgr, gray, cv::COLOR_BGRA2GRAY);
-  else
-    gray = bgr;
-  if (gray.depth() != CV_8U) gray.convertTo(gray, CV_8U);
+  cv::Mat gray = detail::gray8(bgr);
   if (scale < 1.0) cv::resize(gray, gray, cv::Size(), scale, scale, cv::INTER_AREA);
   return gray;
 }
