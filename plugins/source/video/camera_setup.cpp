@@ -369,22 +369,20 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
   size_t measured = 0;
   for (const auto& r : raw) measured += r.measured ? 1 : 0;
   if (measured == 0) {
-    if (!speed_stated_) {
-      provenance_["ego_speed"] = "unknown: the road gave no usable odometry";
-      ctx.log(LogLevel::kWarning, "the ego's speed could not be estimated from the footage (no usable road "
-                                  "texture); state ego.speed_mps");
-    }
+    provenance_["ego_speed"] = "unknown: the road gave no usable odometry";
+    ctx.log(LogLevel::kWarning, "the ego's speed could not be estimated from the footage (no usable road "
+                                "texture); state ego.speed_mps");
     return;
   }
   ego_.assign(smooth.size(), EgoState{});
   auto track = std::make_shared<EgoTrack>();
-  track->source = speed_stated_ ? "param" : "video";
+  track->source = "video";
   double x = 0, y = 0, yaw = 0;
   for (size_t i = 0; i < smooth.size(); ++i) {
-    const double v = speed_stated_ ? ego_speed_ : smooth[i].speed_mps;
+    const double v = smooth[i].speed_mps;
     if (i > 0) {
       const double dt = smooth[i].t - smooth[i - 1].t;
-      const double v0 = speed_stated_ ? ego_speed_ : smooth[i - 1].speed_mps;
+      const double v0 = smooth[i - 1].speed_mps;
       const double mid_yaw = yaw + 0.5 * smooth[i - 1].yaw_rate * dt;
       x += 0.5 * (v0 + v) * dt * std::cos(mid_yaw);
       y += 0.5 * (v0 + v) * dt * std::sin(mid_yaw);
@@ -393,16 +391,15 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     EgoState& e = ego_[i];
     e.speed_mps = v;
     e.yaw_rate = smooth[i].yaw_rate;
-    e.source = speed_stated_ ? "param" : "video";
+    e.source = "video";
     track->samples.push_back({smooth[i].t, x, y, yaw, v, smooth[i].yaw_rate});
   }
   track->validate("ego track estimated from the video");
   track_ = track;
   raw_motion_ = raw;
   smooth_motion_ = smooth;
-  provenance_["ego_speed"] = speed_stated_ ? "stated" : "estimated from the video (ground-plane odometry, " +
-                                                            std::to_string(measured) + " of " +
-                                                            std::to_string(raw.size()) + " frames measured)";
+  provenance_["ego_speed"] = "estimated from the video (ground-plane odometry, " + std::to_string(measured) +
+                             " of " + std::to_string(raw.size()) + " frames measured)";
   provenance_["ego_yaw_rate"] = "estimated from the video (ground-plane odometry)";
 }
 
