@@ -53,6 +53,24 @@ FolderUse folder_use(const CommonOptions& o) {
   return o.overwrite ? FolderUse::kOverwrite : o.resume ? FolderUse::kResume : FolderUse::kNew;
 }
 
+RunRequest run_request(const CommonOptions& o) {
+  RunRequest req;
+  req.config = o.config;
+  req.overrides = o.overrides;
+  req.output_dir = o.output_dir;
+  req.max_frames = o.max_frames;
+  req.quiet = o.quiet;
+  req.argv = o.argv;
+  req.interrupt = o.interrupt;
+  req.folder_use = folder_use(o);
+  if (!o.frames.empty()) {
+    const FrameWindow w = parse_frame_window(o.frames);
+    req.first_frame = w.first;
+    req.last_frame = w.last;
+  }
+  return req;
+}
+
 }  // namespace
 
 std::string describe_component(const RegisteredComponent& c, bool md) {
@@ -111,10 +129,30 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
   return os.str();
 }
 
+FrameWindow parse_frame_window(const std::string& text) {
+  const auto colon = text.find(':');
+  auto number = [&](const std::string& part, int64_t empty) -> int64_t {
+    if (part.empty()) return empty;
+    size_t used = 0;
+    int64_t v = -1;
+    try {
+      v = std::stoll(part, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != part.size() || v < 0)
+      throw Error("--frames '" + text + "': '" + part + "' is not a frame index (0, 1, 2, ...)");
+    return v;
+  };
+  if (colon == std::string::npos) throw Error("--frames '" + text + "': expected FIRST:LAST, e.g. 12:40 or 12:");
+  FrameWindow w{number(text.substr(0, colon), 0), number(text.substr(colon + 1), -1)};
+  if (w.last >= 0 && w.last < w.first)
+    throw Error("--frames '" + text + "': the last frame comes before the first");
+  return w;
+}
+
 int cmd_run(Host& host, const CommonOptions& o) {
-  RunRequest req{o.config, o.overrides, o.output_dir, o.max_frames, true,
-                 o.quiet,  o.argv,      o.interrupt,  {},           folder_use(o)};
-  RunOutcome out = run_config(host, req);
+  RunOutcome out = run_config(host, run_request(o));
   if (!out.message.empty()) std::cerr << redact_urls(out.message) << "\n";
   if (out.result && out.exit_code == 0) {
     const RunResult& r = *out.result;
@@ -222,9 +260,7 @@ int cmd_graph(Host& host, const CommonOptions& o) {
 }
 
 int cmd_eval(Host& host, const CommonOptions& o) {
-  RunRequest req{o.config, o.overrides, o.output_dir, o.max_frames, true,
-                 o.quiet,  o.argv,      o.interrupt,  {},           folder_use(o)};
-  RunOutcome out = run_config(host, req);
+  RunOutcome out = run_config(host, run_request(o));
   if (!out.message.empty()) std::cerr << redact_urls(out.message) << "\n";
   if (out.exit_code != 0) return out.exit_code;
   // Print every Markdown report the run wrote (evaluation sinks name theirs report.md).

@@ -201,6 +201,8 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   RunOptions opt;
   opt.output_dir = o.output_dir;
   opt.max_frames = req.max_frames;
+  opt.first_frame = req.first_frame;
+  opt.last_frame = req.last_frame;
   opt.interrupt = req.interrupt;
   opt.quiet = req.quiet;
   Progress progress(req.progress && !req.quiet);

@@ -43,6 +43,9 @@ int main(int argc, char** argv) {
   add_config(run);
   run->add_option("-o,--output", common.output_dir, "Output folder (default runs/<name>-<UTC time>)");
   run->add_option("--max-frames", common.max_frames, "Stop after N frames");
+  run->add_option("--frames", common.frames,
+                  "Only the recording's frames FIRST:LAST (indexes and times stay the recording's)")
+      ->type_name("FIRST:LAST");
   run->add_flag("-q,--quiet", common.quiet, "No progress or stage log lines");
   auto add_folder_flags = [&](CLI::App* c) {
     auto* resume = c->add_flag("--resume", common.resume,

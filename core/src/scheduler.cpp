@@ -21,7 +21,8 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 struct Message {
-  int64_t tick = 0;
+  int64_t tick = 0;   // position in the stream
+  int64_t frame = 0;  // the recording's frame index (Frame::index; the tick when the source emits no frame)
   double timestamp = 0.0;
   bool final = false;
   std::vector<Packet> packets;
@@ -196,11 +197,11 @@ void fail(NodeRuntime& n, Shared& sh, const std::string& when, const std::string
   sh.errors.push_back(n.who() + ": " + when + ": " + redact_urls(what));
 }
 
-void send(NodeRuntime& n, int64_t tick, double ts, bool final, NodeOutputs& out) {
+void send(NodeRuntime& n, int64_t tick, int64_t frame, double ts, bool final, NodeOutputs& out) {
   for (auto& [port, chans] : n.subscribers) {
     auto it = out.emitted.find(port);
     for (Channel* c : chans) {
-      Message m{tick, ts, final, {}};
+      Message m{tick, frame, ts, final, {}};
       if (it != out.emitted.end()) m.packets = it->second;
       c->push(std::move(m));
     }
@@ -222,6 +223,7 @@ void guarded(NodeRuntime& n, Shared& sh, const std::string& when, F&& f) {
 void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
   IncompleteReportScope incomplete([&n](const std::string& reason) { n.ctx.report_incomplete(reason); });
   int64_t tick = 0;
+  int64_t last_frame = 0;
   double last_ts = 0.0;
   while (true) {
     const bool stop = sh.abort || (opt.interrupt && opt.interrupt->load()) ||
@@ -235,22 +237,35 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
       guarded(n, sh, "frame " + std::to_string(tick), [&] { produced = n.source->next(n.ctx, out); });
       if (produced) n.process_s.push_back(seconds_since(t0));
     }
-    if (produced) {
-      double ts = last_ts;
+    std::optional<int64_t> index;  // the recording's frame index, when the source emitted a frame
+    double ts = last_ts;
+    if (produced)
       for (auto& [port, v] : out.emitted)
         for (const Packet& p : v)
-          if (p.is<Frame>()) ts = p.get<Frame>().timestamp;
+          if (p.is<Frame>()) {
+            ts = p.get<Frame>().timestamp;
+            index = p.get<Frame>().index;
+          }
+    if (produced && index && (*index < opt.first_frame || (opt.last_frame >= 0 && *index > opt.last_frame))) {
+      n.process_s.pop_back();  // outside the frame window: it never leaves the source
+      if (*index < opt.first_frame) continue;
+      produced = false;  // past the window: the stream ends here, without this frame
+      out.emitted.clear();
+    }
+    if (produced) {
       for (auto& [port, v] : out.emitted)
         for (Packet& p : v) p = p.restamped(ts);
       last_ts = ts;
+      last_frame = index.value_or(tick);
       n.ctx.ts = ts;
-      send(n, tick, ts, false, out);
+      n.ctx.index = last_frame;
+      send(n, tick, last_frame, ts, false, out);
       n.done = ++tick;
       continue;
     }
     out.ts = last_ts;
     guarded(n, sh, "finish", [&] { n.stage->finish(n.ctx, out); });
-    send(n, tick, last_ts, true, out);
+    send(n, tick, last_frame, last_ts, true, out);
     n.done = tick;
     return;
   }
@@ -263,11 +278,13 @@ void run_node(NodeRuntime& n, Shared& sh) {
   while (true) {
     NodeInputs in;
     int64_t tick = 0;
+    int64_t frame = 0;
     double ts = 0.0;
     bool final = false;
     for (Edge& e : n.inputs) {
       Message m = e.channel->pop();
       tick = m.tick;
+      frame = m.frame;
       ts = m.timestamp;
       final = final || m.final;
       for (Packet& p : m.packets) {
@@ -294,20 +311,20 @@ void run_node(NodeRuntime& n, Shared& sh) {
     NodeOutputs out;
     out.info = &info;
     out.ts = ts;
-    n.ctx.index = tick;
+    n.ctx.index = frame;
     n.ctx.ts = ts;
     if (ready && any) {
       const auto t0 = Clock::now();
-      guarded(n, sh, "frame " + std::to_string(tick), [&] { n.stage->process(n.ctx, in, out); });
+      guarded(n, sh, "frame " + std::to_string(frame), [&] { n.stage->process(n.ctx, in, out); });
       if (!final) n.process_s.push_back(seconds_since(t0));
     }
     if (final) {
       guarded(n, sh, "finish", [&] { n.stage->finish(n.ctx, out); });
-      send(n, tick, ts, true, out);
+      send(n, tick, frame, ts, true, out);
       n.done = tick;
       return;
     }
-    send(n, tick, ts, false, out);
+    send(n, tick, frame, ts, false, out);
     n.done = tick + 1;
   }
 }
@@ -380,6 +397,8 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
       if (n->source) src = n.get();
     std::optional<int64_t> total;
     if (src) total = src->source->frame_count();
+    if (total && opt.last_frame >= 0) total = std::min(*total, opt.last_frame + 1);
+    if (total) total = std::max<int64_t>(0, *total - opt.first_frame);
     if (total && opt.max_frames >= 0) total = std::min(*total, opt.max_frames);
     std::vector<std::thread> threads;
     for (auto& n : nodes) {

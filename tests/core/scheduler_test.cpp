@@ -5,6 +5,7 @@
 
 #include <fstream>
 
+#include "hazardforge/core/commands.hpp"
 #include "hazardforge/core/host.hpp"
 #include "test_stages.hpp"
 #include "test_support.hpp"
@@ -142,6 +143,59 @@ TEST(Scheduler, MaxFramesLimitsTheSource) {
   o.max_frames = 7;
   RunResult r = run_graph(graph_of(reg, chain(-1)), reg, o);
   EXPECT_EQ(r.frames, 7);
+}
+
+TEST(Scheduler, FrameWindowDropsFramesAtTheSourceAndKeepsTheRecordingsIndexes) {
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  RunOptions o = quiet_options("window");
+  o.first_frame = 12;
+  o.last_frame = 20;
+  RunResult r = run_graph(graph_of(reg, chain(-1)), reg, o);
+  ASSERT_TRUE(r.ok()) << r.errors.at(0);
+  EXPECT_EQ(r.frames, 9);
+  std::vector<int64_t> frames;
+  for (const auto& s : hf::test::g_seen["sink"])
+    if (s.port == "records") {
+      frames.push_back(s.frame);  // the stage's frame_index() is the recording's index, not the stream position
+      EXPECT_DOUBLE_EQ(s.timestamp, static_cast<double>(s.frame) / 20.0);
+    }
+  ASSERT_EQ(frames.size(), 9u);
+  for (size_t i = 0; i < frames.size(); ++i) EXPECT_EQ(frames[i], static_cast<int64_t>(12 + i));
+  // The filter passes frames whose index is a multiple of 3: 12, 15, 18 — decided on the recording's index.
+  int fresh = 0;
+  for (const auto& s : hf::test::g_seen["sink"])
+    if (s.port == "hint" && s.producer != "(held)") ++fresh;
+  EXPECT_EQ(fresh, 3);
+  EXPECT_EQ(hf::test::g_finished["sink"], 1);
+}
+
+TEST(Scheduler, FrameWindowPastTheEndEndsTheStreamEmpty) {
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  RunOptions o = quiet_options("window_past");
+  o.first_frame = 40;  // the source has 30
+  RunResult r = run_graph(graph_of(reg, chain(-1)), reg, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r.frames, 0);
+  EXPECT_EQ(hf::test::g_finished["sink"], 1);
+}
+
+TEST(FrameWindow, ParsesBothSidesAndRefusesNonsenseNamingTheText) {
+  EXPECT_EQ(parse_frame_window("12:40").first, 12);
+  EXPECT_EQ(parse_frame_window("12:40").last, 40);
+  EXPECT_EQ(parse_frame_window("12:").last, -1);
+  EXPECT_EQ(parse_frame_window(":40").first, 0);
+  for (const char* bad : {"12", "a:3", "3:1", "-2:5", "1:2x"}) {
+    try {
+      parse_frame_window(bad);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("--frames '") + bad + "'"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(Scheduler, OpenFailureStopsBeforeAnyFrame) {

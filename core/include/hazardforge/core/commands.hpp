@@ -14,6 +14,7 @@ struct CommonOptions {
   std::vector<std::string> overrides;
   std::string output_dir;
   int64_t max_frames = -1;
+  std::string frames;  // --frames FIRST:LAST, the recording's frame window
   bool quiet = false;
   bool resume = false;               // --resume: run the same config again into a folder that holds its run
   bool overwrite = false;            // --overwrite: clear a folder that holds an earlier run first
@@ -52,6 +53,13 @@ struct HarvestOptions {
   std::vector<std::string> argv;
   const std::atomic<bool>* interrupt = nullptr;
 };
+
+// A frame window "FIRST:LAST" (either side may be empty: ":40", "12:"). Throws hf::Error naming the text.
+struct FrameWindow {
+  int64_t first = 0;
+  int64_t last = -1;  // -1 = to the end
+};
+FrameWindow parse_frame_window(const std::string& text);
 
 int cmd_run(Host& host, const CommonOptions& o);
 int cmd_validate(Host& host, const CommonOptions& o);

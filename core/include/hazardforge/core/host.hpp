@@ -46,6 +46,8 @@ struct RunRequest {
   std::vector<std::string> overrides;
   std::filesystem::path output_dir;  // empty = runs/<config name, made path-safe>-<UTC time>
   int64_t max_frames = -1;
+  int64_t first_frame = 0;  // the recording's frame window (RunOptions::first_frame / last_frame)
+  int64_t last_frame = -1;
   bool progress = true;  // progress bar on a terminal, periodic lines otherwise
   bool quiet = false;
   std::vector<std::string> argv;

@@ -18,6 +18,10 @@ struct RunOptions {
   std::filesystem::path output_dir;
   size_t queue_capacity = 4;   // frames in flight per edge
   int64_t max_frames = -1;     // stop after this many source frames (-1 = all)
+  // Recording frames outside [first_frame, last_frame] (Frame::index) never leave the source: nothing downstream
+  // sees them, and the source stops after last_frame (-1 = to the end). Indexes and times stay the recording's.
+  int64_t first_frame = 0;
+  int64_t last_frame = -1;
   const std::atomic<bool>* interrupt = nullptr;  // set by the Ctrl-C handler
   // Called from the runner's thread about every 100 ms: frames completed by every node, total if known.
   std::function<void(int64_t done, std::optional<int64_t> total)> on_progress;
