@@ -66,6 +66,9 @@ ComponentInfo SideBySideSink::describe() {
       ParamSpec::number("stills_scale", 0.5).range(0.05, 2.0).describe("scale of each half in the stills"),
       ParamSpec::boolean("draw_hazard_box", false)
           .describe("outline the inserted object on the augmented half"),
+      ParamSpec::boolean("critical_still", true)
+          .describe("also write <stills_dir>/critical.png: the visible hazard frame with the lowest intended "
+                    "TTC (the moment the scenario is about; galleries use it)"),
   };
   for (ParamSpec& e : sink::encoder_params()) i.params.push_back(std::move(e));
   return i;
@@ -77,7 +80,8 @@ void SideBySideSink::open(StageContext& ctx) {
   if (file.empty() || file.extension() != ".mp4")
     throw Error("file '" + file.string() + "' must end in .mp4");
   file_ = output_param_path(ctx, "file");
-  if (!p.get_ints("stills").empty()) stills_dir_ = output_param_path(ctx, "stills_dir", /*is_dir=*/true);
+  critical_still_ = p.get_bool("critical_still");
+  if (!p.get_ints("stills").empty() || critical_still_) stills_dir_ = output_param_path(ctx, "stills_dir", /*is_dir=*/true);
   fps_ = p.get_double("fps");
   fourcc_ = p.get_string("fourcc");
   if (fourcc_.size() != 4) throw Error("fourcc '" + fourcc_ + "' must have four characters");
@@ -161,6 +165,11 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
       throw Error("cannot encode '" + still.string() + "'");
     write_file_atomic(still, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
   }
+  if (critical_still_ && hz && hz->visible && std::isfinite(hz->intended_ttc_s) &&
+      (!critical_ttc_ || hz->intended_ttc_s < *critical_ttc_)) {
+    critical_ttc_ = hz->intended_ttc_s;
+    critical_ = compose(a, b, hz, stills_scale_);
+  }
   cv::Mat img = compose(a, b, hz, scale_);
   if (!writer_.is_open()) {
     if (fps_ > 0) {
@@ -182,6 +191,12 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
 }
 
 void SideBySideSink::finish(StageContext& ctx, Outputs& /*out*/) {
+  if (critical_) {
+    const fs::path still = stills_dir_ / "critical.png";
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", *critical_, png)) throw Error("cannot encode '" + still.string() + "'");
+    write_file_atomic(still, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  }
   if (pending_) {  // a single frame: no interval to derive the rate from
     open_writer(ctx, fps_ > 0 ? fps_ : 1.0, pending_->size());
     write(ctx, *pending_);

@@ -19,7 +19,8 @@ namespace hf::render {
 //  outputs: none; writes <output_dir>/<file> (H.264 'avc1' through the ffmpeg program or OpenCV, falling back
 //  to
 //           MPEG-4 'mp4v' when no encoder exists; written under a temporary name and renamed in finish())
-//           and, for the frame indices in `stills`, PNGs <stills_dir>/before_after_<index>.png. Timestamps:
+//           and, for the frame indices in `stills`, PNGs <stills_dir>/before_after_<index>.png, plus
+//           <stills_dir>/critical.png at the visible hazard frame with the lowest intended TTC. Timestamps:
 //           the video's rate is `fps`, or the first two frames' interval when fps is 0.
 //  params:  file, fps, fourcc, scale, layout, labels, stills, stills_dir, stills_scale, draw_hazard_box,
 //  encoder,
@@ -47,6 +48,9 @@ class SideBySideSink : public Stage {
   std::vector<std::string> labels_;
   std::set<long long> stills_;
   bool draw_box_ = false;
+  bool critical_still_ = true;
+  std::optional<double> critical_ttc_;
+  std::optional<cv::Mat> critical_;  // the composite at the lowest intended TTC so far
   sink::VideoWriterOptions encoder_;  // encoder, preset, threads, crf from the params
   sink::VideoFileWriter writer_;
   std::string codec_;
