@@ -1,22 +1,15 @@
 // `hazardforge experiment`: a base config under a list or matrix of overrides, each run in its own folder
 // (a child process, up to --jobs at once), complete runs skipped, one comparison report across them.
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <csignal>
-#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <sstream>
 
+#include "hazardforge/core/child_process.hpp"
 #include "hazardforge/core/commands.hpp"
 #include "hazardforge/json_text.hpp"
-
-extern char** environ;
 
 namespace hf::core {
 
@@ -106,21 +99,6 @@ std::filesystem::path log_while_running(const std::filesystem::path& dir, const 
   return dir / (id + ".run.log");
 }
 
-pid_t spawn(const std::vector<std::string>& args, const std::filesystem::path& log) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int rc = posix_spawn(&pid, args[0].c_str(), &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (rc != 0) throw Error("cannot start " + args[0] + ": " + std::strerror(rc));
-  return pid;
-}
-
 // Flattens the comparable numbers of a run: manifest facts plus any report.json "summary" rows it wrote.
 Json collect_results(const std::filesystem::path& dir) {
   Json out = Json::object();
@@ -181,12 +159,11 @@ int cmd_experiment(Host& /*host*/, const ExperimentOptions& o) {
   std::vector<int> codes(runs.size(), 0);
   size_t next = 0, skipped = 0;
   auto reap_one = [&] {
-    int status = 0;
-    pid_t pid = waitpid(-1, &status, 0);
-    if (pid <= 0) return;
-    const size_t i = running.at(pid);
-    running.erase(pid);
-    codes[i] = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    const ChildExit ex = wait_any_child();
+    if (ex.pid <= 0) return;
+    const size_t i = running.at(ex.pid);
+    running.erase(ex.pid);
+    codes[i] = ex.exit_code;
     std::error_code ec;
     std::filesystem::rename(log_while_running(dir, runs[i].id), dir / runs[i].id / "run.log", ec);
     std::cerr << "experiment: " << runs[i].id << (codes[i] == 0 ? " completed" : " FAILED (exit " + std::to_string(codes[i]) + ", see " + (dir / runs[i].id / "run.log").string() + ")") << "\n";
@@ -213,7 +190,7 @@ int cmd_experiment(Host& /*host*/, const ExperimentOptions& o) {
       args.insert(args.end(), {"run", base.string(), "-o", rdir.string(), "-q", "--overwrite"});
       for (const auto& s : r.overrides) args.insert(args.end(), {"--set", s});
       // The log stays beside the run folder while the run owns that folder, and moves into it afterwards.
-      running[spawn(args, log_while_running(dir, r.id))] = next;
+      running[spawn_logged(args, log_while_running(dir, r.id))] = next;
       std::cerr << "experiment: started " << r.id << "\n";
       ++next;
       continue;

@@ -13,6 +13,7 @@
 #include <iomanip>
 #include <iostream>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 namespace hf::core {
@@ -27,8 +28,10 @@ std::vector<std::string> Host::load_plugins(const std::vector<std::filesystem::p
 }
 
 Graph load_graph(Host& host, const std::filesystem::path& config, const std::vector<std::string>& overrides,
-                 GraphConfig* config_out, bool load_config_plugins) {
+                 GraphConfig* config_out, bool load_config_plugins, const std::vector<Json>& extra_nodes) {
   GraphConfig cfg = load_graph_config(config, overrides);
+  if (!extra_nodes.empty() && cfg.doc.value.contains("nodes") && cfg.doc.value["nodes"].is_array())
+    for (const Json& n : extra_nodes) cfg.doc.value["nodes"].push_back(n);
   std::vector<std::filesystem::path> config_paths;
   if (load_config_plugins)
     config_paths = cfg.plugin_paths;
@@ -45,6 +48,24 @@ Graph load_graph(Host& host, const std::filesystem::path& config, const std::vec
   Graph g = build_graph(cfg, host.registry());
   if (config_out) *config_out = std::move(cfg);
   return g;
+}
+
+std::vector<std::string> upstream_of(const Graph& graph, const std::string& node) {
+  std::set<std::string> needed;
+  std::vector<std::string> todo = {node};
+  while (!todo.empty()) {
+    const NodeSpec* n = graph.node(todo.back());
+    todo.pop_back();
+    if (!n) continue;
+    for (const auto& [port, streams] : n->inputs)
+      for (const std::string& s : streams)
+        if (auto it = graph.producers.find(s); it != graph.producers.end() && needed.insert(it->second.first).second)
+          todo.push_back(it->second.first);
+  }
+  std::vector<std::string> out;
+  for (const NodeSpec& n : graph.nodes)
+    if (needed.count(n.id) && n.id != node) out.push_back(n.id);
+  return out;
 }
 
 namespace {
@@ -165,7 +186,7 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   GraphConfig cfg;
   Graph graph;
   try {
-    graph = load_graph(host, req.config, req.overrides, &cfg);
+    graph = load_graph(host, req.config, req.overrides, &cfg, true, req.extra_nodes);
   } catch (const Error& e) {
     o.exit_code = 1;
     o.message = e.what();

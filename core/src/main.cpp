@@ -7,6 +7,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "hazardforge/core/campaign.hpp"
 #include "hazardforge/core/commands.hpp"
 #include "hazardforge/core/host.hpp"
 #include "hazardforge/redact.hpp"
@@ -100,6 +101,17 @@ int main(int argc, char** argv) {
   experiment->add_option("-j,--jobs", eopt.jobs, "Runs in parallel")->check(CLI::Range(1, 64));
   experiment->add_flag("--force", eopt.force, "Re-run runs that are already complete");
 
+  auto* campaign = app.add_subcommand(
+      "campaign", "Search recordings x hazard kinds in closed loop for verified scenarios (docs/campaigns.md)");
+  CampaignOptions copt_campaign;
+  campaign->add_option("spec", copt_campaign.spec, "Campaign file (YAML)")->required()->check(CLI::ExistingFile);
+  campaign->add_option("-o,--output", copt_campaign.output_dir, "Campaign folder (default runs/<name>)");
+  campaign->add_option("-j,--jobs", copt_campaign.jobs, "Attempts in parallel")->check(CLI::Range(1, 64));
+  campaign->add_option("--max-attempts", copt_campaign.max_attempts,
+                       "Start at most N attempts now; running the campaign again goes on from there")
+      ->check(CLI::Range(0, 100000));
+  campaign->add_flag("-q,--quiet", copt_campaign.quiet, "Only finished attempts and the summary");
+
   auto* calibrate = app.add_subcommand("calibrate", "Calibrate a camera from chessboard photos");
   CalibrateOptions copt;
   calibrate->add_option("folder", copt.folder, "Folder of chessboard photos")
@@ -152,6 +164,11 @@ int main(int argc, char** argv) {
       eopt.plugin_paths = plugin_paths;
       eopt.interrupt = &g_interrupt;
       return cmd_experiment(host, eopt);
+    }
+    if (*campaign) {
+      copt_campaign.plugin_paths = plugin_paths;
+      copt_campaign.interrupt = &g_interrupt;
+      return cmd_campaign(host, copt_campaign);
     }
     if (*calibrate) return cmd_calibrate(copt);
     if (*harvest) {

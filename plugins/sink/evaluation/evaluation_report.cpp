@@ -1,6 +1,8 @@
 // Evaluation maths (confusion matrices per threshold, TTC error) and the Markdown / HTML renderings.
 #include "evaluation_report.hpp"
 
+#include "hazardforge/markup.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -213,38 +215,15 @@ std::string markdown_table(const Table& t) {
   return s.str();
 }
 
-std::string html_escape(const std::string& in) {
-  std::string out;
-  for (char c : in) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 std::string html_table(const Table& t) {
   std::ostringstream s;
   s << "<table><thead><tr>";
-  for (const auto& h : t.header) s << "<th>" << html_escape(h) << "</th>";
+  for (const auto& h : t.header) s << "<th>" << xml_escape(h) << "</th>";
   s << "</tr></thead><tbody>\n";
   for (const auto& r : t.rows) {
     s << "<tr>";
     for (size_t i = 0; i < r.size(); ++i)
-      s << (i < 2 ? "<td class=l>" : "<td>") << html_escape(r[i]) << "</td>";
+      s << (i < 2 ? "<td class=l>" : "<td>") << xml_escape(r[i]) << "</td>";
     s << "</tr>\n";
   }
   s << "</tbody></table>\n";
@@ -568,7 +547,7 @@ std::string svg_plot(const std::string& scene, const std::vector<const FrameReco
   std::ostringstream s;
   s << std::fixed << std::setprecision(1);
   s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' viewBox='0 0 " << W
-    << " " << H << "' role='img' aria-label='TTC over time, " << html_escape(scene) << "'>\n";
+    << " " << H << "' role='img' aria-label='TTC over time, " << xml_escape(scene) << "'>\n";
   s << "<rect x='" << L << "' y='" << T << "' width='" << W - L - R << "' height='" << H - T - B
     << "' fill='#fff' stroke='#999'/>\n";
   for (double v = 0; v <= ymax + 1e-9; v += 2.0)
@@ -614,7 +593,7 @@ std::string svg_plot(const std::string& scene, const std::vector<const FrameReco
       << pts.str() << "'/>\n";
     s << "<line x1='" << W - R + 40 << "' x2='" << W - R + 60 << "' y1='" << T + 12 + 16 * k << "' y2='"
       << T + 12 + 16 * k << "' stroke='" << se.color << "' stroke-width='" << se.width << "'/><text x='"
-      << W - R + 64 << "' y='" << T + 16 + 16 * k << "' font-size='11'>" << html_escape(se.name)
+      << W - R + 64 << "' y='" << T + 16 + 16 * k << "' font-size='11'>" << xml_escape(se.name)
       << "</text>\n";
   }
   s << "</svg>\n";
@@ -627,14 +606,14 @@ std::string render_html(const Json& report, const std::vector<FrameRecord>& reco
   const Json& p = report.at("protocol");
   const std::string title = p.at("title").get<std::string>();
   std::ostringstream s;
-  s << "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'><title>" << html_escape(title)
+  s << "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'><title>" << xml_escape(title)
     << "</"
        "title>\n<style>body{font-family:sans-serif;margin:2em;max-width:1200px}table{border-collapse:"
        "collapse;"
        "margin:0.5em 0 1.5em}th,td{border:1px solid #ccc;padding:3px 7px;text-align:right;font-size:13px}"
        "td.l{text-align:left}th{background:#f3f3f3}</style></head><body>\n";
-  s << "<h1>" << html_escape(title) << "</h1>\n<p>Ground truth: stage <code>"
-    << html_escape(p.at("truth_stage").get<std::string>()) << "</code>, Unsafe below "
+  s << "<h1>" << xml_escape(title) << "</h1>\n<p>Ground truth: stage <code>"
+    << xml_escape(p.at("truth_stage").get<std::string>()) << "</code>, Unsafe below "
     << num(p.at("truth_threshold")) << " s. Frames: " << num(report.at("frames"))
     << ". Labels are recomputed from scene values at each threshold (Unsafe when below). TTC error on frames "
        "whose "
@@ -642,8 +621,8 @@ std::string render_html(const Json& report, const std::vector<FrameRecord>& reco
     << num(p.at("max_ttc_s")) << " s.</p>\n";
   for (const Json& g : report.at("results")) {
     const std::string scene = g.at("scene").get<std::string>();
-    s << "<h2>" << html_escape(scene) << "</h2>\n";
-    if (const std::string u = truth_unknown_line(g); !u.empty()) s << "<p>" << html_escape(u) << "</p>\n";
+    s << "<h2>" << xml_escape(scene) << "</h2>\n";
+    if (const std::string u = truth_unknown_line(g); !u.empty()) s << "<p>" << xml_escape(u) << "</p>\n";
     s << "<h3>All metrics</h3>\n"
       << html_table(summary_table(g, p.at("thresholds").get<std::vector<double>>()))
       << "<h3>Safe / Unsafe</h3>\n"
@@ -655,7 +634,7 @@ std::string render_html(const Json& report, const std::vector<FrameRecord>& reco
     if (!recs.empty()) s << "<h3>Scene TTC over time</h3>\n" << svg_plot(scene, recs, report);
   }
   s << "<h2>Notes</h2>\n<ul>\n";
-  for (const std::string& n : notes_of(report)) s << "<li>" << html_escape(n) << "</li>\n";
+  for (const std::string& n : notes_of(report)) s << "<li>" << xml_escape(n) << "</li>\n";
   s << "</ul>\n</body></html>\n";
   return s.str();
 }

@@ -72,9 +72,4 @@ std::string write_xosc(const HazardTrajectory& traj, const XoscOptions& opt);
 // pedestrian_crossing), for users who compose their own scenarios.
 std::string write_hazard_catalog(const std::string& date = {});
 
-// Escapes &, <, >, " and ' and drops characters XML 1.0 cannot carry.
-inline std::string xml_escape(const std::string& text) {
-  return road::xml_escape(text);
-}
-
 }  // namespace hf

@@ -52,7 +52,10 @@ struct RunRequest {
   bool quiet = false;
   std::vector<std::string> argv;
   const std::atomic<bool>* interrupt = nullptr;
-  // Keep only these nodes (and nothing downstream of a dropped node); empty = all. For benchmarks.
+  // Nodes added to the config before it is validated ({id, stage, inputs, params} objects), e.g. a campaign's
+  // record of what its scouting run saw.
+  std::vector<Json> extra_nodes;
+  // Keep only these nodes (and nothing downstream of a dropped node); empty = all. For benchmarks and scouting.
   std::vector<std::string> only_nodes;
   FolderUse folder_use = FolderUse::kNew;
 };
@@ -73,6 +76,10 @@ RunOutcome run_config(Host& host, const RunRequest& request);
 // `load_config_plugins` the config's plugin_paths are not loaded (a warning says so): loading a library runs
 // its code, and validating or drawing a config someone sent must not.
 Graph load_graph(Host& host, const std::filesystem::path& config, const std::vector<std::string>& overrides,
-                 GraphConfig* config_out = nullptr, bool load_config_plugins = true);
+                 GraphConfig* config_out = nullptr, bool load_config_plugins = true,
+                 const std::vector<Json>& extra_nodes = {});
+
+// Node ids whose outputs `node` depends on, directly or not (not `node` itself), in the graph's order.
+std::vector<std::string> upstream_of(const Graph& graph, const std::string& node);
 
 }  // namespace hf::core

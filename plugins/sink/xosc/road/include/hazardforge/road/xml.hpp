@@ -5,10 +5,11 @@
 #include <utility>
 #include <vector>
 
+#include "hazardforge/markup.hpp"
+
 namespace hf::road {
 
-// Escapes &, <, >, " and ' and drops characters XML 1.0 cannot carry.
-std::string xml_escape(const std::string& text);
+using hf::xml_escape;  // the SDK's one escaping rule
 
 // xsd:double text with at most `decimals` decimals (trailing zeros removed); INF/-INF/NaN for non-finite.
 std::string xml_num(double v, int decimals = 4);

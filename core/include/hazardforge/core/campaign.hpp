@@ -1,0 +1,85 @@
+// `hazardforge campaign`: recordings x hazard kinds, searched in closed loop for verified scenarios
+// (docs/campaigns.md).
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "hazardforge/core/host.hpp"
+
+namespace hf::core {
+
+struct CampaignRecording {
+  std::string name;                   // path-safe; names its folders
+  std::filesystem::path config;       // a scenario graph with nodes 'generator' and 'verifier'
+  std::vector<std::string> set;       // overrides for this recording (source path, scene facts, ...)
+  SourceLocation where;               // in the campaign file
+};
+
+// A campaign file. Defaults are what docs/campaigns.md explains.
+struct CampaignSpec {
+  std::string name;
+  std::string description;
+  std::filesystem::path file;
+  std::vector<std::string> kinds;  // empty = every registered hazard_template
+  int attempts = 6;                // per (recording, kind)
+  double cpu_s = 900;              // per (recording, kind), CPU seconds of its attempts
+  int scenarios_per_pair = 1;      // verified scenarios wanted per pair
+  double history_s = 1.0;          // frames before the trigger each attempt runs (tracks need velocities)
+  double min_left_s = 1.0;         // clip needed after the trigger
+  double max_horizon_s = 6.0;      // the generator's longest horizon: frames after it are not run
+  double margin_s = 0.5;           // frames run after the horizon
+  double spacing_s = 1.0;          // windows closer than this (at most a quarter of the clip) to a better one
+                                   // are tried last
+  double min_ego_speed_mps = 1.0;  // a standing ego meets no hazard
+  double lead_s = 2.0;             // typical time from a hazard's first sight to its critical moment
+  int seeds_per_window = 2;        // attempts at one trigger frame before the next window
+  std::vector<CampaignRecording> recordings;
+};
+
+// One frame of a recording's scouting run: its own assessment, no hazard.
+struct ScoutFrame {
+  int64_t frame = 0;
+  double t = 0;
+  bool safe = true;                   // every risk metric says Safe
+  std::optional<double> scene_ttc;    // lowest scene TTC (s) of the time-to-collision metrics
+  std::optional<double> ego_speed;    // m/s, as the generator sees it
+  std::optional<double> ego_yaw_rate; // rad/s
+  std::vector<std::pair<std::string, double>> objects;  // label, distance (m) of the tracked objects
+};
+
+// A candidate trigger frame and the frames an attempt there runs.
+struct CampaignWindow {
+  int64_t trigger = 0, first = 0, last = 0;
+  double t = 0, left_s = 0, history_s = 0, score = 0;
+  std::optional<double> ego_speed, scene_ttc;
+  std::optional<double> turn_deg;  // the ego's heading change over the horizon
+  std::optional<double> appear_m;  // where a hazard critical after lead_s must be first seen
+  std::optional<double> reach_m;   // 90th percentile of the distances the detector tracked in this recording
+};
+
+// Safe frames with enough clip left, best first (time left, tracking history, Safe margin, a straight ego path
+// over the horizon, the detector's reach at the distance a hazard must appear); windows within spacing_s of a
+// better one moved to the end.
+std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& frames, const CampaignSpec& spec);
+
+// A failure reason with its numbers replaced by '#', so reasons can be counted across attempts.
+std::string reason_class(const std::string& reason);
+
+struct CampaignOptions {
+  std::string spec;
+  std::string output_dir;  // default runs/<name>
+  int jobs = 1;
+  int max_attempts = -1;   // attempts started by this invocation (-1 = no limit); run again to go on
+  bool quiet = false;
+  std::vector<std::string> plugin_paths;
+  const std::atomic<bool>* interrupt = nullptr;
+};
+
+int cmd_campaign(Host& host, const CampaignOptions& o);
+
+}  // namespace hf::core

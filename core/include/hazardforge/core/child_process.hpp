@@ -1,0 +1,26 @@
+// Child `hazardforge` processes for commands that run many graphs (experiment, campaign): started with their
+// output in a log file, reaped one at a time with their exit code and the CPU time they used.
+#pragma once
+
+#include <sys/types.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace hf::core {
+
+// Starts args[0] with args, stdout and stderr to `log` (created or truncated). Throws hf::Error naming the
+// program when it cannot start.
+pid_t spawn_logged(const std::vector<std::string>& args, const std::filesystem::path& log);
+
+struct ChildExit {
+  pid_t pid = 0;      // 0: no child left
+  int exit_code = 0;  // the exit status, or 128 + signal
+  double cpu_s = 0;   // user + system CPU time of the child
+};
+
+// Waits for any child of this process to end.
+ChildExit wait_any_child();
+
+}  // namespace hf::core

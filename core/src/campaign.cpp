@@ -1,0 +1,898 @@
+// `hazardforge campaign`: a closed-loop search over recordings x hazard kinds. Each recording is scouted once
+// (its own assessment, no hazard) to find candidate trigger windows; each (recording, kind) pair then runs
+// generate -> plan -> render -> verify attempts over the windows and seeds, feeding every failed attempt's
+// reasons back to the generator, until one is verified or the pair's budget is spent. Attempts are child
+// processes restricted to their window's frames; each writes attempt.json when it is done, so a campaign run
+// again continues where it stopped and repeats nothing.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include "hazardforge/atomic_file.hpp"
+#include "hazardforge/core/campaign.hpp"
+#include "hazardforge/core/child_process.hpp"
+#include "hazardforge/json_text.hpp"
+#include "hazardforge/markup.hpp"
+#include "hazardforge/params.hpp"
+#include "hazardforge/redact.hpp"
+#include "hazardforge/yaml_json.hpp"
+
+namespace hf::core {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kScoutNode = "campaign_scout";
+
+double self_cpu_s() {
+  struct rusage ru {};
+  getrusage(RUSAGE_SELF, &ru);
+  return static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+         static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec) * 1e-6;
+}
+
+std::string fixed(double v, int digits) {
+  if (!std::isfinite(v)) return "–";
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(digits) << v;
+  return os.str();
+}
+
+Json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) return nullptr;
+  try {
+    return Json::parse(in);
+  } catch (const std::exception&) {
+    return nullptr;
+  }
+}
+
+bool safe_name(const std::string& s) {
+  if (s.empty() || s == "." || s == "..") return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.';
+  });
+}
+
+// ---- the campaign file ---------------------------------------------------------------------------------------
+
+CampaignSpec parse_spec(const std::string& file) {
+  YamlDocument doc = load_yaml_file(file);
+  const Json& v = doc.value;
+  std::vector<Diagnostic> diags;
+  auto bad = [&](const std::string& ptr, const std::string& msg) {
+    diags.push_back({Diagnostic::Severity::kError, doc.at(ptr), msg});
+  };
+  CampaignSpec s;
+  s.file = fs::absolute(file).lexically_normal();
+  if (!v.is_object()) {
+    bad("", "a campaign is a mapping with 'recordings' (and optionally name, kinds, budget, windows)");
+    throw DiagnosticError(std::move(diags));
+  }
+  static const std::set<std::string> kKeys = {"name",   "description", "kinds",          "budget",
+                                              "windows", "recordings", "scenarios_per_pair"};
+  for (auto it = v.begin(); it != v.end(); ++it)
+    if (!kKeys.count(it.key()))
+      bad("/" + it.key(), "unknown key '" + it.key() +
+                              "' (a campaign has name, description, kinds, budget, windows, scenarios_per_pair, "
+                              "recordings)");
+  s.name = v.value("name", fs::path(file).stem().string());
+  if (!safe_name(s.name)) bad("/name", "name '" + s.name + "' must be letters, digits, '-', '_' or '.'");
+  s.description = v.value("description", "");
+  if (v.contains("kinds")) {
+    if (!v["kinds"].is_array()) bad("/kinds", "'kinds' is a list of hazard kinds (hazard_template names)");
+    else
+      for (size_t i = 0; i < v["kinds"].size(); ++i)
+        if (v["kinds"][i].is_string()) s.kinds.push_back(v["kinds"][i].get<std::string>());
+        else bad("/kinds/" + std::to_string(i), "a kind is a name, e.g. cut_in");
+  }
+  auto number = [&](const Json& obj, const std::string& ptr, const std::string& key, double& out, double lo,
+                    double hi) {
+    if (!obj.contains(key)) return;
+    if (!obj[key].is_number() || obj[key].get<double>() < lo || obj[key].get<double>() > hi) {
+      bad(ptr + "/" + key, "'" + key + "' must be a number in [" + fixed(lo, 1) + ", " + fixed(hi, 1) + "]");
+      return;
+    }
+    out = obj[key].get<double>();
+  };
+  auto section = [&](const std::string& key, const std::set<std::string>& allowed) -> Json {
+    if (!v.contains(key)) return Json::object();
+    if (!v[key].is_object()) {
+      bad("/" + key, "'" + key + "' is a mapping");
+      return Json::object();
+    }
+    for (auto it = v[key].begin(); it != v[key].end(); ++it)
+      if (!allowed.count(it.key())) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        bad("/" + key + "/" + it.key(), "unknown key '" + it.key() + "' in '" + key + "' (one of " + list + ")");
+      }
+    return v[key];
+  };
+  const Json budget = section("budget", {"attempts", "cpu_s"});
+  double attempts = s.attempts;
+  number(budget, "/budget", "attempts", attempts, 1, 1000);
+  s.attempts = static_cast<int>(attempts);
+  number(budget, "/budget", "cpu_s", s.cpu_s, 1, 1e7);
+  double per_pair = s.scenarios_per_pair;
+  number(v, "", "scenarios_per_pair", per_pair, 1, 100);
+  s.scenarios_per_pair = static_cast<int>(per_pair);
+  const Json w = section("windows", {"history_s", "min_left_s", "max_horizon_s", "margin_s", "spacing_s",
+                                     "seeds_per_window", "min_ego_speed_mps", "lead_s"});
+  number(w, "/windows", "history_s", s.history_s, 0, 30);
+  number(w, "/windows", "min_left_s", s.min_left_s, 0.1, 60);
+  number(w, "/windows", "max_horizon_s", s.max_horizon_s, 0.5, 60);
+  number(w, "/windows", "margin_s", s.margin_s, 0, 10);
+  number(w, "/windows", "spacing_s", s.spacing_s, 0, 60);
+  number(w, "/windows", "min_ego_speed_mps", s.min_ego_speed_mps, 0, 80);
+  number(w, "/windows", "lead_s", s.lead_s, 0, 20);
+  double seeds = s.seeds_per_window;
+  number(w, "/windows", "seeds_per_window", seeds, 1, 100);
+  s.seeds_per_window = static_cast<int>(seeds);
+
+  if (!v.contains("recordings") || !v["recordings"].is_array() || v["recordings"].empty()) {
+    bad(v.contains("recordings") ? "/recordings" : "",
+        "a campaign needs 'recordings': a list of {name, config, set}");
+  } else {
+    std::set<std::string> names;
+    for (size_t i = 0; i < v["recordings"].size(); ++i) {
+      const std::string ptr = "/recordings/" + std::to_string(i);
+      const Json& r = v["recordings"][i];
+      if (!r.is_object()) {
+        bad(ptr, "a recording is {name, config, set}");
+        continue;
+      }
+      for (auto it = r.begin(); it != r.end(); ++it)
+        if (it.key() != "name" && it.key() != "config" && it.key() != "set")
+          bad(ptr + "/" + it.key(), "unknown key '" + it.key() + "' in a recording (name, config, set)");
+      CampaignRecording rec;
+      rec.where = doc.at(ptr);
+      if (!r.contains("name") || !r["name"].is_string() || !safe_name(r["name"].get<std::string>())) {
+        bad(ptr + "/name", "a recording needs a 'name' of letters, digits, '-', '_' or '.'");
+        continue;
+      }
+      rec.name = r["name"].get<std::string>();
+      if (!names.insert(rec.name).second) bad(ptr + "/name", "two recordings are both named '" + rec.name + "'");
+      if (!r.contains("config") || !r["config"].is_string()) {
+        bad(ptr, "recording '" + rec.name + "' needs a 'config': the scenario graph to run on it");
+        continue;
+      }
+      fs::path c = expand_vars(r["config"].get<std::string>());
+      if (c.is_relative()) c = s.file.parent_path() / c;
+      rec.config = c.lexically_normal();
+      if (!fs::exists(rec.config)) bad(ptr + "/config", "config " + rec.config.string() + " not found");
+      if (r.contains("set")) {
+        const Json& set = r["set"];
+        if (set.is_string()) rec.set.push_back(set.get<std::string>());
+        else if (set.is_array())
+          for (size_t k = 0; k < set.size(); ++k)
+            if (set[k].is_string()) rec.set.push_back(set[k].get<std::string>());
+            else bad(ptr + "/set/" + std::to_string(k), "an override is a string 'node.param=value'");
+        else bad(ptr + "/set", "'set' is a list of overrides 'node.param=value'");
+      }
+      s.recordings.push_back(std::move(rec));
+    }
+  }
+  if (!diags.empty()) throw DiagnosticError(std::move(diags));
+  return s;
+}
+
+// ---- scouting: the recording's own assessment ------------------------------------------------------------------
+
+struct Scouted {
+  std::vector<ScoutFrame> frames;
+  double cpu_s = 0;
+  bool has_feedback = false;  // the generator takes `feedback`
+};
+
+// What the generator node reads (its risk and states inputs) is what the scout records.
+Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec, const fs::path& dir,
+              const CampaignOptions& o) {
+  Scouted out;
+  Graph g = load_graph(host, rec.config, rec.set);
+  const NodeSpec* gen = g.node("generator");
+  const NodeSpec* ver = g.node("verifier");
+  if (!gen || !ver)
+    throw Error(spec.file.string() + ":" + std::to_string(rec.where.line) + ": recording '" + rec.name + "': " +
+                rec.config.string() +
+                " has no node 'generator' and 'verifier' (include configs/subgraphs/hazard_ar.yaml)");
+  for (const ParamSpec& p : gen->component->info.params)
+    if (p.name == "feedback") out.has_feedback = true;
+  Json records = Json::array();
+  for (const char* port : {"states", "risk"})
+    if (auto it = gen->inputs.find(port); it != gen->inputs.end())
+      for (const std::string& s : it->second) records.push_back(s);
+  const fs::path run_dir = dir / "scout";
+  const Json scout_node = {{"id", kScoutNode},
+                           {"stage", "jsonl"},
+                           {"inputs", {{"records", records}}},
+                           {"params", {{"file", "scout.jsonl"}, {"csv", false}}}};
+  const Json manifest = read_json(run_dir / "manifest.json");
+  const bool done = manifest.is_object() && manifest.value("status", "") == "completed" &&
+                    fs::exists(run_dir / "scout.jsonl");
+  if (!done) {
+    RunRequest req;
+    req.config = rec.config;
+    req.overrides = rec.set;
+    req.output_dir = run_dir;
+    req.progress = false;
+    req.quiet = true;
+    req.interrupt = o.interrupt;
+    req.extra_nodes = {scout_node};
+    req.only_nodes = upstream_of(g, "generator");
+    req.only_nodes.push_back(kScoutNode);
+    req.folder_use = fs::exists(run_dir / "manifest.json") ? FolderUse::kOverwrite : FolderUse::kNew;
+    const double cpu0 = self_cpu_s();
+    RunOutcome r = run_config(host, req);
+    out.cpu_s = self_cpu_s() - cpu0;
+    write_file_atomic(run_dir / "cpu.json", json_text(Json{{"cpu_s", out.cpu_s}}) + "\n");
+    if (r.exit_code != 0)
+      throw Error("recording '" + rec.name + "': the scouting run failed (" + run_dir.string() + "):\n" +
+                  r.message);
+  } else {
+    const Json cpu = read_json(run_dir / "cpu.json");
+    out.cpu_s = cpu.is_object() ? cpu.value("cpu_s", 0.0) : 0.0;
+  }
+  std::ifstream in(run_dir / "scout.jsonl");
+  std::string line;
+  while (std::getline(in, line)) {
+    Json j = Json::parse(line, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) continue;
+    ScoutFrame f;
+    f.frame = j.value("frame", int64_t{0});
+    f.t = j.value("timestamp", 0.0);
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      const Json& p = it.value();
+      if (!p.is_object()) continue;
+      if (p.contains("metric") && p.contains("label")) {  // a risk verdict: Safe only if every metric says so
+        if (p["label"] != "Safe") f.safe = false;
+        if (p.value("unit", "") == "s" && p.contains("scene_value") && p["scene_value"].is_number()) {
+          const double ttc = p["scene_value"].get<double>();
+          f.scene_ttc = f.scene_ttc ? std::min(*f.scene_ttc, ttc) : ttc;
+        }
+      } else if (p.contains("objects") && p.contains("ego_speed_mps")) {  // object states
+        if (p["ego_speed_mps"].is_number()) f.ego_speed = p["ego_speed_mps"].get<double>();
+        if (p.contains("ego_yaw_rate") && p["ego_yaw_rate"].is_number())
+          f.ego_yaw_rate = p["ego_yaw_rate"].get<double>();
+        for (const Json& ob : p["objects"])
+          if (ob.contains("distance_m") && ob["distance_m"].is_number())
+            f.objects.push_back({ob.value("label", ""), ob["distance_m"].get<double>()});
+      }
+    }
+    out.frames.push_back(std::move(f));
+  }
+  if (out.frames.empty()) throw Error("recording '" + rec.name + "': the scouting run saw no frame");
+  return out;
+}
+
+}  // namespace
+
+// ---- candidate windows ------------------------------------------------------------------------------------------
+
+std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& frames, const CampaignSpec& s) {
+  std::vector<CampaignWindow> out;
+  if (frames.size() < 2) return out;
+  std::vector<double> dts;
+  for (size_t i = 1; i < frames.size(); ++i) dts.push_back(frames[i].t - frames[i - 1].t);
+  std::nth_element(dts.begin(), dts.begin() + dts.size() / 2, dts.end());
+  const double dt = std::max(1e-3, dts[dts.size() / 2]);
+  const double t_end = frames.back().t + dt;  // the clip ends one frame interval after its last frame
+  // How far the detector demonstrably measures distances in this recording (90th percentile of tracked
+  // objects): a hazard first seen beyond it would not be re-detected.
+  std::vector<double> dist;
+  for (const ScoutFrame& f : frames)
+    for (const auto& o : f.objects) dist.push_back(o.second);
+  std::optional<double> reach;
+  if (dist.size() >= 5) {
+    std::sort(dist.begin(), dist.end());
+    reach = dist[static_cast<size_t>(0.9 * static_cast<double>(dist.size() - 1))];
+  }
+  for (size_t i = 1; i < frames.size(); ++i) {
+    const ScoutFrame& f = frames[i];
+    if (!f.safe) continue;
+    const double left = t_end - f.t;
+    if (left < s.min_left_s - 1e-9) continue;
+    if (f.ego_speed && *f.ego_speed < s.min_ego_speed_mps) continue;
+    CampaignWindow w;
+    w.trigger = f.frame;
+    w.t = f.t;
+    w.left_s = left;
+    w.ego_speed = f.ego_speed;
+    w.scene_ttc = f.scene_ttc;
+    // Margins: history_s before the trigger (tracks need it for velocities), the horizon after it plus margin_s.
+    const double horizon = std::min(left, s.max_horizon_s);
+    w.first = frames.front().frame;
+    w.last = frames.back().frame;
+    double first_t = frames.front().t, turn = 0;
+    bool yaw_known = false;
+    for (size_t k = 0; k < frames.size(); ++k) {
+      const ScoutFrame& g = frames[k];
+      if (g.t <= f.t - s.history_s - 1e-9) {
+        w.first = g.frame + 1;
+        first_t = k + 1 < frames.size() ? frames[k + 1].t : g.t;
+      }
+      if (g.t <= f.t + horizon + s.margin_s + 1e-9) w.last = g.frame;
+      if (g.t >= f.t - 1e-9 && g.t < f.t + horizon - 1e-9 && g.ego_yaw_rate) {
+        const double step = k + 1 < frames.size() ? frames[k + 1].t - g.t : dt;
+        turn += *g.ego_yaw_rate * step;
+        yaw_known = true;
+      }
+    }
+    w.first = std::min(w.first, f.frame);
+    w.history_s = f.t - std::min(first_t, f.t);
+    if (yaw_known) w.turn_deg = turn * 180.0 / M_PI;
+    // The score: time left to watch the hazard, tracking history, a Safe margin, a straight ego path (hazards are
+    // laid out along it; a bend moves them across kerbs and out of view), and whether an object that must become
+    // critical after lead_s + a TTC of 1.5 s is first seen within the detector's reach.
+    w.score = std::min(left, s.max_horizon_s) / s.max_horizon_s +
+              (s.history_s > 0 ? std::min(w.history_s, s.history_s) / s.history_s : 1.0);
+    w.score += (!f.scene_ttc || *f.scene_ttc >= 3.0) ? 0.5 : 0.0;
+    if (w.turn_deg) w.score += 0.5 * std::max(0.0, 1.0 - std::abs(*w.turn_deg) / 20.0);
+    if (reach && f.ego_speed) {
+      w.appear_m = *f.ego_speed * (s.lead_s + 1.5) + 3.4;
+      w.reach_m = *reach;
+      w.score += std::min(1.0, *reach / std::max(1.0, *w.appear_m));
+    }
+    out.push_back(w);
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const CampaignWindow& a, const CampaignWindow& b) { return a.score > b.score; });
+  // Spread: a window within spacing_s (at most a quarter of the clip) of a better one adds little; they go to
+  // the end of the list.
+  const double spacing = std::min(s.spacing_s, (t_end - frames.front().t) / 4.0);
+  std::vector<CampaignWindow> spread, close;
+  for (const CampaignWindow& w : out) {
+    const bool near = std::any_of(spread.begin(), spread.end(),
+                                  [&](const CampaignWindow& x) { return std::abs(x.t - w.t) < spacing - 1e-9; });
+    (near ? close : spread).push_back(w);
+  }
+  spread.insert(spread.end(), close.begin(), close.end());
+  return spread;
+}
+
+Json to_json(const CampaignWindow& w) {
+  auto opt = [](const std::optional<double>& v) { return v && std::isfinite(*v) ? Json(*v) : Json(); };
+  return {{"trigger_frame", w.trigger}, {"first_frame", w.first},  {"last_frame", w.last},
+          {"t_s", w.t},                 {"left_s", w.left_s},     {"history_s", w.history_s},
+          {"ego_speed_mps", opt(w.ego_speed)}, {"scene_ttc_s", opt(w.scene_ttc)}, {"turn_deg", opt(w.turn_deg)},
+          {"appear_m", opt(w.appear_m)}, {"reach_m", opt(w.reach_m)}, {"score", w.score}};
+}
+
+// The same reason with its numbers left out, so reasons can be counted across attempts.
+std::string reason_class(const std::string& reason) {
+  std::string out;
+  bool in_number = false;
+  for (size_t i = 0; i < reason.size(); ++i) {
+    const char c = reason[i];
+    const bool digit = std::isdigit(static_cast<unsigned char>(c)) ||
+                       ((c == '.' || c == '-') && i + 1 < reason.size() &&
+                        std::isdigit(static_cast<unsigned char>(reason[i + 1])));
+    if (digit) {
+      if (!in_number) out += '#';
+      in_number = true;
+    } else {
+      in_number = false;
+      out += c;
+    }
+  }
+  return out.size() > 160 ? out.substr(0, 157) + "..." : out;
+}
+
+namespace {
+
+// ---- attempts -------------------------------------------------------------------------------------------------
+
+struct Pair {
+  const CampaignRecording* rec = nullptr;
+  std::string kind;
+  size_t rec_index = 0;
+  std::vector<Json> attempts;  // finished, in order
+  bool running = false;
+  std::string stopped;  // why no further attempt is made (empty = go on)
+  int verified() const {
+    return static_cast<int>(std::count_if(attempts.begin(), attempts.end(),
+                                          [](const Json& a) { return a.value("passed", false); }));
+  }
+  double cpu() const {
+    double c = 0;
+    for (const Json& a : attempts) c += a.value("cpu_s", 0.0);
+    return c;
+  }
+};
+
+struct Planned {
+  int index = 0;  // 1-based within the pair
+  CampaignWindow window;
+  int64_t seed = 1;
+  std::string id;
+  fs::path dir;
+};
+
+fs::path pair_dir(const fs::path& out, const Pair& p) {
+  return out / "attempts" / p.rec->name / p.kind;
+}
+
+std::string attempt_id(int index, const CampaignWindow& w, int64_t seed) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%02d-f%03lld-s%lld", index, static_cast<long long>(w.trigger),
+                static_cast<long long>(seed));
+  return buf;
+}
+
+// The next attempt of a pair, or why there is none.
+std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow>& windows, const CampaignSpec& s,
+                                 const fs::path& out, std::string* why) {
+  if (p.verified() >= s.scenarios_per_pair) {
+    *why = "verified";
+    return std::nullopt;
+  }
+  if (static_cast<int>(p.attempts.size()) >= s.attempts) {
+    *why = "attempt budget spent (" + std::to_string(s.attempts) + ")";
+    return std::nullopt;
+  }
+  if (p.cpu() >= s.cpu_s) {
+    *why = "CPU budget spent (" + fixed(p.cpu(), 0) + " of " + fixed(s.cpu_s, 0) + " s)";
+    return std::nullopt;
+  }
+  if (windows.empty()) {
+    *why = "no candidate window (no Safe frame with enough of the clip left)";
+    return std::nullopt;
+  }
+  Planned a;
+  a.index = static_cast<int>(p.attempts.size()) + 1;
+  const size_t k = static_cast<size_t>(a.index - 1);
+  a.window = windows[(k / static_cast<size_t>(s.seeds_per_window)) % windows.size()];
+  a.seed = a.index;  // every attempt of a pair its own seed
+  a.id = attempt_id(a.index, a.window, a.seed);
+  a.dir = pair_dir(out, p) / a.id;
+  return a;
+}
+
+Json feedback_of(const Pair& p) {
+  Json fb = {{"attempts", Json::array()}};
+  for (const Json& a : p.attempts) {
+    if (a.value("passed", false)) continue;
+    fb["attempts"].push_back({{"kind", p.kind},
+                              {"object_class", a.value("object_class", "")},
+                              {"spec", a.contains("spec") ? a["spec"] : Json()},
+                              {"reasons", a.value("reasons", Json::array())},
+                              {"trigger_frame", a["window"].value("trigger_frame", int64_t{0})},
+                              {"seed", a.value("seed", int64_t{0})}});
+  }
+  return fb;
+}
+
+std::vector<std::string> attempt_args(const CampaignOptions& o, const Pair& p, const Planned& a,
+                                      const fs::path& feedback) {
+  std::vector<std::string> args = {(executable_dir() / "hazardforge").string()};
+  for (const auto& pp : o.plugin_paths) args.insert(args.end(), {"--plugin-path", pp});
+  args.insert(args.end(), {"run", p.rec->config.string(), "-o", a.dir.string(), "-q", "--overwrite", "--frames",
+                           std::to_string(a.window.first) + ":" + std::to_string(a.window.last)});
+  for (const std::string& s : p.rec->set) args.insert(args.end(), {"--set", s});
+  args.insert(args.end(), {"--set", "generator.trigger=frame", "--set",
+                           "generator.trigger_frame=" + std::to_string(a.window.trigger), "--set",
+                           "generator.seed=" + std::to_string(a.seed), "--set", "generator.force_kind=" + p.kind,
+                           "--set", "generator.kinds=[" + p.kind + "]"});
+  if (!feedback.empty()) args.insert(args.end(), {"--set", "generator.feedback=" + feedback.string()});
+  return args;
+}
+
+// "node 'generator' (stage 'llm_hazard', /path/lib.so): frame 22: why" -> "node 'generator': frame 22: why"
+std::string short_error(std::string e) {
+  if (e.rfind("error: ", 0) == 0) e = e.substr(7);
+  const auto open = e.find(" (stage '");
+  const auto close = e.find("): ", open == std::string::npos ? 0 : open);
+  if (e.rfind("node '", 0) == 0 && open != std::string::npos && close != std::string::npos)
+    e = e.substr(0, open) + e.substr(close + 1);
+  return redact_urls(e);
+}
+
+// What an attempt's run folder says about it: the index entry.
+Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, double wall_s, const fs::path& out) {
+  Json e = {{"recording", p.rec->name},
+            {"kind", p.kind},
+            {"attempt", a.index},
+            {"id", a.id},
+            {"window", to_json(a.window)},
+            {"seed", a.seed},
+            {"folder", fs::relative(a.dir, out).string()},
+            {"exit_code", ex.exit_code},
+            {"cpu_s", ex.cpu_s},
+            {"wall_s", wall_s},
+            {"passed", false},
+            {"reasons", Json::array()}};
+  const Json spec = read_json(a.dir / "hazard_spec.json");
+  if (spec.is_object()) {
+    e["spec"] = spec;
+    e["object_class"] = spec.value("object_class", "");
+  }
+  const Json v = read_json(a.dir / "verification.json");
+  if (v.is_object()) {
+    e["passed"] = v.value("passed", false) && ex.exit_code == 0;
+    e["reasons"] = v.value("reasons", Json::array());
+    if (v.contains("ttc") && v["ttc"].is_object()) {
+      e["intended_min_ttc_s"] = v["ttc"].value("intended_min_ttc_visible_s", Json());
+      e["achieved_min_ttc_s"] = v["ttc"].value("achieved_min_ttc_s", Json());
+      e["achieved_at_frame"] = v["ttc"].value("achieved_at_frame", Json());
+    }
+    if (v.contains("unsafe") && v["unsafe"].is_object()) {
+      e["hazard_critical_frames"] = v["unsafe"].value("attributed_frames", 0);
+      e["spurious_frames"] = v["unsafe"].value("spurious_frames", Json::array());
+    }
+    if (v.contains("redetection") && v["redetection"].is_object())
+      e["redetection_rate"] = v["redetection"].value("rate", Json());
+  }
+  const Json m = read_json(a.dir / "manifest.json");
+  e["status"] = m.is_object() ? m.value("status", "missing") : "missing";
+  if (ex.exit_code != 0) {
+    e["passed"] = false;
+    if (m.is_object() && m.contains("errors"))
+      for (const Json& err : m["errors"])
+        if (err.is_string()) e["reasons"].push_back(short_error(err.get<std::string>()));
+    if (e["reasons"].empty())
+      e["reasons"].push_back("the attempt's run ended with exit code " + std::to_string(ex.exit_code) +
+                             " (see " + (fs::relative(a.dir, out) / "run.log").string() + ")");
+  }
+  e["outcome"] = e["passed"].get<bool>()   ? "verified"
+                 : !spec.is_object()       ? "no hazard"
+                 : v.is_object()           ? "not verified"
+                                           : "failed";
+  return e;
+}
+
+// A verified attempt's deliverables, copied into scenarios/<recording>/<kind>/.
+fs::path publish(const Json& e, const fs::path& out) {
+  const fs::path src = out / e["folder"].get<std::string>();
+  const fs::path dst = out / "scenarios" / e["recording"].get<std::string>() / e["kind"].get<std::string>();
+  fs::create_directories(dst);
+  for (const char* f : {"augmented.mp4", "before_after.mp4", "hazard_spec.json", "trajectory.json",
+                        "verification.json", "scenario.xosc", "scenario.xodr", "hazard_maneuvers.xosc"})
+    if (fs::exists(src / f)) fs::copy_file(src / f, dst / f, fs::copy_options::overwrite_existing);
+  if (fs::exists(src / "stills" / "critical.png"))
+    fs::copy_file(src / "stills" / "critical.png", dst / "critical.png", fs::copy_options::overwrite_existing);
+  return dst;
+}
+
+// ---- reports ----------------------------------------------------------------------------------------------------
+
+Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) {
+  Json by_kind = Json::object(), by_rec = Json::object();
+  std::map<std::string, int> reasons;
+  int attempts = 0, verified_attempts = 0, verified_pairs = 0, spurious_passes = 0;
+  double cpu = scout_cpu;
+  for (const Pair& p : pairs) {
+    for (Json* row : {&by_kind[p.kind], &by_rec[p.rec->name]}) {
+      if (row->is_null()) *row = {{"pairs", 0}, {"verified_pairs", 0}, {"attempts", 0}, {"verified_attempts", 0}};
+      (*row)["pairs"] = (*row)["pairs"].get<int>() + 1;
+      (*row)["verified_pairs"] = (*row)["verified_pairs"].get<int>() + (p.verified() > 0 ? 1 : 0);
+      (*row)["attempts"] = (*row)["attempts"].get<int>() + static_cast<int>(p.attempts.size());
+      (*row)["verified_attempts"] = (*row)["verified_attempts"].get<int>() + p.verified();
+    }
+    verified_pairs += p.verified() > 0 ? 1 : 0;
+    attempts += static_cast<int>(p.attempts.size());
+    verified_attempts += p.verified();
+    cpu += p.cpu();
+    for (const Json& a : p.attempts) {
+      if (a.value("passed", false) && !a.value("spurious_frames", Json::array()).empty()) ++spurious_passes;
+      if (!a.value("passed", false))
+        for (const Json& r : a.value("reasons", Json::array()))
+          if (r.is_string()) ++reasons[reason_class(r.get<std::string>())];
+    }
+  }
+  for (Json* table : {&by_kind, &by_rec})
+    for (auto it = table->begin(); it != table->end(); ++it)
+      (*it)["yield"] = (*it)["attempts"].get<int>() > 0 ? (*it)["verified_attempts"].get<double>() /
+                                                              (*it)["attempts"].get<double>()
+                                                        : 0.0;
+  std::vector<std::pair<int, std::string>> sorted;
+  for (const auto& [r, n] : reasons) sorted.emplace_back(-n, r);
+  std::sort(sorted.begin(), sorted.end());
+  Json rs = Json::array();
+  for (const auto& [n, r] : sorted) rs.push_back({{"reason", r}, {"count", -n}});
+  return {{"pairs", pairs.size()},
+          {"verified_pairs", verified_pairs},
+          {"attempts", attempts},
+          {"verified_attempts", verified_attempts},
+          {"yield", attempts > 0 ? static_cast<double>(verified_attempts) / attempts : 0.0},
+          {"spurious_passes", spurious_passes},
+          {"cpu_s", cpu},
+          {"scout_cpu_s", scout_cpu},
+          {"cpu_s_per_verified_scenario", verified_pairs > 0 ? Json(cpu / verified_attempts) : Json()},
+          {"wall_s", wall_s},
+          {"by_kind", by_kind},
+          {"by_recording", by_rec},
+          {"failure_reasons", rs}};
+}
+
+std::string summary_markdown(const CampaignSpec& s, const Json& sum, const std::vector<Pair>& pairs) {
+  std::ostringstream md;
+  md << "# Campaign: " << s.name << "\n\n";
+  if (!s.description.empty()) md << s.description << "\n\n";
+  md << sum["verified_pairs"].get<int>() << " of " << sum["pairs"].get<int>()
+     << " (recording, kind) pairs verified; " << sum["verified_attempts"].get<int>() << " of "
+     << sum["attempts"].get<int>() << " attempts verified (yield " << fixed(100 * sum["yield"].get<double>(), 0)
+     << " %); " << sum["spurious_passes"].get<int>() << " verified attempts with spurious Unsafe frames. CPU "
+     << fixed(sum["cpu_s"].get<double>(), 0) << " s in all (scouting " << fixed(sum["scout_cpu_s"].get<double>(), 0)
+     << " s)";
+  if (!sum["cpu_s_per_verified_scenario"].is_null())
+    md << ", " << fixed(sum["cpu_s_per_verified_scenario"].get<double>(), 0) << " s per verified scenario";
+  md << ".\n\n| recording | kind | result | attempts | CPU s | last reasons |\n|---|---|---|---:|---:|---|\n";
+  for (const Pair& p : pairs) {
+    std::string last;
+    if (!p.attempts.empty() && !p.attempts.back().value("passed", false))
+      for (const Json& r : p.attempts.back().value("reasons", Json::array()))
+        last += (last.empty() ? "" : "; ") + r.get<std::string>();
+    md << "| " << p.rec->name << " | " << p.kind << " | "
+       << (p.verified() > 0 ? "verified" : p.stopped.empty() ? "pending" : "not verified: " + p.stopped) << " | "
+       << p.attempts.size() << " | " << fixed(p.cpu(), 0) << " | " << last << " |\n";
+  }
+  for (const char* table : {"by_kind", "by_recording"}) {
+    md << "\n| " << (std::string(table) == "by_kind" ? "kind" : "recording")
+       << " | verified pairs | attempts | verified attempts | yield |\n|---|---:|---:|---:|---:|\n";
+    for (auto it = sum[table].begin(); it != sum[table].end(); ++it)
+      md << "| " << it.key() << " | " << (*it)["verified_pairs"].get<int>() << " / " << (*it)["pairs"].get<int>()
+         << " | " << (*it)["attempts"].get<int>() << " | " << (*it)["verified_attempts"].get<int>() << " | "
+         << fixed(100 * (*it)["yield"].get<double>(), 0) << " % |\n";
+  }
+  if (!sum["failure_reasons"].empty()) {
+    md << "\n| failure reason (numbers left out) | attempts |\n|---|---:|\n";
+    for (const Json& r : sum["failure_reasons"])
+      md << "| " << r["reason"].get<std::string>() << " | " << r["count"].get<int>() << " |\n";
+  }
+  return md.str();
+}
+
+std::string html_number(const Json& v, int digits) {
+  return v.is_number() ? fixed(v.get<double>(), digits) : "–";
+}
+
+std::string index_html(const CampaignSpec& s, const Json& sum, const std::vector<Pair>& pairs) {
+  std::ostringstream h;
+  h << "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>Campaign " << xml_escape(s.name)
+    << "</title>\n<style>body{font-family:sans-serif;margin:1.5em;color:#222}"
+       ".grid{display:flex;flex-wrap:wrap;gap:1em}.card{border:1px solid #ccc;border-radius:6px;padding:.5em;"
+       "width:660px}.card img{width:100%}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;"
+       "padding:.2em .5em;font-size:90%}.ok{color:#080}.no{color:#a00}</style></head><body>\n";
+  h << "<h1>Campaign " << xml_escape(s.name) << "</h1>\n<p>" << xml_escape(s.description) << "</p>\n";
+  h << "<p>" << sum["verified_pairs"].get<int>() << " of " << sum["pairs"].get<int>()
+    << " (recording, kind) pairs verified; " << sum["verified_attempts"].get<int>() << " of "
+    << sum["attempts"].get<int>() << " attempts verified; CPU " << fixed(sum["cpu_s"].get<double>(), 0)
+    << " s; spurious passes " << sum["spurious_passes"].get<int>() << ".</p>\n<h2>Verified scenarios</h2>\n"
+    << "<div class=\"grid\">\n";
+  for (const Pair& p : pairs)
+    for (const Json& a : p.attempts) {
+      if (!a.value("passed", false)) continue;
+      const std::string dir = "scenarios/" + p.rec->name + "/" + p.kind + "/";
+      h << "<div class=\"card\"><img src=\"" << xml_escape(dir + "critical.png")
+        << "\" alt=\"before and after\"><br><b>" << xml_escape(p.rec->name) << " — " << xml_escape(p.kind) << "</b> ("
+        << xml_escape(a.value("object_class", "")) << "), trigger frame " << a["window"]["trigger_frame"].get<int64_t>()
+        << ", seed " << a["seed"].get<int64_t>() << "<br>intended min TTC "
+        << html_number(a.value("intended_min_ttc_s", Json()), 2) << " s, achieved "
+        << html_number(a.value("achieved_min_ttc_s", Json()), 2) << " s at frame "
+        << html_number(a.value("achieved_at_frame", Json()), 0) << "; re-detected "
+        << html_number(a.contains("redetection_rate") && a["redetection_rate"].is_number()
+                           ? Json(100 * a["redetection_rate"].get<double>())
+                           : Json(),
+                       0)
+        << " % of visible frames<br><a href=\"" << xml_escape(dir + "augmented.mp4") << "\">augmented</a> · <a href=\""
+        << xml_escape(dir + "before_after.mp4") << "\">before/after</a> · <a href=\""
+        << xml_escape(dir + "scenario.xosc") << "\">OpenSCENARIO</a> · <a href=\""
+        << xml_escape(dir + "verification.json") << "\">verification</a></div>\n";
+    }
+  h << "</div>\n<h2>Attempts</h2>\n<table><tr><th>recording</th><th>kind</th><th>#</th><th>trigger</th>"
+       "<th>frames</th><th>seed</th><th>class</th><th>result</th><th>intended TTC</th><th>achieved TTC</th>"
+       "<th>CPU s</th><th>reasons</th></tr>\n";
+  for (const Pair& p : pairs)
+    for (const Json& a : p.attempts) {
+      std::string reasons;
+      for (const Json& r : a.value("reasons", Json::array()))
+        reasons += (reasons.empty() ? "" : "<br>") + xml_escape(r.get<std::string>());
+      const bool ok = a.value("passed", false);
+      h << "<tr><td>" << xml_escape(p.rec->name) << "</td><td>" << xml_escape(p.kind) << "</td><td><a href=\""
+        << xml_escape(a["folder"].get<std::string>()) << "/\">" << a["attempt"].get<int>() << "</a></td><td>"
+        << a["window"]["trigger_frame"].get<int64_t>() << "</td><td>" << a["window"]["first_frame"].get<int64_t>()
+        << "–" << a["window"]["last_frame"].get<int64_t>() << "</td><td>" << a["seed"].get<int64_t>() << "</td><td>"
+        << xml_escape(a.value("object_class", "")) << "</td><td class=\"" << (ok ? "ok" : "no") << "\">"
+        << xml_escape(a.value("outcome", "")) << "</td><td>" << html_number(a.value("intended_min_ttc_s", Json()), 2)
+        << "</td><td>" << html_number(a.value("achieved_min_ttc_s", Json()), 2) << "</td><td>"
+        << fixed(a.value("cpu_s", 0.0), 1) << "</td><td>" << reasons << "</td></tr>\n";
+    }
+  h << "</table>\n</body></html>\n";
+  return h.str();
+}
+
+void write_reports(const CampaignSpec& s, const fs::path& out, const std::vector<Pair>& pairs,
+                   const std::map<std::string, std::vector<CampaignWindow>>& windows, double scout_cpu,
+                   double wall_s, bool final) {
+  Json sum = summarize(pairs, scout_cpu, wall_s);
+  Json index = {{"name", s.name},           {"description", s.description}, {"campaign", s.file.string()},
+                {"complete", final},        {"budget", {{"attempts", s.attempts}, {"cpu_s", s.cpu_s}}},
+                {"recordings", Json::array()}, {"attempts", Json::array()},    {"summary", sum}};
+  for (const CampaignRecording& r : s.recordings) {
+    Json wl = Json::array();
+    if (auto it = windows.find(r.name); it != windows.end())
+      for (const CampaignWindow& w : it->second) wl.push_back(to_json(w));
+    index["recordings"].push_back({{"name", r.name}, {"config", r.config.string()}, {"set", r.set},
+                                   {"windows", wl}});
+  }
+  for (const Pair& p : pairs)
+    for (const Json& a : p.attempts) index["attempts"].push_back(a);
+  write_file_atomic(out / "index.json", json_text(index, 2) + "\n");
+  write_file_atomic(out / "index.html", index_html(s, sum, pairs));
+  write_file_atomic(out / "summary.md", summary_markdown(s, sum, pairs));
+}
+
+}  // namespace
+
+int cmd_campaign(Host& host, const CampaignOptions& o) {
+  CampaignSpec spec;
+  try {
+    spec = parse_spec(o.spec);
+  } catch (const Error& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const fs::path out = fs::absolute(o.output_dir.empty() ? fs::path("runs") / spec.name : fs::path(o.output_dir));
+  std::vector<Pair> pairs;
+  std::map<std::string, std::vector<CampaignWindow>> windows;
+  std::map<std::string, bool> feedback_ok;
+  double scout_cpu = 0;
+  try {
+    std::vector<std::string> load_errors = host.load_plugins();
+    for (const auto& e : load_errors) std::cerr << "warning: " << e << "\n";
+    const std::vector<std::string> registered = host.registry().component_names(kind::kHazardTemplate);
+    if (spec.kinds.empty()) spec.kinds = registered;
+    for (const std::string& k : spec.kinds)
+      if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
+        std::string list;
+        for (const auto& r : registered) list += (list.empty() ? "" : ", ") + r;
+        throw Error(o.spec + ": kind '" + k + "' is not a registered hazard_template (registered: " + list + ")");
+      }
+    fs::create_directories(out);
+    // The campaign file beside its results, so a folder says what made it; a different one is refused.
+    const Json this_spec = load_yaml_file(o.spec).value;
+    const fs::path copy = out / "campaign.json";
+    if (fs::exists(copy)) {
+      const Json before = read_json(copy);
+      if (before != this_spec)
+        throw Error(out.string() + " holds a campaign of a different campaign file; use a new folder");
+    } else {
+      write_file_atomic(copy, json_text(this_spec, 2) + "\n");
+    }
+    for (size_t i = 0; i < spec.recordings.size(); ++i) {
+      const CampaignRecording& r = spec.recordings[i];
+      if (!o.quiet) std::cerr << "campaign: scouting " << r.name << " (" << r.config.string() << ")\n";
+      Scouted sc = scout(host, spec, r, out / "recordings" / r.name, o);
+      if (o.interrupt && o.interrupt->load()) throw Error("interrupted while scouting " + r.name);
+      scout_cpu += sc.cpu_s;
+      feedback_ok[r.name] = sc.has_feedback;
+      windows[r.name] = candidate_windows(sc.frames, spec);
+      if (!o.quiet)
+        std::cerr << "campaign: " << r.name << ": " << sc.frames.size() << " frames, " << windows[r.name].size()
+                  << " candidate trigger frames" << (sc.has_feedback ? "" : " (the generator takes no feedback)")
+                  << "\n";
+      for (const std::string& k : spec.kinds) {
+        Pair p;
+        p.rec = &spec.recordings[i];
+        p.kind = k;
+        p.rec_index = i;
+        // Finished attempts of an earlier invocation: kept, never repeated.
+        for (int n = 1;; ++n) {
+          std::string why;
+          auto next = plan_next(p, windows[r.name], spec, out, &why);
+          if (!next) break;
+          const Json done = read_json(next->dir / "attempt.json");
+          if (!done.is_object()) break;
+          p.attempts.push_back(done);
+        }
+        pairs.push_back(std::move(p));
+      }
+    }
+  } catch (const Error& e) {
+    std::cerr << "error: " << redact_urls(e.what()) << "\n";
+    return 1;
+  }
+
+  int started = 0;
+  std::map<pid_t, std::pair<Pair*, Planned>> running;
+  std::map<pid_t, std::chrono::steady_clock::time_point> started_at;
+  const int jobs = std::max(1, o.jobs);
+  bool interrupted = false;
+  auto finish_one = [&] {
+    const ChildExit ex = wait_any_child();
+    if (ex.pid <= 0) return;
+    auto it = running.find(ex.pid);
+    if (it == running.end()) return;
+    Pair& p = *it->second.first;
+    const Planned a = it->second.second;
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_at[ex.pid]).count();
+    running.erase(it);
+    p.running = false;
+    std::error_code ec;
+    fs::rename(a.dir.string() + ".log", a.dir / "run.log", ec);
+    if (interrupted || ex.exit_code == 130) return;  // not finished: run again next time
+    Json e = collect_attempt(p, a, ex, wall, out);
+    if (e.value("passed", false)) e["scenario"] = fs::relative(publish(e, out), out).string();
+    write_file_atomic(a.dir / "attempt.json", json_text(e, 2) + "\n");
+    p.attempts.push_back(e);
+    std::string reasons;
+    for (const Json& r : e["reasons"]) reasons += "\n    - " + r.get<std::string>();
+    std::cerr << "campaign: " << p.rec->name << " / " << p.kind << " #" << a.index << " (frame "
+              << a.window.trigger << ", seed " << a.seed << "): " << e["outcome"].get<std::string>()
+              << (e.contains("object_class") ? " (" + e["object_class"].get<std::string>() + ")" : "") << ", "
+              << fixed(ex.cpu_s, 1) << " s CPU" << reasons << "\n";
+    write_reports(spec, out, pairs, windows, scout_cpu,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), false);
+  };
+  while (true) {
+    if (o.interrupt && o.interrupt->load() && !interrupted) {
+      interrupted = true;
+      for (auto& [pid, pa] : running) kill(pid, SIGINT);
+    }
+    Pair* next_pair = nullptr;
+    Planned next;
+    if (!interrupted && (o.max_attempts < 0 || started < o.max_attempts))
+      for (Pair& p : pairs) {
+        if (p.running || !p.stopped.empty()) continue;
+        std::string why;
+        auto a = plan_next(p, windows[p.rec->name], spec, out, &why);
+        if (!a) {
+          p.stopped = why;
+          continue;
+        }
+        next_pair = &p;
+        next = *a;
+        break;
+      }
+    if (next_pair && static_cast<int>(running.size()) < jobs) {
+      fs::path fb;
+      if (feedback_ok[next_pair->rec->name] && !next_pair->attempts.empty()) {
+        fb = pair_dir(out, *next_pair) / (next.id + ".feedback.json");
+        fs::create_directories(fb.parent_path());
+        write_file_atomic(fb, json_text(feedback_of(*next_pair), 2) + "\n");
+      }
+      fs::create_directories(next.dir.parent_path());
+      const pid_t pid = spawn_logged(attempt_args(o, *next_pair, next, fb), next.dir.string() + ".log");
+      next_pair->running = true;
+      running[pid] = {next_pair, next};
+      started_at[pid] = std::chrono::steady_clock::now();
+      ++started;
+      if (!o.quiet)
+        std::cerr << "campaign: " << next_pair->rec->name << " / " << next_pair->kind << " #" << next.index
+                  << " started (frames " << next.window.first << "-" << next.window.last << ", trigger "
+                  << next.window.trigger << ", seed " << next.seed << ")\n";
+      continue;
+    }
+    if (running.empty()) break;
+    finish_one();
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const bool complete = !interrupted && std::all_of(pairs.begin(), pairs.end(),
+                                                    [](const Pair& p) { return !p.stopped.empty(); });
+  write_reports(spec, out, pairs, windows, scout_cpu, wall, complete);
+  std::ifstream md(out / "summary.md");
+  std::cout << md.rdbuf();
+  if (interrupted) {
+    std::cerr << "campaign interrupted; finished attempts are kept and the campaign continues from them next time\n";
+    return 130;
+  }
+  if (!complete)
+    std::cerr << "campaign: stopped after " << started << " attempts (--max-attempts); run it again to go on\n";
+  std::cerr << "campaign: -> " << (out / "index.html").string() << "\n";
+  return 0;
+}
+
+}  // namespace hf::core
