@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -129,7 +130,7 @@ CampaignSpec parse_spec(const std::string& file) {
   double per_pair = s.scenarios_per_pair;
   number(v, "", "scenarios_per_pair", per_pair, 1, 100);
   s.scenarios_per_pair = static_cast<int>(per_pair);
-  const Json w = section("windows", {"history_s", "min_left_s", "max_horizon_s", "margin_s", "spacing_s",
+  const Json w = section("windows", {"history_s", "history_frames", "min_left_s", "max_horizon_s", "margin_s", "spacing_s",
                                      "seeds_per_window", "min_ego_speed_mps", "lead_s"});
   number(w, "/windows", "history_s", s.history_s, 0, 30);
   number(w, "/windows", "min_left_s", s.min_left_s, 0.1, 60);
@@ -138,6 +139,9 @@ CampaignSpec parse_spec(const std::string& file) {
   number(w, "/windows", "spacing_s", s.spacing_s, 0, 60);
   number(w, "/windows", "min_ego_speed_mps", s.min_ego_speed_mps, 0, 80);
   number(w, "/windows", "lead_s", s.lead_s, 0, 20);
+  double history_frames = s.history_frames;
+  number(w, "/windows", "history_frames", history_frames, 0, 1000);
+  s.history_frames = static_cast<int>(history_frames);
   double seeds = s.seeds_per_window;
   number(w, "/windows", "seeds_per_window", seeds, 1, 100);
   s.seeds_per_window = static_cast<int>(seeds);
@@ -299,6 +303,7 @@ std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& fra
     std::sort(dist.begin(), dist.end());
     reach = dist[static_cast<size_t>(0.9 * static_cast<double>(dist.size() - 1))];
   }
+  const double history = std::max(s.history_s, s.history_frames * dt);  // what a well-tracked trigger has
   for (size_t i = 1; i < frames.size(); ++i) {
     const ScoutFrame& f = frames[i];
     if (!f.safe) continue;
@@ -313,16 +318,18 @@ std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& fra
     w.scene_ttc = f.scene_ttc;
     // Margins: history_s before the trigger (tracks need it for velocities), the horizon after it plus margin_s.
     const double horizon = std::min(left, s.max_horizon_s);
-    w.first = frames.front().frame;
+    // History: at least history_frames frames and everything within history_s.
+    size_t first_i = i;
+    while (first_i > 0 && (i - first_i < static_cast<size_t>(s.history_frames) ||
+                           frames[first_i - 1].t >= f.t - s.history_s - 1e-6))
+      --first_i;
+    w.first = frames[first_i].frame;
     w.last = frames.back().frame;
-    double first_t = frames.front().t, turn = 0;
+    const double first_t = frames[first_i].t;
+    double turn = 0;
     bool yaw_known = false;
     for (size_t k = 0; k < frames.size(); ++k) {
       const ScoutFrame& g = frames[k];
-      if (g.t <= f.t - s.history_s - 1e-9) {
-        w.first = g.frame + 1;
-        first_t = k + 1 < frames.size() ? frames[k + 1].t : g.t;
-      }
       if (g.t <= f.t + horizon + s.margin_s + 1e-9) w.last = g.frame;
       if (g.t >= f.t - 1e-9 && g.t < f.t + horizon - 1e-9 && g.ego_yaw_rate) {
         const double step = k + 1 < frames.size() ? frames[k + 1].t - g.t : dt;
@@ -330,14 +337,13 @@ std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& fra
         yaw_known = true;
       }
     }
-    w.first = std::min(w.first, f.frame);
     w.history_s = f.t - std::min(first_t, f.t);
     if (yaw_known) w.turn_deg = turn * 180.0 / M_PI;
     // The score: time left to watch the hazard, tracking history, a Safe margin, a straight ego path (hazards are
     // laid out along it; a bend moves them across kerbs and out of view), and whether an object that must become
     // critical after lead_s + a TTC of 1.5 s is first seen within the detector's reach.
     w.score = std::min(left, s.max_horizon_s) / s.max_horizon_s +
-              (s.history_s > 0 ? std::min(w.history_s, s.history_s) / s.history_s : 1.0);
+              (history > 0 ? std::min(w.history_s, history) / history : 1.0);
     w.score += (!f.scene_ttc || *f.scene_ttc >= 3.0) ? 0.5 : 0.0;
     if (w.turn_deg) w.score += 0.5 * std::max(0.0, 1.0 - std::abs(*w.turn_deg) / 20.0);
     if (reach && f.ego_speed) {
@@ -450,6 +456,25 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
     *why = "no candidate window (no Safe frame with enough of the clip left)";
     return std::nullopt;
   }
+  // The generator refusing this kind for the same reasons at two different trigger frames: the scene does not
+  // allow it (no sidewalks, a single lane, ...); more windows and seeds would only repeat the refusal.
+  if (p.attempts.size() >= 2) {
+    const Json& a = p.attempts[p.attempts.size() - 2];
+    const Json& b = p.attempts.back();
+    auto refusal = [](const Json& x) {
+      std::set<std::string> r;
+      if (x.value("outcome", "") != "no hazard") return r;
+      for (const Json& reason : x.value("reasons", Json::array()))
+        if (reason.is_string() && reason.get<std::string>().find("generator") != std::string::npos)
+          r.insert(reason_class(reason.get<std::string>()));
+      return r;
+    };
+    const auto ra = refusal(a), rb = refusal(b);
+    if (!ra.empty() && ra == rb && a["window"]["trigger_frame"] != b["window"]["trigger_frame"]) {
+      *why = "the generator refuses this kind in this scene: " + *rb.begin();
+      return std::nullopt;
+    }
+  }
   Planned a;
   a.index = static_cast<int>(p.attempts.size()) + 1;
   const size_t k = static_cast<size_t>(a.index - 1);
@@ -545,6 +570,15 @@ Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, doubl
       e["reasons"].push_back("the attempt's run ended with exit code " + std::to_string(ex.exit_code) +
                              " (see " + (fs::relative(a.dir, out) / "run.log").string() + ")");
   }
+  // Without a hazard, the generator's and planner's warnings say why (e.g. the trigger frame was Unsafe).
+  if (!spec.is_object() && m.is_object() && m.contains("warnings"))
+    for (const Json& w : m["warnings"]) {
+      const std::string t = w.is_string() ? w.get<std::string>() : "";
+      for (const char* node : {"[generator] warning: ", "[planner] warning: "})
+        if (t.rfind(node, 0) == 0)
+          e["reasons"].push_back(std::string(node + 1, std::strchr(node, ']') - node - 1) + ": " +
+                                 t.substr(std::strlen(node)));
+    }
   e["outcome"] = e["passed"].get<bool>()   ? "verified"
                  : !spec.is_object()       ? "no hazard"
                  : v.is_object()           ? "not verified"
@@ -570,7 +604,7 @@ fs::path publish(const Json& e, const fs::path& out) {
 Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) {
   Json by_kind = Json::object(), by_rec = Json::object();
   std::map<std::string, int> reasons;
-  int attempts = 0, verified_attempts = 0, verified_pairs = 0, spurious_passes = 0;
+  int attempts = 0, verified_attempts = 0, verified_pairs = 0, spurious_passes = 0, with_spurious = 0;
   double cpu = scout_cpu;
   for (const Pair& p : pairs) {
     for (Json* row : {&by_kind[p.kind], &by_rec[p.rec->name]}) {
@@ -585,7 +619,9 @@ Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) 
     verified_attempts += p.verified();
     cpu += p.cpu();
     for (const Json& a : p.attempts) {
-      if (a.value("passed", false) && !a.value("spurious_frames", Json::array()).empty()) ++spurious_passes;
+      // A spurious pass: verified without a single Unsafe frame attributed to the hazard.
+      if (a.value("passed", false) && a.value("hazard_critical_frames", 0) == 0) ++spurious_passes;
+      if (a.value("passed", false) && !a.value("spurious_frames", Json::array()).empty()) ++with_spurious;
       if (!a.value("passed", false))
         for (const Json& r : a.value("reasons", Json::array()))
           if (r.is_string()) ++reasons[reason_class(r.get<std::string>())];
@@ -607,6 +643,7 @@ Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) 
           {"verified_attempts", verified_attempts},
           {"yield", attempts > 0 ? static_cast<double>(verified_attempts) / attempts : 0.0},
           {"spurious_passes", spurious_passes},
+          {"verified_with_spurious_frames", with_spurious},
           {"cpu_s", cpu},
           {"scout_cpu_s", scout_cpu},
           {"cpu_s_per_verified_scenario", verified_pairs > 0 ? Json(cpu / verified_attempts) : Json()},
@@ -623,7 +660,10 @@ std::string summary_markdown(const CampaignSpec& s, const Json& sum, const std::
   md << sum["verified_pairs"].get<int>() << " of " << sum["pairs"].get<int>()
      << " (recording, kind) pairs verified; " << sum["verified_attempts"].get<int>() << " of "
      << sum["attempts"].get<int>() << " attempts verified (yield " << fixed(100 * sum["yield"].get<double>(), 0)
-     << " %); " << sum["spurious_passes"].get<int>() << " verified attempts with spurious Unsafe frames. CPU "
+     << " %); " << sum["spurious_passes"].get<int>()
+     << " spurious passes (verified without an Unsafe frame attributed to the hazard); "
+     << sum["verified_with_spurious_frames"].get<int>()
+     << " verified attempts also had Unsafe frames from something else. CPU "
      << fixed(sum["cpu_s"].get<double>(), 0) << " s in all (scouting " << fixed(sum["scout_cpu_s"].get<double>(), 0)
      << " s)";
   if (!sum["cpu_s_per_verified_scenario"].is_null())

@@ -29,7 +29,8 @@ struct CampaignSpec {
   int attempts = 6;                // per (recording, kind)
   double cpu_s = 900;              // per (recording, kind), CPU seconds of its attempts
   int scenarios_per_pair = 1;      // verified scenarios wanted per pair
-  double history_s = 1.0;          // frames before the trigger each attempt runs (tracks need velocities)
+  double history_s = 1.0;          // time before the trigger each attempt runs (tracks need velocities) ...
+  int history_frames = 5;          // ... and at least this many frames (new tracks' first velocities are noisy)
   double min_left_s = 1.0;         // clip needed after the trigger
   double max_horizon_s = 6.0;      // the generator's longest horizon: frames after it are not run
   double margin_s = 0.5;           // frames run after the horizon

@@ -1,0 +1,126 @@
+// The campaign's candidate windows on scouted frames the tests make, its reason classes, and its refusals of
+// bad campaign files (through the CLI).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "command.hpp"
+#include "hazardforge/core/campaign.hpp"
+#include "temp_dir.hpp"
+
+namespace hf::core {
+namespace {
+
+// A 10 Hz recording of `n` frames, Safe, the ego at 8 m/s driving straight.
+std::vector<ScoutFrame> clip(int n, double fps = 10.0) {
+  std::vector<ScoutFrame> f(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    f[i].frame = i;
+    f[i].t = i / fps;
+    f[i].ego_speed = 8.0;
+    f[i].ego_yaw_rate = 0.0;
+    f[i].objects = {{"car", 20.0 + i % 7}, {"car", 35.0}};
+  }
+  return f;
+}
+
+TEST(CampaignWindows, UnsafeFramesStandingEgoAndTooLittleClipLeftAreNoCandidates) {
+  CampaignSpec s;
+  auto f = clip(80);  // 8 s
+  f[30].safe = false;
+  f[40].ego_speed = 0.2;  // below min_ego_speed_mps
+  const auto w = candidate_windows(f, s);
+  std::set<int64_t> triggers;
+  for (const auto& x : w) triggers.insert(x.trigger);
+  EXPECT_FALSE(triggers.count(0));   // no history at all
+  EXPECT_FALSE(triggers.count(30));  // Unsafe already
+  EXPECT_FALSE(triggers.count(40));  // the ego stands
+  EXPECT_TRUE(triggers.count(70));   // 1.0 s left
+  EXPECT_FALSE(triggers.count(71));  // 0.9 s left < min_left_s
+  EXPECT_EQ(w.size(), 80u - 1 - 2 - 9);
+  EXPECT_EQ(w.front().history_s, 1.0);
+}
+
+TEST(CampaignWindows, AttemptFramesCoverHistoryHorizonAndMargin) {
+  CampaignSpec s;
+  const auto w = candidate_windows(clip(200), s);  // 20 s
+  for (const auto& x : w) {
+    if (x.trigger != 50) continue;
+    EXPECT_EQ(x.first, 40);                    // 1 s of history: frames 40..49
+    EXPECT_EQ(x.last, 50 + 60 + 5);            // the 6 s horizon and 0.5 s margin
+    EXPECT_NEAR(x.history_s, 1.0, 1e-9);
+    EXPECT_NEAR(*x.turn_deg, 0.0, 1e-9);
+    return;
+  }
+  FAIL() << "frame 50 is no candidate";
+}
+
+TEST(CampaignWindows, AStraightStretchComesBeforeABendAndCloseWindowsComeLast) {
+  CampaignSpec s;
+  auto f = clip(200);
+  for (int i = 0; i < 100; ++i) f[i].ego_yaw_rate = 0.3;  // 17 deg/s: a bend for the first 10 s
+  const auto w = candidate_windows(f, s);
+  ASSERT_FALSE(w.empty());
+  EXPECT_GE(w.front().t, 10.0 - 1e-9);   // the best window is on the straight
+  EXPECT_LT(std::abs(*w.front().turn_deg), 1.0);
+  // The first windows are at least spacing_s apart.
+  for (size_t i = 0; i < 5; ++i)
+    for (size_t j = i + 1; j < 5; ++j) EXPECT_GE(std::abs(w[i].t - w[j].t), s.spacing_s - 1e-9);
+}
+
+TEST(CampaignWindows, SlowFrameRatesGetAtLeastHistoryFramesOfHistory) {
+  CampaignSpec s;
+  const auto w = candidate_windows(clip(41, 2.0), s);  // nuScenes keyframes: 2 Hz
+  for (const auto& x : w)
+    if (x.trigger == 20) {
+      EXPECT_EQ(x.first, 15);  // 5 frames = 2.5 s, more than history_s
+      EXPECT_NEAR(x.history_s, 2.5, 1e-9);
+      return;
+    }
+  FAIL() << "frame 20 is no candidate";
+}
+
+TEST(CampaignWindows, AShortClipSpreadsItsWindowsOverAQuarterOfIt) {
+  CampaignSpec s;
+  const auto w = candidate_windows(clip(38, 25.0), s);  // 1.52 s at 25 fps
+  ASSERT_GE(w.size(), 2u);
+  EXPECT_GE(std::abs(w[0].t - w[1].t), 1.52 / 4 - 1e-9);
+}
+
+TEST(CampaignWindows, TheDetectorsReachWeighsAFastEgo) {
+  CampaignSpec s;
+  auto slow = clip(100), fast = clip(100);
+  for (auto& x : fast) x.ego_speed = 30.0;  // a hazard would have to appear ~108 m ahead; tracked up to ~35 m
+  const auto ws = candidate_windows(slow, s), wf = candidate_windows(fast, s);
+  ASSERT_TRUE(ws.front().reach_m && wf.front().appear_m);
+  EXPECT_NEAR(*wf.front().reach_m, 35.0, 1e-9);
+  EXPECT_GT(*wf.front().appear_m, 100.0);
+  EXPECT_GT(ws.front().score, wf.front().score + 0.5);
+}
+
+TEST(CampaignReasons, NumbersAreLeftOutSoReasonsCount) {
+  EXPECT_EQ(reason_class("the inserted object is never visible (0 of 15 frames)"),
+            "the inserted object is never visible (# of # frames)");
+  EXPECT_EQ(reason_class("minimum scene TTC 2.26 s >= 1.5 s"), reason_class("minimum scene TTC 1.89 s >= 1.5 s"));
+  EXPECT_EQ(reason_class("x at -3.5 m"), "x at # m");
+}
+
+TEST(CampaignCli, ABadCampaignFileIsRefusedNamingFileLineAndKey) {
+  test::TempDir dir;
+  const auto spec = dir / "c.yaml";
+  std::ofstream(spec) << "name: c\nbudget: {attempts: 0, cpu: 10}\nrecordings:\n  - name: a\n    config: missing.yaml\n"
+                      << "  - name: a b\n    config: missing.yaml\n";
+  const auto r = test::run_command(std::string(HF_EXE) + " campaign " + test::quote(spec) + " -o " +
+                                   test::quote(dir / "out"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find(spec.string() + ":2:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("'attempts' must be a number in [1.0, 1000.0]"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("unknown key 'cpu' in 'budget'"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("missing.yaml not found"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("a recording needs a 'name' of letters"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));  // nothing written for a refused campaign
+}
+
+}  // namespace
+}  // namespace hf::core
