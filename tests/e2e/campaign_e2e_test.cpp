@@ -1,0 +1,100 @@
+// A campaign through the CLI on the real nuScenes scene: interrupted (here: stopped after one attempt) and run
+// again, it keeps every finished attempt untouched, runs only what is left, and re-runs an attempt that never
+// finished; index.json lists each attempt once.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "command.hpp"
+#include "hazardforge/types.hpp"
+#include "temp_dir.hpp"
+#include "test_support.hpp"
+
+namespace hf {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
+  const fs::path shared = test::shared_dir();
+  HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");
+  HF_REQUIRE_SHARED(shared / "models/yolov8n/yolov8n_deq_640x384.onnx");
+  const fs::path exe = fs::path(HF_BINARY_DIR "/bin/hazardforge");
+  test::TempDir dir;
+  // Two pairs with one attempt each; the default appearance set, so no harvest is needed.
+  std::ofstream(dir / "c.yaml") << "name: resume\nkinds: [sudden_stop, pedestrian_crossing]\n"
+                                << "budget: {attempts: 1, cpu_s: 600}\nrecordings:\n  - name: nus\n    config: "
+                                << (test::source_dir() / "configs/paper.yaml").string()
+                                << "\n    set: [renderer.assets_dir=]\n";
+  const fs::path out = dir / "out";
+  const std::string cmd = "HAZARDFORGE_SHARED=" + test::quote(shared) + " " + test::quote(exe) + " campaign " +
+                          test::quote(dir / "c.yaml") + " -o " + test::quote(out) + " -q";
+
+  const auto first = test::run_command(cmd + " --max-attempts 1");
+  ASSERT_EQ(first.code, 0) << first.out;
+  EXPECT_NE(first.out.find("stopped after 1 attempts"), std::string::npos) << first.out;
+  const fs::path a = out / "attempts/nus/sudden_stop";
+  ASSERT_EQ(std::distance(fs::directory_iterator(a), fs::directory_iterator{}), 1) << first.out;
+  const fs::path a1 = fs::directory_iterator(a)->path();
+  ASSERT_TRUE(fs::exists(a1 / "attempt.json")) << first.out;
+  const std::string a1_record = slurp(a1 / "attempt.json"), a1_manifest = slurp(a1 / "manifest.json");
+  const auto scout_time = fs::last_write_time(out / "recordings/nus/scout/scout.jsonl");
+  EXPECT_FALSE(fs::exists(out / "attempts/nus/pedestrian_crossing"));
+
+  // Again: the sudden stop is kept as it was (not run again), the pedestrian crossing runs; the scouting run too
+  // is kept.
+  const auto second = test::run_command(cmd);
+  ASSERT_EQ(second.code, 0) << second.out;
+  EXPECT_EQ(slurp(a1 / "attempt.json"), a1_record);
+  EXPECT_EQ(slurp(a1 / "manifest.json"), a1_manifest);
+  EXPECT_EQ(fs::last_write_time(out / "recordings/nus/scout/scout.jsonl"), scout_time);
+  EXPECT_EQ(second.out.find("sudden_stop #1"), std::string::npos) << second.out;
+  EXPECT_NE(second.out.find("pedestrian_crossing #1"), std::string::npos) << second.out;
+  Json index = test::read_json_file(out / "index.json");
+  ASSERT_EQ(index["attempts"].size(), 2u) << index.dump(2);
+  EXPECT_TRUE(index["complete"].get<bool>());
+  for (const Json& e : index["attempts"]) {
+    EXPECT_TRUE(e.contains("reasons"));
+    EXPECT_TRUE(e["window"].contains("trigger_frame"));
+    EXPECT_TRUE(fs::exists(out / e["folder"].get<std::string>() / "manifest.json"));
+    if (e["passed"].get<bool>()) {
+      EXPECT_TRUE(fs::exists(out / e["scenario"].get<std::string>() / "augmented.mp4"));
+      EXPECT_TRUE(fs::exists(out / e["scenario"].get<std::string>() / "scenario.xosc"));
+      EXPECT_GT(e["hazard_critical_frames"].get<int>(), 0);
+    } else {
+      EXPECT_FALSE(e["reasons"].empty()) << e.dump(2);
+    }
+  }
+  EXPECT_TRUE(fs::exists(out / "index.html"));
+  EXPECT_TRUE(fs::exists(out / "summary.md"));
+
+  // An attempt that never finished (no attempt.json: the process was killed) is run again; nothing else is.
+  const fs::path b = fs::directory_iterator(out / "attempts/nus/pedestrian_crossing")->path();
+  fs::remove(b / "attempt.json");
+  const auto third = test::run_command(cmd);
+  ASSERT_EQ(third.code, 0) << third.out;
+  EXPECT_NE(third.out.find("pedestrian_crossing #1"), std::string::npos) << third.out;
+  EXPECT_EQ(third.out.find("sudden_stop #1"), std::string::npos) << third.out;
+  EXPECT_TRUE(fs::exists(b / "attempt.json"));
+  EXPECT_EQ(slurp(a1 / "attempt.json"), a1_record);
+  EXPECT_EQ(test::read_json_file(out / "index.json")["attempts"].size(), 2u);
+
+  // A different campaign file is refused for this folder: results of two campaigns never mix.
+  std::ofstream(dir / "c.yaml", std::ios::app) << "description: changed\n";
+  const auto fourth = test::run_command(cmd);
+  EXPECT_EQ(fourth.code, 1);
+  EXPECT_NE(fourth.out.find("holds a campaign of a different campaign file"), std::string::npos) << fourth.out;
+}
+
+}  // namespace
+}  // namespace hf
