@@ -69,7 +69,9 @@ bool safe_name(const std::string& s) {
 
 // ---- the campaign file ---------------------------------------------------------------------------------------
 
-CampaignSpec parse_spec(const std::string& file) {
+}  // namespace
+
+CampaignSpec load_campaign(const std::string& file) {
   YamlDocument doc = load_yaml_file(file);
   const Json& v = doc.value;
   std::vector<Diagnostic> diags;
@@ -192,6 +194,8 @@ CampaignSpec parse_spec(const std::string& file) {
   if (!diags.empty()) throw DiagnosticError(std::move(diags));
   return s;
 }
+
+namespace {
 
 // ---- scouting: the recording's own assessment ------------------------------------------------------------------
 
@@ -779,7 +783,7 @@ void write_reports(const CampaignSpec& s, const fs::path& out, const std::vector
 int cmd_campaign(Host& host, const CampaignOptions& o) {
   CampaignSpec spec;
   try {
-    spec = parse_spec(o.spec);
+    spec = load_campaign(o.spec);
   } catch (const Error& e) {
     std::cerr << e.what() << "\n";
     return 1;

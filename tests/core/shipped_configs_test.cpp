@@ -7,7 +7,9 @@
 #include <fstream>
 #include <map>
 
+#include "hazardforge/core/campaign.hpp"
 #include "hazardforge/core/host.hpp"
+#include "hazardforge/yaml_json.hpp"
 #include "test_support.hpp"
 
 namespace hf::core {
@@ -15,12 +17,39 @@ namespace {
 
 namespace fs = std::filesystem;
 
+bool is_campaign(const fs::path& file) {
+  return file.stem().string().rfind("campaign", 0) == 0;
+}
+
 std::vector<fs::path> shipped_graph_configs() {
   std::vector<fs::path> out;
   for (const auto& e : fs::directory_iterator(hf::test::source_dir() / "configs"))
-    if (e.path().extension() == ".yaml") out.push_back(e.path());
+    if (e.path().extension() == ".yaml" && !is_campaign(e.path())) out.push_back(e.path());
   std::sort(out.begin(), out.end());
   return out;
+}
+
+TEST(ShippedConfigs, CampaignsNameRunnableScenarioGraphs) {
+  Host host({HF_PLUGIN_DIR});
+  host.load_plugins();
+  int campaigns = 0;
+  for (const auto& e : fs::directory_iterator(hf::test::source_dir() / "configs")) {
+    if (e.path().extension() != ".yaml" || !is_campaign(e.path())) continue;
+    SCOPED_TRACE(e.path().filename().string());
+    ++campaigns;
+    try {
+      const CampaignSpec spec = load_campaign(e.path().string());
+      for (const std::string& k : spec.kinds) EXPECT_NE(host.registry().find(kind::kHazardTemplate, k), nullptr) << k;
+      for (const CampaignRecording& r : spec.recordings) {
+        const Graph g = load_graph(host, r.config, r.set);
+        EXPECT_NE(g.node("generator"), nullptr) << r.name;
+        EXPECT_NE(g.node("verifier"), nullptr) << r.name;
+      }
+    } catch (const Error& err) {
+      ADD_FAILURE() << err.what();
+    }
+  }
+  EXPECT_GE(campaigns, 1);
 }
 
 TEST(ShippedConfigs, ValidateAndStateEachFactOnce) {

@@ -42,6 +42,9 @@ struct CampaignSpec {
   std::vector<CampaignRecording> recordings;
 };
 
+// Reads and checks a campaign file (every problem at once, with file and line). Throws hf::DiagnosticError.
+CampaignSpec load_campaign(const std::string& file);
+
 // One frame of a recording's scouting run: its own assessment, no hazard.
 struct ScoutFrame {
   int64_t frame = 0;
