@@ -226,6 +226,7 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   opt.last_frame = req.last_frame;
   opt.interrupt = req.interrupt;
   opt.quiet = req.quiet;
+  opt.quiet_keeps_warnings = true;
   Progress progress(req.progress && !req.quiet);
   std::mutex pmu;
   opt.on_progress = [&](int64_t done, std::optional<int64_t> total) {

@@ -47,7 +47,8 @@ int main(int argc, char** argv) {
   run->add_option("--frames", common.frames,
                   "Only the recording's frames FIRST:LAST (indexes and times stay the recording's)")
       ->type_name("FIRST:LAST");
-  run->add_flag("-q,--quiet", common.quiet, "No progress or stage log lines");
+  run->add_flag("-q,--quiet", common.quiet,
+                "No progress or stage info lines (warnings, errors and a verdict's reasons still show)");
   auto add_folder_flags = [&](CLI::App* c) {
     auto* resume = c->add_flag("--resume", common.resume,
                                "Run again into an output folder that holds a run of the same config");

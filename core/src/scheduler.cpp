@@ -180,7 +180,8 @@ void NodeContext::log(LogLevel level, const std::string& message) const {
   const std::string line =
       "[" + node->spec->id + "] " + names[static_cast<int>(level)] + ": " + redact_urls(message);
   std::lock_guard lk(shared->mu);
-  if (!shared->options->quiet) std::cerr << line << "\n";
+  if (!shared->options->quiet || (shared->options->quiet_keeps_warnings && level >= LogLevel::kWarning))
+    std::cerr << line << "\n";
   if (level >= LogLevel::kWarning) shared->log.push_back(line);
 }
 

@@ -26,7 +26,8 @@ struct RunOptions {
   // Called from the runner's thread about every 100 ms: frames completed by every node, total if known.
   std::function<void(int64_t done, std::optional<int64_t> total)> on_progress;
   LogLevel min_log_level = LogLevel::kInfo;
-  bool quiet = false;  // no log lines on stderr (tests, benchmarks)
+  bool quiet = false;  // no log lines on stderr (tests, benchmarks) ...
+  bool quiet_keeps_warnings = false;  // ... except warnings and errors (`run -q`: a verdict's reasons still show)
 };
 
 struct NodeTiming {
