@@ -1,0 +1,229 @@
+// Appearance metrics of one object: edge contrast and halo across its silhouette, sharpness and noise against
+// the background ring, Lab statistics, size at its road distance; and the grabCut silhouette of a real object.
+#include "hazardforge/realism/metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "hazardforge/error.hpp"
+
+namespace hf::realism {
+
+namespace {
+
+cv::Mat disk(int r) {
+  return cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1));
+}
+cv::Mat grow(const cv::Mat& m, int r) {
+  if (r <= 0) return m.clone();
+  cv::Mat out;
+  cv::dilate(m, out, disk(r), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+  return out;
+}
+cv::Mat shrink(const cv::Mat& m, int r) {
+  if (r <= 0) return m.clone();
+  cv::Mat out;
+  // Outside the picture counts as object so that an object cut by the border keeps its interior there.
+  cv::erode(m, out, disk(r), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(255));
+  return out;
+}
+
+// Local mean of `v` over the pixels of `band` (window w x w); count of those pixels in `n`.
+void band_mean(const cv::Mat& v, const cv::Mat& band, int w, cv::Mat& mean, cv::Mat& n) {
+  cv::Mat b, vb;
+  band.convertTo(b, CV_32F, 1.0 / 255);
+  cv::multiply(v, b, vb);
+  cv::boxFilter(vb, mean, CV_32F, cv::Size(w, w), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  cv::boxFilter(b, n, CV_32F, cv::Size(w, w), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  cv::divide(mean, cv::max(n, 1e-6), mean);
+}
+
+double masked_variance(const cv::Mat& v, const cv::Mat& mask, int min_px) {
+  if (cv::countNonZero(mask) < min_px) return kNaN;
+  cv::Scalar m, sd;
+  cv::meanStdDev(v, m, sd, mask);
+  return sd[0] * sd[0];
+}
+
+}  // namespace
+
+std::optional<double> ground_depth(const CameraModel& camera, double x, double y) {
+  const auto g = camera.pixel_to_ground({x, y});
+  if (!g) return std::nullopt;
+  const double z = camera.ego_to_cam(*g)[2];
+  if (!(z > 0)) return std::nullopt;
+  return z;
+}
+
+double noise_sigma(const cv::Mat& grey, const cv::Mat& mask) {
+  if (grey.empty() || grey.channels() != 1) throw Error("noise_sigma: expected a grey picture");
+  if (grey.rows < 5 || grey.cols < 5) return kNaN;
+  cv::Mat g;
+  grey.convertTo(g, CV_32F);
+  const cv::Matx33f k(1, -2, 1, -2, 4, -2, 1, -2, 1);
+  cv::Mat resp, smooth, gx, gy, mag;
+  cv::filter2D(g, resp, CV_32F, k, cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
+  cv::GaussianBlur(g, smooth, cv::Size(), 1.5);
+  cv::Sobel(smooth, gx, CV_32F, 1, 0);
+  cv::Sobel(smooth, gy, CV_32F, 0, 1);
+  cv::magnitude(gx, gy, mag);
+  std::vector<std::pair<float, float>> px;  // (flatness, |response|)
+  px.reserve(static_cast<size_t>(g.total()));
+  // The outermost pixel's kernel reaches past the picture; leave it out.
+  for (int y = 1; y < g.rows - 1; ++y) {
+    const float* r = resp.ptr<float>(y);
+    const float* m = mag.ptr<float>(y);
+    const uint8_t* k8 = mask.empty() ? nullptr : mask.ptr<uint8_t>(y);
+    for (int x = 1; x < g.cols - 1; ++x)
+      if (!k8 || k8[x] >= 128) px.emplace_back(m[x], std::abs(r[x]));
+  }
+  if (px.size() < 32) return kNaN;
+  const size_t half = px.size() / 2;
+  std::nth_element(px.begin(), px.begin() + static_cast<long>(half), px.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  double sum = 0;
+  for (size_t i = 0; i < half; ++i) sum += px[i].second;
+  return std::sqrt(CV_PI / 2) / 6.0 * sum / static_cast<double>(half);
+}
+
+AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offset, const cv::Rect2f& box,
+                        const std::string& label, const CameraModel* camera, const MeasureOptions& o) {
+  if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("realism::measure: expected a BGR 8-bit picture");
+  if (mask.empty() || mask.type() != CV_8UC1) throw Error("realism::measure: expected an 8-bit mask");
+  AppearanceStats s;
+  s.label = label;
+  s.box = box;
+  if (box.height > 0) s.aspect = box.width / box.height;
+  if (camera && camera->valid() && box.height > 0 && box.y + box.height < bgr.rows - 1) {
+    if (auto z = ground_depth(*camera, box.x + box.width / 2.0, box.y + box.height)) {
+      s.ground_depth_m = *z;
+      s.height_m = box.height * *z / camera->fy;
+      s.width_m = box.width * *z / camera->fx;
+    }
+  }
+
+  // Work on the mask's rectangle grown by the widest band, clipped to the picture.
+  const int obj_h = std::max(1, mask.rows);
+  const int ring = std::clamp(static_cast<int>(std::lround(o.ring_fraction * obj_h)), 6, 40);
+  const int reach = std::max({ring, o.halo_gap_px + o.halo_width_px, o.band_px}) + 2;
+  const cv::Rect want(offset.x - reach, offset.y - reach, mask.cols + 2 * reach, mask.rows + 2 * reach);
+  const cv::Rect area = want & cv::Rect(0, 0, bgr.cols, bgr.rows);
+  if (area.area() <= 0) return s;
+  cv::Mat m(area.size(), CV_8U, cv::Scalar(0));
+  {
+    const cv::Rect src = cv::Rect(offset, mask.size()) & area;
+    if (src.area() <= 0) return s;
+    cv::Mat bin;
+    cv::threshold(mask(src - offset), bin, 127, 255, cv::THRESH_BINARY);
+    bin.copyTo(m(src - area.tl()));
+  }
+  if (cv::countNonZero(m) < o.min_object_px) return s;
+
+  // L*a*b* in its natural units (L* 0..100).
+  cv::Mat f32, lab;
+  bgr(area).convertTo(f32, CV_32F, 1.0 / 255);
+  cv::cvtColor(f32, lab, cv::COLOR_BGR2Lab);
+  std::vector<cv::Mat> ch;
+  cv::split(lab, ch);
+  const cv::Mat& L = ch[0];
+
+  const cv::Mat interior = shrink(m, 1);
+  if (cv::countNonZero(interior) >= o.min_object_px) {
+    cv::Scalar mean, sd;
+    cv::meanStdDev(lab, mean, sd, interior);
+    s.lab_mean = {mean[0], mean[1], mean[2]};
+    s.lab_std = {sd[0], sd[1], sd[2]};
+  }
+
+  // Edge contrast and halo at the silhouette's pixels, from local band means.
+  const int b = std::max(1, o.band_px);
+  const cv::Mat inner = m & ~shrink(m, b);
+  const cv::Mat grown_b = grow(m, b);
+  const cv::Mat outer = grown_b & ~m;
+  const cv::Mat far = grow(m, o.halo_gap_px + o.halo_width_px) & ~grow(m, o.halo_gap_px);
+  const cv::Mat edge = m & ~shrink(m, 1);
+  const int w = 2 * (o.halo_gap_px + o.halo_width_px) + 1;
+  cv::Mat mi, ni, mo, no, mf, nf;
+  band_mean(L, inner, w, mi, ni);
+  band_mean(L, outer, w, mo, no);
+  band_mean(L, far, w, mf, nf);
+  double sum_c = 0, sum_h = 0;
+  int n_c = 0, n_h = 0;
+  for (int y = 0; y < m.rows; ++y) {
+    const uint8_t* e = edge.ptr<uint8_t>(y);
+    for (int x = 0; x < m.cols; ++x) {
+      if (!e[x]) continue;
+      // Skip the silhouette where the picture's border cuts the object (no outside to compare with).
+      const int gx = x + area.x, gy = y + area.y;
+      if (gx <= b || gy <= b || gx >= bgr.cols - 1 - b || gy >= bgr.rows - 1 - b) continue;
+      if (ni.at<float>(y, x) < 1 || no.at<float>(y, x) < 1) continue;
+      sum_c += std::abs(mi.at<float>(y, x) - mo.at<float>(y, x));
+      ++n_c;
+      if (nf.at<float>(y, x) >= 1) {
+        sum_h += std::abs(mo.at<float>(y, x) - mf.at<float>(y, x));
+        ++n_h;
+      }
+    }
+  }
+  if (n_c >= 8) s.edge_contrast = sum_c / n_c;
+  if (n_h >= 8) s.halo = sum_h / n_h;
+
+  // Sharpness and noise: the interior (away from the silhouette) against the background ring.
+  const cv::Mat core = shrink(m, b + 1);
+  const cv::Mat bg = grow(m, ring) & ~grow(m, b + 1);
+  cv::Mat lap;
+  cv::Laplacian(L, lap, CV_32F, 1);
+  const double v_in = masked_variance(lap, core, o.min_object_px);
+  const double v_bg = masked_variance(lap, bg, o.min_object_px);
+  if (std::isfinite(v_in) && std::isfinite(v_bg) && v_bg > 1e-9) s.sharpness = v_in / v_bg;
+  cv::Mat grey;
+  cv::cvtColor(bgr(area), grey, cv::COLOR_BGR2GRAY);
+  if (cv::countNonZero(core) >= o.min_object_px) {
+    s.noise_sigma = noise_sigma(grey, core);
+    const double bg_noise = cv::countNonZero(bg) >= o.min_object_px ? noise_sigma(grey, bg) : kNaN;
+    if (std::isfinite(s.noise_sigma) && std::isfinite(bg_noise) && bg_noise > 1e-6)
+      s.noise_ratio = s.noise_sigma / bg_noise;
+  }
+  return s;
+}
+
+cv::Mat object_mask(const cv::Mat& bgr, const cv::Rect2f& box, cv::Rect* crop, double margin, int max_height_px,
+                    int iterations) {
+  if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("realism::object_mask: expected a BGR 8-bit picture");
+  const cv::Rect img(0, 0, bgr.cols, bgr.rows);
+  const cv::Rect b = cv::Rect(cvFloor(box.x), cvFloor(box.y), cvCeil(box.width), cvCeil(box.height)) & img;
+  if (b.width < 8 || b.height < 8) return {};
+  const int mx = std::max(4, static_cast<int>(margin * b.width)), my = std::max(4, static_cast<int>(margin * b.height));
+  const cv::Rect c = cv::Rect(b.x - mx, b.y - my, b.width + 2 * mx, b.height + 2 * my) & img;
+  if (crop) *crop = c;
+  const double f = std::min(1.0, static_cast<double>(max_height_px) / b.height);
+  cv::Mat small;
+  if (f < 1.0)
+    cv::resize(bgr(c), small, cv::Size(), f, f, cv::INTER_AREA);
+  else
+    small = bgr(c).clone();
+  cv::Rect r(static_cast<int>((b.x - c.x) * f), static_cast<int>((b.y - c.y) * f),
+             std::max(2, static_cast<int>(b.width * f)), std::max(2, static_cast<int>(b.height * f)));
+  r &= cv::Rect(0, 0, small.cols, small.rows);
+  // A box touching the crop's edge (the picture's border) leaves grabCut no background there; it still works
+  // from the other sides, but needs some.
+  if (r.area() <= 0 || r.area() >= small.cols * small.rows) return {};
+  cv::Mat gc(small.size(), CV_8U, cv::Scalar(cv::GC_BGD)), bgd, fgd;
+  try {
+    cv::grabCut(small, gc, r, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+  } catch (const cv::Exception&) {
+    return {};
+  }
+  cv::Mat fg = (gc == cv::GC_FGD) | (gc == cv::GC_PR_FGD);
+  if (f < 1.0) {
+    cv::Mat up;
+    cv::resize(fg, up, c.size(), 0, 0, cv::INTER_LINEAR);
+    cv::threshold(up, fg, 127, 255, cv::THRESH_BINARY);
+  }
+  return fg;
+}
+
+}  // namespace hf::realism
