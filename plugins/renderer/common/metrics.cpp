@@ -14,21 +14,9 @@ namespace hf::realism {
 
 namespace {
 
-cv::Mat disk(int r) {
-  return cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1));
-}
-cv::Mat grow(const cv::Mat& m, int r) {
-  if (r <= 0) return m.clone();
-  cv::Mat out;
-  cv::dilate(m, out, disk(r), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
-  return out;
-}
-cv::Mat shrink(const cv::Mat& m, int r) {
-  if (r <= 0) return m.clone();
-  cv::Mat out;
-  // Outside the picture counts as object so that an object cut by the border keeps its interior there.
-  cv::erode(m, out, disk(r), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(255));
-  return out;
+// Pixels whose distance lies in (lo, hi].
+cv::Mat between(const cv::Mat& dist, double lo, double hi) {
+  return (dist > lo) & (dist <= hi);
 }
 
 // Local mean of `v` over the pixels of `band` (window w x w); count of those pixels in `n`.
@@ -56,6 +44,36 @@ std::optional<double> ground_depth(const CameraModel& camera, double x, double y
   const double z = camera.ego_to_cam(*g)[2];
   if (!(z > 0)) return std::nullopt;
   return z;
+}
+
+double laplacian_variance(const cv::Mat& grey, const cv::Mat& mask) {
+  if (grey.empty() || grey.channels() != 1) throw Error("laplacian_variance: expected a grey picture");
+  cv::Mat lap;
+  cv::Laplacian(grey, lap, CV_32F, 1);
+  if (!mask.empty() && cv::countNonZero(mask) < 16) return kNaN;
+  cv::Scalar m, sd;
+  cv::meanStdDev(lap, m, sd, mask);
+  return sd[0] * sd[0];
+}
+
+double blur_to_match(const cv::Mat& grey, const cv::Mat& mask, double target_variance,
+                     const std::vector<double>& sigmas) {
+  const double v0 = laplacian_variance(grey, mask);
+  if (!std::isfinite(v0) || !(target_variance > 0) || v0 <= target_variance) return 0.0;
+  cv::Mat g, b;
+  grey.convertTo(g, CV_32F);
+  // The first sigma that reaches the target, or the one before it when that is nearer (on a log scale).
+  double prev_s = 0.0, prev_v = v0;
+  for (double s : sigmas) {
+    cv::GaussianBlur(g, b, cv::Size(), s);
+    const double v = laplacian_variance(b, mask);
+    if (!std::isfinite(v)) return prev_s;
+    if (v <= target_variance)
+      return std::log(prev_v / target_variance) < std::log(target_variance / std::max(v, 1e-12)) ? prev_s : s;
+    prev_s = s;
+    prev_v = v;
+  }
+  return prev_s;
 }
 
 double noise_sigma(const cv::Mat& grey, const cv::Mat& mask) {
@@ -130,7 +148,11 @@ AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offse
   cv::split(lab, ch);
   const cv::Mat& L = ch[0];
 
-  const cv::Mat interior = shrink(m, 1);
+  // Distances to the silhouette from inside and from outside (one pass each instead of a morphology per band).
+  cv::Mat d_in, d_out;
+  cv::distanceTransform(m, d_in, cv::DIST_L2, cv::DIST_MASK_3);
+  cv::distanceTransform(~m, d_out, cv::DIST_L2, cv::DIST_MASK_3);
+  const cv::Mat interior = d_in > 1.5;
   if (cv::countNonZero(interior) >= o.min_object_px) {
     cv::Scalar mean, sd;
     cv::meanStdDev(lab, mean, sd, interior);
@@ -140,11 +162,10 @@ AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offse
 
   // Edge contrast and halo at the silhouette's pixels, from local band means.
   const int b = std::max(1, o.band_px);
-  const cv::Mat inner = m & ~shrink(m, b);
-  const cv::Mat grown_b = grow(m, b);
-  const cv::Mat outer = grown_b & ~m;
-  const cv::Mat far = grow(m, o.halo_gap_px + o.halo_width_px) & ~grow(m, o.halo_gap_px);
-  const cv::Mat edge = m & ~shrink(m, 1);
+  const cv::Mat inner = between(d_in, 0, b);
+  const cv::Mat outer = between(d_out, 0, b);
+  const cv::Mat far = between(d_out, o.halo_gap_px, o.halo_gap_px + o.halo_width_px);
+  const cv::Mat edge = between(d_in, 0, 1.0);
   const int w = 2 * (o.halo_gap_px + o.halo_width_px) + 1;
   cv::Mat mi, ni, mo, no, mf, nf;
   band_mean(L, inner, w, mi, ni);
@@ -172,8 +193,8 @@ AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offse
   if (n_h >= 8) s.halo = sum_h / n_h;
 
   // Sharpness and noise: the interior (away from the silhouette) against the background ring.
-  const cv::Mat core = shrink(m, b + 1);
-  const cv::Mat bg = grow(m, ring) & ~grow(m, b + 1);
+  const cv::Mat core = d_in > b + 1;
+  const cv::Mat bg = between(d_out, b + 1, ring);
   cv::Mat lap;
   cv::Laplacian(L, lap, CV_32F, 1);
   const double v_in = masked_variance(lap, core, o.min_object_px);
@@ -191,7 +212,7 @@ AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offse
 }
 
 cv::Mat object_mask(const cv::Mat& bgr, const cv::Rect2f& box, cv::Rect* crop, double margin, int max_height_px,
-                    int iterations) {
+                    int iterations, double min_fill) {
   if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("realism::object_mask: expected a BGR 8-bit picture");
   const cv::Rect img(0, 0, bgr.cols, bgr.rows);
   const cv::Rect b = cv::Rect(cvFloor(box.x), cvFloor(box.y), cvCeil(box.width), cvCeil(box.height)) & img;
@@ -211,13 +232,22 @@ cv::Mat object_mask(const cv::Mat& bgr, const cv::Rect2f& box, cv::Rect* crop, d
   // A box touching the crop's edge (the picture's border) leaves grabCut no background there; it still works
   // from the other sides, but needs some.
   if (r.area() <= 0 || r.area() >= small.cols * small.rows) return {};
+  // Outside the box background, inside probably foreground, and its central ellipse (a third of its width, half
+  // its height) surely: a road user fills the middle of its box, and without that seed grabCut gives a grey car
+  // on a grey street to the street.
   cv::Mat gc(small.size(), CV_8U, cv::Scalar(cv::GC_BGD)), bgd, fgd;
+  gc(r).setTo(cv::GC_PR_FGD);
+  cv::ellipse(gc, cv::Point(r.x + r.width / 2, r.y + r.height / 2),
+              cv::Size(std::max(1, r.width / 6), std::max(1, r.height / 4)), 0, 0, 360, cv::Scalar(cv::GC_FGD),
+              cv::FILLED);
   try {
-    cv::grabCut(small, gc, r, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+    cv::grabCut(small, gc, cv::Rect(), bgd, fgd, iterations, cv::GC_INIT_WITH_MASK);
   } catch (const cv::Exception&) {
     return {};
   }
   cv::Mat fg = (gc == cv::GC_FGD) | (gc == cv::GC_PR_FGD);
+  // A silhouette that fills little of its box is grabCut losing the object, not the object.
+  if (cv::countNonZero(fg(r)) < min_fill * r.area()) return {};
   if (f < 1.0) {
     cv::Mat up;
     cv::resize(fg, up, c.size(), 0, 0, cv::INTER_LINEAR);

@@ -5,6 +5,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -29,18 +30,30 @@ struct MeasureOptions {
 AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offset, const cv::Rect2f& box,
                         const std::string& label, const CameraModel* camera, const MeasureOptions& o = {});
 
-// The silhouette of a real object from its detection box: grabCut initialised with the box (a margin of
-// `margin` of its size around it is background), on a copy scaled to at most `max_height_px` tall, the mask
-// scaled back. Returns the mask (CV_8U 0/255) over `*crop` (the box plus margin, clipped to the picture);
-// an empty mask when the box is too small or grabCut fails.
+// The silhouette of a real object from its detection box: grabCut on a copy scaled to at most `max_height_px`
+// tall, seeded with the box (outside: background, a margin of `margin` of its size; inside: probably the
+// object; its central ellipse surely), the mask scaled back. Returns the mask (CV_8U 0/255) over `*crop` (the
+// box plus margin, clipped to the picture); an empty mask when the box is under 8 px, grabCut fails, or the
+// silhouette fills less than `min_fill` of the box (grabCut lost the object).
 cv::Mat object_mask(const cv::Mat& bgr, const cv::Rect2f& box, cv::Rect* crop, double margin = 0.2,
-                    int max_height_px = 96, int iterations = 2);
+                    int max_height_px = 48, int iterations = 2, double min_fill = 0.35);
 
 // Sensor noise of a grey picture (any depth, grey levels of 8 bits) over a mask (CV_8U, empty = all): Immerkaer's
 // estimator (the 3x3 second-difference kernel cancels planar shading; sigma = sqrt(pi/2) / 6 * mean |response|)
 // on the flattest half of the masked pixels, flatness judged on a blurred copy so it does not select the noise
 // itself. NaN when fewer than 16 pixels are left.
 double noise_sigma(const cv::Mat& grey, const cv::Mat& mask = {});
+
+// Variance of the 3x3 Laplacian of a grey picture (any depth) over a mask (CV_8U, empty = all); NaN below 16
+// pixels.
+double laplacian_variance(const cv::Mat& grey, const cv::Mat& mask = {});
+
+// Matching the recording's blur: the Gaussian sigma, from `sigmas` (ascending), whose blur brings the variance
+// of the Laplacian of `grey` over `mask` nearest `target_variance` (on a log scale; the largest sigma when none
+// reaches it) — the blur that makes an inserted picture as sharp as the frame around it. 0 when the picture is
+// already no sharper (it is never sharpened).
+double blur_to_match(const cv::Mat& grey, const cv::Mat& mask, double target_variance,
+                     const std::vector<double>& sigmas = {0.5, 0.8, 1.1, 1.5, 2.0, 2.6});
 
 // Road point under pixel column x, row y: camera depth (m), or nullopt above the horizon.
 std::optional<double> ground_depth(const CameraModel& camera, double x, double y);
