@@ -150,7 +150,7 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   const double near_bottom = cam.project_ego({1.5 + 9.0, 0, 0})->y;
   const cv::Rect2f near_box(hb.x - 20, static_cast<float>(near_bottom) - 160, hb.width / 2 + 20, 160);
   HazardRenderer r(options(true), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{near_box, 0.9f, std::nullopt}});
+  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{near_box, 0.9f, std::nullopt, "car", 0, 0}});
   // Every pixel of the nearer object's box is untouched (the hazard and its shadow are behind it).
   const cv::Rect ib = cv::Rect(near_box) & cv::Rect(0, 0, img.cols, img.rows);
   cv::Mat d;
@@ -165,7 +165,7 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   const double far_bottom = cam.project_ego({1.5 + 40.0, 0, 0})->y;
   const cv::Rect2f far_box(hb.x - 20, static_cast<float>(far_bottom) - 160, hb.width / 2 + 20, 160);
   HazardRenderer r3(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{far_box, 0.9f, std::nullopt}});
+  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{far_box, 0.9f, std::nullopt, "car", 0, 0}});
   EXPECT_NEAR(behind.hazard.occluded_fraction, 0.0, 1e-9);
 }
 
