@@ -235,6 +235,61 @@ TEST(ArRendererStage, PassesFramesThroughUntilTheHazardStartsAndEmitsOneInstance
   }
 }
 
+TEST(ArRendererStage, VisibleFramesAndAppearancesOnlyWhereTheHazardIsDrawn) {
+  auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses");
+  const cv::Mat img = hf::test::textured_image();
+  for (int k = 0; k < 5; ++k) {
+    Frame f = make_frame(k, k * 0.1, img, test_camera(), planar_pose(k * 1.0, 0, 0));
+    runner.push("frames", f, f.timestamp);
+    // A real car in every frame (painted nowhere: a flat-textured box), measured as a reference on frames 0 and 3.
+    Detections d;
+    d.frame_index = k;
+    d.items.push_back(Detection{cv::Rect2f(1200, 480, 160, 120), 2, "car", 0.9f});
+    runner.push("detections", d, f.timestamp);
+  }
+  runner.push("trajectory", static_object("car", 25.0, 0.0, 0.0, 0.25, 2.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)), 0.0);
+  runner.run();
+  const auto hazards = runner.collect<HazardInstance>("hazard");
+  const auto visible = runner.collect<Frame>("visible_frames");
+  ASSERT_EQ(hazards.size(), 5u);
+  std::vector<int64_t> shown;
+  for (const auto& f : visible) shown.push_back(f.index);
+  EXPECT_EQ(shown, (std::vector<int64_t>{3, 4}));
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_EQ(hazards[k].appearance.has_value(), hazards[k].visible) << "frame " << k;
+    if (hazards[k].appearance) {
+      EXPECT_EQ(hazards[k].appearance->label, "car");
+      EXPECT_TRUE(std::isfinite(hazards[k].appearance->edge_contrast));
+      EXPECT_TRUE(std::isfinite(hazards[k].appearance->sharpness));
+      EXPECT_TRUE(std::isfinite(hazards[k].appearance->height_m));
+    }
+  }
+}
+
+TEST(Composite, PictureIsBlurredToTheFramesOwnSharpness) {
+  // A defocused frame (Gaussian sigma 2.5): with match_sharpness the inserted car is no sharper than its
+  // surroundings; without it, it is much sharper.
+  cv::Mat img;
+  cv::GaussianBlur(hf::test::textured_image(), img, cv::Size(), 2.5);
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", 12.0, 0.0, 0.3, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  auto ratio = [&](double match) {
+    RendererOptions o;
+    o.ego.mode = EgoMotionMode::kPoses;
+    o.composite.match_sharpness = match;
+    o.composite.grain = false;
+    o.composite.shadow = false;
+    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+    EXPECT_TRUE(res.hazard.appearance.has_value());
+    return res.hazard.appearance ? res.hazard.appearance->sharpness : kNaN;
+  };
+  const double sharp = ratio(0.0), matched = ratio(1.0);
+  EXPECT_GT(sharp, 2.0);
+  EXPECT_LT(matched, 1.5) << "unmatched " << sharp;
+  EXPECT_LT(matched, 0.6 * sharp);
+}
+
 TEST(ArRendererStage, RefusesFramesWithoutPosesInPosesMode) {
   auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses");
   runner.push("frames", make_frame(4, 0.4, hf::test::textured_image(), test_camera()), 0.4);
