@@ -76,26 +76,36 @@ double blur_to_match(const cv::Mat& grey, const cv::Mat& mask, double target_var
   return prev_s;
 }
 
-double noise_sigma(const cv::Mat& grey, const cv::Mat& mask) {
-  if (grey.empty() || grey.channels() != 1) throw Error("noise_sigma: expected a grey picture");
-  if (grey.rows < 5 || grey.cols < 5) return kNaN;
+namespace {
+
+// Immerkaer's kernel response and the flatness (gradient of a blurred copy) of a grey picture.
+struct NoiseMaps {
+  cv::Mat resp, mag;
+};
+NoiseMaps noise_maps(const cv::Mat& grey) {
   cv::Mat g;
   grey.convertTo(g, CV_32F);
   const cv::Matx33f k(1, -2, 1, -2, 4, -2, 1, -2, 1);
-  cv::Mat resp, smooth, gx, gy, mag;
-  cv::filter2D(g, resp, CV_32F, k, cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
+  NoiseMaps m;
+  cv::Mat smooth, gx, gy;
+  cv::filter2D(g, m.resp, CV_32F, k, cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
   cv::GaussianBlur(g, smooth, cv::Size(), 1.5);
   cv::Sobel(smooth, gx, CV_32F, 1, 0);
   cv::Sobel(smooth, gy, CV_32F, 0, 1);
-  cv::magnitude(gx, gy, mag);
+  cv::magnitude(gx, gy, m.mag);
+  return m;
+}
+
+double noise_from_maps(const NoiseMaps& maps, const cv::Mat& mask) {
+  const cv::Mat& resp = maps.resp;
   std::vector<std::pair<float, float>> px;  // (flatness, |response|)
-  px.reserve(static_cast<size_t>(g.total()));
+  px.reserve(static_cast<size_t>(mask.empty() ? resp.total() : cv::countNonZero(mask)));
   // The outermost pixel's kernel reaches past the picture; leave it out.
-  for (int y = 1; y < g.rows - 1; ++y) {
+  for (int y = 1; y < resp.rows - 1; ++y) {
     const float* r = resp.ptr<float>(y);
-    const float* m = mag.ptr<float>(y);
+    const float* m = maps.mag.ptr<float>(y);
     const uint8_t* k8 = mask.empty() ? nullptr : mask.ptr<uint8_t>(y);
-    for (int x = 1; x < g.cols - 1; ++x)
+    for (int x = 1; x < resp.cols - 1; ++x)
       if (!k8 || k8[x] >= 128) px.emplace_back(m[x], std::abs(r[x]));
   }
   if (px.size() < 32) return kNaN;
@@ -105,6 +115,14 @@ double noise_sigma(const cv::Mat& grey, const cv::Mat& mask) {
   double sum = 0;
   for (size_t i = 0; i < half; ++i) sum += px[i].second;
   return std::sqrt(CV_PI / 2) / 6.0 * sum / static_cast<double>(half);
+}
+
+}  // namespace
+
+double noise_sigma(const cv::Mat& grey, const cv::Mat& mask) {
+  if (grey.empty() || grey.channels() != 1) throw Error("noise_sigma: expected a grey picture");
+  if (grey.rows < 5 || grey.cols < 5) return kNaN;
+  return noise_from_maps(noise_maps(grey), mask);
 }
 
 AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offset, const cv::Rect2f& box,
@@ -202,9 +220,10 @@ AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offse
   if (std::isfinite(v_in) && std::isfinite(v_bg) && v_bg > 1e-9) s.sharpness = v_in / v_bg;
   cv::Mat grey;
   cv::cvtColor(bgr(area), grey, cv::COLOR_BGR2GRAY);
-  if (cv::countNonZero(core) >= o.min_object_px) {
-    s.noise_sigma = noise_sigma(grey, core);
-    const double bg_noise = cv::countNonZero(bg) >= o.min_object_px ? noise_sigma(grey, bg) : kNaN;
+  if (cv::countNonZero(core) >= o.min_object_px && grey.rows >= 5 && grey.cols >= 5) {
+    const NoiseMaps maps = noise_maps(grey);
+    s.noise_sigma = noise_from_maps(maps, core);
+    const double bg_noise = cv::countNonZero(bg) >= o.min_object_px ? noise_from_maps(maps, bg) : kNaN;
     if (std::isfinite(s.noise_sigma) && std::isfinite(bg_noise) && bg_noise > 1e-6)
       s.noise_ratio = s.noise_sigma / bg_noise;
   }
