@@ -6,8 +6,8 @@
 #include <cmath>
 
 #include "box_geometry.hpp"
-#include "hazardforge/class_groups.hpp"
 #include "hazardforge/error.hpp"
+#include "hazardforge/realism/compare.hpp"
 #include "hazardforge/realism/metrics.hpp"
 
 namespace hf::render {
@@ -211,7 +211,7 @@ void HazardRenderer::measure_realism(const Frame& f, const std::vector<OccluderC
   if (!opt_.realism.enabled || opt_.realism.references <= 0 || f.index % opt_.realism.reference_every != 0) return;
   const auto t0 = std::chrono::steady_clock::now();
   // The tallest well-detected, whole road users of each group: vehicles and people.
-  static const ClassGroups groups({"car,truck,bus,van", "bicycle,motorcycle", "person,pedestrian"});
+  const ClassGroups& groups = realism::reference_groups();
   for (const char* group : {"car", "person"}) {
     std::vector<const OccluderCandidate*> pick;
     for (const auto& o : objects)

@@ -78,9 +78,14 @@ double percentile_rank(const std::vector<double>& real, double v) {
   return n > 0 ? below / n : kNaN;
 }
 
+const ClassGroups& reference_groups() {
+  static const ClassGroups groups({"car,truck,bus,van", "bicycle,motorcycle", "person,pedestrian"});
+  return groups;
+}
+
 std::vector<AppearanceStats> references_for(const std::string& object_class, const std::vector<AppearanceStats>& real,
                                             size_t min_same, std::vector<std::string>* used) {
-  static const ClassGroups groups({"car,truck,bus,van", "bicycle,motorcycle", "person,pedestrian"});
+  const ClassGroups& groups = reference_groups();
   std::vector<AppearanceStats> same, group;
   for (const auto& r : real) {
     if (r.label == object_class)

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "hazardforge/class_groups.hpp"
 #include "hazardforge/types.hpp"
 
 namespace hf::realism {
@@ -27,6 +28,10 @@ struct Spread {
 Spread spread(std::vector<double> values);
 // Share of `real` values below `v` (ties count half), NaN when there are none.
 double percentile_rank(const std::vector<double>& real, double v);
+
+// The label groups a real reference may come from when its own class has too few samples (car/truck/bus/van,
+// bicycle/motorcycle, person/pedestrian); the renderer picks its references by them too.
+const ClassGroups& reference_groups();
 
 // Real objects that count as the inserted class's reference: the same label; when fewer than `min_same` of
 // those exist, also the labels of its group (car/truck/bus/van, bicycle/motorcycle, person/pedestrian). Sets
