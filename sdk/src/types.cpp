@@ -307,6 +307,24 @@ void to_json(Json& j, const HazardInstance& v) {
        {"lateral_m", v.lateral_m},
        {"intended_ttc_s", finite_or_null(v.intended_ttc_s)},
        {"occluded_fraction", v.occluded_fraction}};
+  if (v.appearance) j["appearance"] = *v.appearance;
+  if (!v.references.empty()) j["references"] = v.references;
+}
+void to_json(Json& j, const AppearanceStats& v) {
+  auto vec = [](const cv::Vec3d& x) { return Json::array({finite_or_null(x[0]), finite_or_null(x[1]), finite_or_null(x[2])}); };
+  j = {{"label", v.label},
+       {"box", rect(v.box)},
+       {"edge_contrast", finite_or_null(v.edge_contrast)},
+       {"halo", finite_or_null(v.halo)},
+       {"sharpness", finite_or_null(v.sharpness)},
+       {"noise_sigma", finite_or_null(v.noise_sigma)},
+       {"noise_ratio", finite_or_null(v.noise_ratio)},
+       {"lab_mean", vec(v.lab_mean)},
+       {"lab_std", vec(v.lab_std)},
+       {"ground_depth_m", finite_or_null(v.ground_depth_m)},
+       {"height_m", finite_or_null(v.height_m)},
+       {"width_m", finite_or_null(v.width_m)},
+       {"aspect", finite_or_null(v.aspect)}};
 }
 void to_json(Json& j, const Record& v) { j = {{"kind", v.kind}, {"data", v.data}}; }
 void to_json(Json& j, const AnnotatedObject& v) {

@@ -150,7 +150,7 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   const double near_bottom = cam.project_ego({1.5 + 9.0, 0, 0})->y;
   const cv::Rect2f near_box(hb.x - 20, static_cast<float>(near_bottom) - 160, hb.width / 2 + 20, 160);
   HazardRenderer r(options(true), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{near_box, 0.9f, std::nullopt}});
+  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{near_box, 0.9f, std::nullopt, "car", 0, 0}});
   // Every pixel of the nearer object's box is untouched (the hazard and its shadow are behind it).
   const cv::Rect ib = cv::Rect(near_box) & cv::Rect(0, 0, img.cols, img.rows);
   cv::Mat d;
@@ -165,7 +165,7 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   const double far_bottom = cam.project_ego({1.5 + 40.0, 0, 0})->y;
   const cv::Rect2f far_box(hb.x - 20, static_cast<float>(far_bottom) - 160, hb.width / 2 + 20, 160);
   HazardRenderer r3(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{far_box, 0.9f, std::nullopt}});
+  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{far_box, 0.9f, std::nullopt, "car", 0, 0}});
   EXPECT_NEAR(behind.hazard.occluded_fraction, 0.0, 1e-9);
 }
 
@@ -233,6 +233,61 @@ TEST(ArRendererStage, PassesFramesThroughUntilTheHazardStartsAndEmitsOneInstance
       EXPECT_NEAR(hazards[k].distance_m, 25.0 - (k - 1), 1e-9);
     }
   }
+}
+
+TEST(ArRendererStage, VisibleFramesAndAppearancesOnlyWhereTheHazardIsDrawn) {
+  auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses");
+  const cv::Mat img = hf::test::textured_image();
+  for (int k = 0; k < 5; ++k) {
+    Frame f = make_frame(k, k * 0.1, img, test_camera(), planar_pose(k * 1.0, 0, 0));
+    runner.push("frames", f, f.timestamp);
+    // A real car in every frame (painted nowhere: a flat-textured box), measured as a reference on frames 0 and 3.
+    Detections d;
+    d.frame_index = k;
+    d.items.push_back(Detection{cv::Rect2f(1200, 480, 160, 120), 2, "car", 0.9f});
+    runner.push("detections", d, f.timestamp);
+  }
+  runner.push("trajectory", static_object("car", 25.0, 0.0, 0.0, 0.25, 2.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)), 0.0);
+  runner.run();
+  const auto hazards = runner.collect<HazardInstance>("hazard");
+  const auto visible = runner.collect<Frame>("visible_frames");
+  ASSERT_EQ(hazards.size(), 5u);
+  std::vector<int64_t> shown;
+  for (const auto& f : visible) shown.push_back(f.index);
+  EXPECT_EQ(shown, (std::vector<int64_t>{3, 4}));
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_EQ(hazards[k].appearance.has_value(), hazards[k].visible) << "frame " << k;
+    if (hazards[k].appearance) {
+      EXPECT_EQ(hazards[k].appearance->label, "car");
+      EXPECT_TRUE(std::isfinite(hazards[k].appearance->edge_contrast));
+      EXPECT_TRUE(std::isfinite(hazards[k].appearance->sharpness));
+      EXPECT_TRUE(std::isfinite(hazards[k].appearance->height_m));
+    }
+  }
+}
+
+TEST(Composite, PictureIsBlurredToTheFramesOwnSharpness) {
+  // A defocused frame (Gaussian sigma 2.5): with match_sharpness the inserted car is no sharper than its
+  // surroundings; without it, it is much sharper.
+  cv::Mat img;
+  cv::GaussianBlur(hf::test::textured_image(), img, cv::Size(), 2.5);
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", 12.0, 0.0, 0.3, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  auto ratio = [&](double match) {
+    RendererOptions o;
+    o.ego.mode = EgoMotionMode::kPoses;
+    o.composite.match_sharpness = match;
+    o.composite.grain = false;
+    o.composite.shadow = false;
+    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+    EXPECT_TRUE(res.hazard.appearance.has_value());
+    return res.hazard.appearance ? res.hazard.appearance->sharpness : kNaN;
+  };
+  const double sharp = ratio(0.0), matched = ratio(1.0);
+  EXPECT_GT(sharp, 2.0);
+  EXPECT_LT(matched, 1.5) << "unmatched " << sharp;
+  EXPECT_LT(matched, 0.6 * sharp);
 }
 
 TEST(ArRendererStage, RefusesFramesWithoutPosesInPosesMode) {

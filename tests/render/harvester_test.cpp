@@ -4,6 +4,8 @@
 
 #include <filesystem>
 
+#include <unistd.h>
+
 #include <opencv2/imgcodecs.hpp>
 
 #include "ar_renderer.hpp"
@@ -170,6 +172,29 @@ TEST(AssetHarvester, HarvestedAssetsCompositeWithCorrectAlpha) {
   const int opaque = cv::countNonZero(a >= 253);
   ASSERT_GT(opaque, 1000);
   EXPECT_GT(cv::countNonZero(changed(roi) & (a >= 253)), 0.97 * opaque);
+}
+
+TEST(AssetHarvester, RefusesACutWhoseMaskDisagreesWithTheAnnotationsBox) {
+  // The annotation says a 1.85 m wide car; the picture holds one 0.8 m wide in its place (an annotation that
+  // does not fit what the camera saw): the cut spans half the projected box and is refused.
+  const CameraModel cam = test_camera();
+  cv::Mat img = hf::test::textured_image({1600, 900}, 9);
+  auto ann = std::make_shared<Annotations>();
+  ann->objects.push_back(object("inst-w", "car", {14.0, 1.0, 0.76}, 0.0, {4.5, 1.85, 1.52}, 300));
+  paint_box(img, cam, object("inst-w", "car", {14.0, 1.0, 0.76}, 0.0, {4.5, 0.8, 1.52}, 300),
+            cv::Scalar(40, 40, 210));
+  Frame f = hf::test::make_frame(0, 0.0, img, cam);
+  f.annotations = ann;
+  const fs::path out = fs::temp_directory_path() / ("hf_harvest_disagree_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  auto runner = hf::testing::StageRunner::create<AssetHarvester>("out_dir: " + out.string());
+  runner.push("frames", f, 0.0);
+  runner.run();
+  const auto& h = dynamic_cast<const AssetHarvester&>(runner.stage());
+  ASSERT_EQ(h.rejections().count("mask disagrees with the projected box"), 1u);
+  EXPECT_EQ(h.rejections().at("mask disagrees with the projected box"), 1);
+  EXPECT_TRUE(load_asset_index(out).assets.empty());
+  fs::remove_all(out);
 }
 
 TEST(AssetHarvester, StreamWithoutAnnotationsIsAnError) {

@@ -304,3 +304,67 @@ TEST(Verifier, NamedTtcMetricMustExist) {
 
 }  // namespace
 }  // namespace hf
+
+namespace hf {
+namespace {
+
+AppearanceStats looks(const std::string& label, double halo, double sharpness) {
+  AppearanceStats a;
+  a.label = label;
+  a.halo = halo;
+  a.sharpness = sharpness;
+  return a;
+}
+
+TEST(Verifier, ReportsRealismAndAnIndependentDetectorWithoutChangingTheVerdict) {
+  auto report = [](bool with_extras) {
+    auto r = testing::StageRunner::create<ClosedLoopVerifier>(
+        "{state_distance_origin: ego_origin, intended_distance_at: centre}");
+    r.push("trajectory", trajectory(0.9), 0.0);
+    for (int i = 0; i < 4; ++i) {
+      const double t = 0.1 * i;
+      HazardInstance h = instance(i, true, 1.2);
+      if (with_extras) {
+        h.appearance = looks("person", 20.0 + i, 1.0);  // a strong fringe, natural sharpness
+        for (int k = 0; k < 3; ++k) h.references.push_back(looks("person", k + 3 * i, 0.8 + 0.1 * k));
+        h.references.push_back(looks("car", 100.0, 100.0));  // another class: not a reference for a person
+        // The independent detector finds the person in frames 0-2 (one of them as a bicycle), nothing in 3.
+        r.push("independent_detections",
+               detections(i, i == 3 ? std::vector<Detection>{}
+                                    : std::vector<Detection>{near_box(i == 1 ? "bicycle" : "person")}),
+               t);
+      }
+      r.push("hazard", h, t);
+      r.push("detections", detections(i, {near_box()}), t);
+      r.push("risk", risk(i, 1.2), t, "ttc");
+      r.push("states", states(i, 20.0), t);
+    }
+    r.run();
+    return Json::parse(test::read_text((r.output_dir() / "verification.json").string()));
+  };
+  const Json plain = report(false), s = report(true);
+  EXPECT_EQ(s["passed"], plain["passed"]);
+  EXPECT_EQ(s["reasons"], plain["reasons"]);
+  EXPECT_FALSE(plain.contains("realism"));
+  EXPECT_FALSE(plain.contains("independent_redetection"));
+
+  const Json& rz = s["realism"];
+  EXPECT_EQ(rz["inserted_frames"], 4);
+  EXPECT_EQ(rz["reference_samples"], 12);  // the person references only
+  EXPECT_EQ(rz["metrics"]["halo"]["inserted"]["median"], 21.5);
+  EXPECT_EQ(rz["metrics"]["halo"]["within"], false);  // real halos 0..11
+  EXPECT_EQ(rz["metrics"]["sharpness"]["within"], true);
+  EXPECT_EQ(rz["metrics"]["outside"], Json::array({"halo"}));
+
+  const Json& ind = s["independent_redetection"];
+  EXPECT_EQ(ind["visible_frames"], 4);
+  EXPECT_EQ(ind["redetected_frames"], 2);  // a bicycle is not a person
+  EXPECT_EQ(ind["right_class_frames"], 2);
+  EXPECT_DOUBLE_EQ(ind["rate"].get<double>(), 0.5);
+  EXPECT_EQ(ind["labels"]["person"], 2);
+  EXPECT_EQ(ind["labels"]["bicycle"], 1);
+  EXPECT_EQ(ind["labels"]["(none)"], 1);
+}
+
+}  // namespace
+}  // namespace hf

@@ -7,6 +7,8 @@
 
 #include "box_geometry.hpp"
 #include "hazardforge/error.hpp"
+#include "hazardforge/realism/compare.hpp"
+#include "hazardforge/realism/metrics.hpp"
 
 namespace hf::render {
 
@@ -79,6 +81,7 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   Result res;
   res.frame = f;
   res.hazard.frame_index = f.index;
+  measure_realism(f, occluders, res);
 
   auto t0 = std::chrono::steady_clock::now();
   std::vector<cv::Rect2f> exclude;
@@ -194,7 +197,40 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   res.hazard.occluded_fraction = std::clamp(res.composite.occluded_fraction(), 0.0, 1.0);
   res.hazard.visible = res.composite.drawn && res.hazard.occluded_fraction < 0.999;
   res.composite_seconds = seconds_since(t0);
+  if (opt_.realism.enabled && res.hazard.visible) {
+    const auto tr = std::chrono::steady_clock::now();
+    res.hazard.appearance = realism::measure(res.frame.image, res.composite.alpha, res.composite.roi.tl(),
+                                             res.hazard.box, T.object_class, &f.camera);
+    res.realism_seconds += seconds_since(tr);
+  }
   return res;
+}
+
+void HazardRenderer::measure_realism(const Frame& f, const std::vector<OccluderCandidate>& objects,
+                                     Result& res) const {
+  if (!opt_.realism.enabled || opt_.realism.references <= 0 || f.index % opt_.realism.reference_every != 0) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  // The tallest well-detected, whole road users of each group: vehicles and people.
+  const ClassGroups& groups = realism::reference_groups();
+  for (const char* group : {"car", "person"}) {
+    std::vector<const OccluderCandidate*> pick;
+    for (const auto& o : objects)
+      if (!o.label.empty() && groups.same(o.label, group) && o.score >= opt_.realism.min_score &&
+          o.box.height >= opt_.realism.min_height_px && o.truncated == 0 && o.misses == 0)
+        pick.push_back(&o);
+    std::sort(pick.begin(), pick.end(),
+              [](const OccluderCandidate* a, const OccluderCandidate* b) { return a->box.height > b->box.height; });
+    if (pick.size() > static_cast<size_t>(opt_.realism.references))
+      pick.resize(static_cast<size_t>(opt_.realism.references));
+    for (const OccluderCandidate* o : pick) {
+      cv::Rect crop;
+      const cv::Mat mask = realism::object_mask(f.image, o->box, &crop);
+      if (mask.empty()) continue;
+      AppearanceStats s = realism::measure(f.image, mask, crop.tl(), o->box, o->label, &f.camera);
+      if (std::isfinite(s.edge_contrast)) res.hazard.references.push_back(std::move(s));
+    }
+  }
+  res.realism_seconds += seconds_since(t0);
 }
 
 // ---- stage
@@ -223,7 +259,10 @@ ComponentInfo ArRenderer::describe() {
       optional(port<Detections>("detections", "detected objects (occluders, kept out of the flow)"))};
   i.outputs = {
       port<Frame>("frames", "augmented frames: same index, time, camera, ego and meta; new image"),
-      port<HazardInstance>("hazard", "where the hazard is in each frame (box, distance, intended TTC)")};
+      port<HazardInstance>("hazard", "where the hazard is in each frame (box, distance, intended TTC)"),
+      port<Frame>("visible_frames",
+                  "the augmented frames in which the hazard is visible, only those (for an independent "
+                  "re-detection that costs nothing on the other frames); none when visible_frames is off")};
   i.params = {
       ParamSpec::path("assets_dir", "")
           .describe("folder with assets.yaml and the pictures; empty = the default set (share/assets)"),
@@ -267,6 +306,10 @@ ComponentInfo ArRenderer::describe() {
           .describe("temporal smoothing of the surroundings' statistics (no flicker)"),
       ParamSpec::boolean("grain", true).describe("add sensor noise at the level measured beside the object"),
       ParamSpec::number("feather_px", 0.8).range(0.0, 5.0).describe("Gaussian sigma of the alpha edge, px"),
+      ParamSpec::number("match_sharpness", 1.0)
+          .range(0.0, 10.0)
+          .describe("blur the picture until its interior is no sharper than this times the frame around it "
+                    "(variance of the Laplacian): the recording's own blur; 0 = off"),
       ParamSpec::number("exposure_s", 0.01)
           .range(0.0, 0.1)
           .describe("camera exposure time: motion blur = image-plane speed x exposure; 0 = none"),
@@ -277,6 +320,20 @@ ComponentInfo ArRenderer::describe() {
       ParamSpec::number("ego_front_m", 3.4)
           .range(0.0, 10.0)
           .describe("ego origin (rear axle) to front bumper, for the intended TTC"),
+      ParamSpec::boolean("visible_frames", true)
+          .describe("emit the frames with the hazard visible on the visible_frames output"),
+      ParamSpec::boolean("realism", true)
+          .describe("measure the inserted object's appearance (edge contrast, halo, sharpness, noise, Lab, size) "
+                    "and the recording's real road users the same way, into the hazard packet"),
+      ParamSpec::integer("realism_references", 1)
+          .range(0, 20)
+          .describe("real objects measured per class group (vehicles, people) and frame, tallest first"),
+      ParamSpec::integer("realism_reference_every", 3)
+          .range(1, 1000)
+          .describe("measure real objects on every n-th frame (frame index divisible by n)"),
+      ParamSpec::number("realism_min_score", 0.5)
+          .range(0.0, 1.0)
+          .describe("weakest detection measured as a real reference"),
   };
   for (auto& p : Corridor::params()) i.params.push_back(p);
   return i;
@@ -292,6 +349,7 @@ RendererOptions renderer_options(const Params& p) {
   o.composite.feather_px = p.get_double("feather_px");
   o.composite.grain = p.get_bool("grain");
   o.composite.exposure_s = p.get_double("exposure_s");
+  o.composite.match_sharpness = p.get_double("match_sharpness");
   o.ego.mode = parse_ego_motion_mode(p.get_string("ego_motion"));
   o.ego.speed_mps = p.get_double("ego_speed_mps");
   o.ego.smoothing = p.get_double("motion_smoothing");
@@ -308,6 +366,10 @@ RendererOptions renderer_options(const Params& p) {
   o.occluder_min_score = p.get_double("occluder_min_score");
   o.ego_front_m = p.get_double("ego_front_m");
   o.corridor = Corridor::from(p);
+  o.realism.enabled = p.get_bool("realism");
+  o.realism.references = static_cast<int>(p.get_int("realism_references"));
+  o.realism.reference_every = static_cast<int>(p.get_int("realism_reference_every"));
+  o.realism.min_score = p.get_double("realism_min_score");
   return o;
 }
 
@@ -322,6 +384,7 @@ std::shared_ptr<const AssetLibrary> load_assets(const Params& p) {
 
 void ArRenderer::open(StageContext& ctx) {
   renderer_ = std::make_unique<HazardRenderer>(renderer_options(ctx.params()), load_assets(ctx.params()));
+  emit_visible_ = ctx.params().get_bool("visible_frames");
 }
 
 void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
@@ -331,17 +394,19 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   // One source of occluders, the richest available: states carry distances, tracks and detections boxes only.
   std::vector<OccluderCandidate> occ;
   if (const auto* s = in.get<ObjectStates>("states")) {
-    for (const auto& o : s->objects) occ.push_back({o.box, o.score, o.distance_m});
+    for (const auto& o : s->objects) occ.push_back({o.box, o.score, o.distance_m, o.label, o.truncated, o.misses});
   } else if (const auto* t = in.get<Tracks>("tracks")) {
-    for (const auto& o : t->items) occ.push_back({o.box, o.score, std::nullopt});
+    for (const auto& o : t->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses});
   } else if (const auto* d = in.get<Detections>("detections")) {
-    for (const auto& o : d->items) occ.push_back({o.box, o.score, std::nullopt});
+    for (const auto& o : d->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, 0});
   }
   HazardRenderer::Result r = renderer_->render(f, traj, occ);
   for (const auto& w : renderer_->take_warnings()) ctx.log(LogLevel::kWarning, w);
   ctx.record_timing("ego_motion", r.ego_seconds);
   if (r.prepare_seconds > 0) ctx.record_timing("asset_prepare", r.prepare_seconds);
   if (r.hazard.visible || r.composite_seconds > 0) ctx.record_timing("composite", r.composite_seconds);
+  if (r.realism_seconds > 0) ctx.record_timing("realism", r.realism_seconds);
+  if (emit_visible_ && r.hazard.visible) out.emit("visible_frames", r.frame);
   out.emit("frames", std::move(r.frame));
   out.emit("hazard", std::move(r.hazard));
 }

@@ -20,6 +20,19 @@ struct OccluderCandidate {
   cv::Rect2f box;
   float score = 1.f;
   std::optional<double> distance_m;  // longitudinal distance if an estimator gave one
+  std::string label;                 // detector's class (realism references), empty = unknown
+  unsigned truncated = 0;            // hf::truncation flags of the box
+  int misses = 0;                    // frames the track has not been seen (its box is predicted)
+};
+
+// Realism measurement: the inserted object's appearance in every frame it is drawn, and the recording's own
+// road users measured the same way on the original picture (hazardforge/realism/metrics.hpp).
+struct RealismOptions {
+  bool enabled = true;
+  int references = 1;            // real objects measured per class group (vehicles, people) and frame; 0 = none
+  int reference_every = 3;       // ... on every n-th frame (grabCut is the cost)
+  double min_score = 0.5;        // weakest detection measured
+  double min_height_px = 24.0;   // smallest box measured
 };
 
 struct RendererOptions {
@@ -30,6 +43,7 @@ struct RendererOptions {
   double occluder_min_score = 0.3;
   double ego_front_m = 3.4;  // ego origin to front bumper, for the intended TTC (GUIDE protocol)
   Corridor corridor;
+  RealismOptions realism;
 };
 
 // Everything the stage does for one frame, without the graph plumbing (used by the stage and the benchmark).
@@ -45,6 +59,7 @@ class HazardRenderer {
     double prepare_seconds = 0;    // time spent preparing a new hazard's pictures (once per hazard)
     double ego_seconds = 0;        // time spent on ego motion
     double composite_seconds = 0;  // time spent placing and drawing
+    double realism_seconds = 0;    // time spent measuring appearances (not part of drawing)
   };
   // Call once per frame, in order. `trajectory` may be null (no hazard yet).
   Result render(const Frame& frame, const std::shared_ptr<const HazardTrajectory>& trajectory,
@@ -55,6 +70,7 @@ class HazardRenderer {
 
  private:
   void start_hazard(const HazardTrajectory& t);
+  void measure_realism(const Frame& original, const std::vector<OccluderCandidate>& objects, Result& res) const;
 
   RendererOptions opt_;
   std::shared_ptr<const AssetLibrary> assets_;
@@ -74,13 +90,17 @@ class HazardRenderer {
 //           tracks (Tracks), states (ObjectStates), detections (Detections) — optional, for occlusion by
 //           nearer objects and to keep moving objects out of the flow-based ego motion.
 //  outputs: frames (Frame: same index, timestamp, camera, ego and meta; new image), hazard (HazardInstance),
-//           one of each per input frame, stamped with the frame's time. Frames outside the trajectory's time
-//           span pass through unchanged (hazard.visible = false).
+//           one of each per input frame, stamped with the frame's time; visible_frames (Frame): the same
+//           augmented frame, only when the hazard is visible in it (param visible_frames). Frames outside the
+//           trajectory's time span pass through unchanged (hazard.visible = false).
 //  params:  assets_dir, fallback_assets, ego_motion (auto|poses|flow|constant_speed), ego_speed_mps,
 //           motion_smoothing, flow_*, max_view_error_deg, shadow, shadow_strength, harmonize_luma,
-//           harmonize_chroma, exposure_smoothing, grain, feather_px, exposure_s, occlusion,
-//           occluder_min_score, ego_front_m, corridor_half_width, corridor_margin, corridor_path (see
-//           describe()).
+//           harmonize_chroma, exposure_smoothing, grain, feather_px, match_sharpness, exposure_s, occlusion,
+//           occluder_min_score, ego_front_m, realism, realism_references, realism_reference_every, realism_min_score, visible_frames,
+//           corridor_half_width, corridor_margin, corridor_path (see describe()).
+//  With `realism` (default) the hazard packet carries the inserted object's appearance as drawn
+//  (HazardInstance::appearance) and that of up to `realism_references` real road users per class group measured
+//  on the original picture (HazardInstance::references), for the verifier's comparison.
 class ArRenderer : public Stage {
  public:
   static ComponentInfo describe();
@@ -89,6 +109,7 @@ class ArRenderer : public Stage {
 
  private:
   std::unique_ptr<HazardRenderer> renderer_;
+  bool emit_visible_ = true;
 };
 
 // Reads the renderer's options from validated params (shared by the stage and the benchmark).

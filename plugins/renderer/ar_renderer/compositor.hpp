@@ -21,6 +21,9 @@ struct CompositeOptions {
   double exposure_s = 0.01;       // camera exposure time for motion blur (0 = none)
   double exposure_smoothing = 0.7;  // exponential smoothing of the surroundings' statistics across frames
   bool grain = true;                // add sensor noise at the level measured around the object
+  // Blur the picture until its interior is no sharper than this times the frame around it (variance of the
+  // Laplacian); 0 = off.
+  double match_sharpness = 1.0;
 };
 
 // Where and how one object is drawn in this frame.
@@ -42,6 +45,8 @@ struct CompositorState {
   int sprite_level = -1;
   double sprite_feather = -1.0;
   cv::Mat sprite_lut, sprite;    // harmonisation LUT and premultiplied, feathered BGRA picture it produced
+  double blur_sigma = 0.0;       // the recording's blur applied to the picture (smoothed), px
+  int blur_frames = 0;
   cv::Mat warped, acc, shadow;  // work buffers (grown, never shrunk)
 };
 
@@ -52,6 +57,7 @@ struct CompositeResult {
   double coverage_after = 0;   // after occlusion
   cv::Mat alpha;               // final alpha over `roi` (CV_8U), for tests and debugging
   int level = 0;               // pyramid level of the asset used
+  double match_sigma = 0;      // Gaussian blur applied to match the recording's sharpness, px
   double occluded_fraction() const {
     return coverage_before > 1e-9 ? 1.0 - coverage_after / coverage_before : 0.0;
   }

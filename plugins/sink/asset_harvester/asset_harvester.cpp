@@ -9,6 +9,7 @@
 
 #include "box_geometry.hpp"
 #include "hazardforge/error.hpp"
+#include "hazardforge/realism/matting.hpp"
 
 namespace hf::render {
 
@@ -79,6 +80,13 @@ cv::Mat largest_component(const cv::Mat& bin) {
   return out;
 }
 
+// The matte may extend a little past the faces (soft edges), never onto the road around them.
+cv::Mat grown_faces_for_alpha(const cv::Mat& faces_grown) {
+  cv::Mat out;
+  cv::dilate(faces_grown, out, cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5}));
+  return out;
+}
+
 }  // namespace
 
 ComponentInfo AssetHarvester::describe() {
@@ -89,7 +97,8 @@ ComponentInfo AssetHarvester::describe() {
   i.doc =
       "Projects each annotated 3D box with the frame's camera, keeps objects that are fully in view, large, near, "
       "well covered by lidar/radar points and not overlapped by a nearer annotated object, cuts them out with "
-      "grabCut initialised from the projected box, classifies the view from the object's yaw relative to the "
+      "grabCut initialised from the projected box (rejecting cuts whose extent disagrees with the projected faces), "
+      "refines the edge by information-flow matting and colour decontamination, classifies the view from the object's yaw relative to the "
       "camera, and writes PNGs with alpha plus assets.yaml (the format of share/assets) when the stream ends.";
   i.inputs = {port<Frame>("frames", "frames with annotations (3D boxes in the ego frame)")};
   i.params = {
@@ -111,6 +120,17 @@ ComponentInfo AssetHarvester::describe() {
       ParamSpec::number("min_fill", 0.35)
           .range(0.0, 1.0)
           .describe("smallest mask area / projected hull area (below = the cut failed)"),
+      ParamSpec::number("min_box_iou", 0.7)
+          .range(0.0, 1.0)
+          .describe("smallest IoU of the cut's bounding box with the projected faces' box (below = rejected: the "
+                    "mask disagrees with the annotation)"),
+      ParamSpec::boolean("matting", true)
+          .describe("soft alpha by information-flow matting (OpenCV alphamat) around grabCut's edge"),
+      ParamSpec::number("matting_band", 2.0)
+          .range(0.5, 10.0)
+          .describe("half-width of the matting's unknown band, % of the box height (at least 1 px)"),
+      ParamSpec::boolean("decontaminate", true)
+          .describe("remove the old background's colour from the soft edge (colour decontamination)"),
       ParamSpec::integer("per_instance_view", 1).range(1, 100).describe("cuts kept per object instance and view"),
       ParamSpec::boolean("append", true).describe("keep the assets already listed in out_dir/assets.yaml"),
   };
@@ -132,6 +152,10 @@ void AssetHarvester::open(StageContext& ctx) {
   max_overlap_ = p.get_double("max_overlap");
   iterations_ = static_cast<int>(p.get_int("grabcut_iterations"));
   min_fill_ = p.get_double("min_fill");
+  min_box_iou_ = p.get_double("min_box_iou");
+  matting_ = p.get_bool("matting");
+  matting_band_ = p.get_double("matting_band");
+  decontaminate_ = p.get_bool("decontaminate");
   per_view_ = static_cast<int>(p.get_int("per_instance_view"));
   append_ = p.get_bool("append");
 }
@@ -249,16 +273,39 @@ void AssetHarvester::process(StageContext& /*ctx*/, const Inputs& in, Outputs& /
       reject("cut too small (grabCut lost the object)");
       continue;
     }
+    // The silhouette must span the faces the annotation projects: a cut that lost a side of the object, or
+    // took in a neighbour, disagrees with the projected box.
+    {
+      const cv::Rect mb = cv::boundingRect(fg), fb = cv::boundingRect(faces_mask);
+      const double inter = (mb & fb).area(), uni = mb.area() + fb.area() - inter;
+      if (uni <= 0 || inter / uni < min_box_iou_) {
+        reject("mask disagrees with the projected box");
+        continue;
+      }
+    }
 
-    // The picture: the projected box (plus a pixel) with a feathered alpha.
+    // The picture: the projected box (plus a pixel). Alpha: information-flow matting in a band around grabCut's
+    // edge (soft, no halo of the old background); colour: decontaminated at the edge, so what shows through the
+    // soft alpha is the object's colour and not the street it stood on.
     const cv::Rect pic = cv::Rect(static_cast<int>(std::floor(b.x)) - 1, static_cast<int>(std::floor(b.y)) - 1,
                                   static_cast<int>(std::ceil(b.width)) + 3, static_cast<int>(std::ceil(b.height)) + 3) &
                          cv::Rect(0, 0, f.image.cols, f.image.rows);
-    cv::Mat alpha;
-    cv::GaussianBlur(fg(pic - crop.tl()), alpha, cv::Size(), 0.7);
+    cv::Mat alpha_crop;
+    if (matting_) {
+      const int band = std::max(1, static_cast<int>(std::lround(matting_band_ * b.height / 100.0)));
+      try {
+        alpha_crop = realism::matte(crop_img, realism::trimap_from_mask(fg, band));
+        ++matted_;
+      } catch (const Error&) {
+        alpha_crop.release();
+      }
+    }
+    if (alpha_crop.empty()) cv::GaussianBlur(fg, alpha_crop, cv::Size(), 0.7);
+    alpha_crop &= grown_faces_for_alpha(faces_grown);
+    const cv::Mat colour = decontaminate_ ? realism::decontaminate(crop_img, alpha_crop) : crop_img;
     std::vector<cv::Mat> ch;
-    cv::split(f.image(pic), ch);
-    ch.push_back(alpha);
+    cv::split(colour(pic - crop.tl()), ch);
+    ch.push_back(alpha_crop(pic - crop.tl()).clone());
     cv::Mat bgra;
     cv::merge(ch, bgra);
 
@@ -311,7 +358,8 @@ void AssetHarvester::finish(StageContext& ctx, Outputs& /*out*/) {
   for (const auto& [reason, n] : rejected_) why += (why.empty() ? "" : ", ") + std::to_string(n) + " " + reason;
   ctx.log(LogLevel::kInfo, "asset_harvester: " + std::to_string(written) + " pictures from " +
                                std::to_string(objects_) + " candidate objects in " + std::to_string(frames_) +
-                               " frames written to " + out_dir_.string() + (why.empty() ? "" : "; skipped: " + why));
+                               " frames written to " + out_dir_.string() + " (" + std::to_string(matted_) +
+                               " candidate edges matted)" + (why.empty() ? "" : "; skipped: " + why));
 }
 
 }  // namespace hf::render

@@ -9,6 +9,7 @@
 #include <hazardforge/json_text.hpp>
 #include <hazardforge/output_path.hpp>
 #include "hazardforge/hazard/kinematics.hpp"
+#include "hazardforge/realism/compare.hpp"
 
 namespace hf {
 
@@ -64,14 +65,21 @@ ComponentInfo ClosedLoopVerifier::describe() {
       "against "
       "the intended one, whether any frame was Unsafe while the hazard was visible, the re-detection rate "
       "over "
-      "visible frames, distance errors; passed = every criterion holds.";
+      "visible frames, distance errors; passed = every criterion holds. Reported beside the verdict, never part "
+      "of it: `realism` (the inserted object's appearance in its visible frames against the recording's real "
+      "objects of its class, from the renderer's hazard packets) and `independent_redetection` (the "
+      "independent_detections input: share of visible frames with a detection of IoU >= min_iou of the class "
+      "group, and of the exact class).";
   i.inputs = {
       optional(port<HazardInstance>("hazard", "where the renderer put the hazard")),
       port<Detections>("detections", "detections on the augmented frames"),
       optional(multi(port<RiskAssessment>("risk", "re-assessed risk metrics"))),
       optional(port<ObjectStates>("states", "re-estimated object states")),
       sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
-      optional(port<Frame>("frames", "the augmented frames: camera position for state_distance_origin"))};
+      optional(port<Frame>("frames", "the augmented frames: camera position for state_distance_origin")),
+      optional(port<Detections>("independent_detections",
+                                "an independent detector's detections on the augmented frames (reported, never "
+                                "part of the verdict)"))};
   i.outputs = {port<Record>("records", "per-frame verification records and the final summary")};
   i.params = {
       ParamSpec::number("min_iou", 0.5)
@@ -196,6 +204,34 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   rec["state"] =
       match ? Json{{"track_id", match->track_id}, {"distance_m", maybe(match->distance_m)}} : Json();
 
+  // Reported only: realism and the independent detector.
+  for (const AppearanceStats& r : inst->references) references_.push_back(r);
+  if (inst->visible && inst->appearance) {
+    appearance_.push_back(*inst->appearance);
+    rec["realism"] = *inst->appearance;
+  }
+  if (const Detections* ind = in.get<Detections>("independent_detections"); ind && inst->visible) {
+    if (independent_detector_.empty()) independent_detector_ = ind->detector;
+    double best_any = 0;
+    const Detection* top = nullptr;
+    for (const Detection& d : ind->items) {
+      const double v = iou(d.box, inst->box);
+      if (v > best_any) best_any = v, top = &d;
+    }
+    const bool found = top && best_any >= min_iou_ && same_class(top->label, inst->object_class);
+    const bool exact = found && top->label == inst->object_class;
+    ++independent_frames_;
+    independent_ious_.push_back(best_any);
+    if (found) ++independent_found_;
+    if (exact) ++independent_exact_;
+    ++independent_labels_[top && best_any >= min_iou_ ? top->label : "(none)"];
+    rec["independent"] = {{"best_iou", best_any},
+                          {"label", top ? Json(top->label) : Json()},
+                          {"score", top ? Json(top->score) : Json()},
+                          {"redetected", found},
+                          {"right_class", exact}};
+  }
+
   // Risk: the TTC stream and every metric's label.
   const auto risks = in.packets("risk");
   const auto producers = in.producers("risk");
@@ -296,6 +332,31 @@ Json ClosedLoopVerifier::spurious_json() const {
   return a;
 }
 
+Json ClosedLoopVerifier::realism_json() const {
+  std::vector<std::string> used;
+  const auto real = realism::references_for(object_class_, references_, 5, &used);
+  return {{"inserted_frames", appearance_.size()},
+          {"reference_labels", used},
+          {"reference_samples", real.size()},
+          {"rule", "inserted median within the real objects' 10-90 % range (min-max below 5 samples)"},
+          {"metrics", realism::compare(appearance_, real)}};
+}
+
+Json ClosedLoopVerifier::independent_json() const {
+  if (independent_frames_ == 0) return Json();
+  Json labels = Json::object();
+  for (const auto& [l, n] : independent_labels_) labels[l] = n;
+  return {{"detector", independent_detector_},
+          {"visible_frames", independent_frames_},
+          {"redetected_frames", independent_found_},
+          {"rate", static_cast<double>(independent_found_) / independent_frames_},
+          {"right_class_frames", independent_exact_},
+          {"right_class_rate", static_cast<double>(independent_exact_) / independent_frames_},
+          {"mean_iou", maybe(mean(independent_ious_))},
+          {"labels", labels},
+          {"note", "reported only: never used to plan or to pass"}};
+}
+
 Json ClosedLoopVerifier::summary() const {
   std::vector<std::string> reasons;
   const double rate = visible_ > 0 ? static_cast<double>(redetected_) / visible_ : 0.0;
@@ -384,6 +445,8 @@ Json ClosedLoopVerifier::summary() const {
                    {"planned_ttc_tolerance_s", planned_tolerance_},
                    {"require_class_match", require_class_match_},
                    {"max_ttc_error_s", max_ttc_error_}};
+  if (!appearance_.empty() || !references_.empty()) j["realism"] = realism_json();
+  if (independent_frames_ > 0) j["independent_redetection"] = independent_json();
   if (near_face_ && !length_ && !dist_abs_.empty())
     j["distance"]["note"] = "no trajectory arrived: the object's length is unknown, its centre was used";
   return j;

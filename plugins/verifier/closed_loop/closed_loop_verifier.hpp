@@ -2,6 +2,7 @@
 // pipeline.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,6 +20,9 @@ namespace hf {
 // Output: `records` (Record "verification" per frame with a hazard packet, stamped with that frame; and one
 // "verification_summary" at finish, stamped with the last frame). Writes <output>/verification.json at finish
 // (atomic). A scenario counts as generated only when `passed` is true; `reasons` says why not.
+// `independent_detections` (Detections, optional): an independent detector's detections on the augmented
+// frames (never used to plan or to pass), reported as `independent_redetection`. The hazard packets'
+// appearances (HazardInstance::appearance / references) are compared in `realism`; neither changes `passed`.
 // Params: min_iou, min_redetection_rate, require_unsafe, require_hazard_critical, require_class_match,
 // ttc_metric, unsafe_metrics, max_ttc_error_s, state_distance_origin, ego_front_m, intended_distance_at,
 // file.
@@ -59,6 +63,15 @@ class ClosedLoopVerifier : public Stage {
   double planned_tolerance_ = 0.5;
   std::vector<std::pair<int64_t, std::string>> spurious_frames_;  // Unsafe visible frames not the hazard's, why
   Json spurious_json() const;
+  // Realism (reported only): the inserted object's appearance per visible frame, the real objects' per frame.
+  std::vector<AppearanceStats> appearance_, references_;
+  // Independent detector on the augmented frames (reported only).
+  std::string independent_detector_;
+  int independent_frames_ = 0, independent_found_ = 0, independent_exact_ = 0;
+  std::vector<double> independent_ious_;
+  std::map<std::string, int> independent_labels_;
+  Json realism_json() const;
+  Json independent_json() const;
 };
 
 }  // namespace hf

@@ -23,6 +23,7 @@ namespace hf {
 
 using Json = nlohmann::json;
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Pinhole intrinsics, distortion and the camera's mounting on the ego vehicle.
 struct CameraModel {
@@ -284,10 +285,36 @@ struct HazardTrajectory {
   std::optional<TrajectoryPoint> at(double t) const;
 };
 
+// How one object looks in one picture: the quantities that tell an inserted object from the real ones of its
+// class (computed by the realism kit, plugins/renderer/common, hazardforge/realism/*.hpp). NaN = not measured.
+struct AppearanceStats {
+  std::string label;  // class of the object (inserted: the hazard's; real: the detector's or estimator's)
+  cv::Rect2f box;     // its box in the picture
+  // Mean |L* inside - L* outside| across the silhouette (bands 2 px wide on either side), L* 0..100.
+  double edge_contrast = kNaN;
+  // Mean |L* just outside the silhouette (0-2 px) - L* farther out (5-9 px)|: a halo of the cut-out's old
+  // background, a dark or light fringe; on natural boundaries only the background's own texture.
+  double halo = kNaN;
+  // Variance of the Laplacian of L* inside the object over that of the background ring around it.
+  double sharpness = kNaN;
+  // Sensor noise (grey levels, Immerkaer's estimator on the flattest pixels) inside the object, and over that
+  // of the background ring.
+  double noise_sigma = kNaN;
+  double noise_ratio = kNaN;
+  cv::Vec3d lab_mean{kNaN, kNaN, kNaN};  // L* a* b* of the object's pixels
+  cv::Vec3d lab_std{kNaN, kNaN, kNaN};
+  // Size for its distance: the box's height and width in metres at the camera depth of the road point under
+  // the box's bottom centre (flat road), and the box's width / height.
+  double ground_depth_m = kNaN;
+  double height_m = kNaN;
+  double width_m = kNaN;
+  double aspect = kNaN;
+};
+
 // Where the renderer put the hazard in one frame (the intent that verification checks against).
 struct HazardInstance {
   static constexpr const char* kTypeName = "HazardInstance";
-  static constexpr int kTypeVersion = 1;
+  static constexpr int kTypeVersion = 2;
   int64_t frame_index = 0;
   bool visible = false;
   std::string kind;
@@ -297,6 +324,10 @@ struct HazardInstance {
   double lateral_m = 0.0;
   double intended_ttc_s = kInf;
   double occluded_fraction = 0.0;
+  // Realism: the inserted object as drawn in this frame, and real road users measured the same way on the
+  // original picture of this frame (the recording's own objects, for comparison).
+  std::optional<AppearanceStats> appearance;
+  std::vector<AppearanceStats> references;
 };
 
 // Generic per-frame record (verification, evaluation) for sinks.
@@ -321,6 +352,7 @@ void to_json(Json& j, const HazardSpec& v);
 void from_json(const Json& j, HazardSpec& v);
 void to_json(Json& j, const TrajectoryPoint& v);
 void to_json(Json& j, const HazardTrajectory& v);
+void to_json(Json& j, const AppearanceStats& v);
 void to_json(Json& j, const HazardInstance& v);
 void to_json(Json& j, const Record& v);
 void to_json(Json& j, const AnnotatedObject& v);

@@ -60,26 +60,30 @@ std::shared_ptr<const HazardTrajectory> weaving(const std::string& cls, double d
   return t;
 }
 
-void run_frames(benchmark::State& state, const std::shared_ptr<const HazardTrajectory>& traj) {
+void run_frames(benchmark::State& state, const std::shared_ptr<const HazardTrajectory>& traj,
+                bool realism = false) {
   cv::setNumThreads(1);
   RendererOptions o;
   o.ego.mode = EgoMotionMode::kPoses;
+  o.realism.enabled = realism;  // drawing alone; BM_CarRealism adds the appearance measurement
   HazardRenderer r(o, assets());
   Frame f;
   f.image = background();
   f.camera = camera();
   int64_t k = 0;
-  double composite = 0;
+  double composite = 0, realism_s = 0;
   for (auto _ : state) {
     f.index = k;
     f.timestamp = 0.04 * static_cast<double>(k);
     f.ego.T_world_ego = planar_pose(10.0 * f.timestamp, 0.0, 0.0);
     auto res = r.render(f, traj, {});
     composite += res.composite_seconds;
+    realism_s += res.realism_seconds;
     benchmark::DoNotOptimize(res.frame.image.data);
     ++k;
   }
   state.counters["composite_ms"] = benchmark::Counter(1e3 * composite / static_cast<double>(k));
+  state.counters["realism_ms"] = benchmark::Counter(1e3 * realism_s / static_cast<double>(k));
 }
 
 void BM_PassThrough(benchmark::State& state) { run_frames(state, nullptr); }
@@ -87,6 +91,12 @@ BENCHMARK(BM_PassThrough)->Unit(benchmark::kMillisecond);
 
 void BM_Car(benchmark::State& state) { run_frames(state, weaving("car", static_cast<double>(state.range(0)))); }
 BENCHMARK(BM_Car)->Arg(8)->Arg(15)->Arg(30)->Arg(60)->Unit(benchmark::kMillisecond);
+
+// The same with the realism measurement of the drawn car (hazardforge/realism) on: its cost on top of drawing.
+void BM_CarRealism(benchmark::State& state) {
+  run_frames(state, weaving("car", static_cast<double>(state.range(0))), true);
+}
+BENCHMARK(BM_CarRealism)->Arg(8)->Arg(15)->Arg(30)->Unit(benchmark::kMillisecond);
 
 void BM_Person(benchmark::State& state) {
   run_frames(state, weaving("person", static_cast<double>(state.range(0))));
