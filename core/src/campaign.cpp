@@ -475,7 +475,10 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
     };
     const auto ra = refusal(a), rb = refusal(b);
     if (!ra.empty() && ra == rb && a["window"]["trigger_frame"] != b["window"]["trigger_frame"]) {
-      *why = "the generator refuses this kind in this scene: " + *rb.begin();
+      std::string shown = *rb.begin();  // the generator's own error says most
+      for (const std::string& r : rb)
+        if (r.find("node 'generator'") != std::string::npos) shown = r;
+      *why = "the generator refuses this kind in this scene: " + shown;
       return std::nullopt;
     }
   }
