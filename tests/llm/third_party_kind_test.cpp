@@ -47,7 +47,7 @@ TEST(ThirdPartyKind, TheOfflinePlannerPlansItFromItsTemplate) {
     EXPECT_DOUBLE_EQ(s.lateral_offset_m, 3.5);  // the oncoming lane, left of the ego's when traffic keeps right
     EXPECT_EQ(s.side, "left");
     EXPECT_DOUBLE_EQ(s.heading_deg, 180.0);
-    EXPECT_GE(s.initial_distance_m, 50.0);
+    EXPECT_GE(s.initial_distance_m, 40.0);
     EXPECT_GT(s.extra.at("swerve_after_s").get<double>(), 0.0);
     classes.insert(s.object_class);
   }

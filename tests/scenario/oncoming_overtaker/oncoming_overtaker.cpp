@@ -19,6 +19,15 @@ using hf::hazard::num;
 // and keeps coming, so the gap closes at the ego's speed plus its own. Params: the shared template params.
 class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
  public:
+  // It comes from far ahead, where a recorded path's turns, a lane to the side, are tighter than a vehicle may take
+  // at its speed: it is planned against a straight ego by default.
+  static hf::ComponentInfo describe() {
+    hf::ComponentInfo i = base_info(info());
+    for (hf::ParamSpec& p : i.params)
+      if (p.name == "ego_plan") p.default_value = "constant_speed";
+    return i;
+  }
+
   static hf::HazardKindInfo info() {
     hf::HazardKindInfo k;
     k.kind = "oncoming_overtaker";
@@ -26,7 +35,7 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     k.play_out =
         "drives towards the ego (heading_deg 180) at speed_mps in the oncoming lane next to the ego's traffic "
         "(side and lateral_offset_m on the side oncoming traffic passes, about one lane width), first seen far "
-        "ahead (initial_distance_m 50-110 m); after extra.swerve_after_s seconds it changes into the ego lane and "
+        "ahead (initial_distance_m 40-110 m); after extra.swerve_after_s seconds it changes into the ego lane and "
         "keeps coming, so the gap closes at the ego speed plus speed_mps.";
     k.object_classes = {"car", "truck", "bus"};
     k.needs = {hf::scene_condition::kOncomingLane};
@@ -36,8 +45,9 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     return k;
   }
 
-  // A car (2 in 4 draws), truck or bus 50-110 m ahead in the oncoming lane at 6-12 m/s, swerving so that it
-  // enters the ego path when the TTC is 1.3-2 x the target.
+  // A car (2 in 4 draws), truck or bus at least 40 m ahead in the oncoming lane (up to 20 m beyond the nearest
+  // start that leaves it time to swerve) at 5-10 m/s, an urban overtaking speed, swerving so that it enters the ego
+  // path when the TTC is 1.1-1.5 x the target.
   hf::HazardProposal propose(const hf::ProposalRequest& req, hf::RandomDraw& d) const override {
     const auto sc = hf::hazard::ProposalScene::of(req, *this);
     const int side = sc.road.oncoming_side();
@@ -47,7 +57,7 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     if (!req.class_allowed(cls) || !sc.limits.has(cls)) return {nullptr, "no '" + cls + "' here"};
     const hf::hazard::KinematicLimits& lim = sc.limits.at(cls);
     const hf::hazard::Footprint size = sc.size(cls);
-    const double v = d.uniform(6.0, std::min(12.0, lim.max_speed_mps));
+    const double v = d.uniform(5.0, std::min(10.0, lim.max_speed_mps));
     const double closing = sc.ego_speed + v;
     const double y0 = side * sc.road.lane_width * (sc.road.same_direction_lanes(side) + 1);
     const double lane = lane_change(std::abs(y0), v, lim);
@@ -56,12 +66,12 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     double lo = 0, hi = 1;
     for (int i = 0; i < 50; ++i) (hf::hazard::min_jerk_shift(1.0, 1.0, (lo + hi) / 2).p < inside ? lo : hi) = (lo + hi) / 2;
     const double to_path = hi * lane;
-    const double ttc_in = d.uniform(1.3, 2.0) * sc.target;  // the TTC when it enters the ego path
+    const double ttc_in = d.uniform(1.1, 1.5) * sc.target;  // the TTC when it enters the ego path
     const double front = sc.ego_front + size.length / 2.0;
-    // First seen at 50 m or more; driving on for a moment before it swerves; the TTC at aim x target before the
+    // First seen at 40 m or more; driving on for a moment before it swerves; the TTC at aim x target before the
     // horizon's end.
-    const double near = std::max(50.0, front + closing * (0.3 + ttc_in + to_path));
-    const double far = std::min(110.0, front + closing * (sc.horizon - 0.5 + req.aim * sc.target));
+    const double near = std::max(40.0, front + closing * (0.2 + ttc_in + to_path));
+    const double far = std::min({110.0, near + 20.0, front + closing * (sc.horizon - 0.5 + req.aim * sc.target)});
     if (near > far)
       return {nullptr, "it cannot come from " + hf::hazard::fmt1(near) + " m within the horizon"};
     const double x0 = d.uniform(near, far);
