@@ -36,6 +36,10 @@ std::vector<SceneKey> make_keys() {
       key(P::string("road.driving_side", "right").one_of({"left", "right"}).describe("side traffic keeps to")),
       key(P::integer("road.lanes_left", 1).range(0, 10).describe("lanes left of the ego lane")),
       key(P::integer("road.lanes_right", 1).range(0, 10).describe("lanes right of the ego lane")),
+      key(P::integer("road.oncoming_lanes", 0)
+              .range(0, 10)
+              .describe("of the lanes on the side away from driving_side, how many carry oncoming traffic (the "
+                        "outermost); 0 = all go the ego's way")),
       key(P::number("road.lane_width_m", 3.5).range(2, 6).describe("lane width, m")),
       key(P::string("road.sidewalks", "auto").one_of(yes_no).describe("sidewalks (pedestrians allowed)")),
       key(P::number("road.sidewalk_width_m", 3.0).range(0, 15).describe("sidewalk width beyond the road edge")),

@@ -16,7 +16,34 @@ Component::~Component() = default;
 Stage::~Stage() = default;
 LlmProvider::~LlmProvider() = default;
 HazardTemplate::~HazardTemplate() = default;
+HazardCatalog::~HazardCatalog() = default;
+RandomDraw::~RandomDraw() = default;
 Registrar::~Registrar() = default;
+
+double RandomDraw::uniform(double lo, double hi) {
+  return lo + (hi - lo) * static_cast<double>(next() >> 11) * 0x1.0p-53;
+}
+size_t RandomDraw::index(size_t n) {
+  return static_cast<size_t>(next() % n);
+}
+bool RandomDraw::coin() {
+  return (next() >> 63) != 0;
+}
+
+bool ProposalRequest::class_allowed(const std::string& object_class) const {
+  return object_classes.empty() ||
+         std::find(object_classes.begin(), object_classes.end(), object_class) != object_classes.end();
+}
+
+HazardKindInfo HazardTemplate::kind_info() const {
+  HazardKindInfo k;
+  k.kind = hazard_kind();
+  return k;
+}
+
+HazardProposal HazardTemplate::propose(const ProposalRequest&, RandomDraw&) const {
+  return {nullptr, "hazard template '" + hazard_kind() + "' proposes no plans"};
+}
 
 std::string PortSpec::type_str() const {
   return type_name == kAnyType ? std::string("*") : type_name + " v" + std::to_string(type_version);

@@ -23,6 +23,9 @@ class Feasibility : public ::testing::Test {
     cfg_.multi_lane = true;
     cfg_.ego_speed_mps = 10.0;
     cfg_.threshold_s = 1.5;
+    cfg_.kind_needs = {{"pedestrian_crossing", PedestrianCrossingTemplate::info().needs},
+                       {"cut_in", CutInTemplate::info().needs},
+                       {"sudden_stop", SuddenStopTemplate::info().needs}};
     scene_.camera = test::test_camera();
     scene_.ego_speed_mps = 10.0;
     scene_.objects = test::make_states(0, 0.0).objects;
@@ -86,7 +89,39 @@ TEST_F(Feasibility, SceneRulesFromThePrompt) {
   EXPECT_EQ(e[0],
             "/heading_deg = 90 makes a vehicle cross the ego path, which needs an intersection (intersection "
             "= no)");
-  EXPECT_EQ(e[1], "/kind = \"cut_in\" needs a lane beside the ego lane; this road has one (multi_lane = no)");
+  EXPECT_EQ(e[1],
+            "/kind = \"cut_in\" needs a lane beside the ego lane going its way: this road has one lane in the "
+            "ego's direction (multi_lane = no)");
+}
+
+// What a kind needs of the scene comes from its template (HazardKindInfo::needs), for any kind.
+TEST_F(Feasibility, KindNeedsFromTheTemplates) {
+  // Traffic keeps right; of the two lanes on the left the outer one is oncoming, the right has none.
+  cfg_.road.lanes_left = 1;
+  cfg_.road.lanes_right = 0;
+  cfg_.road.oncoming_lanes = 1;
+  HazardSpec c = stop();
+  c.kind = "cut_in";
+  std::vector<std::string> e = check(c);
+  ASSERT_FALSE(e.empty());
+  EXPECT_EQ(e[0],
+            "/kind = \"cut_in\" needs a lane beside the ego lane going its way: no lane beside the ego lane goes "
+            "its way (lanes_left 1, lanes_right 0, oncoming_lanes 1, traffic keeps right)");
+  // Keeping left, the oncoming lanes are on the right: the left lane goes the ego's way.
+  cfg_.road.driving_side = "left";
+  cfg_.road.lanes_right = 1;
+  for (const std::string& m : check(c)) EXPECT_EQ(m.find("needs a lane"), std::string::npos) << m;
+
+  cfg_.kind_needs["head_on"] = {scene_condition::kOncomingLane, scene_condition::kTrackedLead};
+  c.kind = "head_on";
+  cfg_.road.oncoming_lanes = 0;
+  e = check(c);
+  ASSERT_GE(e.size(), 2u);
+  EXPECT_EQ(e[0],
+            "/kind = \"head_on\" needs a lane with oncoming traffic beside the ego lane: no lane carries oncoming "
+            "traffic (lanes_left 1, lanes_right 1, oncoming_lanes 0, traffic keeps left)");
+  EXPECT_EQ(e[1], "/kind = \"head_on\" needs a tracked vehicle ahead in the ego path: no vehicle is tracked ahead "
+                  "in the ego path");
 }
 
 TEST_F(Feasibility, PersonOnTheShoulderOnlyWithTheExplicitRelaxation) {

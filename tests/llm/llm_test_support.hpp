@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include <hazardforge/registry.hpp>
 #include <hazardforge/testing/stage_runner.hpp>
 
 #include "cut_in_template.hpp"
@@ -127,6 +128,66 @@ inline Json valid_reply() {
             {"under_way_s", nullptr}}},
           {"rationale", "sidewalks on both sides; a jogger crosses"}};
 }
+
+// What the generator hands the offline provider for one scene: the built-in templates configured as the
+// generator configures them, its reply checker and the catalog of the allowed kinds.
+class OfflineScene {
+ public:
+  OfflineScene(llm_hazard::SceneSettings s, const Frame& frame, const ObjectStates& states,
+               const RiskAssessment& risk, void (*more)(Registrar&) = nullptr)
+      : settings_(std::move(s)),
+        limits_(hazard::LimitsTable::load(hazard::LimitsTable::default_path())),
+        sizes_(ClassPriors::load(share_dir() + "/class_sizes.yaml")) {
+    registry_.add<PedestrianCrossingTemplate>();
+    registry_.add<CutInTemplate>();
+    registry_.add<SuddenStopTemplate>();
+    if (more) more(registry_);
+    const Json params = llm_hazard::template_params(settings_.road, settings_.ttc, settings_.horizon_s,
+                                                    settings_.max_under_way_s, limits_.file(),
+                                                    share_dir() + "/class_sizes.yaml");
+    std::vector<HazardKindInfo> all;
+    for (const std::string& k : registry_.component_names(kind::kHazardTemplate)) {
+      templates_[k] = registry_.create<HazardTemplate>(kind::kHazardTemplate, k, params);
+      all.push_back(templates_[k]->kind_info());
+    }
+    for (const std::string& k : settings_.allowed_kinds) settings_.kinds.push_back(templates_.at(k)->kind_info());
+    summary_ = llm_hazard::summarize_scene(frame, states, {&risk}, settings_, limits_, sizes_);
+    reply_.emplace(llm_hazard::reply_schema(
+        llm_hazard::with_kind_fields(llm_hazard::load_schema_file(share_dir() + "/schemas/hazard_spec.schema.json"),
+                                     all),
+        settings_.allowed_kinds));
+    checker_.emplace(*reply_, templates_, summary_.context,
+                     llm_hazard::feasibility_config(settings_, limits_, sizes_, frame.timestamp, std::nullopt));
+    base_.emplace(llm_hazard::proposal_request(settings_, summary_.context));
+    catalog_.emplace(*checker_, settings_.allowed_kinds, *base_);
+  }
+  OfflineScene(const OfflineScene&) = delete;
+
+  LlmRequest request(int64_t seed) const {
+    LlmRequest r;
+    r.messages = {{"user", "prompt"}};
+    r.scene = summary_.scene;
+    r.seed = seed;
+    r.hazards = &*catalog_;
+    return r;
+  }
+  const Json& scene() const { return summary_.scene; }
+  Json& scene() { return summary_.scene; }
+  const llm_hazard::ReplyChecker& checker() const { return *checker_; }
+  const llm_hazard::TemplateCatalog& catalog() const { return *catalog_; }
+
+ private:
+  llm_hazard::SceneSettings settings_;
+  hazard::LimitsTable limits_;
+  ClassPriors sizes_;
+  ComponentRegistry registry_;
+  std::map<std::string, std::unique_ptr<HazardTemplate>> templates_;
+  llm_hazard::SceneSummary summary_;
+  std::optional<llm_hazard::SchemaValidator> reply_;
+  std::optional<llm_hazard::ReplyChecker> checker_;
+  std::optional<ProposalRequest> base_;
+  std::optional<llm_hazard::TemplateCatalog> catalog_;
+};
 
 // A model server on 127.0.0.1 (any free port) that records each request body and answers from a script.
 class ScriptedServer {

@@ -8,8 +8,9 @@
 namespace hf::llm {
 namespace {
 
-// The scene context the generator would send (built from the same synthetic scene as the stage tests).
-Json scene_context(bool sidewalks, bool multi_lane, double ego_speed, std::vector<std::string> kinds) {
+// The scene the generator would offer (built from the same synthetic scene as the stage tests).
+std::unique_ptr<test::OfflineScene> scene_context(bool sidewalks, bool multi_lane, double ego_speed,
+                                                  std::vector<std::string> kinds) {
   llm_hazard::SceneSettings s;
   s.environment = "test street";
   s.road_type = "test";
@@ -18,25 +19,17 @@ Json scene_context(bool sidewalks, bool multi_lane, double ego_speed, std::vecto
   s.multi_lane = {multi_lane, "test"};
   s.allowed_kinds = std::move(kinds);
   s.ego_speed_mps = ego_speed;
-  Frame f = test::make_frame(5, 2.5, "test");
-  ObjectStates st = test::make_states(5, 2.5);
-  RiskAssessment r = test::make_risk(5, true);
-  hazard::LimitsTable limits = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
-  ClassPriors sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
-  return llm_hazard::summarize_scene(f, st, {&r}, s, limits, sizes).scene;
+  return std::make_unique<test::OfflineScene>(s, test::make_frame(5, 2.5, "test"), test::make_states(5, 2.5),
+                                              test::make_risk(5, true));
 }
 
-LlmRequest request(Json scene, int64_t seed) {
-  LlmRequest r;
-  r.messages = {{"user", "prompt"}};
-  r.scene = std::move(scene);
-  r.seed = seed;
-  return r;
+LlmRequest request(const std::unique_ptr<test::OfflineScene>& scene, int64_t seed) {
+  return scene->request(seed);
 }
 
 OfflinePlanner planner() {
   OfflinePlanner p;
-  p.open(Params(Json{{"aim", 0.85}, {"candidates_per_kind", 12}}));
+  p.open(ComponentRegistry::make_params(OfflinePlanner::describe(), Json::object(), {}, "offline"));
   return p;
 }
 
@@ -44,7 +37,7 @@ const std::vector<std::string> kAll = {"pedestrian_crossing", "cut_in", "sudden_
 
 TEST(OfflinePlanner, SameSeedSameReply) {
   OfflinePlanner p = planner();
-  Json scene = scene_context(true, true, 10.0, kAll);
+  auto scene = scene_context(true, true, 10.0, kAll);
   LlmReply a = p.complete(request(scene, 42));
   LlmReply b = p.complete(request(scene, 42));
   EXPECT_EQ(a.content, b.content);
@@ -56,7 +49,7 @@ TEST(OfflinePlanner, SameSeedSameReply) {
 
 TEST(OfflinePlanner, SeedsVaryKindAndParameters) {
   OfflinePlanner p = planner();
-  Json scene = scene_context(true, true, 10.0, kAll);
+  auto scene = scene_context(true, true, 10.0, kAll);
   std::set<std::string> kinds, contents;
   for (int64_t seed = 0; seed < 12; ++seed) {
     Json j = Json::parse(p.complete(request(scene, seed)).content);
@@ -70,7 +63,7 @@ TEST(OfflinePlanner, SeedsVaryKindAndParameters) {
 TEST(OfflinePlanner, FollowsTheRules) {
   OfflinePlanner p = planner();
   // No sidewalks, one lane: only a sudden stop is left.
-  Json scene = scene_context(false, false, 10.0, kAll);
+  auto scene = scene_context(false, false, 10.0, kAll);
   for (int64_t seed = 0; seed < 8; ++seed)
     EXPECT_EQ(Json::parse(p.complete(request(scene, seed)).content)["kind"], "sudden_stop")
         << "seed " << seed;
@@ -89,7 +82,8 @@ TEST(OfflinePlanner, FollowsTheRules) {
 
 TEST(OfflinePlanner, RetryDrawsANewPlan) {
   OfflinePlanner p = planner();
-  LlmRequest r = request(scene_context(true, true, 10.0, kAll), 3);
+  auto scene = scene_context(true, true, 10.0, kAll);
+  LlmRequest r = request(scene, 3);
   LlmReply first = p.complete(r);
   r.messages.push_back({"assistant", first.content});
   r.messages.push_back({"user", "rejected"});
@@ -116,7 +110,8 @@ TEST(OfflinePlanner, RefusesClearlyWhenNothingFits) {
                  "pedestrian_crossing: the scene has no sidewalks");
   }
   try {
-    p.complete(request(Json::object(), 1));
+    LlmRequest empty;
+    p.complete(empty);
     FAIL();
   } catch (const Error& e) {
     EXPECT_STREQ(
@@ -126,7 +121,8 @@ TEST(OfflinePlanner, RefusesClearlyWhenNothingFits) {
 }
 
 // A highway clip 1.4 s long after the trigger: ego at 20 m/s in the leftmost of four lanes, no sidewalks.
-Json short_highway(std::vector<std::string> kinds, double max_under_way, bool people_on_shoulder) {
+std::unique_ptr<test::OfflineScene> short_highway(std::vector<std::string> kinds, double max_under_way,
+                                                  bool people_on_shoulder) {
   llm_hazard::SceneSettings s;
   s.environment = "highway";
   s.road_type = "multi-lane highway";
@@ -141,12 +137,8 @@ Json short_highway(std::vector<std::string> kinds, double max_under_way, bool pe
   s.pedestrians_without_sidewalks = people_on_shoulder;
   s.road.lanes_left = 0;
   s.road.lanes_right = 3;
-  Frame f = test::make_frame(5, 2.5, "test");
-  ObjectStates st = test::make_states(5, 2.5);
-  RiskAssessment r = test::make_risk(5, true);
-  hazard::LimitsTable limits = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
-  ClassPriors sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
-  return llm_hazard::summarize_scene(f, st, {&r}, s, limits, sizes).scene;
+  return std::make_unique<test::OfflineScene>(s, test::make_frame(5, 2.5, "test"), test::make_states(5, 2.5),
+                                              test::make_risk(5, true));
 }
 
 TEST(OfflinePlanner, ShortHorizonSuddenStopIsAlreadyUnderWayWhenAllowed) {

@@ -48,10 +48,20 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
   RiskAssessment r = test::make_risk(6, true);
   hazard::LimitsTable limits = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
   ClassPriors sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
+  s.kinds = {PedestrianCrossingTemplate::info(), SuddenStopTemplate::info()};
   SceneSummary sum = summarize_scene(f, st, {&r}, s, limits, sizes);
   auto values = sum.placeholders;
   values["schema"] = "{}";
   std::string prompt = t.render(values);
+  // The kinds as their templates describe themselves, with whether their needs are met here.
+  EXPECT_NE(prompt.find("- pedestrian_crossing (person): a person steps off the kerb and crosses the ego lane. "
+                        "Played out: waits on the kerb just beyond the road edge"),
+            std::string::npos)
+      << prompt;
+  EXPECT_NE(prompt.find("Needs sidewalks (given here).\n  extra.crossing_from: the road edge the person steps "
+                        "off from (equals side).\n- sudden_stop (car, truck, bus, motorcycle): a lead vehicle "
+                        "brakes hard to a stop."),
+            std::string::npos);
   EXPECT_EQ(prompt.find("<!--"), std::string::npos);
   EXPECT_NE(prompt.find("# Role"), std::string::npos);
   EXPECT_NE(prompt.find("- Environment: Rainy city street, peds on sidewalk\n"), std::string::npos);

@@ -9,12 +9,18 @@
 namespace hf::llm_hazard {
 namespace {
 
-Json shipped() {
+Json file_schema() {
   return load_schema_file(share_dir() + "/schemas/hazard_spec.schema.json");
 }
 
+// The file with the built-in kinds' extra fields, as the generator uses it when they are registered.
+Json shipped() {
+  return with_kind_fields(file_schema(), {PedestrianCrossingTemplate::info(), CutInTemplate::info(),
+                                          SuddenStopTemplate::info()});
+}
+
 TEST(HazardSchema, ShippedFileIsDraft07AndVersioned) {
-  Json s = shipped();
+  Json s = file_schema();
   EXPECT_EQ(s["$schema"], "http://json-schema.org/draft-07/schema#");
   EXPECT_EQ(s["properties"]["schema_version"]["enum"], Json::array({"1.0"}));
   EXPECT_EQ(s["additionalProperties"], false);
@@ -73,10 +79,40 @@ TEST(HazardSchema, SpecFromReplyFillsDefaultsAndDropsNulls) {
   EXPECT_EQ(s.extra, (Json{{"crossing_from", "right"}}));
   ASSERT_TRUE(s.target_ttc_s.has_value());
   EXPECT_DOUBLE_EQ(*s.target_ttc_s, 1.0);
-  // What the generator writes must follow the file's schema.
+  // What the generator writes must follow the file's schema, and the schema with the kinds' fields.
   s.provenance = {{"provider", "test"}};
-  SchemaValidator file(shipped());
+  SchemaValidator file(file_schema());
   EXPECT_EQ(file.validate(Json(s)), std::vector<std::string>{});
+  SchemaValidator with_kinds(shipped());
+  EXPECT_EQ(with_kinds.validate(Json(s)), std::vector<std::string>{});
+}
+
+// Each kind brings its own extra fields; the file keeps only the one every kind shares.
+TEST(HazardSchema, KindsDeclareTheirExtraFields) {
+  EXPECT_EQ(file_schema()["properties"]["extra"]["properties"].size(), 1u);
+  const Json extra = shipped()["properties"]["extra"];
+  EXPECT_EQ(extra["additionalProperties"], false);
+  EXPECT_EQ(extra["properties"]["crossing_from"]["description"],
+            "pedestrian_crossing: the road edge the person steps off from (equals side).");
+  EXPECT_EQ(extra["properties"]["track_id"]["type"], Json::array({"integer", "null"}));
+  // Two kinds with the same field: one schema, both descriptions; a different schema is refused.
+  HazardKindInfo a, b;
+  a.kind = "kind_a";
+  b.kind = "kind_b";
+  a.extra_fields = {{"gap_m", {{"type", {"number", "null"}}}, "gap kept"}};
+  b.extra_fields = a.extra_fields;
+  b.extra_fields[0].doc = "gap closed";
+  EXPECT_EQ(with_kind_fields(file_schema(), {a, b})["properties"]["extra"]["properties"]["gap_m"]["description"],
+            "kind_a: gap kept. kind_b: gap closed.");
+  b.extra_fields[0].schema = {{"type", {"integer", "null"}}};
+  try {
+    with_kind_fields(file_schema(), {a, b});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(),
+                 "hazard kinds 'kind_a' and 'kind_b' declare extra.gap_m differently: "
+                 "{\"type\":[\"number\",\"null\"]} vs {\"type\":[\"integer\",\"null\"]}");
+  }
 }
 
 }  // namespace

@@ -40,6 +40,55 @@ std::string num(double v) {
   return s;
 }
 
+bool known_condition(const std::string& c) {
+  return !condition_text(c).empty();
+}
+
+std::string condition_text(const std::string& c) {
+  namespace sc = scene_condition;
+  if (c == sc::kSidewalks) return "sidewalks";
+  if (c == sc::kSameDirectionLane) return "a lane beside the ego lane going its way";
+  if (c == sc::kOncomingLane) return "a lane with oncoming traffic beside the ego lane";
+  if (c == sc::kIntersection) return "an intersection";
+  if (c == sc::kTrackedLead) return "a tracked vehicle ahead in the ego path";
+  return {};
+}
+
+std::string unmet_condition(const std::string& c, const FeasibilityConfig& cfg, const SceneContext& scene) {
+  namespace sc = scene_condition;
+  const hazard::RoadModel& road = cfg.road;
+  auto lanes = [&] {
+    return "lanes_left " + std::to_string(road.lanes_left) + ", lanes_right " + std::to_string(road.lanes_right) +
+           ", oncoming_lanes " + std::to_string(road.oncoming_lanes) + ", traffic keeps " + road.driving_side;
+  };
+  if (c == sc::kSidewalks)
+    return cfg.sidewalks || cfg.pedestrians_without_sidewalks ? "" : "the scene has none (sidewalks = no)";
+  if (c == sc::kSameDirectionLane) {
+    if (!cfg.multi_lane) return "this road has one lane in the ego's direction (multi_lane = no)";
+    if (road.same_direction_lanes(1) + road.same_direction_lanes(-1) == 0)
+      return "no lane beside the ego lane goes its way (" + lanes() + ")";
+    return "";
+  }
+  if (c == sc::kOncomingLane)
+    return road.oncoming_lanes > 0 ? "" : "no lane carries oncoming traffic (" + lanes() + ")";
+  if (c == sc::kIntersection) return cfg.intersection ? "" : "the scene has none (intersection = no)";
+  if (c == sc::kTrackedLead) {
+    for (const ObjectState& o : scene.objects)
+      if (o.in_path && std::isfinite(o.distance_m) && o.distance_m > 0 && is_vehicle(o.label)) return "";
+    return "no vehicle is tracked ahead in the ego path";
+  }
+  return "'" + c + "', a condition the generator does not know";
+}
+
+std::vector<std::string> unmet_needs(const std::vector<std::string>& needs, const FeasibilityConfig& cfg,
+                                     const SceneContext& scene) {
+  std::vector<std::string> out;
+  for (const std::string& n : needs)
+    if (std::string why = unmet_condition(n, cfg, scene); !why.empty())
+      out.push_back((known_condition(n) ? condition_text(n) : n) + ": " + why);
+  return out;
+}
+
 TtcSimulation simulate_ttc(const HazardSpec& spec, const ClassSize& size, double ego_speed_mps,
                            std::optional<double> ego_yaw_rate, const hazard::TtcConventions& conv,
                            double horizon_s, double dt) {
@@ -96,12 +145,14 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
   // The prompt's scene rules.
   if (cls == "person" && !cfg.sidewalks && !cfg.pedestrians_without_sidewalks)
     errs.push_back("/object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = no)");
-  if (is_vehicle(cls) && std::abs(spec.heading_deg) > 45.0 && !cfg.intersection)
+  // Across the road (not along it either way: oncoming vehicles head about 180 degrees).
+  if (is_vehicle(cls) && std::abs(spec.heading_deg) > 45.0 && std::abs(spec.heading_deg) < 135.0 &&
+      !cfg.intersection)
     errs.push_back("/heading_deg = " + num(spec.heading_deg) +
                    " makes a vehicle cross the ego path, which needs an intersection (intersection = no)");
-  if (spec.kind == "cut_in" && !cfg.multi_lane)
-    errs.push_back(
-        "/kind = \"cut_in\" needs a lane beside the ego lane; this road has one (multi_lane = no)");
+  if (auto needs = cfg.kind_needs.find(spec.kind); needs != cfg.kind_needs.end())
+    for (const std::string& why : unmet_needs(needs->second, cfg, scene))
+      errs.push_back("/kind = \"" + spec.kind + "\" needs " + why);
 
   // Side, crossing side and lateral position agree.
   const double lane_half = cfg.ttc.corridor.half_width_for(0.0);

@@ -3,6 +3,7 @@
 // class limits (share/hazard_limits.yaml), camera visibility and a constant-velocity TTC replay.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,6 +31,8 @@ struct FeasibilityConfig {
   double trigger_time_s = 0.0;
   double ego_speed_mps = 0.0;
   std::optional<double> ego_yaw_rate;  // rad/s; with the corridor's ego_path the replayed ego follows its arc
+  // The scene conditions (hf::scene_condition) each kind needs (HazardKindInfo::needs).
+  std::map<std::string, std::vector<std::string>> kind_needs;
   // Class limits, start visibility and the TTC replay. Off when the kind's template checks the spec: it plans
   // the real motion (a cut-in starting beside the ego, a lead cruising before it brakes), which a generic
   // straight-line replay would misjudge.
@@ -57,6 +60,15 @@ TtcSimulation simulate_ttc(const HazardSpec& spec, const ClassSize& size, double
 // Checks that cannot run (no camera model) are described in `skipped`.
 std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneContext& scene,
                                            const FeasibilityConfig& cfg, std::vector<std::string>* skipped);
+
+// The scene conditions a kind may need (hf::scene_condition): whether the generator knows one, what it means
+// ("a lane beside the ego lane going its way"), and why it does not hold in this scene ("" = it holds).
+bool known_condition(const std::string& condition);
+std::string condition_text(const std::string& condition);
+std::string unmet_condition(const std::string& condition, const FeasibilityConfig& cfg, const SceneContext& scene);
+// Every unmet condition of `needs`, as "<what it means>: <why not>".
+std::vector<std::string> unmet_needs(const std::vector<std::string>& needs, const FeasibilityConfig& cfg,
+                                     const SceneContext& scene);
 
 // Numbers in messages: at most two decimals, no trailing zeros ("5.5", "3", "-0.25").
 std::string num(double v);

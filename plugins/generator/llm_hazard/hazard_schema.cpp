@@ -2,6 +2,7 @@
 #include "hazard_schema.hpp"
 
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <hazardforge/error.hpp>
@@ -138,6 +139,37 @@ Json load_schema_file(const std::string& path) {
   } catch (const Json::parse_error& e) {
     throw Error(path + ": not valid JSON: " + e.what());
   }
+}
+
+Json with_kind_fields(const Json& spec_schema, const std::vector<HazardKindInfo>& kinds) {
+  Json s = spec_schema;
+  if (!s.contains("properties") || !s["properties"].contains("extra") || !s["properties"]["extra"].is_object())
+    throw Error("hazard spec schema has no properties.extra");
+  Json& extra = s["properties"]["extra"];
+  if (!extra.contains("properties")) extra["properties"] = Json::object();
+  Json& props = extra["properties"];
+  std::map<std::string, std::string> declared_by;
+  for (const HazardKindInfo& k : kinds)
+    for (const HazardField& f : k.extra_fields) {
+      Json field = f.schema;
+      const std::string text = k.kind + ": " + f.doc + ".";
+      if (!props.contains(f.name)) {
+        field["description"] = text;
+        props[f.name] = std::move(field);
+        declared_by[f.name] = k.kind;
+        continue;
+      }
+      Json existing = props[f.name];
+      const std::string before = existing.value("description", "");
+      existing.erase("description");
+      if (existing != field)
+        throw Error("hazard kinds '" + (declared_by.count(f.name) ? declared_by[f.name] : std::string("(schema file)")) +
+                    "' and '" + k.kind + "' declare extra." + f.name + " differently: " + existing.dump() + " vs " +
+                    field.dump());
+      props[f.name]["description"] = before + (before.empty() ? "" : " ") + text;
+    }
+  extra["additionalProperties"] = false;
+  return s;
 }
 
 Json reply_schema(const Json& spec_schema, const std::vector<std::string>& kinds) {

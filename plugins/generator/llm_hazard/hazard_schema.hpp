@@ -6,12 +6,17 @@
 #include <string>
 #include <vector>
 
-#include <hazardforge/types.hpp>
+#include <hazardforge/stage.hpp>
 
 namespace hf::llm_hazard {
 
 // Reads share/schemas/hazard_spec.schema.json (or another file). Throws hf::Error naming the file.
 Json load_schema_file(const std::string& path);
+
+// The spec schema with the kinds' own `extra` fields (HazardKindInfo::extra_fields) added, each described as
+// "<kind>: <doc>.", and no other extra field allowed. Throws hf::Error when two kinds declare a field with
+// different schemas.
+Json with_kind_fields(const Json& spec_schema, const std::vector<HazardKindInfo>& kinds);
 
 // The schema a model answers with: schema_version and provenance dropped (the generator writes them),
 // every property of every object required (fields that do not apply are null, as OpenAI strict mode

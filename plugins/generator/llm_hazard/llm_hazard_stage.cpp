@@ -93,10 +93,6 @@ ComponentInfo LlmHazardGenerator::describe() {
           .one_of({"auto", "yes", "no"})
           .describe("crossing vehicles allowed"),
       ParamSpec::string("multi_lane", "auto").from_scene("road.multi_lane").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
-      ParamSpec::string("driving_side", "right").from_scene("road.driving_side")
-          .one_of({"right", "left"})
-          .describe("the side of the road traffic keeps to (left: e.g. Singapore, UK); exported scenarios "
-                    "lay out their road by it"),
       ParamSpec::number("sidewalk_width_m", 3.0).from_scene("road.sidewalk_width_m").range(0, 15).describe("sidewalk width beyond the road edge"),
       ParamSpec::boolean("pedestrians_without_sidewalks", false)
           .describe("edge-case tests: a person may appear on a road without sidewalks, on the shoulder "
@@ -130,6 +126,25 @@ ComponentInfo LlmHazardGenerator::describe() {
   return i;
 }
 
+Json template_params(const hazard::RoadModel& road, const hazard::TtcConventions& ttc, double horizon_s,
+                     double max_under_way_s, const std::string& limits_file, const std::string& sizes_file) {
+  return {{"limits", limits_file},
+          {"class_sizes", sizes_file},
+          {"lane_width_m", road.lane_width},
+          {"lanes_left", road.lanes_left},
+          {"lanes_right", road.lanes_right},
+          {"kerb_offset_m", road.kerb_offset},
+          {"driving_side", road.driving_side},
+          {"oncoming_lanes", road.oncoming_lanes},
+          {"corridor_half_width", ttc.corridor.ego_half_width},
+          {"corridor_margin", ttc.corridor.margin},
+          {"corridor_path", ttc.corridor.follow_path ? "ego_path" : "straight"},
+          {"ego_front_m", ttc.ego_front},
+          {"min_closing_mps", ttc.min_closing},
+          {"duration_s", horizon_s},
+          {"max_under_way_s", max_under_way_s}};
+}
+
 LlmHazardGenerator::LlmHazardGenerator() = default;
 LlmHazardGenerator::~LlmHazardGenerator() = default;
 
@@ -139,25 +154,14 @@ void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std
   std::string limits_file = share_file(p, "limits", "hazard_limits.yaml");
   std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
   templates_.clear();
-  const Json shared = {{"limits", limits_file},
-                       {"class_sizes", sizes_file},
-                       {"lane_width_m", road_.lane_width},
-                       {"lanes_left", road_.lanes_left},
-                       {"lanes_right", road_.lanes_right},
-                       {"kerb_offset_m", road_.kerb_offset},
-                       {"corridor_half_width", ttc_.corridor.ego_half_width},
-                       {"corridor_margin", ttc_.corridor.margin},
-                       {"corridor_path", ttc_.corridor.follow_path ? "ego_path" : "straight"},
-                       {"ego_front_m", ttc_.ego_front},
-                       {"min_closing_mps", ttc_.min_closing},
-                       {"duration_s", horizon_s_},
-                       {"max_under_way_s", max_under_way_s_}};
-  for (const std::string& k : allowed_kinds_) {
-    if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
+  const Json shared = template_params(road_, ttc_, horizon_s_, max_under_way_s_, limits_file, sizes_file);
+  for (const std::string& k : allowed_kinds_)
+    if (std::find(registered.begin(), registered.end(), k) == registered.end())
       ctx.log(LogLevel::kWarning,
               "no hazard_template '" + k + "' is registered: the generic kinematic checks apply");
-      continue;
-    }
+  // Every registered kind, allowed or not: the reply's extra fields are those of all of them (a model may fill
+  // another kind's field with null), and the allowed ones check and propose.
+  for (const std::string& k : registered) {
     try {
       templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, shared);
     } catch (const DiagnosticError&) {
@@ -204,8 +208,23 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   horizon_s_ = p.get_double("horizon_s") > 0 ? p.get_double("horizon_s") : 6.0;
   max_under_way_s_ = std::max(0.0, p.get_double("max_under_way_s"));
   make_templates(ctx, registered);
+  // What the allowed kinds say about themselves: the prompt's kind list, the reply's extra fields, the
+  // conditions the scene must meet.
+  kind_infos_.clear();
+  for (const std::string& k : allowed_kinds_) {
+    kind_infos_.push_back(kind_info_of(templates_, k));
+    for (const std::string& need : kind_infos_.back().needs)
+      if (!known_condition(need))
+        throw Error("hazard_template '" + k + "' needs the scene condition '" + need +
+                    "', which this generator does not know (known: sidewalks, same_direction_lane, oncoming_lane, "
+                    "intersection, tracked_lead)");
+  }
+  std::vector<HazardKindInfo> all_kinds = kind_infos_;
+  for (const std::string& k : registered)
+    if (std::find(allowed_kinds_.begin(), allowed_kinds_.end(), k) == allowed_kinds_.end())
+      all_kinds.push_back(kind_info_of(templates_, k));
   std::string schema_file = share_file(p, "schema", "schemas/hazard_spec.schema.json");
-  spec_schema_ = load_schema_file(schema_file);
+  spec_schema_ = with_kind_fields(load_schema_file(schema_file), all_kinds);
   reply_validator_.emplace(reply_schema(spec_schema_, allowed_kinds_));
   spec_validator_.emplace(spec_schema_);
   prompt_ = PromptTemplate::load(share_file(p, "prompt_template", "prompts/hazard_generation.md"));
@@ -317,6 +336,7 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   s.intersection = resolve_intersection(p.get_string("intersection"), text);
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
   s.allowed_kinds = allowed_kinds_;
+  s.kinds = kind_infos_;
   s.target_ttc_s = p.get_double("target_ttc_s");
   s.ttc_tolerance_s = p.get_double("ttc_tolerance_s");
   s.threshold_s = risk_threshold(risks, frame.index);
@@ -354,27 +374,17 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
               (s.multi_lane.value ? "yes" : "no") + ", " + s.multi_lane.why + ")");
 
   SceneSummary scene = summarize_scene(frame, states, risks, s, limits_, sizes_);
+  const FeasibilityConfig fc = feasibility_config(s, limits_, sizes_, frame.timestamp,
+                                                  states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate);
   std::map<std::string, std::string> values = scene.placeholders;
   values["schema"] = reply_validator_->schema().dump(2);
   const std::string prompt = prompt_->render(values);
   const std::string prompt_hash = llm::sha256_hex(prompt);
 
-  FeasibilityConfig fc;
-  fc.limits = &limits_;
-  fc.sizes = sizes_;
-  fc.ttc = ttc_;
-  fc.road = road_;
-  fc.sidewalk_width_m = s.sidewalk_width_m;
-  fc.sidewalks = s.sidewalks.value;
-  fc.pedestrians_without_sidewalks = s.pedestrians_without_sidewalks;
-  fc.intersection = s.intersection.value;
-  fc.multi_lane = s.multi_lane.value;
-  fc.horizon_s = s.horizon_s;
-  fc.ttc_tolerance_s = s.ttc_tolerance_s;
-  fc.threshold_s = s.threshold_s;
-  fc.trigger_time_s = frame.timestamp;
-  fc.ego_speed_mps = s.ego_speed_mps;
-  fc.ego_yaw_rate = states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate;
+  // One verdict for the model's replies and the offline provider's plans.
+  const ReplyChecker checker(*reply_validator_, templates_, scene.context, fc);
+  const ProposalRequest proposal = proposal_request(s, scene.context);
+  const TemplateCatalog catalog(checker, allowed_kinds_, proposal);
 
   LlmRequest req;
   req.messages = {{"user", prompt}};
@@ -383,6 +393,7 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   req.seed = p.get_int("seed");
   req.max_tokens = static_cast<int>(p.get_int("max_tokens"));
   req.scene = scene.scene;
+  req.hazards = &catalog;
 
   const int max_attempts = 1 + static_cast<int>(p.get_int("max_retries"));
   const std::string backend = provider_->describe_backend();
@@ -424,22 +435,13 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
     errors.clear();
     HazardSpec spec;
     try {
-      Json doc = llm::extract_json_object(reply.content);
-      errors = reply_validator_->validate(doc);
-      if (errors.empty()) {
-        spec = spec_from_reply(doc, frame.timestamp);
-        std::vector<std::string> skipped;
-        auto tmpl = templates_.find(spec.kind);
-        fc.kinematics = tmpl == templates_.end();
-        errors = check_feasibility(spec, scene.context, fc, &skipped);
-        if (!skipped.empty() && !warned_skipped_) {
-          for (const std::string& note : skipped) ctx.log(LogLevel::kWarning, note);
-          warned_skipped_ = true;
-        }
-        if (tmpl != templates_.end())
-          for (const std::string& e : tmpl->second->check(spec, scene.context))
-            errors.push_back("hazard template '" + spec.kind + "': " + e);
+      CheckedReply checked = checker.check(llm::extract_json_object(reply.content));
+      if (!checked.skipped.empty() && !warned_skipped_) {
+        for (const std::string& note : checked.skipped) ctx.log(LogLevel::kWarning, note);
+        warned_skipped_ = true;
       }
+      spec = std::move(checked.spec);
+      errors = std::move(checked.errors);
     } catch (const Error& e) {
       errors = {e.what()};
     }

@@ -11,12 +11,18 @@
 #include <hazardforge/stage.hpp>
 
 #include "feasibility.hpp"
+#include "hazard_catalog.hpp"
 #include "hazard_schema.hpp"
 #include "prompt.hpp"
 #include "run_files.hpp"
 #include "scene_summary.hpp"
 
 namespace hf::llm_hazard {
+
+// The params the generator creates hazard templates with: its road, TTC conventions, horizon and bound on
+// hazards already under way, so templates judge the same road and times as its own checks.
+Json template_params(const hazard::RoadModel& road, const hazard::TtcConventions& ttc, double horizon_s,
+                     double max_under_way_s, const std::string& limits_file, const std::string& sizes_file);
 
 // LlmHazardGenerator (stage "llm_hazard", kind generator).
 // Inputs: states (ObjectStates), risk (RiskAssessment, multi), frames (Frame).
@@ -55,6 +61,7 @@ class LlmHazardGenerator : public Stage {
   double max_under_way_s_ = 0.0;  // the param, or what the clip cannot show (-1)  // templates' duration_s: the param, or what is left of the clip at the trigger
   void make_templates(StageContext& ctx, const std::vector<std::string>& registered);
   std::vector<std::string> allowed_kinds_;
+  std::vector<HazardKindInfo> kind_infos_;  // of the allowed kinds, in their order
   Json spec_schema_;
   std::optional<SchemaValidator> reply_validator_;
   std::optional<SchemaValidator> spec_validator_;

@@ -81,6 +81,64 @@ std::string dataset_description(const Frame& frame) {
   return {};
 }
 
+FeasibilityConfig feasibility_config(const SceneSettings& s, const hazard::LimitsTable& limits,
+                                     const ClassPriors& sizes, double trigger_time_s,
+                                     std::optional<double> ego_yaw_rate) {
+  FeasibilityConfig fc;
+  fc.limits = &limits;
+  fc.sizes = sizes;
+  fc.ttc = s.ttc;
+  fc.road = s.road;
+  fc.sidewalk_width_m = s.sidewalk_width_m;
+  fc.sidewalks = s.sidewalks.value;
+  fc.pedestrians_without_sidewalks = s.pedestrians_without_sidewalks;
+  fc.intersection = s.intersection.value;
+  fc.multi_lane = s.multi_lane.value;
+  fc.horizon_s = s.horizon_s;
+  fc.ttc_tolerance_s = s.ttc_tolerance_s;
+  fc.threshold_s = s.threshold_s;
+  fc.trigger_time_s = trigger_time_s;
+  fc.ego_speed_mps = s.ego_speed_mps;
+  fc.ego_yaw_rate = ego_yaw_rate;
+  for (const HazardKindInfo& k : s.kinds) fc.kind_needs[k.kind] = k.needs;
+  return fc;
+}
+
+ProposalRequest proposal_request(const SceneSettings& s, const SceneContext& scene) {
+  ProposalRequest r(scene);
+  r.target_ttc_s = s.target_ttc_s;
+  r.horizon_s = s.horizon_s;
+  r.max_under_way_s = s.max_under_way_s;
+  r.sidewalks = s.sidewalks.value;
+  r.pedestrians_on_shoulder = s.pedestrians_without_sidewalks;
+  r.multi_lane = s.multi_lane.value;
+  r.intersection = s.intersection.value;
+  r.sidewalk_width_m = s.sidewalk_width_m;
+  return r;
+}
+
+std::string describe_kinds(const std::vector<HazardKindInfo>& kinds, const FeasibilityConfig& cfg,
+                           const SceneContext& scene) {
+  std::string out;
+  for (const HazardKindInfo& k : kinds) {
+    std::string classes;
+    for (const std::string& c : k.object_classes) classes += (classes.empty() ? "" : ", ") + c;
+    out += "- " + k.kind + " (" + (classes.empty() ? "any class" : classes) + ")";
+    if (!k.summary.empty()) out += ": " + k.summary + ".";
+    if (!k.play_out.empty()) out += " Played out: " + k.play_out;
+    if (!k.needs.empty()) {
+      const std::vector<std::string> unmet = unmet_needs(k.needs, cfg, scene);
+      std::string needs;
+      for (const std::string& n : k.needs) needs += (needs.empty() ? "" : ", ") + condition_text(n);
+      out += " Needs " + needs + (unmet.empty() ? " (given here)." : " — NOT given here, so do not choose it.");
+    }
+    for (const HazardField& f : k.extra_fields) out += "\n  extra." + f.name + ": " + f.doc + ".";
+    out += "\n";
+  }
+  if (!out.empty()) out.pop_back();
+  return out;
+}
+
 SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                              const std::vector<const RiskAssessment*>& risks, const SceneSettings& s,
                              const hazard::LimitsTable& limits, const ClassPriors& sizes) {
@@ -179,6 +237,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                  {"lanes_left", s.road.lanes_left},
                  {"lanes_right", s.road.lanes_right},
                  {"kerb_offset_m", s.road.kerb_offset},
+                 {"driving_side", s.road.driving_side},
+                 {"oncoming_lanes", s.road.oncoming_lanes},
                  {"edge_left_m", s.road.edge(1)},
                  {"edge_right_m", s.road.edge(-1)}}},
                {"ttc",
@@ -218,6 +278,10 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
       {"road_edge_right_m", num(s.road.edge(-1))}};
 
   out.context.timestamp = frame.timestamp;
+  out.context.objects = states.objects;
+  const FeasibilityConfig fc = feasibility_config(s, limits, sizes, frame.timestamp,
+                                                  states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate);
+  out.placeholders["kinds"] = describe_kinds(s.kinds, fc, out.context);
   out.context.ego_speed_mps = s.ego_speed_mps;
   out.context.camera = frame.camera;
   out.context.objects = states.objects;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,7 @@ struct SceneSettings {
   std::string description;  // dataset description
   Resolved sidewalks, intersection, multi_lane;
   std::vector<std::string> allowed_kinds;
+  std::vector<HazardKindInfo> kinds;  // what the allowed kinds' templates say about themselves
   double target_ttc_s = 1.0;
   double ttc_tolerance_s = 0.25;
   double threshold_s = 1.5;
@@ -47,6 +49,19 @@ struct SceneSummary {
   std::map<std::string, std::string> placeholders;  // prompt values (all but "schema")
   SceneContext context;                             // for feasibility and template checks
 };
+
+// The feasibility configuration of the scene these settings describe (limits and sizes must outlive it).
+FeasibilityConfig feasibility_config(const SceneSettings& settings, const hazard::LimitsTable& limits,
+                                     const ClassPriors& sizes, double trigger_time_s,
+                                     std::optional<double> ego_yaw_rate);
+
+// What every template's proposal is asked for in this scene (the scene context must outlive it).
+ProposalRequest proposal_request(const SceneSettings& settings, const SceneContext& scene);
+
+// The prompt's list of the allowed kinds: what each is, its classes, whether it applies here and its extra
+// fields (placeholder {{kinds}}).
+std::string describe_kinds(const std::vector<HazardKindInfo>& kinds, const FeasibilityConfig& cfg,
+                           const SceneContext& scene);
 
 SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                              const std::vector<const RiskAssessment*>& risks, const SceneSettings& settings,

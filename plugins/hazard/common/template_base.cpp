@@ -19,7 +19,15 @@ std::vector<ParamSpec> RoadModel::params() {
               .describe("lanes right of the ego lane (road edge position)"),
           ParamSpec::number("kerb_offset_m", 0.5)
               .range(0, 5)
-              .describe("how far beyond the road edge a pedestrian waits (m)")};
+              .describe("how far beyond the road edge a pedestrian waits (m)"),
+          ParamSpec::string("driving_side", "right").from_scene("road.driving_side")
+              .one_of({"right", "left"})
+              .describe("the side of the road traffic keeps to (left: e.g. Singapore, UK); oncoming lanes lie "
+                        "on the other side, and exported scenarios lay out their road by it"),
+          ParamSpec::integer("oncoming_lanes", 0).from_scene("road.oncoming_lanes")
+              .range(0, 10)
+              .describe("how many of the lanes on the side away from driving_side carry oncoming traffic (the "
+                        "outermost ones); 0 = every lane beside the ego lane goes its way")};
 }
 
 RoadModel RoadModel::from(const Params& p) {
@@ -28,7 +36,38 @@ RoadModel RoadModel::from(const Params& p) {
   if (p.has("lanes_left")) r.lanes_left = static_cast<int>(p.get_int("lanes_left"));
   if (p.has("lanes_right")) r.lanes_right = static_cast<int>(p.get_int("lanes_right"));
   if (p.has("kerb_offset_m")) r.kerb_offset = p.get_double("kerb_offset_m");
+  if (p.has("driving_side")) r.driving_side = p.get_string("driving_side");
+  if (p.has("oncoming_lanes")) r.oncoming_lanes = static_cast<int>(p.get_int("oncoming_lanes"));
+  const int side = r.oncoming_side();
+  if (r.oncoming_lanes > r.lanes(side))
+    throw Error("oncoming_lanes " + std::to_string(r.oncoming_lanes) + " exceeds the " +
+                std::to_string(r.lanes(side)) + " lane(s) on the " + (side > 0 ? "left" : "right") +
+                " (lanes_" + (side > 0 ? "left" : "right") + "), where oncoming traffic passes when traffic keeps " +
+                r.driving_side);
   return r;
+}
+
+int RoadModel::oncoming_lanes_on(int side) const {
+  return side == oncoming_side() ? oncoming_lanes : 0;
+}
+
+int RoadModel::same_direction_lanes(int side) const {
+  return lanes(side) - oncoming_lanes_on(side);
+}
+
+int RoadModel::lane_at(double y) const {
+  const int side = y >= 0 ? 1 : -1;
+  const double from_centre = std::abs(y) - lane_width / 2;
+  if (from_centre < 0) return 0;
+  const int k = std::min(lanes(side) + 1, 1 + static_cast<int>(std::floor(from_centre / lane_width)));
+  return side * k;
+}
+
+bool RoadModel::same_direction_at(double y) const {
+  const int lane = lane_at(y);
+  const int side = lane >= 0 ? 1 : -1;
+  const int k = std::abs(lane);
+  return k == 0 || k > lanes(side) || k <= same_direction_lanes(side);
 }
 
 int PlanRequest::side_sign() const {
@@ -108,6 +147,21 @@ ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
   };
   for (auto& p : RoadModel::params()) i.params.push_back(p);
   for (auto& p : TtcConventions::params()) i.params.push_back(p);
+  return i;
+}
+
+ComponentInfo TemplateBase::base_info(const HazardKindInfo& kind, const std::string& doc) {
+  ComponentInfo i = base_info(kind.kind, kind.summary);
+  auto list = [](const std::vector<std::string>& v, const std::string& none) {
+    std::string out;
+    for (const auto& s : v) out += (out.empty() ? "" : ", ") + s;
+    return out.empty() ? none : out;
+  };
+  std::string fields;
+  for (const HazardField& f : kind.extra_fields) fields += (fields.empty() ? "" : "; ") + ("extra." + f.name + ": " + f.doc);
+  i.doc = (doc.empty() ? "" : doc + " ") + "Classes: " + list(kind.object_classes, "any") + ". Needs: " +
+          list(kind.needs, "nothing of the scene") + ". Extra fields: " + (fields.empty() ? "none" : fields) +
+          ". As the prompt puts it: " + kind.play_out;
   return i;
 }
 

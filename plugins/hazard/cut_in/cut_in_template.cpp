@@ -5,19 +5,35 @@
 #include <cmath>
 #include <numbers>
 
+#include "hazardforge/hazard/proposal.hpp"
+
 namespace hf {
 
 using hazard::num;
 
+HazardKindInfo CutInTemplate::info() {
+  HazardKindInfo k;
+  k.kind = "cut_in";
+  k.summary = "a vehicle overtakes in the adjacent lane and cuts in close ahead";
+  k.play_out =
+      "starts beside or behind the ego in the adjacent lane (y about one lane width, x between -10 and 3 m), "
+      "faster than the ego (speed_mps above the ego speed), overtakes, then changes into the ego lane while "
+      "braking (deceleration_mps2, or null for the default) to extra.final_speed_mps, below the ego speed.";
+  k.object_classes = {"car", "truck", "bus", "motorcycle"};
+  k.needs = {scene_condition::kSameDirectionLane};
+  k.extra_fields = {{"final_speed_mps",
+                     {{"type", {"number", "null"}}, {"minimum", 0}, {"maximum", 50}},
+                     "speed after braking in front of the ego (below the ego speed)"}};
+  return k;
+}
+
 ComponentInfo CutInTemplate::describe() {
-  ComponentInfo i = base_info("cut_in", "a vehicle overtakes in the adjacent lane and cuts in close ahead");
-  i.doc =
+  ComponentInfo i = base_info(
+      info(),
       "Starts beside or behind the ego in the adjacent lane, passes, then changes into the ego lane "
-      "(minimum-jerk "
-      "lateral shift within the class's lateral speed/acceleration/jerk and turn-rate limits) while braking "
-      "to a "
-      "final speed below the ego's. At the end of the lane change the TTC equals target_ttc_s and the gap is "
-      "inside the ego's stopping distance.";
+      "(minimum-jerk lateral shift within the class's lateral speed/acceleration/jerk and turn-rate limits) "
+      "while braking to a final speed below the ego's. At the end of the lane change the TTC equals target_ttc_s "
+      "and the gap is inside the ego's stopping distance.");
   i.params.push_back(
       hf::ParamSpec::number("closing_speed_mps", 3.0)
           .range(0.2, 30)
@@ -194,6 +210,69 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
              {"final_speed_mps", v1},     {"ego_stopping_distance_m", stopping},
              {"target_ttc_s", target}};
   return d;
+}
+
+// Overtakes from beside/behind at v0 > ego, then brakes to v1 < ego while changing lanes.
+HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
+  using hazard::fmt1;
+  const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
+  if (!sc.multi_lane) return {nullptr, "the road has a single lane"};
+  if (sc.ego_speed < 5.0) return {nullptr, "the ego is too slow (< 5 m/s) to be overtaken and cut off"};
+  static const char* kClasses[] = {"car", "car", "car", "motorcycle", "truck"};
+  const std::string cls = kClasses[d.index(5)];
+  if (!sc.limits.has(cls)) return {nullptr, "the limits table has no '" + cls + "'"};
+  if (!request.class_allowed(cls)) return {nullptr, "there are no appearance assets for '" + cls + "'"};
+  const hazard::KinematicLimits& lim = sc.limits.at(cls);
+  const hazard::Footprint size = sc.size(cls);
+  // A side has room when its adjacent lane exists and goes the ego's way.
+  auto room = [&](int side) {
+    return sc.edge(side) >= sc.road.lane_width + size.width / 2.0 && sc.road.same_direction_lanes(side) > 0;
+  };
+  bool left = d.coin();
+  if (!room(left ? 1 : -1)) left = !left;
+  const int sign = left ? 1 : -1;
+  if (!room(sign)) return {nullptr, "there is no lane going the ego's way beside the ego lane"};
+  const double y0 = sign * sc.road.lane_width;
+  const double v0 = std::min(sc.ego_speed + d.uniform(3.0, 5.0), lim.max_speed_mps);
+  const double v1 = std::max(0.0, sc.ego_speed - d.uniform(2.0, 4.0));
+  const double decel = std::min(d.uniform(2.5, 4.0), lim.max_decel_mps2);
+  if (v0 <= sc.ego_speed + 1.0) return {nullptr, "a " + cls + " cannot overtake the ego here"};
+  const double ttc = request.aim * sc.target;
+  const double gap_end = ttc * (sc.ego_speed - v1);
+  // Braking from v0 to v1, then the lane change must fit between the start and the end of braking.
+  const double t_slow = (v0 - v1) / decel + 0.4;
+  const double s_slow = (v0 + v1) / 2.0 * t_slow;
+  const double lane_change = 1.15 * 1.875 * sc.road.lane_width / std::max(0.5, lim.max_lateral_speed_mps);
+  const double t_brake = std::max(0.5, lane_change - t_slow + 0.5) + d.uniform(0.0, 1.0);
+  const double x0 =
+      gap_end + sc.ego_front + size.length / 2.0 + sc.ego_speed * (t_brake + t_slow) - s_slow - v0 * t_brake;
+  if (x0 < -25.0 || x0 > 3.0) return {nullptr, "no start beside or behind the ego fits (x " + fmt1(x0) + " m)"};
+  // A horizon too short for the whole manoeuvre: when allowed, it is already under way when it appears and
+  // the lane change ends a little into the horizon.
+  double under_way = 0;
+  if (t_brake + t_slow > sc.horizon - 0.5) {
+    if (sc.max_under_way <= 0) return {nullptr, "the cut-in takes longer than the horizon"};
+    under_way = t_brake + t_slow - d.uniform(0.3, 0.5) * sc.horizon;
+    if (under_way > sc.max_under_way)
+      return {nullptr, "the cut-in would have to be under way for " + fmt1(under_way) + " s (max_under_way_s " +
+                           fmt1(sc.max_under_way) + ")"};
+  }
+  if (under_way == 0)
+    if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
+  const std::string side = left ? "left" : "right";
+  Json spec = hazard::proposal_spec(kind_info().kind, cls, x0, y0, side, v0, 0.0,
+                                    "overtakes in the " + side + " lane and cuts in, braking", sc.target);
+  spec["deceleration_mps2"] = hazard::round_to(decel, 0.1);
+  spec["extra"]["final_speed_mps"] = hazard::round_to(v1, 0.05);
+  spec["rationale"] = "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " + fmt1(v0) +
+                      " m/s and cuts in ahead of the ego, braking to " + fmt1(v1) + " m/s; it ends about " +
+                      fmt1(gap_end) + " m ahead, TTC near " + fmt1(ttc) + " s.";
+  if (under_way > 0) {
+    spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
+    spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fmt1(under_way) +
+                        " s into the manoeuvre, already changing lanes beside-ahead of the ego.";
+  }
+  return {spec, {}};
 }
 
 }  // namespace hf

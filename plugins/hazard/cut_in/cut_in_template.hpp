@@ -12,13 +12,15 @@ namespace hf {
 // change the gap to the ego is target_ttc_s x closing speed, i.e. the TTC equals target_ttc_s, and that gap
 // is inside the ego's stopping distance. Params: the shared template params plus closing_speed_mps,
 // cut_in_decel_mps2, default_target_ttc_s, ego_reaction_s, ego_max_decel_mps2, lane_change_s.
-class CutInTemplate : public hazard::TemplateBase {
+// Proposals: a car (3 in 5 draws), motorcycle or truck in a random side's same-direction lane, 3-5 m/s faster
+// than the ego, braking to 2-4 m/s below it; already under way when the horizon is too short for it.
+class CutInTemplate : public hazard::KindTemplate<CutInTemplate> {
  public:
+  static HazardKindInfo info();
   static ComponentInfo describe();
-  std::string hazard_kind() const override { return "cut_in"; }
+  HazardProposal propose(const ProposalRequest& request, RandomDraw& draw) const override;
 
  protected:
-  std::vector<std::string> allowed_classes() const override { return {"car", "truck", "bus", "motorcycle"}; }
   bool start_must_be_visible() const override { return false; }
   hazard::Design design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const override;
 };

@@ -1,23 +1,41 @@
 // pedestrian_crossing: kerb position, wait time solved from the ego's arrival and the target TTC.
 #include "pedestrian_crossing_template.hpp"
 
+#include <algorithm>
+
 #include <cmath>
 #include <numbers>
+
+#include "hazardforge/hazard/proposal.hpp"
 
 namespace hf {
 
 using hazard::num;
 
+HazardKindInfo PedestrianCrossingTemplate::info() {
+  HazardKindInfo k;
+  k.kind = "pedestrian_crossing";
+  k.summary = "a person steps off the kerb and crosses the ego lane";
+  k.play_out =
+      "waits on the kerb just beyond the road edge (|y| a little above the edge) at x = initial_distance_m, then "
+      "walks across at speed_mps with heading about -90 (from the left) or +90 (from the right); "
+      "extra.crossing_from equals side. The walk is timed so the person enters the ego path at the target TTC.";
+  k.object_classes = {"person"};
+  k.needs = {scene_condition::kSidewalks};
+  k.extra_fields = {{"crossing_from",
+                     {{"type", {"string", "null"}}, {"enum", {"left", "right", nullptr}}},
+                     "the road edge the person steps off from (equals side)"}};
+  return k;
+}
+
 ComponentInfo PedestrianCrossingTemplate::describe() {
-  ComponentInfo i = base_info("pedestrian_crossing", "a person steps off the kerb and crosses the ego lane");
-  i.doc =
+  ComponentInfo i = base_info(
+      info(),
       "The person waits at the kerb on `side` at x = initial_distance_m, then walks straight across at "
-      "speed_mps "
-      "(jerk-limited start). The start of the walk is timed so the constant-speed ego reaches the crossing "
-      "point "
-      "while the person is in its path; with target_ttc_s the person enters the path when the TTC equals it. "
-      "With stop_in_path the person stops in the ego path (a pedestrian who freezes in the lane) instead of "
-      "walking on, so the hazard stays in the path until the ego reaches it.";
+      "speed_mps (jerk-limited start). The start of the walk is timed so the constant-speed ego reaches the "
+      "crossing point while the person is in its path; with target_ttc_s the person enters the path when the TTC "
+      "equals it. With stop_in_path the person stops in the ego path (a pedestrian who freezes in the lane) "
+      "instead of walking on, so the hazard stays in the path until the ego reaches it.");
   i.params.push_back(ParamSpec::boolean("stop_in_path", false)
                          .describe("the person stops in the ego path at stop_offset_m and stays there"));
   i.params.push_back(ParamSpec::number("stop_offset_m", 0.0)
@@ -155,6 +173,76 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
     d.notes["stands_from_s"] = profile.duration();
   }
   return d;
+}
+
+namespace {
+
+// Time for a start from rest to cover d at walking speed v (acceleration phase plus a jerk allowance).
+double walk_time(double d, double v, double accel) {
+  return d / v + v / (2.0 * accel) + 0.3;
+}
+
+}  // namespace
+
+// Waits on the kerb, walks across; the ego arrives `enter + target` after the start.
+HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
+  using hazard::fmt1;
+  const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
+  const double aim = request.aim;
+  if (!sc.sidewalks && !sc.on_shoulder) return {nullptr, "the scene has no sidewalks"};
+  const std::string cls = "person";
+  if (!sc.limits.has(cls)) return {nullptr, "the limits table has no 'person'"};
+  if (!request.class_allowed(cls)) return {nullptr, "there are no appearance assets for 'person'"};
+  const hazard::KinematicLimits& lim = sc.limits.at(cls);
+  const hazard::Footprint size = sc.size(cls);
+  const bool left = d.coin();
+  const int sign = left ? 1 : -1;
+  const double y0 = sign * (sc.edge(sign) + sc.road.kerb_offset + d.uniform(0.0, std::min(0.5, sc.sidewalk)));
+  const double speed = d.uniform(1.6, std::min(2.5, lim.max_speed_mps));
+  const double d_in = std::abs(y0) - sc.path_half(size.width);
+  // Waits a moment before stepping off; within a short horizon only as long as still leaves time to be seen.
+  const double walk = walk_time(d_in, speed, lim.max_accel_mps2);
+  const double ttc = aim * sc.target;
+  // The template times the walk for the spec's target (sc.target), the position is planned for `ttc`: the
+  // wait must cover the difference, or the person would have to enter the path before it can.
+  const double min_wait = sc.target - ttc + 0.1;
+  const double enter =
+      walk + std::max(min_wait, std::min(d.uniform(0.3, 1.0), std::max(0.0, sc.horizon - 0.5 - walk)));
+  // A horizon too short to watch the whole walk: when allowed, the person is already on the way when the
+  // hazard appears and enters the path a little into the horizon.
+  double under_way = 0;
+  if (enter > sc.horizon - 0.5) {
+    if (sc.max_under_way <= 0) return {nullptr, "walking into the ego path takes longer than the horizon"};
+    under_way = enter - d.uniform(0.3, 0.5) * sc.horizon;
+    if (under_way > sc.max_under_way)
+      return {nullptr, "the walk would have to be under way for " + fmt1(under_way) + " s (max_under_way_s " +
+                           fmt1(sc.max_under_way) + ")"};
+  }
+  const double x0 = sc.ego_front + size.length / 2.0 + sc.ego_speed * (enter + ttc);
+  const double x_seen = x0 - sc.ego_speed * under_way;  // where it is when the hazard appears
+  if (x0 > 120.0) return {nullptr, "the crossing would be more than 120 m ahead"};
+  if (!sc.visible(x_seen, y0))
+    return {nullptr, "the kerb point (" + fmt1(x_seen) + ", " + fmt1(y0) + ") m is outside the camera view"};
+  if (std::string p = sc.overlap_problem(x_seen, y0, size); !p.empty()) return {nullptr, p};
+  const std::string from = left ? "left" : "right";
+  Json spec = hazard::proposal_spec(kind_info().kind, cls, x0, y0, from, speed, -sign * 90.0,
+                                    "steps off the " + from + " kerb and crosses to the " + (left ? "right" : "left"),
+                                    sc.target);
+  spec["extra"]["crossing_from"] = from;
+  const std::string where =
+      sc.sidewalks ? "The scene has sidewalks, so a pedestrian stepping off the " + from + " kerb "
+                   : "Edge case (no sidewalks; people on the road allowed explicitly): a person who left a "
+                     "broken-down vehicle on the " +
+                         from + " shoulder steps into the road ";
+  spec["rationale"] = where + fmt1(x0) + " m ahead and crossing at " + fmt1(speed) +
+                      " m/s is realistic; with the ego at " + fmt1(sc.ego_speed) +
+                      " m/s they are in its path about " + fmt1(enter) + " s later, TTC near " + fmt1(ttc) + " s.";
+  if (under_way > 0) {
+    spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
+    spec["rationale"] = spec["rationale"].get<std::string>() + " The hazard appears " + fmt1(under_way) +
+                        " s after the start, " + fmt1(x_seen) + " m ahead, as the person sets off.";
+  }
+  return {spec, {}};
 }
 
 }  // namespace hf

@@ -12,13 +12,15 @@ namespace hf {
 // path: with target_ttc_s the person enters the path when the TTC equals it; without, the person is on the
 // lane centre (at the stop point) when the ego arrives. Params: the shared template params (see
 // TemplateBase::base_info), stop_in_path, stop_offset_m.
-class PedestrianCrossingTemplate : public hazard::TemplateBase {
+// Proposals: the person waits just beyond the road edge on a random side (1.6-2.5 m/s), timed to enter the path
+// at aim x target TTC; already walking when the horizon is too short to watch the wait.
+class PedestrianCrossingTemplate : public hazard::KindTemplate<PedestrianCrossingTemplate> {
  public:
+  static HazardKindInfo info();
   static ComponentInfo describe();
-  std::string hazard_kind() const override { return "pedestrian_crossing"; }
+  HazardProposal propose(const ProposalRequest& request, RandomDraw& draw) const override;
 
  protected:
-  std::vector<std::string> allowed_classes() const override { return {"person"}; }
   hazard::Design design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const override;
 };
 

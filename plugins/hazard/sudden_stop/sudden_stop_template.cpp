@@ -2,20 +2,39 @@
 // deceleration.
 #include "sudden_stop_template.hpp"
 
+#include <algorithm>
 #include <cmath>
+
+#include "hazardforge/hazard/proposal.hpp"
 
 namespace hf {
 
 using hazard::num;
 
+HazardKindInfo SuddenStopTemplate::info() {
+  HazardKindInfo k;
+  k.kind = "sudden_stop";
+  k.summary = "a lead vehicle brakes hard to a stop";
+  k.play_out =
+      "a lead vehicle in the ego lane (side center, y near 0) at initial_distance_m driving at speed_mps, "
+      "cruising for extra.brake_delay_s seconds and then braking at deceleration_mps2 to a standstill; "
+      "extra.track_id may name a detected vehicle to use as the lead instead.";
+  k.object_classes = {"car", "truck", "bus", "motorcycle"};
+  k.extra_fields = {{"brake_delay_s",
+                     {{"type", {"number", "null"}}, {"minimum", 0}, {"maximum", 30}},
+                     "seconds the lead cruises before it brakes"},
+                    {"track_id",
+                     {{"type", {"integer", "null"}}, {"minimum", 0}},
+                     "a tracked object that becomes the braking lead instead of an inserted one"}};
+  return k;
+}
+
 ComponentInfo SuddenStopTemplate::describe() {
-  ComponentInfo i = base_info("sudden_stop", "a lead vehicle brakes hard to a stop");
-  i.doc =
+  ComponentInfo i = base_info(
+      info(),
       "The lead is inserted at initial_distance_m (or taken from the tracked object spec.extra.track_id), "
-      "cruises "
-      "for brake_delay_s, then brakes with deceleration_mps2 to a standstill (jerk-limited). The "
-      "constant-speed "
-      "ego closes in; the plan ends at contact.";
+      "cruises for brake_delay_s, then brakes with deceleration_mps2 to a standstill (jerk-limited). The "
+      "constant-speed ego closes in; the plan ends at contact.");
   i.params.push_back(hf::ParamSpec::number("brake_delay_s", 1.0)
                          .range(0, 60)
                          .describe("cruising time before braking, unless extra.brake_delay_s is given"));
@@ -131,6 +150,118 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
              {"initial_speed_mps", v0}};
   if (track) d.notes["track_id"] = static_cast<int64_t>(*track);
   return d;
+}
+
+namespace {
+
+// First time (s) the TTC to a lead braking after `delay` falls to `ttc`, by a 20 ms replay; kInf if never.
+// A negative delay: braking began that long before (v0 is the speed before braking, gap0 the gap now).
+double time_to_ttc(double gap0, double ego, double v0, double delay, double decel, double ttc, double horizon) {
+  double gap = gap0, v = delay < 0 ? std::max(0.0, v0 + decel * delay) : v0;
+  for (double t = 0; t <= horizon; t += 0.02) {
+    const double closing = ego - v;
+    if (gap <= 0 || (closing > 0.1 && gap / closing <= ttc)) return t;
+    gap += (v - ego) * 0.02;
+    if (t >= delay) v = std::max(0.0, v - decel * 0.02);
+  }
+  return kInf;
+}
+
+bool is_vehicle(const std::string& c) {
+  const auto classes = SuddenStopTemplate::info().object_classes;
+  return std::find(classes.begin(), classes.end(), c) != classes.end();
+}
+
+}  // namespace
+
+// A tracked lead in the ego path brakes, or an inserted one if there is room.
+HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
+  using hazard::fmt1;
+  using hazard::round_to;
+  const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
+  const std::string kind = kind_info().kind;
+  const double ttc = request.aim * sc.target;
+  const double delay = round_to(d.uniform(0.5, 1.5), 0.1);
+  const hazard::ProposalScene::Obj* lead = nullptr;
+  for (const auto& o : sc.objects)
+    if (o.in_path && o.x > 0 && (!lead || o.x < lead->x)) lead = &o;
+  const bool avoided = lead && std::find(request.avoid_tracks.begin(), request.avoid_tracks.end(),
+                                         lead->track_id) != request.avoid_tracks.end();
+  // A moving lead vehicle that brakes is the most natural sudden stop.
+  if (lead && !avoided && is_vehicle(lead->label) && request.class_allowed(lead->label) && lead->speed &&
+      *lead->speed >= 0.5 && sc.limits.has(lead->label)) {
+    const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(lead->label).max_decel_mps2, 0.1);
+    const double gap = lead->x - sc.ego_front - lead->length / 2.0;
+    if (gap > 0 &&
+        time_to_ttc(gap, sc.ego_speed, *lead->speed, delay, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
+      Json spec = hazard::proposal_spec(kind, lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
+                                        "the tracked lead brakes hard in the ego lane", sc.target);
+      spec["side"] = std::abs(lead->y) <= sc.path_half(0.0) ? "center" : (lead->y > 0 ? "left" : "right");
+      spec["deceleration_mps2"] = decel;
+      spec["extra"]["brake_delay_s"] = delay;
+      spec["extra"]["track_id"] = lead->track_id;
+      spec["rationale"] = "The " + lead->label + " (track " + std::to_string(lead->track_id) + ") " +
+                          fmt1(lead->x) + " m ahead in the ego lane brakes at " + fmt1(decel) + " m/s^2 after " +
+                          fmt1(delay) + " s; the ego, keeping " + fmt1(sc.ego_speed) + " m/s, closes in to a TTC near " +
+                          fmt1(ttc) + " s.";
+      return {spec, {}};
+    }
+  }
+  static const char* kClasses[] = {"car", "car", "car", "truck", "bus"};
+  const std::string cls = kClasses[d.index(5)];
+  if (!sc.limits.has(cls)) return {nullptr, "the limits table has no '" + cls + "'"};
+  if (!request.class_allowed(cls)) return {nullptr, "there are no appearance assets for '" + cls + "'"};
+  const hazard::Footprint size = sc.size(cls);
+  const double speed = std::min(sc.ego_speed, sc.limits.at(cls).max_speed_mps);
+  const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(cls).max_decel_mps2, 0.1);
+  if (speed < 1.0) return {nullptr, "a lead vehicle cannot brake from standstill"};
+  if (sc.max_under_way > 0 && delay + 1.0 > sc.horizon - 0.7) {
+    // A horizon too short to watch a lead cruise and then brake: it has been braking for `b` s when it
+    // appears, following at the ego's speed until then, and the TTC reaches the target `t_hit` s in.
+    const double b = std::min(sc.max_under_way, d.uniform(0.3, 0.8));
+    const double t_hit = d.uniform(0.3, 0.5) * sc.horizon;
+    const double gap_now = decel * (b * t_hit + t_hit * t_hit / 2.0) + ttc * decel * (b + t_hit);
+    const double gap_start = gap_now + decel * b * b / 2.0;  // the closing covered while braking before
+    const double x0 = sc.ego_front + size.length / 2.0 + gap_start;
+    const double y0 = d.uniform(-0.3, 0.3);
+    if (time_to_ttc(gap_now, sc.ego_speed, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
+      return {nullptr, "the stop would come too late within the horizon"};
+    if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
+      return {nullptr, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
+    if (!sc.visible(x0, y0))
+      return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
+    Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
+                                      "follows in the ego lane and is already braking hard when it appears", sc.target);
+    spec["deceleration_mps2"] = decel;
+    spec["extra"]["brake_delay_s"] = 0.0;
+    spec["extra"]["under_way_s"] = round_to(b, 0.05);
+    spec["rationale"] = "A " + cls + " following " + fmt1(gap_start) + " m ahead of the ego at the same " +
+                        fmt1(speed) + " m/s has been braking at " + fmt1(decel) + " m/s^2 for " + fmt1(b) +
+                        " s when it appears " + fmt1(gap_now) + " m ahead; the TTC falls to about " + fmt1(ttc) +
+                        " s " + fmt1(t_hit) + " s later.";
+    return {spec, {}};
+  }
+  // Same speed as the ego: the gap holds until braking starts, then TTC = gap / closing falls.
+  const double t_star = std::min(d.uniform(1.0, 2.5), 0.8 * speed / decel);
+  const double gap = decel * t_star * t_star / 2.0 + decel * ttc * t_star;
+  const double x0 = sc.ego_front + size.length / 2.0 + gap;
+  const double y0 = d.uniform(-0.3, 0.3);
+  if (x0 < 4.0 || x0 > 120.0) return {nullptr, "no start distance within [4, 120] m"};
+  if (time_to_ttc(gap, sc.ego_speed, speed, delay, decel, ttc, sc.horizon) > sc.horizon - 0.7)
+    return {nullptr, "the stop would come too late within the horizon"};
+  if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
+    return {nullptr, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
+  if (!sc.visible(x0, y0))
+    return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
+  if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
+  Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
+                                    "drives ahead in the ego lane, then brakes hard", sc.target);
+  spec["deceleration_mps2"] = decel;
+  spec["extra"]["brake_delay_s"] = delay;
+  spec["rationale"] = "A " + cls + " driving " + fmt1(gap) + " m ahead of the ego at the same " + fmt1(speed) +
+                      " m/s brakes at " + fmt1(decel) + " m/s^2 after " + fmt1(delay) +
+                      " s; the TTC falls to about " + fmt1(ttc) + " s.";
+  return {spec, {}};
 }
 
 }  // namespace hf

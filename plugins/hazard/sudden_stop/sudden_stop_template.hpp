@@ -11,13 +11,16 @@ namespace hf {
 // extra.brake_delay_s), then brakes with deceleration_mps2 to a stop (jerk-limited onset and release).
 // Params: the shared template params plus brake_delay_s and track_distance_origin (camera | bumper |
 // ego_origin: what a tracked distance is measured from).
-class SuddenStopTemplate : public hazard::TemplateBase {
+// Proposals: the nearest tracked moving vehicle in the ego path brakes (extra.track_id) when its stop reaches the
+// target within the horizon, else an inserted car (3 in 5 draws), truck or bus at the ego's speed where there is
+// room in front of the nearest in-path object; already braking when the horizon is too short to watch it cruise.
+class SuddenStopTemplate : public hazard::KindTemplate<SuddenStopTemplate> {
  public:
+  static HazardKindInfo info();
   static ComponentInfo describe();
-  std::string hazard_kind() const override { return "sudden_stop"; }
+  HazardProposal propose(const ProposalRequest& request, RandomDraw& draw) const override;
 
  protected:
-  std::vector<std::string> allowed_classes() const override { return {"car", "truck", "bus", "motorcycle"}; }
   hazard::Design design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const override;
 };
 

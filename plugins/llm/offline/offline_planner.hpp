@@ -9,15 +9,17 @@
 
 namespace hf::llm {
 
-// OfflinePlanner (llm_provider "offline"). Reads the structured scene context (LlmRequest::scene, written
-// by the llm_hazard generator) instead of the prompt text, picks a hazard kind by the prompt's rules —
-// pedestrian_crossing only with sidewalks, cut_in only on multi-lane roads, sudden_stop when there is room
-// for a lead vehicle in the ego lane — and sizes it with closed-form kinematics so the TTC reaches about
-// `aim` x target_ttc_s. Choices are drawn from a 64-bit Mersenne Twister seeded with the request's seed plus
-// the number of earlier replies in the conversation: the same request gives the same JSON on every platform,
-// other seeds give other kinds and parameters, and a retry draws a new plan. The reply is JSON text, so it
-// goes through the same extraction and validation as a real model's. Temperature is ignored.
-// Params: aim (0.85), candidates_per_kind (12).
+// OfflinePlanner (llm_provider "offline"). Plans with the hazard templates the generator offers
+// (LlmRequest::hazards): each allowed kind's template proposes a plan for the scene, drawn from a 64-bit Mersenne
+// Twister seeded with the request's seed plus the number of earlier replies in the conversation; one of the kinds
+// that could propose one is drawn, and its plan is checked with the generator's own rules before it is sent (a
+// rejected plan is replaced by the kind's next draw). The same request gives the same JSON on every platform,
+// other seeds give other kinds and parameters, and a retry draws a new plan that repeats no earlier reply. The
+// scene context (LlmRequest::scene) gives the ego speed and the failed attempts of earlier runs (`feedback`): a
+// plan of the same kind, class, side and track as a failed one is not proposed again, and when an attempt never
+// became critical enough or was never re-detected, a lower-TTC aim and the largest, nearest of the kind's plans are
+// chosen. The reply is JSON text, so it goes through the same extraction and validation as a real model's.
+// Temperature is ignored. Params: aim (0.85), candidates_per_kind (12), kind_order.
 class OfflinePlanner : public LlmProvider {
  public:
   static ComponentInfo describe();
@@ -28,6 +30,7 @@ class OfflinePlanner : public LlmProvider {
  private:
   double aim_ = 0.85;
   int candidates_ = 12;
+  std::vector<std::string> kind_order_;
 };
 
 }  // namespace hf::llm

@@ -4,7 +4,13 @@
 #include <opencv2/core/version.hpp>
 #include <nlohmann/json.hpp>
 
-#define HF_SDK_ABI_MAJOR 1
+// Major: a change that breaks plugins built for the previous version (a virtual function or a member added to a
+// class or struct that crosses the boundary: vtables and layouts differ); the host refuses them. Minor: additions
+// that plugins built for an older minor still work with (new free functions, new classes); a plugin needing a
+// newer minor is refused by an older host.
+// 2.0: HazardTemplate describes its kind and proposes plans (kind_info, propose), LlmRequest carries the
+// generator's HazardCatalog.
+#define HF_SDK_ABI_MAJOR 2
 #define HF_SDK_ABI_MINOR 0
 #define HF_SDK_VERSION "0.1.0"
 

@@ -3,6 +3,7 @@
 
 #include "hazardforge/abi.hpp"
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -230,6 +231,8 @@ struct LlmMessage {
   std::string content;
 };
 
+class HazardCatalog;
+
 struct LlmRequest {
   std::vector<LlmMessage> messages;
   Json response_schema;      // JSON Schema the reply must follow
@@ -237,6 +240,10 @@ struct LlmRequest {
   int64_t seed = 0;
   int max_tokens = 1024;
   Json scene = Json::object();  // the structured scene context the prompt was filled from
+  // The allowed hazard kinds' templates, as the generator configured them for this scene (valid during
+  // complete()): a provider that plans without a model (offline) asks them for proposals and checks its
+  // answer with the generator's own rules. nullptr when the caller offers none.
+  const HazardCatalog* hazards = nullptr;
 };
 
 struct LlmReply {
@@ -266,6 +273,72 @@ struct SceneContext {
   Json meta = Json::object();  // environment, road type, dataset description
 };
 
+// Scene conditions a hazard kind may need (HazardKindInfo::needs). The generator evaluates each on the scene,
+// tells the model whether it holds, and refuses a kind whose conditions do not all hold.
+namespace scene_condition {
+inline constexpr const char* kSidewalks = "sidewalks";  // sidewalks, or people on the shoulder allowed explicitly
+inline constexpr const char* kSameDirectionLane = "same_direction_lane";  // a lane beside the ego's, going its way
+inline constexpr const char* kOncomingLane = "oncoming_lane";  // a lane beside the ego's with oncoming traffic
+inline constexpr const char* kIntersection = "intersection";   // vehicles may cross the ego path
+inline constexpr const char* kTrackedLead = "tracked_lead";    // a tracked vehicle ahead in the ego path
+}  // namespace scene_condition
+
+// A kind-specific field of HazardSpec::extra.
+struct HazardField {
+  std::string name;                // extra.<name>
+  Json schema = Json::object();    // JSON Schema of its value, null included ({"type": ["number", "null"]})
+  std::string doc;                 // what it means, for the prompt and the reply schema
+};
+
+// What a hazard kind is and when it applies. The generator builds the prompt's kind list, the reply schema's
+// `extra` fields and its scene checks from it; the offline provider and `hazardforge inspect` show it.
+struct HazardKindInfo {
+  std::string kind;                         // = hazard_kind()
+  std::string summary;                      // what happens, one sentence
+  std::string play_out;                     // how the spec's fields are read, for a model (a few sentences)
+  std::vector<std::string> object_classes;  // classes the motion makes sense for; empty = any
+  std::vector<std::string> needs;           // scene_condition names that must all hold
+  std::vector<HazardField> extra_fields;    // extra.* fields the kind reads
+};
+
+// Uniform random numbers for proposals. The caller owns the generator; the helpers are defined once in the SDK,
+// so the same raw numbers give the same plans with every standard library.
+class RandomDraw {
+ public:
+  virtual ~RandomDraw();
+  virtual uint64_t next() = 0;         // 64 uniformly random bits
+  double uniform(double lo, double hi);  // [lo, hi), from the top 53 bits
+  size_t index(size_t n);              // [0, n), next() % n
+  bool coin();                         // the top bit
+};
+
+// What a template is asked to propose a hazard for: the scene as the generator sees it and what the hazard
+// must achieve. The template's own params (road, TTC conventions, limits, horizon) were set by the generator.
+struct ProposalRequest {
+  explicit ProposalRequest(const SceneContext& s) : scene(s) {}
+  const SceneContext& scene;
+  double target_ttc_s = 1.0;
+  double aim = 0.85;  // plan for a TTC of aim x target_ttc_s (a margin below the target)
+  double horizon_s = 6.0;
+  double max_under_way_s = 0.0;  // how long the manoeuvre may already be under way when it appears
+  bool sidewalks = false;
+  bool pedestrians_on_shoulder = false;  // people allowed beyond the road edge without sidewalks
+  bool multi_lane = false;
+  bool intersection = false;
+  double sidewalk_width_m = 3.0;
+  std::vector<std::string> object_classes;  // classes the hazard may have here (appearance assets); empty = any
+  std::vector<int64_t> avoid_tracks;        // tracked objects not to take over (earlier attempts failed with them)
+
+  bool class_allowed(const std::string& object_class) const;
+};
+
+// One drawn plan: the spec as a model would answer it (the reply schema's fields; fields the kind does not use
+// may be left out), or why none fits this draw.
+struct HazardProposal {
+  Json spec;            // null when `problem` says why not
+  std::string problem;
+};
+
 // Turns a hazard spec into a kinematically plausible trajectory for one hazard kind.
 class HazardTemplate : public Component {
  public:
@@ -275,6 +348,25 @@ class HazardTemplate : public Component {
   // Physical feasibility of the spec (speeds, decelerations, visibility ...). Empty = feasible.
   virtual std::vector<std::string> check(const HazardSpec& spec, const SceneContext& scene) const = 0;
   virtual HazardTrajectory plan(const HazardSpec& spec, const SceneContext& scene) const = 0;
+  // What the kind is and when it applies. Default: the kind's name only.
+  virtual HazardKindInfo kind_info() const;
+  // A plan for this scene drawn from `draw`, for a provider without a model. Default: none ("proposes no plans").
+  virtual HazardProposal propose(const ProposalRequest& request, RandomDraw& draw) const;
+};
+
+// The hazard kinds a generator offers a provider (LlmRequest::hazards), configured for the request's scene.
+class HazardCatalog {
+ public:
+  virtual ~HazardCatalog();
+  // The allowed kinds, in the generator's order.
+  virtual std::vector<HazardKindInfo> kinds() const = 0;
+  // The kind's proposal for the scene, with its JSON completed to the reply schema (unused fields null).
+  // `aim` and `avoid_tracks` as in ProposalRequest.
+  virtual HazardProposal propose(const std::string& kind, double aim, const std::vector<int64_t>& avoid_tracks,
+                                 RandomDraw& draw) const = 0;
+  // Every reason the generator would reject this reply for (schema, scene rules, the kind's template); empty =
+  // it would be accepted.
+  virtual std::vector<std::string> check(const Json& reply) const = 0;
 };
 
 // ---- inline template ---------------------------------------------------------------------------------------------

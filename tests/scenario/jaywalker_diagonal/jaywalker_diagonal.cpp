@@ -10,16 +10,21 @@ namespace example {
 // Kind hazard_template, name jaywalker_diagonal. Starts on the kerb on `side` at x = initial_distance_m and
 // walks at speed_mps along heading_deg, a diagonal towards the other side. Params: the shared template
 // params.
-class JaywalkerDiagonal : public hf::hazard::TemplateBase {
+class JaywalkerDiagonal : public hf::hazard::KindTemplate<JaywalkerDiagonal> {
  public:
-  static hf::ComponentInfo describe() {
-    return base_info("jaywalker_diagonal", "a person crosses diagonally");
+  // What the kind is, for the prompt and `hazardforge inspect`; its name, summary and classes follow from it.
+  static hf::HazardKindInfo info() {
+    hf::HazardKindInfo k;
+    k.kind = "jaywalker_diagonal";
+    k.summary = "a person crosses diagonally";
+    k.play_out = "steps off the kerb on `side` at x = initial_distance_m and walks at speed_mps along heading_deg, "
+                 "a diagonal towards the other side (for example -45 from the left, 45 from the right).";
+    k.object_classes = {"person"};
+    k.needs = {hf::scene_condition::kSidewalks};
+    return k;
   }
-  std::string hazard_kind() const override { return "jaywalker_diagonal"; }
 
  protected:
-  std::vector<std::string> allowed_classes() const override { return {"person"}; }
-
   hf::hazard::Design design(const hf::hazard::PlanRequest& req,
                             std::vector<std::string>& reasons) const override {
     const int side = req.side_sign();  // +1 left, -1 right

@@ -59,6 +59,14 @@ TEST(JaywalkerDiagonal, WalksDiagonallyFromTheKerb) {
   EXPECT_NEAR(tr.intended_min_ttc_s, (26.35 - closing * 3.75) / closing, 1e-9);
 }
 
+TEST(JaywalkerDiagonal, DescribesItself) {
+  auto tpl = registry().create<hf::HazardTemplate>("hazard_template", "jaywalker_diagonal", {});
+  EXPECT_EQ(tpl->hazard_kind(), "jaywalker_diagonal");
+  EXPECT_EQ(tpl->kind_info().needs, std::vector<std::string>{"sidewalks"});
+  EXPECT_NE(registry().find("hazard_template", "jaywalker_diagonal")->info.doc.find("Needs: sidewalks."),
+            std::string::npos);
+}
+
 TEST(JaywalkerDiagonal, SharedAndOwnChecks) {
   auto tpl = registry().create<hf::HazardTemplate>("hazard_template", "jaywalker_diagonal", {});
   EXPECT_EQ(tpl->check(spec(-45, 12), scene()),

@@ -21,8 +21,23 @@ struct RoadModel {
   int lanes_left = 1;
   int lanes_right = 1;
   double kerb_offset = 0.5;  // where pedestrians wait, beyond the road edge (m)
+  std::string driving_side = "right";  // the side traffic keeps to
+  // Of the lanes on the side away from the driving side (the left when traffic keeps right), how many carry
+  // oncoming traffic: the outermost ones, beyond any lanes going the ego's way. 0 = every lane goes its way.
+  int oncoming_lanes = 0;
   // |y| of the road edge on a side (+1 = left, -1 = right).
   double edge(int side) const { return lane_width * (0.5 + (side > 0 ? lanes_left : lanes_right)); }
+  int lanes(int side) const { return side > 0 ? lanes_left : lanes_right; }
+  // +1 / -1: the side oncoming traffic passes on (left when traffic keeps right).
+  int oncoming_side() const { return driving_side == "left" ? -1 : 1; }
+  // Lanes on a side going the ego's way (next to the ego lane) and with oncoming traffic (beyond them).
+  int same_direction_lanes(int side) const;
+  int oncoming_lanes_on(int side) const;
+  // The lane a lateral offset lies in: 0 = the ego lane, +-k = the k-th lane to the left/right; beyond the road
+  // edge the lane count + 1 (kerb side).
+  int lane_at(double y) const;
+  // Whether traffic in the lane at offset y goes the ego's way (the ego lane and same-direction lanes).
+  bool same_direction_at(double y) const;
   static std::vector<ParamSpec> params();
   static RoadModel from(const Params& p);
 };
@@ -106,6 +121,9 @@ class TemplateBase : public HazardTemplate {
  public:
   // kind hazard_template plus the shared params (limits file, sampling, road, TTC conventions).
   static ComponentInfo base_info(std::string name, std::string summary);
+  // The same for a kind that describes itself: name and summary from `kind`, and the doc (what `hazardforge
+  // inspect` shows) says when the kind applies, its classes and its extra fields, before `doc`.
+  static ComponentInfo base_info(const HazardKindInfo& kind, const std::string& doc = {});
 
   void open(const Params& params) override;
   std::vector<std::string> check(const HazardSpec& spec, const SceneContext& scene) const override;
@@ -115,6 +133,7 @@ class TemplateBase : public HazardTemplate {
   PlanOutcome evaluate(const HazardSpec& spec, const SceneContext& scene) const;
 
   const LimitsTable& limits() const { return limits_; }
+  const ClassPriors& class_sizes() const { return sizes_; }
   const RoadModel& road() const { return road_; }
   const TtcConventions& ttc_conventions() const { return ttc_; }
 
@@ -137,6 +156,20 @@ class TemplateBase : public HazardTemplate {
   std::string ego_plan_ = "auto";
   double ego_smoothing_s_ = 0.25;
   double max_under_way_s_ = 0;
+};
+
+// A kind described in one place: `Kind::info()` (static, returning HazardKindInfo) gives the name, summary,
+// classes, scene conditions and extra fields; describe(), hazard_kind(), kind_info() and allowed_classes() follow
+// from it. A kind with params of its own defines its own static describe() from base_info(info(), doc).
+template <class Kind>
+class KindTemplate : public TemplateBase {
+ public:
+  static ComponentInfo describe() { return base_info(Kind::info()); }
+  std::string hazard_kind() const override { return Kind::info().kind; }
+  HazardKindInfo kind_info() const override { return Kind::info(); }
+
+ protected:
+  std::vector<std::string> allowed_classes() const override { return Kind::info().object_classes; }
 };
 
 }  // namespace hf::hazard

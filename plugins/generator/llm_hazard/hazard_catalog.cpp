@@ -1,0 +1,81 @@
+// The generator's verdict on a reply and the catalog of hazard kinds it offers providers.
+#include "hazard_catalog.hpp"
+
+#include <hazardforge/error.hpp>
+
+namespace hf::llm_hazard {
+
+ReplyChecker::ReplyChecker(const SchemaValidator& reply_schema,
+                           const std::map<std::string, std::unique_ptr<HazardTemplate>>& templates,
+                           const SceneContext& scene, FeasibilityConfig config)
+    : reply_schema_(reply_schema), templates_(templates), scene_(scene), config_(std::move(config)) {}
+
+CheckedReply ReplyChecker::check(const Json& reply) const {
+  CheckedReply out;
+  try {
+    out.errors = reply_schema_.validate(reply);
+    if (!out.errors.empty()) return out;
+    out.spec = spec_from_reply(reply, config_.trigger_time_s);
+    auto tmpl = templates_.find(out.spec.kind);
+    const HazardTemplate* t = tmpl == templates_.end() ? nullptr : tmpl->second.get();
+    config_.kinematics = t == nullptr;
+    out.errors = check_feasibility(out.spec, scene_, config_, &out.skipped);
+    if (t)
+      for (const std::string& e : t->check(out.spec, scene_))
+        out.errors.push_back("hazard template '" + out.spec.kind + "': " + e);
+  } catch (const Error& e) {
+    out.errors = {e.what()};
+  }
+  return out;
+}
+
+TemplateCatalog::TemplateCatalog(const ReplyChecker& checker, std::vector<std::string> kinds,
+                                 const ProposalRequest& base)
+    : checker_(checker), kinds_(std::move(kinds)), base_(base) {}
+
+HazardKindInfo kind_info_of(const std::map<std::string, std::unique_ptr<HazardTemplate>>& templates,
+                            const std::string& kind) {
+  auto t = templates.find(kind);
+  HazardKindInfo info = t == templates.end() ? HazardKindInfo() : t->second->kind_info();
+  info.kind = kind;
+  return info;
+}
+
+std::vector<HazardKindInfo> TemplateCatalog::kinds() const {
+  std::vector<HazardKindInfo> out;
+  for (const std::string& k : kinds_) out.push_back(kind_info_of(checker_.templates(), k));
+  return out;
+}
+
+HazardProposal TemplateCatalog::propose(const std::string& kind, double aim,
+                                        const std::vector<int64_t>& avoid_tracks, RandomDraw& draw) const {
+  auto t = checker_.templates().find(kind);
+  if (t == checker_.templates().end()) return {nullptr, "no hazard_template '" + kind + "' is registered"};
+  ProposalRequest r = base_;
+  r.aim = aim;
+  r.avoid_tracks = avoid_tracks;
+  HazardProposal p;
+  try {
+    p = t->second->propose(r, draw);
+  } catch (const Error& e) {
+    return {nullptr, e.what()};
+  }
+  if (p.spec.is_object()) complete_reply(p.spec, checker_.reply_schema());
+  return p;
+}
+
+std::vector<std::string> TemplateCatalog::check(const Json& reply) const {
+  return checker_.check(reply).errors;
+}
+
+void complete_reply(Json& reply, const Json& schema) {
+  if (!schema.contains("properties")) return;
+  for (auto it = schema["properties"].begin(); it != schema["properties"].end(); ++it) {
+    if (!reply.contains(it.key())) reply[it.key()] = nullptr;
+    if (it.key() == "extra" && reply["extra"].is_object() && it.value().contains("properties"))
+      for (auto f = it.value()["properties"].begin(); f != it.value()["properties"].end(); ++f)
+        if (!reply["extra"].contains(f.key())) reply["extra"][f.key()] = nullptr;
+  }
+}
+
+}  // namespace hf::llm_hazard

@@ -1,0 +1,67 @@
+// Building blocks for a template's proposals (HazardTemplate::propose): the scene as closed-form planning reads
+// it, and the checks and JSON every kind's proposals share.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazardforge/geometry.hpp"
+#include "hazardforge/hazard/kinematics.hpp"
+#include "hazardforge/hazard/template_base.hpp"
+#include "hazardforge/stage.hpp"
+
+namespace hf::hazard {
+
+// Footprint of a class (its size prior), for closed-form planning.
+struct Footprint {
+  double length = 4.5, width = 1.8;
+};
+
+// The scene a proposal is planned in: the request's scene and settings, the template's road, TTC conventions,
+// limits and class sizes.
+struct ProposalScene {
+  ProposalScene(const ProposalRequest& r, const RoadModel& rd, const LimitsTable& l, const ClassPriors& s)
+      : request(r), road(rd), limits(l), sizes(s) {}
+  const ProposalRequest& request;
+  const RoadModel& road;
+  const LimitsTable& limits;
+  const ClassPriors& sizes;
+  Corridor corridor;  // its widths: objects' in_path flags already say where the ego's path runs
+  double ego_front = 3.4;
+  double ego_speed = 0, target = 1.0, horizon = 6, sidewalk = 3.0, max_under_way = 0;
+  bool sidewalks = false, on_shoulder = false, multi_lane = false, intersection = false;
+  std::optional<CameraModel> camera;
+  // A tracked object with a distance: position (x along ego x, y left), footprint (measured, else its class's
+  // prior, else a car's), whether it is in the ego path and its absolute speed along the ego heading if known.
+  struct Obj {
+    int64_t track_id;
+    std::string label;
+    double x, y, length, width;
+    bool in_path;
+    std::optional<double> speed;
+  };
+  std::vector<Obj> objects;
+
+  // Throws hf::Error when the class has no size prior.
+  Footprint size(const std::string& cls) const;
+  double edge(int side) const { return road.edge(side); }
+  double path_half(double width) const { return corridor.half_width_for(width); }
+  // The start point projects into the image (always true without a camera).
+  bool visible(double x, double y) const;
+  // "" or why an object of footprint `me` at (x, y) would start next to a tracked object (except `except`).
+  std::string overlap_problem(double x, double y, const Footprint& me, int64_t except = -1) const;
+
+  static ProposalScene of(const ProposalRequest& request, const TemplateBase& tpl);
+};
+
+// Rounds to a multiple of `step` (the precision a proposal states its numbers with).
+double round_to(double v, double step);
+// One decimal, for rationales.
+std::string fmt1(double v);
+
+// The spec JSON every proposal starts from (the reply schema's fields, extra empty).
+Json proposal_spec(const std::string& kind, const std::string& cls, double x, double y, const std::string& side,
+                   double speed, double heading, const std::string& motion, double target);
+
+}  // namespace hf::hazard

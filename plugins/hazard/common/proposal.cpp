@@ -1,0 +1,89 @@
+// The scene a template's proposals are planned in, and the checks and JSON they share.
+#include "hazardforge/hazard/proposal.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "hazardforge/error.hpp"
+
+namespace hf::hazard {
+
+Footprint ProposalScene::size(const std::string& cls) const {
+  if (!sizes.has(cls)) throw Error("the class sizes have no '" + cls + "'");
+  const ClassSize& s = sizes.at(cls);
+  return {s.length, s.width};
+}
+
+bool ProposalScene::visible(double x, double y) const {
+  if (!camera) return true;
+  auto px = camera->project_ego(cv::Vec3d(x, y, 0.0));
+  return px && px->x >= 0 && px->y >= 0 && px->x < camera->width && px->y < camera->height;
+}
+
+std::string ProposalScene::overlap_problem(double x, double y, const Footprint& me, int64_t except) const {
+  for (const Obj& o : objects)
+    if (o.track_id != except && std::abs(o.x - x) < (o.length + me.length) / 2.0 + 1.0 &&
+        std::abs(o.y - y) < (o.width + me.width) / 2.0 + 0.5)
+      return "start point (" + fmt1(x) + ", " + fmt1(y) + ") m is next to the detected " + o.label;
+  return {};
+}
+
+ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tpl) {
+  ProposalScene sc(r, tpl.road(), tpl.limits(), tpl.class_sizes());
+  const TtcConventions& ttc = tpl.ttc_conventions();
+  sc.corridor.ego_half_width = ttc.corridor.ego_half_width;
+  sc.corridor.margin = ttc.corridor.margin;
+  sc.ego_front = ttc.ego_front;
+  sc.ego_speed = r.scene.ego_speed_mps.value_or(0.0);
+  sc.target = r.target_ttc_s;
+  sc.horizon = r.horizon_s;
+  sc.sidewalk = r.sidewalk_width_m;
+  sc.max_under_way = r.max_under_way_s;
+  sc.sidewalks = r.sidewalks;
+  sc.on_shoulder = r.pedestrians_on_shoulder;
+  sc.multi_lane = r.multi_lane;
+  sc.intersection = r.intersection;
+  if (r.scene.camera.valid()) sc.camera = r.scene.camera;
+  for (const ObjectState& o : r.scene.objects) {
+    if (!std::isfinite(o.distance_m)) continue;
+    const Footprint prior = sc.sizes.has(o.label) ? sc.size(o.label) : Footprint{};
+    std::optional<double> speed;
+    if (o.velocity_rel)
+      speed = sc.ego_speed + (*o.velocity_rel)[0];
+    else if (o.speed_mps && std::isfinite(*o.speed_mps))
+      speed = *o.speed_mps;
+    sc.objects.push_back({o.track_id, o.label, o.distance_m, o.lateral_m,
+                          o.length_m > 0 ? o.length_m : prior.length, o.width_m > 0 ? o.width_m : prior.width,
+                          o.in_path, speed});
+  }
+  return sc;
+}
+
+double round_to(double v, double step) {
+  return std::round(v / step) * step;
+}
+
+std::string fmt1(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", v);
+  return buf;
+}
+
+Json proposal_spec(const std::string& kind, const std::string& cls, double x, double y, const std::string& side,
+                   double speed, double heading, const std::string& motion, double target) {
+  return {{"kind", kind},
+          {"object_class", cls},
+          {"initial_distance_m", round_to(x, 0.1)},
+          {"lateral_offset_m", round_to(y, 0.05)},
+          {"side", side},
+          {"speed_mps", round_to(speed, 0.05)},
+          {"heading_deg", round_to(heading, 0.5)},
+          {"motion", motion},
+          {"start_time_s", nullptr},
+          {"deceleration_mps2", nullptr},
+          {"target_ttc_s", target},
+          {"extra", Json::object()},
+          {"rationale", ""}};
+}
+
+}  // namespace hf::hazard
