@@ -96,5 +96,38 @@ TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
   EXPECT_NE(fourth.out.find("holds a campaign of a different campaign file"), std::string::npos) << fourth.out;
 }
 
+// A hazard kind from a plugin the project does not build into its plugin folder: the campaign generates it
+// (the offline planner asks the kind's own template for a plan), plans, renders and verifies it, with no line of
+// the prompt, the planner or the campaign changed for it.
+TEST(CampaignEndToEnd, AThirdPartyHazardKindIsGeneratedAndVerified) {
+  const fs::path shared = test::shared_dir();
+  HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");
+  HF_REQUIRE_SHARED(shared / "models/yolov8n/yolov8n_deq_640x384.onnx");
+  const fs::path exe = fs::path(HF_BINARY_DIR "/bin/hazardforge");
+  test::TempDir dir;
+  // Scene-0916 as a two-way road: the lane beside the ego carries oncoming traffic.
+  std::ofstream(dir / "c.yaml") << "name: third_party\nkinds: [oncoming_overtaker]\n"
+                                << "budget: {attempts: 4, cpu_s: 300}\nrecordings:\n  - name: nus\n    config: "
+                                << (test::source_dir() / "configs/paper.yaml").string()
+                                << "\n    set: [renderer.assets_dir=, scene.road.lanes_right=1, "
+                                   "scene.road.oncoming_lanes=1]\n";
+  const fs::path out = dir / "out";
+  const auto r = test::run_command("HAZARDFORGE_SHARED=" + test::quote(shared) + " " + test::quote(exe) +
+                                   " --plugin-path " + test::quote(ONCOMING_OVERTAKER_DIR) + " campaign " +
+                                   test::quote(dir / "c.yaml") + " -o " + test::quote(out) + " -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Json index = test::read_json_file(out / "index.json");
+  EXPECT_EQ(index["summary"]["verified_pairs"], 1) << r.out;
+  EXPECT_EQ(index["summary"]["spurious_passes"], 0);
+  const fs::path scenario = out / "scenarios/nus/oncoming_overtaker";
+  const Json spec = test::read_json_file(scenario / "hazard_spec.json");
+  EXPECT_EQ(spec["kind"], "oncoming_overtaker");
+  EXPECT_EQ(spec["provenance"]["provider"], "offline");
+  const Json v = test::read_json_file(scenario / "verification.json");
+  EXPECT_TRUE(v["passed"].get<bool>());
+  EXPECT_GT(v["unsafe"]["attributed_frames"].get<int>(), 0);
+  EXPECT_TRUE(fs::exists(scenario / "scenario.xosc"));
+}
+
 }  // namespace
 }  // namespace hf
