@@ -32,6 +32,7 @@ struct SceneSettings {
   Resolved sidewalks, intersection, multi_lane;
   std::vector<std::string> allowed_kinds;
   std::vector<HazardKindInfo> kinds;  // what the allowed kinds' templates say about themselves
+  SceneRules rules;                   // drawable classes, takeovers, entry into view, clearance
   double target_ttc_s = 1.0;
   double ttc_tolerance_s = 0.25;
   double threshold_s = 1.5;
