@@ -70,6 +70,7 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
                         "most 63 px of the 900 px image height) — never popping up on the road close ahead.\n"),
             std::string::npos);
   EXPECT_NE(prompt.find("11. Do not make a detected object the hazard (extra.track_id stays null)"), std::string::npos);
+  EXPECT_NE(prompt.find("Earlier attempts on this recording: none.\n"), std::string::npos);
   EXPECT_NE(prompt.find("- pedestrian_crossing (person): a person steps off the kerb and crosses the ego lane. "
                         "Played out: waits on the kerb just beyond the road edge"),
             std::string::npos)

@@ -102,6 +102,12 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe("folder of appearance assets (assets.yaml) the renderer draws from; the hazard's class must "
                     "have pictures there or in the default set (share/assets), which the renderer falls back to; "
                     "empty = the default set"),
+      ParamSpec::path("feedback", "")
+          .describe("JSON file of failed attempts on this recording, {\"attempts\": [{\"kind\", \"object_class\", "
+                    "\"spec\" (or null), \"reasons\": [...], \"trigger_frame\", \"seed\"}]}: their reasons go into the "
+                    "prompt and into the scene context, where the offline planner avoids their designs and, after one "
+                    "that never became critical or was never re-detected, aims lower or picks larger, nearer "
+                    "objects; empty = none"),
       ParamSpec::boolean("take_over_tracks", false)
           .describe("a spec may take over a tracked object (extra.track_id, e.g. the real lead of a sudden stop); "
                     "only for a renderer that removes the real object, which ar_renderer does not: by default such "
@@ -252,6 +258,9 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   rules_.take_over_tracks = p.get_bool("take_over_tracks");
   rules_.entry_max_height = p.get_double("entry_max_height");
   rules_.clearance_m = p.get_double("clearance_m");
+  const std::filesystem::path feedback_file = p.get_path("feedback");
+  feedback_ = feedback_file.empty() ? Feedback() : Feedback::load(feedback_file.string());
+  if (!feedback_file.empty()) ctx.record_resource(feedback_file);
   std::string schema_file = share_file(p, "schema", "schemas/hazard_spec.schema.json");
   spec_schema_ = with_kind_fields(load_schema_file(schema_file), all_kinds);
   Json replies = reply_schema(spec_schema_, allowed_kinds_);
@@ -379,6 +388,7 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   s.rules.distance_origin_x = states.distance_origin_x;
   // Appearing with the video's first frames, the hazard is there from the start like the real objects.
   if (frame.timestamp < p.get_double("entry_after_s")) s.rules.entry_max_height = 0.0;
+  s.feedback = feedback_;
   s.target_ttc_s = p.get_double("target_ttc_s");
   s.ttc_tolerance_s = p.get_double("ttc_tolerance_s");
   s.threshold_s = risk_threshold(risks, frame.index);
