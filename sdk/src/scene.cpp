@@ -86,7 +86,7 @@ void validate_scene(const Json& scene, const std::function<SourceLocation(const 
   };
   if (scene.is_null()) return;
   if (!scene.is_object()) {
-    error("", "'scene' is a mapping with camera, ego, road and environment");
+    error("", "'scene' is a mapping with camera, ego, road, assets and environment");
     return;
   }
   std::vector<std::string> sections, all;
