@@ -19,6 +19,9 @@ std::vector<SceneKey> make_keys() {
   const std::vector<std::string> yes_no = {"auto", "yes", "no"};
   return {
       key(P::string("environment", "").describe("free text for the prompt: place, time of day, weather")),
+      key(P::path("assets.dir", "")
+              .describe("folder of appearance assets (assets.yaml) for the inserted objects, e.g. cut from this "
+                        "recording; empty = the default set")),
       key(P::path("camera.calibration", "").describe("calibration YAML (`hazardforge calibrate`)")),
       key(P::number("camera.fx", 0.0).range(0, 1e6).describe("focal length x, px at camera.intrinsics_size")),
       key(P::number("camera.fy", 0.0).range(0, 1e6).describe("focal length y, px (0 = fx)")),
@@ -83,7 +86,7 @@ void validate_scene(const Json& scene, const std::function<SourceLocation(const 
   };
   if (scene.is_null()) return;
   if (!scene.is_object()) {
-    error("", "'scene' is a mapping with camera, ego, road and environment");
+    error("", "'scene' is a mapping with camera, ego, road, assets and environment");
     return;
   }
   std::vector<std::string> sections, all;

@@ -87,7 +87,10 @@ TEST(OfflinePlanner, RetryDrawsANewPlan) {
   LlmReply first = p.complete(r);
   r.messages.push_back({"assistant", first.content});
   r.messages.push_back({"user", "rejected"});
-  EXPECT_NE(p.complete(r).content, first.content);
+  const Json a = Json::parse(first.content), b = Json::parse(p.complete(r).content);
+  // Not the same design again: another kind, class, side or track.
+  EXPECT_NE(Json::array({a["kind"], a["object_class"], a["side"], a["extra"]["track_id"]}),
+            Json::array({b["kind"], b["object_class"], b["side"], b["extra"]["track_id"]}));
 }
 
 TEST(OfflinePlanner, RefusesClearlyWhenNothingFits) {
@@ -121,8 +124,9 @@ TEST(OfflinePlanner, RefusesClearlyWhenNothingFits) {
 }
 
 // A highway clip 1.4 s long after the trigger: ego at 20 m/s in the leftmost of four lanes, no sidewalks.
+// `entry_max_height` 0: no rule on how a hazard comes into view.
 std::unique_ptr<test::OfflineScene> short_highway(std::vector<std::string> kinds, double max_under_way,
-                                                  bool people_on_shoulder) {
+                                                  bool people_on_shoulder, double entry_max_height = 0.07) {
   llm_hazard::SceneSettings s;
   s.environment = "highway";
   s.road_type = "multi-lane highway";
@@ -137,14 +141,16 @@ std::unique_ptr<test::OfflineScene> short_highway(std::vector<std::string> kinds
   s.pedestrians_without_sidewalks = people_on_shoulder;
   s.road.lanes_left = 0;
   s.road.lanes_right = 3;
+  s.rules.entry_max_height = entry_max_height;
   return std::make_unique<test::OfflineScene>(s, test::make_frame(5, 2.5, "test"), test::make_states(5, 2.5),
                                               test::make_risk(5, true));
 }
 
 TEST(OfflinePlanner, ShortHorizonSuddenStopIsAlreadyUnderWayWhenAllowed) {
   OfflinePlanner p = planner();
+  // Without the rule on coming into view: a lead following at the ego's speed, close ahead.
   try {
-    p.complete(request(short_highway({"sudden_stop"}, 0.0, false), 7));
+    p.complete(request(short_highway({"sudden_stop"}, 0.0, false, 0.0), 7));
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("sudden_stop: the stop would come too late within the horizon"),
@@ -152,7 +158,8 @@ TEST(OfflinePlanner, ShortHorizonSuddenStopIsAlreadyUnderWayWhenAllowed) {
         << e.what();
   }
   for (int64_t seed : {1, 7, 11}) {
-    const Json j = Json::parse(p.complete(request(short_highway({"sudden_stop"}, 1.0, false), seed)).content);
+    const Json j =
+        Json::parse(p.complete(request(short_highway({"sudden_stop"}, 1.0, false, 0.0), seed)).content);
     EXPECT_EQ(j["kind"], "sudden_stop");
     const double b = j["extra"]["under_way_s"].get<double>();
     EXPECT_GE(b, 0.3);
@@ -160,6 +167,21 @@ TEST(OfflinePlanner, ShortHorizonSuddenStopIsAlreadyUnderWayWhenAllowed) {
     EXPECT_EQ(j["extra"]["brake_delay_s"], 0.0);
     EXPECT_DOUBLE_EQ(j["speed_mps"].get<double>(), 20.0);  // it followed at the ego's speed before braking
     EXPECT_LT(j["initial_distance_m"].get<double>(), 40.0);
+  }
+}
+
+// A lead appearing in the ego lane must be first seen small (7 % of the 900 px image: a car from 34.3 m): a slower
+// lead far ahead, already braking when it appears.
+TEST(OfflinePlanner, ShortHorizonSuddenStopIsFirstSeenSmall) {
+  OfflinePlanner p = planner();
+  for (int64_t seed : {1, 7, 11}) {
+    auto scene = short_highway({"sudden_stop"}, 1.0, false);
+    const Json j = Json::parse(p.complete(request(scene, seed)).content);
+    EXPECT_EQ(j["object_class"], "car") << j.dump();
+    EXPECT_GT(j["extra"]["under_way_s"].get<double>(), 0.0);
+    EXPECT_LT(j["speed_mps"].get<double>(), 20.0);           // slower than the ego
+    EXPECT_GE(j["initial_distance_m"].get<double>(), 34.3);  // where its braking began, farther than it appears
+    EXPECT_EQ(scene->checker().check(j).errors, std::vector<std::string>{});
   }
 }
 

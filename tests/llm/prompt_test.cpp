@@ -49,11 +49,28 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
   hazard::LimitsTable limits = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
   ClassPriors sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
   s.kinds = {PedestrianCrossingTemplate::info(), SuddenStopTemplate::info()};
+  s.rules.asset_classes = {"bus", "car", "person", "truck"};
+  s.road.driving_side = "left";
+  s.road.lanes_right = 2;
+  s.road.oncoming_lanes = 1;
   SceneSummary sum = summarize_scene(f, st, {&r}, s, limits, sizes);
   auto values = sum.placeholders;
   values["schema"] = "{}";
   std::string prompt = t.render(values);
   // The kinds as their templates describe themselves, with whether their needs are met here.
+  // The scene's rules: what can be drawn, the lanes and their directions, coming into view, taking over.
+  EXPECT_NE(prompt.find("8. Only these classes can be drawn into the video: bus, car, person, truck.\n"),
+            std::string::npos);
+  EXPECT_NE(prompt.find("9. Lanes and directions: traffic keeps left; lanes 3.5 m wide; left of the ego lane: 1 lane "
+                        "going the ego's way; right of it: 1 lane going the ego's way, then 1 lane with oncoming "
+                        "traffic."),
+            std::string::npos);
+  EXPECT_NE(prompt.find("10. The object must come into view plausibly: from beyond the image border (beside or behind "
+                        "the ego), from behind a detected object, or far enough away to be small when first seen (at "
+                        "most 63 px of the 900 px image height) — never popping up on the road close ahead.\n"),
+            std::string::npos);
+  EXPECT_NE(prompt.find("11. Do not make a detected object the hazard (extra.track_id stays null)"), std::string::npos);
+  EXPECT_NE(prompt.find("Earlier attempts on this recording: none.\n"), std::string::npos);
   EXPECT_NE(prompt.find("- pedestrian_crossing (person): a person steps off the kerb and crosses the ego lane. "
                         "Played out: waits on the kerb just beyond the road edge"),
             std::string::npos)

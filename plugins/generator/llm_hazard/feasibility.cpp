@@ -211,6 +211,9 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
     errs.push_back("/target_ttc_s = " + num(*spec.target_ttc_s) + " is not below the risk threshold " +
                    num(cfg.threshold_s) + " s, so the scene would stay Safe");
 
+  // What the renderer can draw, and what it cannot remove.
+  for (std::string& e : check_spec_rules(spec, scene, cfg.rules)) errs.push_back(std::move(e));
+
   if (!cfg.kinematics) return errs;
 
   // Class limits.

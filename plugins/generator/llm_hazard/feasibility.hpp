@@ -13,6 +13,8 @@
 #include <hazardforge/hazard/template_base.hpp>
 #include <hazardforge/stage.hpp>
 
+#include "scene_rules.hpp"
+
 namespace hf::llm_hazard {
 
 struct FeasibilityConfig {
@@ -31,6 +33,8 @@ struct FeasibilityConfig {
   double trigger_time_s = 0.0;
   double ego_speed_mps = 0.0;
   std::optional<double> ego_yaw_rate;  // rad/s; with the corridor's ego_path the replayed ego follows its arc
+  // Drawable classes, takeovers, clearance, entry into view (scene_rules.hpp).
+  SceneRules rules;
   // The scene conditions (hf::scene_condition) each kind needs (HazardKindInfo::needs).
   std::map<std::string, std::vector<std::string>> kind_needs;
   // Class limits, start visibility and the TTC replay. Off when the kind's template checks the spec: it plans

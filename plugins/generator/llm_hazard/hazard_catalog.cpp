@@ -20,9 +20,14 @@ CheckedReply ReplyChecker::check(const Json& reply) const {
     const HazardTemplate* t = tmpl == templates_.end() ? nullptr : tmpl->second.get();
     config_.kinematics = t == nullptr;
     out.errors = check_feasibility(out.spec, scene_, config_, &out.skipped);
-    if (t)
+    if (t) {
       for (const std::string& e : t->check(out.spec, scene_))
         out.errors.push_back("hazard template '" + out.spec.kind + "': " + e);
+      // The rest judge the planned motion, which exists only for a feasible spec.
+      if (out.errors.empty())
+        out.errors = check_trajectory_rules(t->plan(out.spec, scene_), scene_, config_.road, config_.sizes,
+                                            config_.rules);
+    }
   } catch (const Error& e) {
     out.errors = {e.what()};
   }

@@ -130,8 +130,12 @@ std::string show_value(const Json& v) {
 }
 
 Json load_schema_file(const std::string& path) {
+  return load_json_file(path, "the hazard spec schema");
+}
+
+Json load_json_file(const std::string& path, const std::string& what) {
   std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open the hazard spec schema");
+  if (!in) throw Error(path + ": cannot open " + what);
   std::stringstream ss;
   ss << in.rdbuf();
   try {

@@ -12,6 +12,8 @@ namespace hf::llm_hazard {
 
 // Reads share/schemas/hazard_spec.schema.json (or another file). Throws hf::Error naming the file.
 Json load_schema_file(const std::string& path);
+// A JSON file; `what` names it in the messages ("PATH: cannot open <what>", "PATH: not valid JSON: ...").
+Json load_json_file(const std::string& path, const std::string& what);
 
 // The spec schema with the kinds' own `extra` fields (HazardKindInfo::extra_fields) added, each described as
 // "<kind>: <doc>.", and no other extra field allowed. Throws hf::Error when two kinds declare a field with

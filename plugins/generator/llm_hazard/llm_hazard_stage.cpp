@@ -98,6 +98,32 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe("edge-case tests: a person may appear on a road without sidewalks, on the shoulder "
                     "(sidewalk_width_m beyond the road edge) — e.g. someone who left a broken-down car. "
                     "Relaxes the rule 'no pedestrians without sidewalks' explicitly; the prompt says so"),
+      ParamSpec::path("assets_dir", "").from_scene("assets.dir")
+          .describe("folder of appearance assets (assets.yaml) the renderer draws from; the hazard's class must "
+                    "have pictures there or in the default set (share/assets), which the renderer falls back to; "
+                    "empty = the default set"),
+      ParamSpec::path("feedback", "")
+          .describe("JSON file of failed attempts on this recording, {\"attempts\": [{\"kind\", \"object_class\", "
+                    "\"spec\" (or null), \"reasons\": [...], \"trigger_frame\", \"seed\"}]}: their reasons go into the "
+                    "prompt and into the scene context, where the offline planner avoids their designs and, after one "
+                    "that never became critical or was never re-detected, aims lower or picks larger, nearer "
+                    "objects; empty = none"),
+      ParamSpec::boolean("take_over_tracks", false)
+          .describe("a spec may take over a tracked object (extra.track_id, e.g. the real lead of a sudden stop); "
+                    "only for a renderer that removes the real object, which ar_renderer does not: by default such "
+                    "specs are refused"),
+      ParamSpec::number("entry_max_height", 0.07)
+          .range(0, 1)
+          .describe("a hazard that comes into view fully in the image, on the road and not hidden by a nearer "
+                    "tracked object must then be at most this tall (share of the image height): far enough to be "
+                    "first seen small, never popping up close ahead; 0 = no such rule"),
+      ParamSpec::number("entry_after_s", 0.5)
+          .range(0, 3600)
+          .describe("entry_max_height applies to hazards that appear this long or more after the recording's first "
+                    "frame; one that appears earlier is there from the start of the video, as the real objects are"),
+      ParamSpec::number("clearance_m", 0.3)
+          .range(0, 5)
+          .describe("room the hazard's planned path keeps from every tracked object's predicted box (m)"),
       ParamSpec::number("max_under_way_s", -1.0)
           .range(-1, 30)
           .describe("longest extra.under_way_s a spec may give (hazards already under way when they appear, "
@@ -223,9 +249,30 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   for (const std::string& k : registered)
     if (std::find(allowed_kinds_.begin(), allowed_kinds_.end(), k) == allowed_kinds_.end())
       all_kinds.push_back(kind_info_of(templates_, k));
+  // What the renderer can draw: a model is offered only those classes.
+  const std::filesystem::path assets_dir = p.get_path("assets_dir");
+  rules_ = SceneRules();
+  rules_.asset_classes = asset_classes(assets_dir.string());
+  rules_.assets_where = assets_dir.empty() ? "the default set, share/assets"
+                                           : assets_dir.string() + " and the default set, share/assets";
+  rules_.take_over_tracks = p.get_bool("take_over_tracks");
+  rules_.entry_max_height = p.get_double("entry_max_height");
+  rules_.clearance_m = p.get_double("clearance_m");
+  const std::filesystem::path feedback_file = p.get_path("feedback");
+  feedback_ = feedback_file.empty() ? Feedback() : Feedback::load(feedback_file.string());
+  if (!feedback_file.empty()) ctx.record_resource(feedback_file);
   std::string schema_file = share_file(p, "schema", "schemas/hazard_spec.schema.json");
   spec_schema_ = with_kind_fields(load_schema_file(schema_file), all_kinds);
-  reply_validator_.emplace(reply_schema(spec_schema_, allowed_kinds_));
+  Json replies = reply_schema(spec_schema_, allowed_kinds_);
+  Json drawable = Json::array();
+  for (const Json& c : replies["properties"]["object_class"]["enum"])
+    if (std::find(rules_.asset_classes.begin(), rules_.asset_classes.end(), c.get<std::string>()) !=
+        rules_.asset_classes.end())
+      drawable.push_back(c);
+  if (drawable.empty())
+    throw Error("no object class of the hazard spec schema has appearance assets (" + rules_.assets_where + ")");
+  replies["properties"]["object_class"]["enum"] = drawable;
+  reply_validator_.emplace(std::move(replies));
   spec_validator_.emplace(spec_schema_);
   prompt_ = PromptTemplate::load(share_file(p, "prompt_template", "prompts/hazard_generation.md"));
   retry_prompt_ = PromptTemplate::load(share_file(p, "retry_template", "prompts/hazard_retry.md"));
@@ -337,6 +384,11 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
   s.allowed_kinds = allowed_kinds_;
   s.kinds = kind_infos_;
+  s.rules = rules_;
+  s.rules.distance_origin_x = states.distance_origin_x;
+  // Appearing with the video's first frames, the hazard is there from the start like the real objects.
+  if (frame.timestamp < p.get_double("entry_after_s")) s.rules.entry_max_height = 0.0;
+  s.feedback = feedback_;
   s.target_ttc_s = p.get_double("target_ttc_s");
   s.ttc_tolerance_s = p.get_double("ttc_tolerance_s");
   s.threshold_s = risk_threshold(risks, frame.index);

@@ -62,6 +62,8 @@ class LlmHazardGenerator : public Stage {
   void make_templates(StageContext& ctx, const std::vector<std::string>& registered);
   std::vector<std::string> allowed_kinds_;
   std::vector<HazardKindInfo> kind_infos_;  // of the allowed kinds, in their order
+  SceneRules rules_;                         // drawable classes, takeovers, entry, clearance (params)
+  Feedback feedback_;                        // failed attempts of earlier runs (param feedback)
   Json spec_schema_;
   std::optional<SchemaValidator> reply_validator_;
   std::optional<SchemaValidator> spec_validator_;

@@ -41,6 +41,23 @@ Json opt(const std::optional<double>& v) {
   return v && std::isfinite(*v) ? Json(*v) : Json(nullptr);
 }
 
+// "traffic keeps right; left of the ego lane: 1 lane going the ego's way, then 1 with oncoming traffic; right of
+// it: none".
+std::string describe_lanes(const hazard::RoadModel& road) {
+  auto side = [&](int sd) {
+    const int same = road.same_direction_lanes(sd), oncoming = road.oncoming_lanes_on(sd);
+    if (same + oncoming == 0) return std::string("none");
+    auto count = [](int n, const std::string& what) {
+      return std::to_string(n) + (n == 1 ? " lane " : " lanes ") + what;
+    };
+    std::string out = same > 0 ? count(same, "going the ego's way") : "";
+    if (oncoming > 0) out += (out.empty() ? "" : ", then ") + count(oncoming, "with oncoming traffic");
+    return out;
+  };
+  return "traffic keeps " + road.driving_side + "; lanes " + num(road.lane_width) + " m wide; left of the ego lane: " +
+         side(1) + "; right of it: " + side(-1);
+}
+
 std::string fmt_opt(const std::optional<double>& v, const std::string& unit) {
   return v && std::isfinite(*v) ? num(*v) + unit : "unknown";
 }
@@ -101,11 +118,15 @@ FeasibilityConfig feasibility_config(const SceneSettings& s, const hazard::Limit
   fc.ego_speed_mps = s.ego_speed_mps;
   fc.ego_yaw_rate = ego_yaw_rate;
   for (const HazardKindInfo& k : s.kinds) fc.kind_needs[k.kind] = k.needs;
+  fc.rules = s.rules;
   return fc;
 }
 
 ProposalRequest proposal_request(const SceneSettings& s, const SceneContext& scene) {
   ProposalRequest r(scene);
+  r.object_classes = s.rules.asset_classes;
+  r.first_seen_max_height = s.rules.entry_max_height;
+  r.may_take_over = s.rules.take_over_tracks;
   r.target_ttc_s = s.target_ttc_s;
   r.horizon_s = s.horizon_s;
   r.max_under_way_s = s.max_under_way_s;
@@ -211,6 +232,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
 
   std::string kinds;
   for (const std::string& k : s.allowed_kinds) kinds += (kinds.empty() ? "" : ", ") + k;
+  std::string classes;
+  for (const std::string& c : s.rules.asset_classes) classes += (classes.empty() ? "" : ", ") + c;
 
   out.scene = {{"frame_index", frame.index},
                {"timestamp_s", frame.timestamp},
@@ -226,6 +249,10 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                {"intersection", s.intersection.value},
                {"multi_lane", s.multi_lane.value},
                {"allowed_kinds", s.allowed_kinds},
+               {"object_classes", s.rules.asset_classes},
+               {"take_over_tracks", s.rules.take_over_tracks},
+               {"feedback", s.feedback.scene_json(frame.index)},
+               {"entry_max_height", s.rules.entry_max_height},
                {"target_ttc_s", s.target_ttc_s},
                {"ttc_tolerance_s", s.ttc_tolerance_s},
                {"horizon_s", s.horizon_s},
@@ -275,7 +302,23 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
       {"ego_front_m", num(s.ttc.ego_front)},
       {"lane_width_m", num(s.road.lane_width)},
       {"road_edge_left_m", num(s.road.edge(1))},
-      {"road_edge_right_m", num(s.road.edge(-1))}};
+      {"road_edge_right_m", num(s.road.edge(-1))},
+      {"lanes", describe_lanes(s.road)},
+      {"feedback", s.feedback.prompt_text()},
+      {"object_classes", classes.empty() ? "any class with kinematic limits" : classes},
+      {"entry_rule",
+       s.rules.entry_max_height > 0
+           ? "The object must come into view plausibly: from beyond the image border (beside or behind the ego), "
+             "from behind a detected object, or far enough away to be small when first seen (at most " +
+                 num(s.rules.entry_max_height * frame.camera.height) + " px of the " +
+                 std::to_string(frame.camera.height) + " px image height) — never popping up on the road close ahead."
+           : "The object may already be in view when it appears (it appears with the first frames of the video, "
+             "or the scene sets no rule on coming into view)."},
+      {"take_over",
+       s.rules.take_over_tracks
+           ? "A detected vehicle may itself become the hazard (extra.track_id): the renderer removes the real one."
+           : "Do not make a detected object the hazard (extra.track_id stays null): the real one would stay in the "
+             "video beside it."}};
 
   out.context.timestamp = frame.timestamp;
   out.context.objects = states.objects;

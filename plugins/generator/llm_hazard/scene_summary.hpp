@@ -10,6 +10,7 @@
 #include <hazardforge/stage.hpp>
 
 #include "feasibility.hpp"
+#include "feedback.hpp"
 
 namespace hf::llm_hazard {
 
@@ -32,6 +33,8 @@ struct SceneSettings {
   Resolved sidewalks, intersection, multi_lane;
   std::vector<std::string> allowed_kinds;
   std::vector<HazardKindInfo> kinds;  // what the allowed kinds' templates say about themselves
+  SceneRules rules;                   // drawable classes, takeovers, entry into view, clearance
+  Feedback feedback;                  // failed attempts of earlier runs on this recording
   double target_ttc_s = 1.0;
   double ttc_tolerance_s = 0.25;
   double threshold_s = 1.5;

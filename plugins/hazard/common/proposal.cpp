@@ -28,6 +28,24 @@ std::string ProposalScene::overlap_problem(double x, double y, const Footprint& 
   return {};
 }
 
+double ProposalScene::first_seen_small_from(const std::string& cls) const {
+  if (request.first_seen_max_height <= 0 || !camera || !sizes.has(cls)) return 0.0;
+  const ClassSize& s = sizes.at(cls);
+  const cv::Vec3d lwh(s.length, s.width, s.height);
+  const double max_px = request.first_seen_max_height * camera->height;
+  auto small = [&](double x) {
+    const BoxView v = view_of(*camera, x, 0.0, 0.0, lwh);
+    return v.in_front && v.box.height <= max_px;
+  };
+  double lo = camera->t_ego_cam[0] + s.length, hi = 400.0;
+  if (!small(hi)) return hi;
+  for (int i = 0; i < 50; ++i) {
+    const double mid = (lo + hi) / 2;
+    (small(mid) ? hi : lo) = mid;
+  }
+  return hi;
+}
+
 ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tpl) {
   ProposalScene sc(r, tpl.road(), tpl.limits(), tpl.class_sizes());
   const TtcConventions& ttc = tpl.ttc_conventions();

@@ -212,6 +212,29 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
   return d;
 }
 
+// Whether the plan of this cut-in, under way for `under_way` s when it appears, starts with the vehicle at the
+// image border (partly out of view), i.e. coming into view rather than appearing in it.
+bool CutInTemplate::enters_from_border(const ProposalRequest& request, const std::string& cls, double x0, double y0,
+                                       double v0, double v1, double decel, double under_way) const {
+  if (under_way <= 0) return true;
+  HazardSpec spec;
+  spec.kind = kind_info().kind;
+  spec.object_class = cls;
+  spec.initial_distance_m = x0;
+  spec.lateral_offset_m = y0;
+  spec.side = y0 > 0 ? "left" : "right";
+  spec.speed_mps = v0;
+  spec.start_time_s = request.scene.timestamp;
+  spec.deceleration_mps2 = decel;
+  spec.target_ttc_s = request.target_ttc_s;
+  spec.extra = {{"final_speed_mps", v1}, {"under_way_s", under_way}};
+  const hazard::PlanOutcome plan = evaluate(spec, request.scene);
+  if (!plan.reasons.empty() || plan.trajectory.points.empty()) return false;
+  const TrajectoryPoint& p = plan.trajectory.points.front();
+  const hazard::BoxView v = hazard::view_of(request.scene.camera, p.x, p.y, p.heading, plan.trajectory.size_lwh);
+  return !v.in_front || v.inside_fraction < 0.98;
+}
+
 // Overtakes from beside/behind at v0 > ego, then brakes to v1 < ego while changing lanes.
 HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   using hazard::fmt1;
@@ -248,11 +271,21 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
       gap_end + sc.ego_front + size.length / 2.0 + sc.ego_speed * (t_brake + t_slow) - s_slow - v0 * t_brake;
   if (x0 < -25.0 || x0 > 3.0) return {nullptr, "no start beside or behind the ego fits (x " + fmt1(x0) + " m)"};
   // A horizon too short for the whole manoeuvre: when allowed, it is already under way when it appears and
-  // the lane change ends a little into the horizon.
+  // the lane change ends a little into the horizon — later when it must come into view plausibly, so that it is
+  // still beside the ego, at the image border, when it appears.
   double under_way = 0;
   if (t_brake + t_slow > sc.horizon - 0.5) {
     if (sc.max_under_way <= 0) return {nullptr, "the cut-in takes longer than the horizon"};
-    under_way = t_brake + t_slow - d.uniform(0.3, 0.5) * sc.horizon;
+    double end = (request.first_seen_max_height > 0 ? d.uniform(0.55, 0.8) : d.uniform(0.3, 0.5)) * sc.horizon;
+    if (request.first_seen_max_height > 0) {
+      // It must come into view from the image border: the lane change ends later (the vehicle is further back
+      // when it appears) until the plan starts with the vehicle at the border, still beside the ego.
+      for (; end <= sc.horizon - 0.2; end += 0.05 * sc.horizon)
+        if (enters_from_border(request, cls, x0, y0, v0, v1, decel, t_brake + t_slow - end)) break;
+      if (end > sc.horizon - 0.2)
+        return {nullptr, "no start already under way comes into view from the image border"};
+    }
+    under_way = t_brake + t_slow - end;
     if (under_way > sc.max_under_way)
       return {nullptr, "the cut-in would have to be under way for " + fmt1(under_way) + " s (max_under_way_s " +
                            fmt1(sc.max_under_way) + ")"};

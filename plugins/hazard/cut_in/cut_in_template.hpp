@@ -13,7 +13,8 @@ namespace hf {
 // is inside the ego's stopping distance. Params: the shared template params plus closing_speed_mps,
 // cut_in_decel_mps2, default_target_ttc_s, ego_reaction_s, ego_max_decel_mps2, lane_change_s.
 // Proposals: a car (3 in 5 draws), motorcycle or truck in a random side's same-direction lane, 3-5 m/s faster
-// than the ego, braking to 2-4 m/s below it; already under way when the horizon is too short for it.
+// than the ego, braking to 2-4 m/s below it; already under way when the horizon is too short for it, and then,
+// where hazards must come into view plausibly, still beside the ego at the image border when it appears.
 class CutInTemplate : public hazard::KindTemplate<CutInTemplate> {
  public:
   static HazardKindInfo info();
@@ -22,6 +23,8 @@ class CutInTemplate : public hazard::KindTemplate<CutInTemplate> {
 
  protected:
   bool start_must_be_visible() const override { return false; }
+  bool enters_from_border(const ProposalRequest& request, const std::string& cls, double x0, double y0, double v0,
+                          double v1, double decel, double under_way) const;
   hazard::Design design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const override;
 };
 

@@ -18,7 +18,8 @@ HazardKindInfo SuddenStopTemplate::info() {
   k.play_out =
       "a lead vehicle in the ego lane (side center, y near 0) at initial_distance_m driving at speed_mps, "
       "cruising for extra.brake_delay_s seconds and then braking at deceleration_mps2 to a standstill; "
-      "extra.track_id may name a detected vehicle to use as the lead instead.";
+      "where the rules allow taking over a detected object, extra.track_id may name a detected vehicle to use as "
+      "the lead instead.";
   k.object_classes = {"car", "truck", "bus", "motorcycle"};
   k.extra_fields = {{"brake_delay_s",
                      {{"type", {"number", "null"}}, {"minimum", 0}, {"maximum", 30}},
@@ -187,8 +188,8 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     if (o.in_path && o.x > 0 && (!lead || o.x < lead->x)) lead = &o;
   const bool avoided = lead && std::find(request.avoid_tracks.begin(), request.avoid_tracks.end(),
                                          lead->track_id) != request.avoid_tracks.end();
-  // A moving lead vehicle that brakes is the most natural sudden stop.
-  if (lead && !avoided && is_vehicle(lead->label) && request.class_allowed(lead->label) && lead->speed &&
+  // A moving lead vehicle that brakes is the most natural sudden stop, where the renderer can remove the real one.
+  if (request.may_take_over && lead && !avoided && is_vehicle(lead->label) && request.class_allowed(lead->label) && lead->speed &&
       *lead->speed >= 0.5 && sc.limits.has(lead->label)) {
     const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(lead->label).max_decel_mps2, 0.1);
     const double gap = lead->x - sc.ego_front - lead->length / 2.0;
@@ -215,7 +216,42 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   const double speed = std::min(sc.ego_speed, sc.limits.at(cls).max_speed_mps);
   const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(cls).max_decel_mps2, 0.1);
   if (speed < 1.0) return {nullptr, "a lead vehicle cannot brake from standstill"};
-  if (sc.max_under_way > 0 && delay + 1.0 > sc.horizon - 0.7) {
+  const bool short_horizon = sc.max_under_way > 0 && delay + 1.0 > sc.horizon - 0.7;
+  if (const double small_from = sc.first_seen_small_from(cls); small_from > 0) {
+    // Appearing in the ego lane, it must be first seen small: a slower lead far ahead (the end of a queue, a car
+    // slowing for something) that brakes soon after it appears, or is already braking when the horizon is short.
+    const double front = sc.ego_front + size.length / 2.0;
+    const double x0 = std::max(small_from, front + 1.0) + d.uniform(0.0, 8.0);
+    const double v_now = std::min(sc.limits.at(cls).max_speed_mps, sc.ego_speed * d.uniform(0.2, 0.7));
+    const double y0 = d.uniform(-0.3, 0.3);
+    const double b = short_horizon ? std::min(sc.max_under_way, d.uniform(0.3, 0.8)) : 0.0;
+    const double v_start = v_now + decel * b;  // its speed when it began to brake
+    const double gap_now = x0 - front;
+    if (v_now < 0.5) return {nullptr, "the ego is too slow for a slower lead to brake in front of it"};
+    if (v_start > sc.limits.at(cls).max_speed_mps) return {nullptr, "the lead would have braked from above its limit"};
+    const double t = time_to_ttc(gap_now, sc.ego_speed, v_start, b > 0 ? -b : delay, decel, ttc, sc.horizon);
+    if (t > sc.horizon - std::min(0.7, 0.3 * sc.horizon))
+      return {nullptr, "a lead first seen small (from " + fmt1(small_from) + " m) cannot bring the TTC to " + fmt1(ttc) +
+                           " s within the horizon"};
+    if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
+      return {nullptr, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
+    if (!sc.visible(x0, y0))
+      return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
+    if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
+    // The spec states the manoeuvre's start: b s before, the gap was larger by what the ego closed since.
+    const double gap_start = gap_now + sc.ego_speed * b - (v_start * b - decel * b * b / 2.0);
+    Json spec = hazard::proposal_spec(kind, cls, front + gap_start, y0, "center", v_start, 0.0,
+                                      "drives slower ahead in the ego lane, then brakes hard", sc.target);
+    spec["deceleration_mps2"] = decel;
+    spec["extra"]["brake_delay_s"] = b > 0 ? 0.0 : delay;
+    spec["rationale"] = "A " + cls + " " + fmt1(x0) + " m ahead in the ego lane at " + fmt1(v_now) +
+                        " m/s, slower than the ego, brakes at " + fmt1(decel) + " m/s^2" +
+                        (b > 0 ? " (braking for " + fmt1(b) + " s when it appears)" : " after " + fmt1(delay) + " s") +
+                        "; the TTC falls to about " + fmt1(ttc) + " s.";
+    if (b > 0) spec["extra"]["under_way_s"] = round_to(b, 0.05);
+    return {spec, {}};
+  }
+  if (short_horizon) {
     // A horizon too short to watch a lead cruise and then brake: it has been braking for `b` s when it
     // appears, following at the ego's speed until then, and the TTC reaches the target `t_hit` s in.
     const double b = std::min(sc.max_under_way, d.uniform(0.3, 0.8));

@@ -42,6 +42,7 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
 struct Signature {
   std::string kind, object_class, side;
   std::optional<int64_t> track;
+  bool known = true;       // side and track known (a failed attempt without a spec rules out every side and track)
   bool same_frame = true;  // from an attempt at the frame this request is for
 
   static Signature of(const Json& spec) {
@@ -55,10 +56,10 @@ struct Signature {
     return s;
   }
   bool matches(const Signature& o) const {
-    return kind == o.kind && object_class == o.object_class && side == o.side && track == o.track;
+    return kind == o.kind && object_class == o.object_class && (!known || (side == o.side && track == o.track));
   }
   std::string str() const {
-    return kind + " " + object_class + " " + side + (track ? " track " + std::to_string(*track) : "");
+    return kind + " " + object_class + (known ? " " + side : "") + (track ? " track " + std::to_string(*track) : "");
   }
 };
 
@@ -85,6 +86,7 @@ Feedback read_feedback(const LlmRequest& request) {
         sig.object_class = a.value("object_class", "");
         sig.side = a.contains("side") && a["side"].is_string() ? a["side"].get<std::string>() : "";
         if (a.contains("track_id") && a["track_id"].is_number_integer()) sig.track = a["track_id"].get<int64_t>();
+        sig.known = a.value("has_spec", true);
         sig.same_frame = a.value("same_frame", true);
         f.failed.push_back(sig);
       }

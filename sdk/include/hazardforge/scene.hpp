@@ -21,7 +21,7 @@ struct SceneKey {
   ParamSpec spec;   // type, range, choices, doc (spec.name == key)
 };
 
-// Every key a `scene:` block may hold (camera.*, ego.*, road.*, environment).
+// Every key a `scene:` block may hold (camera.*, ego.*, road.*, assets.*, environment).
 const std::vector<SceneKey>& scene_keys();
 
 // The value `scene` states for a dotted key, or nullptr.

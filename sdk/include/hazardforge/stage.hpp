@@ -327,6 +327,11 @@ struct ProposalRequest {
   bool intersection = false;
   double sidewalk_width_m = 3.0;
   std::vector<std::string> object_classes;  // classes the hazard may have here (appearance assets); empty = any
+  // A hazard that appears fully in view on the road, not hidden by a nearer object, must be at most this tall
+  // (share of the image height) when first seen; 0 = no such rule.
+  double first_seen_max_height = 0.0;
+  // Whether a hazard may take over a tracked object (extra.track_id): only when the renderer removes the real one.
+  bool may_take_over = false;
   std::vector<int64_t> avoid_tracks;        // tracked objects not to take over (earlier attempts failed with them)
 
   bool class_allowed(const std::string& object_class) const;

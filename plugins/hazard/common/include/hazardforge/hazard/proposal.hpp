@@ -51,6 +51,9 @@ struct ProposalScene {
   bool visible(double x, double y) const;
   // "" or why an object of footprint `me` at (x, y) would start next to a tracked object (except `except`).
   std::string overlap_problem(double x, double y, const Footprint& me, int64_t except = -1) const;
+  // The nearest x ahead on the ego lane's centre from which an object of this class, first seen there, looks
+  // small enough (ProposalRequest::first_seen_max_height); 0 without that rule or without a camera.
+  double first_seen_small_from(const std::string& cls) const;
 
   static ProposalScene of(const ProposalRequest& request, const TemplateBase& tpl);
 };

@@ -1,0 +1,206 @@
+// Scene-aware refusals: drawable class, no silent takeover of a tracked object, and the planned trajectory's
+// clearance from tracked objects, lane directions and entry into view.
+#include "scene_rules.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+#include <hazardforge/error.hpp>
+#include <hazardforge/json_text.hpp>
+
+#include "asset_library.hpp"
+#include "feasibility.hpp"
+
+namespace hf::llm_hazard {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+bool is_vehicle(const std::string& cls) {
+  return cls == "car" || cls == "truck" || cls == "bus" || cls == "motorcycle" || cls == "bicycle";
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string out;
+  for (const std::string& s : v) out += (out.empty() ? "" : ", ") + s;
+  return out;
+}
+
+// A footprint on the ground: centre, heading, half length and half width.
+struct Footprint {
+  double x, y, heading, half_l, half_w;
+};
+
+// Separating-axis test of two oriented rectangles.
+bool overlap(const Footprint& a, const Footprint& b) {
+  const Footprint* boxes[2] = {&a, &b};
+  for (const Footprint* axis_box : boxes)
+    for (int k = 0; k < 2; ++k) {
+      const double h = axis_box->heading + k * kPi / 2;
+      const double ux = std::cos(h), uy = std::sin(h);
+      auto radius = [&](const Footprint& f) {
+        return f.half_l * std::abs(std::cos(f.heading - h)) + f.half_w * std::abs(std::sin(f.heading - h));
+      };
+      const double dist = std::abs((b.x - a.x) * ux + (b.y - a.y) * uy);
+      if (dist > radius(a) + radius(b)) return false;
+    }
+  return true;
+}
+
+// A point's offset to the left of the planned ego path and its heading relative to the path there, from the
+// nearest planned ego sample (the path runs straight on beyond the plan's ends).
+struct RoadPose {
+  double d = 0, rel_heading = 0;
+};
+RoadPose road_pose(const std::vector<TrajectoryPoint>& ego, double x, double y, double heading) {
+  if (ego.empty()) return {y, heading};
+  const TrajectoryPoint* best = &ego.front();
+  double best_d2 = kInf;
+  for (const TrajectoryPoint& e : ego) {
+    const double d2 = (e.x - x) * (e.x - x) + (e.y - y) * (e.y - y);
+    if (d2 < best_d2) best_d2 = d2, best = &e;
+  }
+  RoadPose p;
+  p.d = -(x - best->x) * std::sin(best->heading) + (y - best->y) * std::cos(best->heading);
+  p.rel_heading = std::remainder(heading - best->heading, 2 * kPi);
+  return p;
+}
+
+// Share of `box` covered by the union of `covers` (sampled on a 12 x 12 grid).
+double covered_fraction(const cv::Rect2d& box, const std::vector<cv::Rect2d>& covers) {
+  if (covers.empty() || box.area() <= 0) return 0.0;
+  int in = 0;
+  const int n = 12;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const cv::Point2d p(box.x + (i + 0.5) * box.width / n, box.y + (j + 0.5) * box.height / n);
+      for (const cv::Rect2d& c : covers)
+        if (c.contains(p)) {
+          ++in;
+          break;
+        }
+    }
+  return static_cast<double>(in) / (n * n);
+}
+
+}  // namespace
+
+std::vector<std::string> asset_classes(const std::string& dir) {
+  namespace fs = std::filesystem;
+  const fs::path defaults = fs::path(share_dir()) / "assets";
+  std::set<std::string> classes;
+  for (const fs::path& d : {defaults, fs::path(dir)}) {
+    if (d.empty() || (d != defaults && fs::exists(d) && fs::equivalent(d, defaults))) continue;
+    for (const render::AssetSpec& a : render::load_asset_index(d).assets) classes.insert(a.object_class);
+  }
+  return {classes.begin(), classes.end()};
+}
+
+std::vector<std::string> check_spec_rules(const HazardSpec& spec, const SceneContext& scene, const SceneRules& rules) {
+  std::vector<std::string> errs;
+  const auto& classes = rules.asset_classes;
+  if (!classes.empty() && std::find(classes.begin(), classes.end(), spec.object_class) == classes.end())
+    errs.push_back("/object_class = \"" + spec.object_class + "\" has no appearance assets, so the renderer cannot " +
+                   "draw it (classes with assets: " + join(classes) + "; " + rules.assets_where + ")");
+  if (!rules.take_over_tracks && spec.extra.is_object() && spec.extra.contains("track_id") &&
+      spec.extra["track_id"].is_number()) {
+    const auto id = static_cast<int64_t>(spec.extra["track_id"].get<double>());
+    std::string what = "tracked object";
+    for (const ObjectState& o : scene.objects)
+      if (o.track_id == id) what = "tracked " + o.label;
+    errs.push_back("/extra/track_id = " + std::to_string(id) + " takes over the " + what +
+                   ", but the renderer does not remove a taken-over object: the real one would stay in the video "
+                   "and drive on beside the inserted one. Insert a new object instead (extra.track_id null)");
+  }
+  return errs;
+}
+
+std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, const SceneContext& scene,
+                                                const hazard::RoadModel& road, const ClassPriors& sizes,
+                                                const SceneRules& rules) {
+  std::vector<std::string> errs;
+  if (tr.points.empty()) return errs;
+  const std::string& cls = tr.object_class;
+  const double half_l = tr.size_lwh[0] / 2, half_w = tr.size_lwh[1] / 2, clear = rules.clearance_m / 2;
+  std::optional<int64_t> taken;
+  if (tr.spec.extra.is_object() && tr.spec.extra.contains("track_id") && tr.spec.extra["track_id"].is_number())
+    taken = static_cast<int64_t>(tr.spec.extra["track_id"].get<double>());
+
+  // Clear of every tracked object, each predicted at constant velocity from where it is now.
+  for (const ObjectState& o : scene.objects) {
+    if (!std::isfinite(o.distance_m) || (taken && *taken == o.track_id)) continue;
+    const ClassSize prior = sizes.has(o.label) ? sizes.at(o.label) : ClassSize{};
+    const double ol = o.length_m > 0 ? o.length_m : prior.length, ow = o.width_m > 0 ? o.width_m : prior.width;
+    const double ego = scene.ego_speed_mps.value_or(0.0);
+    cv::Vec2d v(0, 0);
+    if (o.velocity_rel)
+      v = cv::Vec2d(ego + (*o.velocity_rel)[0], (*o.velocity_rel)[1]);
+    else if (o.speed_mps && o.heading_rad)
+      v = cv::Vec2d(*o.speed_mps * std::cos(*o.heading_rad), *o.speed_mps * std::sin(*o.heading_rad));
+    const double oh = cv::norm(v) > 0.5 ? std::atan2(v[1], v[0]) : 0.0;
+    const double x0 = o.distance_m + rules.distance_origin_x, y0 = o.lateral_m;
+    for (const TrajectoryPoint& p : tr.points) {
+      const double dt = p.t - tr.anchor_time;
+      const Footprint other{x0 + v[0] * dt, y0 + v[1] * dt, oh, ol / 2 + clear, ow / 2 + clear};
+      if (!overlap({p.x, p.y, p.heading, half_l + clear, half_w + clear}, other)) continue;
+      errs.push_back("the planned path of the " + cls + " runs into the tracked " + o.label + " (track " +
+                     std::to_string(o.track_id) + ", predicted at constant velocity): " + num(dt) +
+                     " s after it appears the " + cls + " would be at (x " + num(p.x) + ", y " + num(p.y) +
+                     ") m and the " + o.label + " at (x " + num(other.x) + ", y " + num(other.y) +
+                     ") m. Place it where its path stays clear of the tracked objects");
+      break;
+    }
+  }
+
+  const TrajectoryPoint& first = tr.points.front();
+  const RoadPose start = road_pose(tr.ego, first.x, first.y, first.heading);
+  const int side = start.d >= 0 ? 1 : -1;
+
+  // A vehicle starts in a lane in its traffic's direction.
+  if (is_vehicle(cls) && std::abs(road.lane_at(start.d)) <= road.lanes(side)) {
+    const bool with_ego = std::cos(start.rel_heading) > 0;
+    const bool lane_with_ego = road.same_direction_at(start.d);
+    if (with_ego != lane_with_ego)
+      errs.push_back("the " + cls + " starts at y " + num(start.d) + " m in a lane " +
+                     (lane_with_ego ? "going the ego's way" : "with oncoming traffic") + " (lanes_left " +
+                     std::to_string(road.lanes_left) + ", lanes_right " + std::to_string(road.lanes_right) +
+                     ", oncoming_lanes " + std::to_string(road.oncoming_lanes) + ", traffic keeps " +
+                     road.driving_side + ") but drives " + (with_ego ? "the ego's way" : "towards the ego") +
+                     ", against that lane's traffic");
+  }
+
+  // It enters the view plausibly: the first time any of it is in the image.
+  const CameraModel& cam = scene.camera;
+  if (cam.valid() && rules.entry_max_height > 0) {
+    const cv::Rect2d image(0, 0, cam.width, cam.height);
+    for (const TrajectoryPoint& p : tr.points) {
+      const hazard::BoxView view = hazard::view_of(cam, p.x, p.y, p.heading, tr.size_lwh);
+      if (view.box.area() <= 0 || (view.box & image).area() <= 0) continue;
+      const RoadPose at = road_pose(tr.ego, p.x, p.y, p.heading);
+      const bool entering = !view.in_front || view.inside_fraction < 0.98;
+      const bool off_road = std::abs(at.d) - half_w >= road.edge(at.d >= 0 ? 1 : -1);
+      const double max_px = rules.entry_max_height * cam.height;
+      const bool small = view.box.height <= max_px;
+      std::vector<cv::Rect2d> nearer;
+      for (const ObjectState& o : scene.objects)
+        if (std::isfinite(o.distance_m) && o.distance_m + rules.distance_origin_x < p.x &&
+            (!taken || *taken != o.track_id))
+          nearer.emplace_back(o.box.x, o.box.y, o.box.width, o.box.height);
+      const bool hidden = covered_fraction(view.box, nearer) >= 0.5;
+      if (!entering && !off_road && !small && !hidden)
+        errs.push_back("the " + cls + " would pop up on the road " + num(p.x) + " m ahead: when it is first seen (" +
+                       num(p.t - tr.anchor_time) + " s after it appears) its box is fully in view, " +
+                       hazard::num(view.box.height, 0) + " px tall, and no tracked object hides it. Let it enter from "
+                       "beyond the image border, from behind a nearer tracked object, or far enough to be first "
+                       "seen small (at most " + hazard::num(max_px, 0) + " px tall, " + num(100 * rules.entry_max_height) +
+                       " % of the image height)");
+      break;
+    }
+  }
+  return errs;
+}
+
+}  // namespace hf::llm_hazard

@@ -1,0 +1,214 @@
+// Scene-aware refusals, for every kind: paths through tracked objects, classes without appearance assets, lanes
+// used against their traffic, hazards popping up on the road, taken-over tracks; and the offline planner keeps
+// to the same rules.
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+
+#include "asset_library.hpp"
+#include "llm_test_support.hpp"
+#include "scene_rules.hpp"
+#include "temp_dir.hpp"
+
+namespace hf::llm_hazard {
+namespace {
+
+// A straight ego at 10 m/s; `pts` the hazard's samples (x, y, heading) at 20 Hz from t = 0.
+HazardTrajectory trajectory(const std::string& cls, const std::vector<cv::Vec3d>& pts, cv::Vec3d size) {
+  HazardTrajectory tr;
+  tr.kind = "test";
+  tr.object_class = cls;
+  tr.size_lwh = size;
+  for (size_t k = 0; k < pts.size(); ++k) {
+    const double t = 0.05 * k;
+    tr.points.push_back({t, pts[k][0], pts[k][1], pts[k][2], 0, 0});
+    tr.ego.push_back({t, 10.0 * t, 0.0, 0.0, 10.0, 0.0});
+  }
+  return tr;
+}
+
+SceneContext scene_with(std::vector<ObjectState> objects) {
+  SceneContext sc;
+  sc.ego_speed_mps = 10.0;
+  sc.camera = test::test_camera();
+  sc.objects = std::move(objects);
+  return sc;
+}
+
+ObjectState tracked(int64_t id, const std::string& label, double x, double y, double vx_abs) {
+  ObjectState o;
+  o.track_id = id;
+  o.label = label;
+  o.distance_m = x;
+  o.lateral_m = y;
+  o.velocity_rel = cv::Vec2d(vx_abs - 10.0, 0.0);
+  return o;
+}
+
+const ClassPriors& sizes() {
+  static const ClassPriors s = ClassPriors::load(share_dir() + "/class_sizes.yaml");
+  return s;
+}
+
+const cv::Vec3d kPerson(0.5, 0.6, 1.7), kCar(4.5, 1.85, 1.52);
+
+// A person who crosses at x = 40 m from the left kerb (2 m/s) walks through the car parked there on the right.
+TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
+  std::vector<cv::Vec3d> walk;
+  for (int k = 0; k <= 120; ++k) walk.push_back({40.0, 5.75 - 0.1 * k, -M_PI / 2});
+  const HazardTrajectory tr = trajectory("person", walk, kPerson);
+  hazard::RoadModel road;
+  SceneRules rules;
+  const auto errs = check_trajectory_rules(tr, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), road, sizes(), rules);
+  ASSERT_EQ(errs.size(), 1u);
+  EXPECT_EQ(errs[0],
+            "the planned path of the person runs into the tracked car (track 7, predicted at constant velocity): "
+            "3.9 s after it appears the person would be at (x 40, y -2.05) m and the car at (x 40, y -3.5) m. Place "
+            "it where its path stays clear of the tracked objects");
+  // A car driving away at 15 m/s is past the crossing by then: its predicted positions are clear.
+  EXPECT_TRUE(check_trajectory_rules(tr, scene_with({tracked(7, "car", 20.0, -3.5, 15.0)}), road, sizes(), rules)
+                  .empty());
+  // Predicted, not only where it is now: a car 60 m ahead coming at 5 m/s meets the person 4 s later.
+  EXPECT_EQ(check_trajectory_rules(tr, scene_with({tracked(9, "car", 60.0, -1.75, -5.0)}), road, sizes(), rules)
+                .size(),
+            1u);
+  // The object a spec takes over is the hazard itself.
+  HazardTrajectory over = tr;
+  over.spec.extra = {{"track_id", 7}};
+  EXPECT_TRUE(check_trajectory_rules(over, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), road, sizes(), rules)
+                  .empty());
+}
+
+// What the renderer cannot draw is not asked for: the class must have appearance assets.
+TEST(SceneRules, OnlyClassesWithAppearanceAssets) {
+  EXPECT_EQ(asset_classes(""), (std::vector<std::string>{"bus", "car", "person", "truck"}));
+  // A harvested folder adds its classes to the default set the renderer falls back to.
+  test::TempDir dir;
+  render::AssetSpec a;
+  a.file = "moto.png";
+  a.object_class = "motorcycle";
+  a.view = "rear";
+  a.size_lwh = {2.1, 0.8, 1.5};
+  a.image_size = {8, 8};
+  a.anchor_px = {4, 7};
+  for (auto& c : a.box_corners_px) c = {4, 4};
+  a.source = "harvested";
+  render::write_png_atomic(dir / "moto.png", cv::Mat(8, 8, CV_8UC4, cv::Scalar(0, 0, 0, 255)));
+  render::save_asset_index(dir.path(), {{a}}, "test");
+  EXPECT_EQ(asset_classes(dir.path().string()),
+            (std::vector<std::string>{"bus", "car", "motorcycle", "person", "truck"}));
+
+  HazardSpec s;
+  s.object_class = "motorcycle";
+  SceneRules rules;
+  rules.asset_classes = asset_classes("");
+  rules.assets_where = "the default set, share/assets";
+  EXPECT_EQ(check_spec_rules(s, scene_with({}), rules),
+            std::vector<std::string>{
+                "/object_class = \"motorcycle\" has no appearance assets, so the renderer cannot draw it (classes "
+                "with assets: bus, car, person, truck; the default set, share/assets)"});
+}
+
+// The generator offers a model only the drawable classes, and refuses the rest.
+TEST(SceneRules, TheReplySchemaOffersOnlyDrawableClasses) {
+  test::ScriptedServer srv("/api/chat");
+  Json moto = test::valid_reply();
+  moto["kind"] = "cut_in";
+  moto["object_class"] = "motorcycle";
+  srv.then_ollama(moto.dump());
+  srv.then_ollama(test::valid_reply().dump());
+  auto r = test::make_runner("provider: {name: ollama, host: '" + srv.url() + "'}\n");
+  test::push_scene(r, 6, "Busy city street, peds on the sidewalk, two lanes each way");
+  r.run();
+  ASSERT_EQ(r.outputs("hazard").size(), 1u);
+  const auto got = srv.requests();
+  EXPECT_EQ(got[0]["format"]["properties"]["object_class"]["enum"], Json::array({"person", "car", "bus", "truck"}));
+  EXPECT_NE(got[1]["messages"][2]["content"].get<std::string>().find(
+                "- /object_class = \"motorcycle\" is not one of \"person\", \"car\", \"bus\", \"truck\""),
+            std::string::npos);
+}
+
+// Traffic keeps right and the lane left of the ego's is oncoming: a vehicle there drives towards the ego, so a
+// cut-in from the left is refused; one from the right (a lane going the ego's way) is not.
+TEST(SceneRules, NoCutInFromALaneWithOncomingTraffic) {
+  hazard::RoadModel road;
+  road.oncoming_lanes = 1;
+  SceneRules rules;
+  std::vector<cv::Vec3d> left, right;
+  for (int k = 0; k <= 40; ++k) {
+    left.push_back({-2.0 + 0.7 * k, 3.5, 0.0});
+    right.push_back({-2.0 + 0.7 * k, -3.5, 0.0});
+  }
+  EXPECT_EQ(check_trajectory_rules(trajectory("car", left, kCar), scene_with({}), road, sizes(), rules),
+            std::vector<std::string>{
+                "the car starts at y 3.5 m in a lane with oncoming traffic (lanes_left 1, lanes_right 1, "
+                "oncoming_lanes 1, traffic keeps right) but drives the ego's way, against that lane's traffic"});
+  EXPECT_TRUE(check_trajectory_rules(trajectory("car", right, kCar), scene_with({}), road, sizes(), rules).empty());
+  // Keeping left, the oncoming lane is the right one.
+  road.driving_side = "left";
+  EXPECT_TRUE(check_trajectory_rules(trajectory("car", left, kCar), scene_with({}), road, sizes(), rules).empty());
+  EXPECT_EQ(check_trajectory_rules(trajectory("car", right, kCar), scene_with({}), road, sizes(), rules).size(), 1u);
+}
+
+// The offline planner keeps to it: traffic keeping left, the lane on the right is oncoming (the car parked in it
+// is the synthetic scene's), and every cut-in comes from the left.
+TEST(SceneRules, TheOfflinePlannerCutsInOnlyFromALaneGoingTheEgosWay) {
+  std::set<std::string> sides;
+  for (int64_t seed = 0; seed < 10; ++seed) {
+    auto r = test::make_runner("force_kind: cut_in\nmulti_lane: 'yes'\ndriving_side: left\noncoming_lanes: 1\nseed: " +
+                               std::to_string(seed) + "\n");
+    test::push_scene(r, 6, "city street");
+    r.run();
+    const auto specs = r.collect<HazardSpec>("hazard");
+    ASSERT_EQ(specs.size(), 1u);
+    sides.insert(specs[0].side);
+    EXPECT_EQ(specs[0].provenance["attempts"], 1);
+  }
+  EXPECT_EQ(sides, std::set<std::string>{"left"});
+}
+
+// A hazard that appears fully in view on the road must be far enough to be small, hidden by a nearer tracked
+// object or entering from the image border.
+TEST(SceneRules, NoHazardPopsUpOnTheRoadCloseAhead) {
+  hazard::RoadModel road;
+  SceneRules rules;
+  auto standing = [](double x, double y) { return std::vector<cv::Vec3d>(20, cv::Vec3d(x, y, 0.0)); };
+  const SceneContext empty = scene_with({});
+  EXPECT_EQ(check_trajectory_rules(trajectory("car", standing(20.0, 0.0), kCar), empty, road, sizes(), rules),
+            std::vector<std::string>{
+                "the car would pop up on the road 20 m ahead: when it is first seen (0 s after it appears) its box is "
+                "fully in view, 118 px tall, and no tracked object hides it. Let it enter from beyond the image "
+                "border, from behind a nearer tracked object, or far enough to be first seen small (at most 63 px "
+                "tall, 7 % of the image height)"});
+  // Far enough to be small (39 px at 50 m), or beside the ego at the image border, or not on the road.
+  EXPECT_TRUE(check_trajectory_rules(trajectory("car", standing(50.0, 0.0), kCar), empty, road, sizes(), rules).empty());
+  EXPECT_TRUE(check_trajectory_rules(trajectory("car", standing(5.0, 3.5), kCar), empty, road, sizes(), rules).empty());
+  EXPECT_TRUE(
+      check_trajectory_rules(trajectory("person", standing(20.0, 6.0), kPerson), empty, road, sizes(), rules).empty());
+  // Hidden behind a van standing nearer, at the left kerb, whose box covers it in the image.
+  ObjectState van = tracked(4, "truck", 12.0, 4.5, 0.0);
+  const hazard::BoxView seen = hazard::view_of(test::test_camera(), 20.0, 0.0, 0.0, kCar);
+  van.box = cv::Rect2f(static_cast<float>(seen.box.x - 10), static_cast<float>(seen.box.y - 10),
+                       static_cast<float>(seen.box.width + 20), static_cast<float>(seen.box.height + 20));
+  EXPECT_TRUE(
+      check_trajectory_rules(trajectory("car", standing(20.0, 0.0), kCar), scene_with({van}), road, sizes(), rules)
+          .empty());
+}
+
+// A sudden stop of the real lead is refused: the renderer would leave the real one in the video.
+TEST(SceneRules, TakingOverATrackedObjectNeedsARendererThatRemovesIt) {
+  HazardSpec s;
+  s.object_class = "car";
+  s.extra = {{"track_id", 7}};
+  SceneRules rules;
+  EXPECT_EQ(check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules),
+            std::vector<std::string>{
+                "/extra/track_id = 7 takes over the tracked car, but the renderer does not remove a taken-over "
+                "object: the real one would stay in the video and drive on beside the inserted one. Insert a new "
+                "object instead (extra.track_id null)"});
+  rules.take_over_tracks = true;
+  EXPECT_TRUE(check_spec_rules(s, scene_with({}), rules).empty());
+}
+
+}  // namespace
+}  // namespace hf::llm_hazard
