@@ -25,19 +25,30 @@ std::string slurp(const fs::path& p) {
   return ss.str();
 }
 
+// A campaign file over nuScenes scene-0916 through configs/paper.yaml with the default appearance set (no
+// harvest needed): its name, kinds and budget line, and the recording's extra overrides.
+void write_nuscenes_campaign(const fs::path& file, const std::string& head, const std::string& extra_set) {
+  std::ofstream(file) << head << "recordings:\n  - name: nus\n    config: "
+                      << (test::source_dir() / "configs/paper.yaml").string()
+                      << "\n    set: [renderer.assets_dir=" << extra_set << "]\n";
+}
+
+// The CLI with the shared data's location.
+std::string hazardforge(const fs::path& shared) {
+  return "HAZARDFORGE_SHARED=" + test::quote(shared) + " " + test::quote(HF_BINARY_DIR "/bin/hazardforge");
+}
+
 TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
   const fs::path shared = test::shared_dir();
   HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");
   HF_REQUIRE_SHARED(shared / "models/yolov8n/yolov8n_deq_640x384.onnx");
-  const fs::path exe = fs::path(HF_BINARY_DIR "/bin/hazardforge");
   test::TempDir dir;
-  // Two pairs with one attempt each; the default appearance set, so no harvest is needed.
-  std::ofstream(dir / "c.yaml") << "name: resume\nkinds: [sudden_stop, pedestrian_crossing]\n"
-                                << "budget: {attempts: 1, cpu_s: 600}\nrecordings:\n  - name: nus\n    config: "
-                                << (test::source_dir() / "configs/paper.yaml").string()
-                                << "\n    set: [renderer.assets_dir=]\n";
+  // Two pairs with one attempt each.
+  write_nuscenes_campaign(dir / "c.yaml",
+                          "name: resume\nkinds: [sudden_stop, pedestrian_crossing]\nbudget: {attempts: 1, cpu_s: 600}\n",
+                          "");
   const fs::path out = dir / "out";
-  const std::string cmd = "HAZARDFORGE_SHARED=" + test::quote(shared) + " " + test::quote(exe) + " campaign " +
+  const std::string cmd = hazardforge(shared) + " campaign " +
                           test::quote(dir / "c.yaml") + " -o " + test::quote(out) + " -q";
 
   const auto first = test::run_command(cmd + " --max-attempts 1");
@@ -103,16 +114,13 @@ TEST(CampaignEndToEnd, AThirdPartyHazardKindIsGeneratedAndVerified) {
   const fs::path shared = test::shared_dir();
   HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");
   HF_REQUIRE_SHARED(shared / "models/yolov8n/yolov8n_deq_640x384.onnx");
-  const fs::path exe = fs::path(HF_BINARY_DIR "/bin/hazardforge");
   test::TempDir dir;
   // Scene-0916 as a two-way road: the lane beside the ego carries oncoming traffic.
-  std::ofstream(dir / "c.yaml") << "name: third_party\nkinds: [oncoming_overtaker]\n"
-                                << "budget: {attempts: 4, cpu_s: 300}\nrecordings:\n  - name: nus\n    config: "
-                                << (test::source_dir() / "configs/paper.yaml").string()
-                                << "\n    set: [renderer.assets_dir=, scene.road.lanes_right=1, "
-                                   "scene.road.oncoming_lanes=1]\n";
+  write_nuscenes_campaign(dir / "c.yaml",
+                          "name: third_party\nkinds: [oncoming_overtaker]\nbudget: {attempts: 4, cpu_s: 300}\n",
+                          ", scene.road.lanes_right=1, scene.road.oncoming_lanes=1");
   const fs::path out = dir / "out";
-  const auto r = test::run_command("HAZARDFORGE_SHARED=" + test::quote(shared) + " " + test::quote(exe) +
+  const auto r = test::run_command(hazardforge(shared) +
                                    " --plugin-path " + test::quote(ONCOMING_OVERTAKER_DIR) + " campaign " +
                                    test::quote(dir / "c.yaml") + " -o " + test::quote(out) + " -q");
   ASSERT_EQ(r.code, 0) << r.out;
