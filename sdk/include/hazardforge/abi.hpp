@@ -9,8 +9,9 @@
 // that plugins built for an older minor still work with (new free functions, new classes); a plugin needing a
 // newer minor is refused by an older host.
 // 2.0: HazardTemplate describes its kind and proposes plans (kind_info, propose), LlmRequest carries the
-// generator's HazardCatalog.
-#define HF_SDK_ABI_MAJOR 2
+// generator's HazardCatalog. 3.0: ProposalRequest, which the generator fills and templates read, carries the
+// scene's rules (first_seen_max_height, may_take_over).
+#define HF_SDK_ABI_MAJOR 3
 #define HF_SDK_ABI_MINOR 0
 #define HF_SDK_VERSION "0.1.0"
 
