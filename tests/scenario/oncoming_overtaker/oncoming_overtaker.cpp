@@ -46,8 +46,8 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
   }
 
   // A car (2 in 4 draws), truck or bus at least 40 m ahead in the oncoming lane (up to 20 m beyond the nearest
-  // start that leaves it time to swerve) at 4-8 m/s, an urban overtaking speed, swerving so that it enters the ego
-  // path when the TTC is 1-1.3 x the target.
+  // start that leaves it time to swerve) at 5-10 m/s, an urban overtaking speed, swerving so that it enters the ego
+  // path when the TTC is 1.1-1.5 x the target.
   hf::HazardProposal propose(const hf::ProposalRequest& req, hf::RandomDraw& d) const override {
     const auto sc = hf::hazard::ProposalScene::of(req, *this);
     const int side = sc.road.oncoming_side();
@@ -57,7 +57,7 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     if (!req.class_allowed(cls) || !sc.limits.has(cls)) return {nullptr, "no '" + cls + "' here"};
     const hf::hazard::KinematicLimits& lim = sc.limits.at(cls);
     const hf::hazard::Footprint size = sc.size(cls);
-    const double v = d.uniform(4.0, std::min(8.0, lim.max_speed_mps));
+    const double v = d.uniform(5.0, std::min(10.0, lim.max_speed_mps));
     const double closing = sc.ego_speed + v;
     const double y0 = side * sc.road.lane_width * (sc.road.same_direction_lanes(side) + 1);
     const double lane = lane_change(std::abs(y0), v, lim);
@@ -66,7 +66,7 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     double lo = 0, hi = 1;
     for (int i = 0; i < 50; ++i) (hf::hazard::min_jerk_shift(1.0, 1.0, (lo + hi) / 2).p < inside ? lo : hi) = (lo + hi) / 2;
     const double to_path = hi * lane;
-    const double ttc_in = d.uniform(1.0, 1.3) * sc.target;  // the TTC when it enters the ego path
+    const double ttc_in = d.uniform(1.1, 1.5) * sc.target;  // the TTC when it enters the ego path
     const double front = sc.ego_front + size.length / 2.0;
     // First seen at 40 m or more; driving on for a moment before it swerves; the TTC at aim x target before the
     // horizon's end.
