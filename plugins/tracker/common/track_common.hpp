@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include <hazardforge/class_groups.hpp>
+#include <hazardforge/geometry.hpp>
 
 namespace hf::tracking {
 
@@ -16,13 +17,6 @@ inline cv::Point2f centre(const cv::Rect2f& b) {
   return {b.x + 0.5f * b.width, b.y + 0.5f * b.height};
 }
 
-inline double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
-  const double ix = std::max(0.f, std::min(a.x + a.width, b.x + b.width) - std::max(a.x, b.x));
-  const double iy = std::max(0.f, std::min(a.y + a.height, b.y + b.height) - std::max(a.y, b.y));
-  const double inter = ix * iy;
-  const double uni = double(a.area()) + double(b.area()) - inter;
-  return uni > 0.0 ? inter / uni : 0.0;
-}
 
 // Velocity of a box centre in px/s from the displacement between successive *matched* observations divided by
 // their timestamp difference (so a gap of several frames is one long step, not several zero steps), smoothed

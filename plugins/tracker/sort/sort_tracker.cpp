@@ -136,7 +136,7 @@ Tracks SortTracker::step(const Detections& dets, const Frame& frame) {
     const std::string label = tracks_[i].vote.label();
     for (size_t j = 0; j < nd; ++j) {
       if (cfg_.match_class && !groups_.same(dets.items[j].label, label)) continue;
-      const double o = tracking::iou(pb, dets.items[j].box);
+      const double o = box_iou(pb, dets.items[j].box);
       if (o >= cfg_.iou_threshold && o > 0.0) cost[i][j] = -o;
     }
   }

@@ -36,6 +36,13 @@ class ClassPriors {
   std::string file_;
 };
 
+// Intersection over union of two image boxes (0 when either is empty).
+inline double box_iou(const cv::Rect2f& a, const cv::Rect2f& b) {
+  const double inter = (a & b).area();
+  const double uni = double(a.area()) + double(b.area()) - inter;
+  return uni > 0.0 ? inter / uni : 0.0;
+}
+
 // Edges of a box that lie on (within `margin_px` of) the image border: a truncated box's extent on that side
 // is not the object's. Bit flags, 0 = fully inside.
 namespace truncation {

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "ar_renderer.hpp"
+#include "hazardforge/geometry.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "nuscenes_source.hpp"
 #include "yolo_detector.hpp"
@@ -26,11 +27,6 @@ namespace {
 using namespace hf;
 using namespace hf::render;
 namespace fs = std::filesystem;
-
-double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
-  const double i = (a & b).area();
-  return i > 0 ? i / (a.area() + b.area() - i) : 0.0;
-}
 
 bool same_class(const std::string& hazard, const std::string& label) {
   if (hazard == "person") return label == "person";
@@ -101,15 +97,15 @@ int main(int argc, char** argv) {
             if (!res.hazard.visible) continue;
             bool real = false;
             for (const auto& d : original.items)
-              real |= same_class(cls, d.label) && iou(d.box, res.hazard.box) > 0.3;
+              real |= same_class(cls, d.label) && hf::box_iou(d.box, res.hazard.box) > 0.3;
             if (real) continue;
             Frame aug = f;
             aug.image = res.frame.image;
             double best = 0;
             std::string best_label;
             for (const auto& d : detect(aug).items)
-              if (same_class(cls, d.label) && iou(d.box, res.hazard.box) > best) {
-                best = iou(d.box, res.hazard.box);
+              if (same_class(cls, d.label) && hf::box_iou(d.box, res.hazard.box) > best) {
+                best = hf::box_iou(d.box, res.hazard.box);
                 best_label = d.label;
               }
             char key[64];
