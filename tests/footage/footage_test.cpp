@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -187,6 +188,29 @@ TEST(EgoMotionSmoother, RejectsAnOutlierAndFillsGaps) {
     EXPECT_TRUE(std::isfinite(s.speed_sigma));
     EXPECT_GT(s.speed_sigma, 0.0);
   }
+}
+
+// Queued behind a lead, traffic moving through the road region makes the odometry read a small reverse speed:
+// the ego of a front camera does not reverse, so the smoothed speed stops at zero (unless reversing is allowed).
+TEST(EgoMotionSmoother, AStandstillDoesNotBecomeReversing) {
+  std::vector<EgoMotionSample> raw;
+  for (int i = 0; i < 60; ++i) {
+    EgoMotionSample s;
+    s.frame = i;
+    s.t = 0.1 * i;
+    s.speed_mps = i < 20 ? 2.0 - 0.1 * i : -0.3;  // braking to a stop, then a reverse-looking read
+    s.speed_sigma = 0.1;
+    s.yaw_rate_sigma = 0.01;
+    s.measured = true;
+    raw.push_back(s);
+  }
+  const auto out = smooth_ego_motion(raw);
+  for (const auto& s : out) EXPECT_GE(s.speed_mps, 0.0) << s.frame;
+  EXPECT_NEAR(out[5].speed_mps, 1.5, 0.2);
+  EXPECT_EQ(out[45].speed_mps, 0.0);
+  SmoothOptions reverse;
+  reverse.min_speed = -std::numeric_limits<double>::infinity();
+  EXPECT_NEAR(smooth_ego_motion(raw, reverse)[45].speed_mps, -0.3, 0.1);
 }
 
 TEST(EgoMotionSmoother, NoMeasurementsGivesUnmeasuredOutput) {

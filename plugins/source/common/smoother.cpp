@@ -126,7 +126,7 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
       Ps = Pf[k] + C * (Ps - Pp[k + 1]) * C.t();
     }
     EgoMotionSample& o = out[k];
-    o.speed_mps = xs(0);
+    o.speed_mps = std::max(xs(0), opt.min_speed);
     o.yaw_rate = xs(2);
     o.speed_sigma = std::sqrt(std::max(Ps(0, 0), 0.0));
     o.yaw_rate_sigma = std::sqrt(std::max(Ps(2, 2), 0.0));

@@ -100,6 +100,11 @@ struct SmoothOptions {
   double median_gate_rel = 0.25;
   double median_gate_yaw = 0.1;
   double initial_speed_sigma = 10.0;
+  // A front camera's ego drives forwards: near a standstill, other road users moving through the road region
+  // can make the odometry read a small reverse speed (-0.2..-0.5 m/s on the KITTI raw clip while queued), which
+  // would fold the ego's recorded path back on itself. The smoothed speed is held at or above this (-inf: the
+  // ego may reverse).
+  double min_speed = 0.0;
 };
 
 // Filters a whole clip's raw samples (forward Kalman + RTS smoother over speed, acceleration, yaw rate), with
