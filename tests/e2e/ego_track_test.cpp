@@ -119,6 +119,28 @@ TEST(EgoPath, FollowsACircularTrackInTheAnchorFrame) {
   EXPECT_NEAR(std::hypot(later.x - end.x, later.y - end.y), end.speed * 1.0, 1e-6);
 }
 
+// Pose noise while standing (a few centimetres backwards) does not turn the path round: the heading is held, so
+// an object planned along the path ahead stays ahead and keeps its direction.
+TEST(EgoPath, BackwardsNoiseAtAStandstillKeepsTheHeading) {
+  std::vector<EgoTrackSample> track;
+  double x = 0;
+  for (int i = 0; i <= 60; ++i) {
+    const double v = i < 30 ? 2.0 - 2.0 * i / 30.0 : -0.3 * std::exp(-(i - 30) / 10.0);  // stop, then drift back
+    EgoTrackSample s;
+    s.t = 0.1 * i;
+    s.x = x;
+    s.speed_mps = v;
+    track.push_back(s);
+    x += v * 0.1;
+  }
+  const EgoPath ego = EgoPath::recorded(track, 0.0, "test");
+  for (double tau = 0; tau <= 6.0; tau += 0.05) EXPECT_NEAR(ego.at(tau).heading, 0.0, 1e-6) << tau;
+  for (double s = 0; s <= 12.0; s += 0.25) {
+    EXPECT_NEAR(ego.point(s).heading, 0.0, 1e-6) << s;
+    EXPECT_NEAR(ego.point(s).y, 0.0, 1e-6) << s;
+  }
+}
+
 TEST(EgoPath, StraightIsTheConstantSpeedPlan) {
   const EgoPath ego = EgoPath::straight(8);
   EXPECT_DOUBLE_EQ(ego.at(1.5).x, 12);
