@@ -184,8 +184,9 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   const double ttc = request.aim * sc.target;
   const double delay = round_to(d.uniform(0.5, 1.5), 0.1);
   const hazard::ProposalScene::Obj* lead = nullptr;
+  // The lead is the nearest object centred in the ego lane; the corridor also holds wide neighbours beside it.
   for (const auto& o : sc.objects)
-    if (o.in_path && o.x > 0 && (!lead || o.x < lead->x)) lead = &o;
+    if (o.in_path && o.x > 0 && std::abs(o.y) <= sc.path_half(0.0) && (!lead || o.x < lead->x)) lead = &o;
   const bool avoided = lead && std::find(request.avoid_tracks.begin(), request.avoid_tracks.end(),
                                          lead->track_id) != request.avoid_tracks.end();
   // A moving lead vehicle that brakes is the most natural sudden stop, where the renderer can remove the real one.
