@@ -309,6 +309,11 @@ void to_json(Json& j, const HazardInstance& v) {
        {"occluded_fraction", v.occluded_fraction}};
   if (v.appearance) j["appearance"] = *v.appearance;
   if (!v.references.empty()) j["references"] = v.references;
+  if (v.taken_over)
+    j["taken_over"] = {{"track_id", v.taken_over->track_id},
+                       {"box", rect(v.taken_over->box)},
+                       {"seen", v.taken_over->seen},
+                       {"uncovered_fraction", v.taken_over->uncovered_fraction}};
 }
 void to_json(Json& j, const AppearanceStats& v) {
   auto vec = [](const cv::Vec3d& x) { return Json::array({finite_or_null(x[0]), finite_or_null(x[1]), finite_or_null(x[2])}); };

@@ -10,7 +10,7 @@ namespace {
 
 // Three visible frames: the inserted person is re-detected and tracked as track 4 at the box; frame 2 is
 // Unsafe (TTC 1.1 s) with `critical` as the metric's critical track.
-Json run_verifier(const std::string& params, int64_t critical) {
+Json run_verifier(const std::string& params, int64_t critical, std::vector<double> uncovered = {}) {
   auto r = testing::StageRunner::create<ClosedLoopVerifier>(params);
   HazardTrajectory tr;
   tr.kind = "pedestrian_crossing";
@@ -28,6 +28,7 @@ Json run_verifier(const std::string& params, int64_t critical) {
     h.box = box;
     h.distance_m = 10.0 - 2 * i;
     h.intended_ttc_s = 2.0 - 0.5 * i;
+    if (!uncovered.empty()) h.taken_over = TakenOver{7, box, i != 1, uncovered.at(i)};
     r.push("hazard", h, t);
     Detections d;
     d.frame_index = i;
@@ -74,6 +75,25 @@ TEST(VerifierAttribution, UnsafeCausedBySomeoneElseFailsWhenRequired) {
   EXPECT_EQ(strict["reasons"],
             Json::array({"none of the 1 Unsafe visible frames is the hazard's: 1 with another object critical, 0 where "
                            "the plan does not make the hazard critical (spurious Unsafe frames never pass)"}));
+}
+
+// A hazard that took over a real object (track 7) passes only while the drawn one hides it: in no frame may more
+// than max_takeover_uncovered of the real one's box show the inpainted fill.
+TEST(VerifierAttribution, ATakenOverObjectMustBeHiddenByTheHazard) {
+  const std::string params = "{state_distance_origin: ego_origin, require_hazard_critical: true}";
+  const Json hidden = run_verifier(params, 4, {0.2, 0.1, 0.35});
+  EXPECT_TRUE(hidden["passed"].get<bool>()) << hidden.dump(2);
+  EXPECT_EQ(hidden["taken_over"]["track_id"], 7);
+  EXPECT_EQ(hidden["taken_over"]["frames"], 3);
+  EXPECT_EQ(hidden["taken_over"]["frames_from_held_box"], 1);
+  EXPECT_DOUBLE_EQ(hidden["taken_over"]["max_uncovered_fraction"].get<double>(), 0.35);
+  const Json shows = run_verifier(params, 4, {0.2, 0.62, 0.35});
+  EXPECT_FALSE(shows["passed"].get<bool>());
+  EXPECT_EQ(shows["reasons"], Json::array({"the taken-over real object (track 7) is not hidden by the hazard drawn in "
+                                           "its place: 0.62 of its box shows the inpainted fill at frame 1 "
+                                           "(max_takeover_uncovered 0.5)"}));
+  // Without a takeover there is nothing to report.
+  EXPECT_FALSE(run_verifier(params, 4).contains("taken_over"));
 }
 
 }  // namespace

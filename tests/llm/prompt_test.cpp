@@ -69,7 +69,9 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
                         "the ego), from behind a detected object, or far enough away to be small when first seen (at "
                         "most 63 px of the 900 px image height) — never popping up on the road close ahead.\n"),
             std::string::npos);
-  EXPECT_NE(prompt.find("11. Do not make a detected object the hazard (extra.track_id stays null)"), std::string::npos);
+  EXPECT_NE(prompt.find("11. A detected vehicle may itself become the hazard (extra.track_id): the renderer removes the "
+                        "real one."),
+            std::string::npos);
   EXPECT_NE(prompt.find("Earlier attempts on this recording: none.\n"), std::string::npos);
   EXPECT_NE(prompt.find("- pedestrian_crossing (person): a person steps off the kerb and crosses the ego lane. "
                         "Played out: waits on the kerb just beyond the road edge"),

@@ -195,19 +195,48 @@ TEST(SceneRules, NoHazardPopsUpOnTheRoadCloseAhead) {
           .empty());
 }
 
-// A sudden stop of the real lead is refused: the renderer would leave the real one in the video.
-TEST(SceneRules, TakingOverATrackedObjectNeedsARendererThatRemovesIt) {
+// A taken-over lead is the real one, where the recording shows it: its neighbour in the next lane as close as the
+// recording has them is no collision (coming closer is), and it does not pop up (it was in view already).
+TEST(SceneRules, ATakenOverLeadStartsWhereTheRealOneIs) {
+  hazard::RoadModel road;
+  SceneRules rules;
+  // The lead at 20 m braking from 4 m/s; a truck beside it in the right lane, 2.3 m away (closer than the
+  // clearance: estimated positions scatter), driving on at 6 m/s.
+  std::vector<cv::Vec3d> brake;
+  for (int k = 0; k <= 40; ++k) brake.push_back({20.0 + std::max(0.0, 4.0 * 0.05 * k - 2.0 * 0.0025 * k * k), 0.0, 0.0});
+  HazardTrajectory lead = trajectory("car", brake, kCar);
+  lead.spec.extra = {{"track_id", 3}};
+  const ObjectState truck = tracked(2, "truck", 20.0, -2.3, 6.0);
+  EXPECT_TRUE(check_trajectory_rules(lead, scene_with({tracked(3, "car", 20.0, 0.0, 4.0), truck}), road, sizes(), rules)
+                  .empty());
+  // A person beside it walking towards it comes closer than the recording shows: refused. (A vehicle's tracked
+  // lateral speed is not extrapolated: vehicles keep their lanes.)
+  ObjectState walker = tracked(5, "person", 20.0, -1.5, 0.0);
+  walker.velocity_rel = cv::Vec2d(-10.0, 1.0);
+  EXPECT_EQ(check_trajectory_rules(lead, scene_with({walker}), road, sizes(), rules).size(), 1u);
+  ObjectState drifting = truck;
+  drifting.velocity_rel = cv::Vec2d(6.0 - 10.0, 1.0);
+  EXPECT_TRUE(check_trajectory_rules(lead, scene_with({drifting}), road, sizes(), rules).empty());
+  // The same plan as a new, inserted car is refused twice: next to the truck, and popping up 20 m ahead.
+  HazardTrajectory inserted = lead;
+  inserted.spec.extra = Json::object();
+  EXPECT_EQ(check_trajectory_rules(inserted, scene_with({truck}), road, sizes(), rules).size(), 2u);
+}
+
+// Taking over a tracked object (the real lead of a sudden stop) is allowed by default, since the renderer removes
+// the real one; a scene that switches takeovers off refuses it.
+TEST(SceneRules, TakingOverATrackedObjectIsRefusedWhereTakeoversAreOff) {
   HazardSpec s;
   s.object_class = "car";
   s.extra = {{"track_id", 7}};
   SceneRules rules;
+  EXPECT_TRUE(check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules).empty());
+  rules.take_over_tracks = false;
   EXPECT_EQ(check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules),
             std::vector<std::string>{
-                "/extra/track_id = 7 takes over the tracked car, but the renderer does not remove a taken-over "
-                "object: the real one would stay in the video and drive on beside the inserted one. Insert a new "
-                "object instead (extra.track_id null)"});
-  rules.take_over_tracks = true;
-  EXPECT_TRUE(check_spec_rules(s, scene_with({}), rules).empty());
+                "/extra/track_id = 7 takes over the tracked car, but this scene does not allow takeovers "
+                "(take_over_tracks false: the renderer would leave the real one in the video beside the inserted "
+                "one). Insert a new object instead (extra.track_id null)"});
 }
 
 }  // namespace

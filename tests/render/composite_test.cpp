@@ -169,6 +169,55 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   EXPECT_NEAR(behind.hazard.occluded_fraction, 0.0, 1e-9);
 }
 
+// A hazard that takes over a real object (spec extra.track_id): the real one leaves the picture — covered by the
+// hazard drawn in its place, the rest of its box filled from the surroundings — it occludes nothing, and the
+// share of its box left to the fill is reported.
+TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
+  const cv::Mat img = hf::test::textured_image();  // grey texture: no saturated blue anywhere
+  const CameraModel cam = test_camera();
+  HazardTrajectory plan = static_object("car", 20.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52));
+  auto plain = std::make_shared<const HazardTrajectory>(plan);
+  plan.spec.extra = {{"track_id", 3}};
+  auto taking = std::make_shared<const HazardTrajectory>(plan);
+  HazardRenderer probe(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  const cv::Rect2f hb = probe.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), plain, {}).hazard.box;
+  ASSERT_GT(hb.area(), 1000);
+  auto is_blue = [](const cv::Mat& m) {
+    cv::Mat mask;
+    cv::inRange(m, cv::Scalar(200, 0, 0), cv::Scalar(255, 60, 60), mask);
+    return cv::countNonZero(mask);
+  };
+  auto run = [&](const std::shared_ptr<const HazardTrajectory>& t, const cv::Rect2f& real) {
+    cv::Mat frame = img.clone();
+    cv::rectangle(frame, cv::Rect(real), cv::Scalar(255, 0, 0), cv::FILLED);  // the real object: saturated blue
+    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    // As an occluder it stands nearer (bottom edge lower than the hazard's): it would hide a plain hazard.
+    return r.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), t,
+                    {{real, 0.9f, std::nullopt, "car", 0, 0, 3}});
+  };
+  // The real object where the hazard is drawn, a little taller (its roof shows above the hazard's).
+  const cv::Rect2f same(hb.x, hb.y - 12, hb.width, hb.height + 16);
+  const auto took = run(taking, same);
+  ASSERT_TRUE(took.hazard.taken_over.has_value());
+  EXPECT_EQ(took.hazard.taken_over->track_id, 3);
+  EXPECT_TRUE(took.hazard.taken_over->seen);
+  EXPECT_TRUE(took.hazard.taken_over->box.contains(same.tl()));
+  EXPECT_EQ(is_blue(took.frame.image), 0);             // gone: drawn over or filled
+  EXPECT_NEAR(took.hazard.occluded_fraction, 0.0, 1e-9);  // and it hides nothing
+  EXPECT_GT(took.hazard.taken_over->uncovered_fraction, 0.05);  // the roof strip and the grown margin
+  EXPECT_LT(took.hazard.taken_over->uncovered_fraction, 0.5);
+  // A real object twice as wide as the hazard leaves most of its box to the fill.
+  const cv::Rect2f wide(hb.x - hb.width / 2, hb.y - 12, 2 * hb.width, hb.height + 16);
+  const auto wide_took = run(taking, wide);
+  EXPECT_EQ(is_blue(wide_took.frame.image), 0);
+  EXPECT_GT(wide_took.hazard.taken_over->uncovered_fraction, 0.5);
+  // Without the takeover the real object stays, in front of the hazard it occludes.
+  const auto kept = run(plain, same);
+  EXPECT_FALSE(kept.hazard.taken_over.has_value());
+  EXPECT_GT(is_blue(kept.frame.image), 0.9 * same.area());
+  EXPECT_GT(kept.hazard.occluded_fraction, 0.9);
+}
+
 TEST(Composite, ContactShadowDarkensTheRoadBesideTheObject) {
   const cv::Mat img(900, 1600, CV_8UC3, cv::Scalar(120, 120, 120));
   auto traj = std::make_shared<const HazardTrajectory>(

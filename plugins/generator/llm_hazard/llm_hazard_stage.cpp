@@ -108,10 +108,11 @@ ComponentInfo LlmHazardGenerator::describe() {
                     "prompt and into the scene context, where the offline planner avoids their designs and, after one "
                     "that never became critical or was never re-detected, aims lower or picks larger, nearer "
                     "objects; empty = none"),
-      ParamSpec::boolean("take_over_tracks", false)
-          .describe("a spec may take over a tracked object (extra.track_id, e.g. the real lead of a sudden stop); "
-                    "only for a renderer that removes the real object, which ar_renderer does not: by default such "
-                    "specs are refused"),
+      ParamSpec::boolean("take_over_tracks", true)
+          .describe("a spec may take over a tracked object (extra.track_id, e.g. the real lead of a sudden stop): "
+                    "ar_renderer removes the real one and draws the hazard in its place, and the verifier fails a "
+                    "scenario where the drawn one does not hide it; false = such specs are refused (for a "
+                    "renderer that cannot remove objects)"),
       ParamSpec::number("entry_max_height", 0.07)
           .range(0, 1)
           .describe("a hazard that comes into view fully in the image, on the road and not hidden by a nearer "

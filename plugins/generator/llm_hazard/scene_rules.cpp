@@ -69,6 +69,33 @@ RoadPose road_pose(const std::vector<TrajectoryPoint>& ego, double x, double y, 
   return p;
 }
 
+// Where an object at (x, y) is after driving `ds` metres along its lane, the lanes running beside the ego's path
+// `ego` (straight beyond its end), and its heading there; (x, y) + ds along x without a path.
+cv::Vec3d along_lane(const std::vector<TrajectoryPoint>& ego, double x, double y, double ds) {
+  if (ego.size() < 2) return {x + ds, y, 0.0};
+  size_t k = 0;
+  double best_d2 = kInf;
+  for (size_t i = 0; i < ego.size(); ++i) {
+    const double d2 = (ego[i].x - x) * (ego[i].x - x) + (ego[i].y - y) * (ego[i].y - y);
+    if (d2 < best_d2) best_d2 = d2, k = i;
+  }
+  auto dir = [](const TrajectoryPoint& e) { return cv::Vec2d(std::cos(e.heading), std::sin(e.heading)); };
+  const cv::Vec2d t0 = dir(ego[k]), n0(-t0[1], t0[0]);
+  const cv::Vec2d rel(x - ego[k].x, y - ego[k].y);
+  const double d = rel.dot(n0);
+  double left = rel.dot(t0) + ds;  // metres to go along the path from ego[k]
+  size_t i = k;
+  while (i + 1 < ego.size()) {
+    const double seg = std::hypot(ego[i + 1].x - ego[i].x, ego[i + 1].y - ego[i].y);
+    if (left < seg || seg <= 0) break;
+    left -= seg;
+    ++i;
+  }
+  const cv::Vec2d t = dir(ego[i]), n(-t[1], t[0]);
+  const cv::Vec2d p = cv::Vec2d(ego[i].x, ego[i].y) + left * t + d * n;
+  return {p[0], p[1], ego[i].heading};
+}
+
 // Share of `box` covered by the union of `covers` (sampled on a 12 x 12 grid).
 double covered_fraction(const cv::Rect2d& box, const std::vector<cv::Rect2d>& covers) {
   if (covers.empty() || box.area() <= 0) return 0.0;
@@ -112,8 +139,9 @@ std::vector<std::string> check_spec_rules(const HazardSpec& spec, const SceneCon
     for (const ObjectState& o : scene.objects)
       if (o.track_id == id) what = "tracked " + o.label;
     errs.push_back("/extra/track_id = " + std::to_string(id) + " takes over the " + what +
-                   ", but the renderer does not remove a taken-over object: the real one would stay in the video "
-                   "and drive on beside the inserted one. Insert a new object instead (extra.track_id null)");
+                   ", but this scene does not allow takeovers (take_over_tracks false: the renderer would leave "
+                   "the real one in the video beside the inserted one). Insert a new object instead "
+                   "(extra.track_id null)");
   }
   return errs;
 }
@@ -140,12 +168,31 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
       v = cv::Vec2d(ego + (*o.velocity_rel)[0], (*o.velocity_rel)[1]);
     else if (o.speed_mps && o.heading_rad)
       v = cv::Vec2d(*o.speed_mps * std::cos(*o.heading_rad), *o.speed_mps * std::sin(*o.heading_rad));
+    // A vehicle keeps its lane (it follows the road as the ego's path does) at its speed along it: its tracked
+    // lateral speed is mostly box noise (a truck beside the ego, cut off by the image border, reads 1-2.5 m/s
+    // towards the ego lane on the KITTI raw clip), which a constant-velocity prediction would turn into a
+    // collision with anything planned in the next lane. People keep their velocity.
+    const bool in_lane = is_vehicle(o.label);
     const double oh = cv::norm(v) > 0.5 ? std::atan2(v[1], v[0]) : 0.0;
     const double x0 = o.distance_m + rules.distance_origin_x, y0 = o.lateral_m;
+    // A taken-over object starts where the real one is: a neighbour as close as the recording shows them is not a
+    // collision; only coming closer than that is — sideways for one in the next lane (which may pass it), in
+    // any direction for one in its own lane.
+    std::optional<double> recorded_gap;
+    bool side_by_side = false;
     for (const TrajectoryPoint& p : tr.points) {
       const double dt = p.t - tr.anchor_time;
-      const Footprint other{x0 + v[0] * dt, y0 + v[1] * dt, oh, ol / 2 + clear, ow / 2 + clear};
-      if (!overlap({p.x, p.y, p.heading, half_l + clear, half_w + clear}, other)) continue;
+      const cv::Vec3d at =
+          in_lane ? along_lane(tr.ego, x0, y0, v[0] * dt) : cv::Vec3d(x0 + v[0] * dt, y0 + v[1] * dt, oh);
+      const Footprint other{at[0], at[1], at[2], ol / 2 + clear, ow / 2 + clear};
+      const bool hit = overlap({p.x, p.y, p.heading, half_l + clear, half_w + clear}, other);
+      const double sideways = std::abs(p.y - other.y);
+      if (taken && &p == &tr.points.front() && hit) {
+        side_by_side = sideways >= half_w + ow / 2;
+        recorded_gap = side_by_side ? sideways : std::hypot(p.x - other.x, p.y - other.y);
+      }
+      const double apart = side_by_side ? sideways : std::hypot(p.x - other.x, p.y - other.y);
+      if (!hit || (recorded_gap && apart >= *recorded_gap - 0.1)) continue;
       errs.push_back("the planned path of the " + cls + " runs into the tracked " + o.label + " (track " +
                      std::to_string(o.track_id) + ", predicted at constant velocity): " + num(dt) +
                      " s after it appears the " + cls + " would be at (x " + num(p.x) + ", y " + num(p.y) +
@@ -172,9 +219,10 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
                      ", against that lane's traffic");
   }
 
-  // It enters the view plausibly: the first time any of it is in the image.
+  // It enters the view plausibly: the first time any of it is in the image. A taken-over object was in view
+  // already: it is the real one, drawn where it is.
   const CameraModel& cam = scene.camera;
-  if (cam.valid() && rules.entry_max_height > 0) {
+  if (cam.valid() && rules.entry_max_height > 0 && !taken) {
     const cv::Rect2d image(0, 0, cam.width, cam.height);
     for (const TrajectoryPoint& p : tr.points) {
       const hazard::BoxView view = hazard::view_of(cam, p.x, p.y, p.heading, tr.size_lwh);

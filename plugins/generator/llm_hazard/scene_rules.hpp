@@ -18,7 +18,7 @@ struct SceneRules {
   std::vector<std::string> asset_classes;
   std::string assets_where;
   // A spec may take over a tracked object (extra.track_id) only when the renderer removes the real one.
-  bool take_over_tracks = false;
+  bool take_over_tracks = true;
   // A hazard that appears fully in view, unhidden, on the road must be at most this tall (share of the image
   // height) when first seen; 0 = no such rule.
   double entry_max_height = 0.07;

@@ -5,8 +5,11 @@
 #include <chrono>
 #include <cmath>
 
+#include <opencv2/photo.hpp>
+
 #include "box_geometry.hpp"
 #include "hazardforge/error.hpp"
+#include "hazardforge/geometry.hpp"
 #include "hazardforge/realism/compare.hpp"
 #include "hazardforge/realism/metrics.hpp"
 
@@ -62,6 +65,11 @@ void HazardRenderer::start_hazard(const HazardTrajectory& t) {
       throw Error(what + ": point " + std::to_string(i) + " does not increase in time");
   }
   identity_.clear();
+  taken_id_.reset();
+  taken_box_.reset();
+  taken_unseen_ = 0;
+  if (t.spec.extra.is_object() && t.spec.extra.contains("track_id") && t.spec.extra["track_id"].is_number())
+    taken_id_ = static_cast<int64_t>(t.spec.extra["track_id"].get<double>());
   compositor_ = CompositorState{};
   prev_center_px_.reset();
   warned_future_anchor_ = false;
@@ -109,6 +117,19 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
     return res;  // before the hazard starts or after it ends: the frame passes through
   }
   t0 = std::chrono::steady_clock::now();
+  // A taken-over real object leaves the picture first; the hazard is then drawn in its place.
+  std::vector<OccluderCandidate> others = occluders;
+  if (taken_id_) {
+    cv::Mat cleaned = f.image.clone();
+    res.hazard.taken_over = remove_taken_over(cleaned, occluders);
+    if (res.hazard.taken_over) {
+      res.frame.image = cleaned;
+      const cv::Rect2f gone = res.hazard.taken_over->box;
+      std::erase_if(others, [&](const OccluderCandidate& o) {
+        return o.track_id == *taken_id_ || hf::box_iou(o.box, gone) > 0.7f;
+      });
+    }
+  }
   const auto anchor = ego_.pose_at(T.anchor_time);
   if (!anchor) {
     if (T.anchor_time < ego_.first_time() - 1e-6)
@@ -177,7 +198,7 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   if (opt_.occlusion) {
     double near_depth = 1e18;
     for (double d : proj->depth) near_depth = std::min(near_depth, d);
-    for (const auto& o : occluders) {
+    for (const auto& o : others) {
       if (o.score < opt_.occluder_min_score) continue;
       if ((cv::Rect2d(o.box) & proj->bounds).area() <= 0) continue;
       // Depth of the occluder where it stands on the road (bottom centre of its box); an estimator's distance
@@ -191,9 +212,21 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
     }
   }
 
-  cv::Mat out = f.image.clone();
+  cv::Mat out = res.frame.image.clone();
   res.composite = composite(out, pl, opt_.composite, compositor_);
   if (res.composite.drawn) res.frame.image = out;
+  if (res.hazard.taken_over) {
+    // What of the real object's box the drawn hazard does not hide (alpha below one half) stays inpainted.
+    TakenOver& to = *res.hazard.taken_over;
+    const cv::Rect box = cv::Rect(to.box) & cv::Rect(0, 0, f.image.cols, f.image.rows);
+    const cv::Rect both = res.composite.drawn ? (box & res.composite.roi) : cv::Rect();
+    double hidden = 0;
+    if (both.area() > 0) {
+      const cv::Mat a = res.composite.alpha(both - res.composite.roi.tl());
+      hidden = cv::countNonZero(a >= 128);
+    }
+    to.uncovered_fraction = box.area() > 0 ? 1.0 - hidden / box.area() : 0.0;
+  }
   res.hazard.occluded_fraction = std::clamp(res.composite.occluded_fraction(), 0.0, 1.0);
   res.hazard.visible = res.composite.drawn && res.hazard.occluded_fraction < 0.999;
   res.composite_seconds = seconds_since(t0);
@@ -204,6 +237,57 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
     res.realism_seconds += seconds_since(tr);
   }
   return res;
+}
+
+std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
+                                                           const std::vector<OccluderCandidate>& objects) {
+  TakenOver to;
+  to.track_id = *taken_id_;
+  const OccluderCandidate* found = nullptr;
+  for (const auto& o : objects)
+    if (o.track_id == *taken_id_ && o.misses == 0) found = &o;
+  if (!found && taken_box_) {
+    // The track was lost or renumbered: the box that best continues the last one, if any does.
+    float best = 0.3f;
+    for (const auto& o : objects)
+      if (const float v = hf::box_iou(o.box, *taken_box_); v > best) best = v, found = &o;
+  }
+  if (found) {
+    taken_box_ = found->box;
+    taken_unseen_ = 0;
+    to.seen = true;
+  } else if (taken_box_ && ++taken_unseen_ <= 5) {
+    to.seen = false;  // held for a few frames: a missed detection must not bring the real object back
+  } else {
+    return std::nullopt;
+  }
+  const cv::Rect img(0, 0, image.cols, image.rows);
+  const cv::Rect2f b = *taken_box_;
+  // The box grown by 4 % and 3 px each way (detector boxes are tight), filled from its surroundings: a lead
+  // that keeps its place in the picture hides the same background in every neighbouring frame, so the fill is
+  // spatial. Large boxes are filled at a reduced scale: the drawn hazard hides most of it.
+  const float gx = 0.04f * b.width + 3, gy = 0.04f * b.height + 3;
+  const cv::Rect hole = cv::Rect(cv::Rect2f(b.x - gx, b.y - gy, b.width + 2 * gx, b.height + 2 * gy)) & img;
+  to.box = cv::Rect2f(hole);
+  if (hole.area() <= 0) return to;
+  const int margin = std::max(8, static_cast<int>(0.15 * std::max(hole.width, hole.height)));
+  const cv::Rect roi = cv::Rect(hole.x - margin, hole.y - margin, hole.width + 2 * margin,
+                                hole.height + 2 * margin) & img;
+  cv::Mat mask = cv::Mat::zeros(roi.size(), CV_8U);
+  mask(hole - roi.tl()).setTo(255);
+  const double scale = std::min(1.0, 160.0 / std::max(roi.width, roi.height));
+  cv::Mat src = image(roi), small, small_mask, filled;
+  if (scale < 1.0) {
+    cv::resize(src, small, cv::Size(), scale, scale, cv::INTER_AREA);
+    cv::resize(mask, small_mask, small.size(), 0, 0, cv::INTER_NEAREST);
+  } else {
+    small = src;
+    small_mask = mask;
+  }
+  cv::inpaint(small, small_mask, filled, 5, cv::INPAINT_TELEA);
+  if (scale < 1.0) cv::resize(filled, filled, roi.size(), 0, 0, cv::INTER_LINEAR);
+  filled.copyTo(src, mask);
+  return to;
 }
 
 void HazardRenderer::measure_realism(const Frame& f, const std::vector<OccluderCandidate>& objects,
@@ -394,9 +478,9 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   // One source of occluders, the richest available: states carry distances, tracks and detections boxes only.
   std::vector<OccluderCandidate> occ;
   if (const auto* s = in.get<ObjectStates>("states")) {
-    for (const auto& o : s->objects) occ.push_back({o.box, o.score, o.distance_m, o.label, o.truncated, o.misses});
+    for (const auto& o : s->objects) occ.push_back({o.box, o.score, o.distance_m, o.label, o.truncated, o.misses, o.track_id});
   } else if (const auto* t = in.get<Tracks>("tracks")) {
-    for (const auto& o : t->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses});
+    for (const auto& o : t->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses, o.id});
   } else if (const auto* d = in.get<Detections>("detections")) {
     for (const auto& o : d->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, 0});
   }

@@ -23,6 +23,7 @@ struct OccluderCandidate {
   std::string label;                 // detector's class (realism references), empty = unknown
   unsigned truncated = 0;            // hf::truncation flags of the box
   int misses = 0;                    // frames the track has not been seen (its box is predicted)
+  int64_t track_id = -1;             // the recording's track, -1 for a bare detection
 };
 
 // Realism measurement: the inserted object's appearance in every frame it is drawn, and the recording's own
@@ -71,6 +72,9 @@ class HazardRenderer {
  private:
   void start_hazard(const HazardTrajectory& t);
   void measure_realism(const Frame& original, const std::vector<OccluderCandidate>& objects, Result& res) const;
+  // The taken-over real object in this frame (its track, else the box that best continues its last one), removed
+  // from `image` by inpainting; nullopt when it is not in view.
+  std::optional<TakenOver> remove_taken_over(cv::Mat& image, const std::vector<OccluderCandidate>& objects);
 
   RendererOptions opt_;
   std::shared_ptr<const AssetLibrary> assets_;
@@ -81,6 +85,9 @@ class HazardRenderer {
   std::optional<cv::Point2d> prev_center_px_;
   double prev_t_ = 0;
   bool warned_future_anchor_ = false;
+  std::optional<int64_t> taken_id_;        // the hazard's extra.track_id: a real object it replaces
+  std::optional<cv::Rect2f> taken_box_;    // that object's latest box
+  int taken_unseen_ = 0;                   // frames since its track last had it
   std::vector<std::string> warnings_;
 };
 

@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include <hazardforge/atomic_file.hpp>
+#include <hazardforge/geometry.hpp>
 #include <hazardforge/json_text.hpp>
 #include <hazardforge/output_path.hpp>
 #include "hazardforge/hazard/kinematics.hpp"
@@ -16,12 +17,6 @@ namespace hf {
 using hazard::num;
 
 namespace {
-
-double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
-  const float inter = (a & b).area();
-  const float uni = a.area() + b.area() - inter;
-  return uni > 0 ? inter / uni : 0.0;
-}
 
 // Detectors confuse car/truck/bus and bicycle/motorcycle; those confusions still count as re-detections.
 int class_group(const std::string& label) {
@@ -120,6 +115,11 @@ ComponentInfo ClosedLoopVerifier::describe() {
           .describe(
               "compare with the inserted object's near face (centre - length/2: what a camera measures) or "
               "its centre"),
+      ParamSpec::number("max_takeover_uncovered", 0.5)
+          .range(0, 1)
+          .describe("pass, when the hazard took over a real object (the renderer removed it): in every frame at "
+                    "most this share of the real object's box is left uncovered by the drawn hazard and shows "
+                    "the inpainted fill"),
       ParamSpec::string("file", "verification.json")
           .describe("summary written below the run's output folder"),
   };
@@ -133,6 +133,7 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
   require_unsafe_ = p.get_bool("require_unsafe");
   require_critical_ = p.get_bool("require_hazard_critical");
   planned_tolerance_ = p.get_double("planned_ttc_tolerance_s");
+  max_takeover_uncovered_ = p.get_double("max_takeover_uncovered");
   require_class_match_ = p.get_bool("require_class_match");
   ttc_metric_ = p.get_string("ttc_metric");
   unsafe_metrics_ = p.get_strings("unsafe_metrics");
@@ -183,7 +184,7 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   const Detection* hit = nullptr;
   for (const Detection& d : dets.items) {
     if (require_class_match_ && !same_class(d.label, inst->object_class)) continue;
-    const double v = iou(d.box, inst->box);
+    const double v = box_iou(d.box, inst->box);
     if (v > best) best = v, hit = &d;
   }
   const bool redetected = inst->visible && best >= min_iou_;
@@ -197,12 +198,26 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   if (states) {
     double best_state = 0;
     for (const ObjectState& s : states->objects) {
-      const double v = iou(s.box, inst->box);
+      const double v = box_iou(s.box, inst->box);
       if (v >= min_iou_ && v > best_state) best_state = v, match = &s;
     }
   }
   rec["state"] =
       match ? Json{{"track_id", match->track_id}, {"distance_m", maybe(match->distance_m)}} : Json();
+
+  if (inst->taken_over) {
+    const TakenOver& to = *inst->taken_over;
+    taken_track_ = to.track_id;
+    ++taken_frames_;
+    if (!to.seen) ++taken_unseen_frames_;
+    taken_uncovered_.push_back(to.uncovered_fraction);
+    if (to.uncovered_fraction > taken_worst_ || taken_worst_frame_ < 0)
+      taken_worst_ = to.uncovered_fraction, taken_worst_frame_ = frame;
+    rec["taken_over"] = {{"track_id", to.track_id},
+                         {"box", box_json(to.box)},
+                         {"seen", to.seen},
+                         {"uncovered_fraction", to.uncovered_fraction}};
+  }
 
   // Reported only: realism and the independent detector.
   for (const AppearanceStats& r : inst->references) references_.push_back(r);
@@ -215,7 +230,7 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
     double best_any = 0;
     const Detection* top = nullptr;
     for (const Detection& d : ind->items) {
-      const double v = iou(d.box, inst->box);
+      const double v = box_iou(d.box, inst->box);
       if (v > best_any) best_any = v, top = &d;
     }
     const bool found = top && best_any >= min_iou_ && same_class(top->label, inst->object_class);
@@ -357,6 +372,17 @@ Json ClosedLoopVerifier::independent_json() const {
           {"note", "reported only: never used to plan or to pass"}};
 }
 
+Json ClosedLoopVerifier::takeover_json() const {
+  if (!taken_track_) return Json();
+  return {{"track_id", *taken_track_},
+          {"frames", taken_frames_},
+          {"frames_from_held_box", taken_unseen_frames_},
+          {"median_uncovered_fraction", maybe(median(taken_uncovered_))},
+          {"max_uncovered_fraction", taken_worst_},
+          {"max_at_frame", taken_worst_frame_},
+          {"max_allowed", max_takeover_uncovered_}};
+}
+
 Json ClosedLoopVerifier::summary() const {
   std::vector<std::string> reasons;
   const double rate = visible_ > 0 ? static_cast<double>(redetected_) / visible_ : 0.0;
@@ -391,6 +417,11 @@ Json ClosedLoopVerifier::summary() const {
         "the scene never becomes Unsafe while the hazard is visible, so the inserted object is never "
         "the cause (minimum scene TTC " +
         num(achieved_min_ttc_) + " s)");
+  if (taken_track_ && taken_worst_ > max_takeover_uncovered_)
+    reasons.push_back("the taken-over real object (track " + std::to_string(*taken_track_) +
+                      ") is not hidden by the hazard drawn in its place: " + num(taken_worst_) +
+                      " of its box shows the inpainted fill at frame " + std::to_string(taken_worst_frame_) +
+                      " (max_takeover_uncovered " + num(max_takeover_uncovered_) + ")");
   const double ttc_err = std::abs(achieved_min_ttc_ - intended);
   if (max_ttc_error_ >= 0 && visible_ > 0) {
     if (!std::isfinite(achieved_min_ttc_) || !std::isfinite(intended))
@@ -444,7 +475,9 @@ Json ClosedLoopVerifier::summary() const {
                    {"require_hazard_critical", require_critical_},
                    {"planned_ttc_tolerance_s", planned_tolerance_},
                    {"require_class_match", require_class_match_},
-                   {"max_ttc_error_s", max_ttc_error_}};
+                   {"max_ttc_error_s", max_ttc_error_},
+                   {"max_takeover_uncovered", max_takeover_uncovered_}};
+  if (taken_track_) j["taken_over"] = takeover_json();
   if (!appearance_.empty() || !references_.empty()) j["realism"] = realism_json();
   if (independent_frames_ > 0) j["independent_redetection"] = independent_json();
   if (near_face_ && !length_ && !dist_abs_.empty())

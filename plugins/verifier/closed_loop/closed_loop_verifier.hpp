@@ -72,6 +72,14 @@ class ClosedLoopVerifier : public Stage {
   std::map<std::string, int> independent_labels_;
   Json realism_json() const;
   Json independent_json() const;
+  // A real object the hazard took over: how much of it the drawn hazard left to inpainting, per frame.
+  double max_takeover_uncovered_ = 0.5;
+  std::optional<int64_t> taken_track_;
+  int taken_frames_ = 0, taken_unseen_frames_ = 0;
+  std::vector<double> taken_uncovered_;
+  double taken_worst_ = 0;
+  int64_t taken_worst_frame_ = -1;
+  Json takeover_json() const;
 };
 
 }  // namespace hf

@@ -311,10 +311,19 @@ struct AppearanceStats {
   double aspect = kNaN;
 };
 
+// A recorded object the hazard took over (HazardSpec extra.track_id): the renderer removed it from the picture
+// and drew the hazard in its place.
+struct TakenOver {
+  int64_t track_id = -1;
+  cv::Rect2f box;                  // the real object's box in this frame (from the recording's tracks)
+  bool seen = false;               // the recording's tracks had it in this frame (else its last box, predicted)
+  double uncovered_fraction = 0;   // share of that box the drawn hazard does not hide: filled by inpainting
+};
+
 // Where the renderer put the hazard in one frame (the intent that verification checks against).
 struct HazardInstance {
   static constexpr const char* kTypeName = "HazardInstance";
-  static constexpr int kTypeVersion = 2;
+  static constexpr int kTypeVersion = 3;
   int64_t frame_index = 0;
   bool visible = false;
   std::string kind;
@@ -328,6 +337,7 @@ struct HazardInstance {
   // original picture of this frame (the recording's own objects, for comparison).
   std::optional<AppearanceStats> appearance;
   std::vector<AppearanceStats> references;
+  std::optional<TakenOver> taken_over;  // set while a taken-over real object is being removed
 };
 
 // Generic per-frame record (verification, evaluation) for sinks.
