@@ -313,7 +313,8 @@ void to_json(Json& j, const HazardInstance& v) {
     j["taken_over"] = {{"track_id", v.taken_over->track_id},
                        {"box", rect(v.taken_over->box)},
                        {"seen", v.taken_over->seen},
-                       {"uncovered_fraction", v.taken_over->uncovered_fraction}};
+                       {"uncovered_fraction", v.taken_over->uncovered_fraction},
+                       {"lateral_shift_m", v.taken_over->lateral_shift_m}};
 }
 void to_json(Json& j, const AppearanceStats& v) {
   auto vec = [](const cv::Vec3d& x) { return Json::array({finite_or_null(x[0]), finite_or_null(x[1]), finite_or_null(x[2])}); };

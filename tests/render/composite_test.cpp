@@ -150,7 +150,7 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   const double near_bottom = cam.project_ego({1.5 + 9.0, 0, 0})->y;
   const cv::Rect2f near_box(hb.x - 20, static_cast<float>(near_bottom) - 160, hb.width / 2 + 20, 160);
   HazardRenderer r(options(true), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{near_box, 0.9f, std::nullopt, "car", 0, 0}});
+  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{near_box, 0.9f, std::nullopt, "car", 0, 0, -1, std::nullopt}});
   // Every pixel of the nearer object's box is untouched (the hazard and its shadow are behind it).
   const cv::Rect ib = cv::Rect(near_box) & cv::Rect(0, 0, img.cols, img.rows);
   cv::Mat d;
@@ -165,7 +165,7 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   const double far_bottom = cam.project_ego({1.5 + 40.0, 0, 0})->y;
   const cv::Rect2f far_box(hb.x - 20, static_cast<float>(far_bottom) - 160, hb.width / 2 + 20, 160);
   HazardRenderer r3(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{far_box, 0.9f, std::nullopt, "car", 0, 0}});
+  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{far_box, 0.9f, std::nullopt, "car", 0, 0, -1, std::nullopt}});
   EXPECT_NEAR(behind.hazard.occluded_fraction, 0.0, 1e-9);
 }
 
@@ -193,7 +193,7 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
     // As an occluder it stands nearer (bottom edge lower than the hazard's): it would hide a plain hazard.
     return r.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), t,
-                    {{real, 0.9f, std::nullopt, "car", 0, 0, 3}});
+                    {{real, 0.9f, std::nullopt, "car", 0, 0, 3, std::nullopt}});
   };
   // The real object where the hazard is drawn, a little taller (its roof shows above the hazard's).
   const cv::Rect2f same(hb.x, hb.y - 12, hb.width, hb.height + 16);
@@ -211,6 +211,17 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   const auto wide_took = run(taking, wide);
   EXPECT_EQ(is_blue(wide_took.frame.image), 0);
   EXPECT_GT(wide_took.hazard.taken_over->uncovered_fraction, 0.5);
+  // The hazard keeps to the real object's lane: measured 0.6 m to the left of the plan, it is drawn there.
+  {
+    cv::Mat frame = img.clone();
+    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    const auto left = r.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), taking,
+                               {{same, 0.9f, std::nullopt, "car", 0, 0, 3, 0.6}});
+    ASSERT_TRUE(left.hazard.taken_over.has_value());
+    EXPECT_NEAR(left.hazard.taken_over->lateral_shift_m, 0.6, 1e-9);
+    EXPECT_NEAR(left.hazard.lateral_m, 0.6, 1e-9);
+    EXPECT_LT(left.hazard.box.x, hb.x - 10);  // left in the image
+  }
   // Without the takeover the real object stays, in front of the hazard it occludes.
   const auto kept = run(plain, same);
   EXPECT_FALSE(kept.hazard.taken_over.has_value());

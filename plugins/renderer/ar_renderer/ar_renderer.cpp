@@ -68,6 +68,8 @@ void HazardRenderer::start_hazard(const HazardTrajectory& t) {
   taken_id_.reset();
   taken_box_.reset();
   taken_unseen_ = 0;
+  taken_lateral_.reset();
+  lane_shift_.reset();
   if (t.spec.extra.is_object() && t.spec.extra.contains("track_id") && t.spec.extra["track_id"].is_number())
     taken_id_ = static_cast<int64_t>(t.spec.extra["track_id"].get<double>());
   compositor_ = CompositorState{};
@@ -149,7 +151,17 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   const cv::Vec3d size = T.size_lwh;
   BoxCorners corners = box_corners(pt->x, pt->y, pt->heading, size);
   for (auto& c : corners) c = transform(cur_from_anchor, c);
-  const cv::Vec3d centre = transform(cur_from_anchor, cv::Vec3d(pt->x, pt->y, 0.0));
+  cv::Vec3d centre = transform(cur_from_anchor, cv::Vec3d(pt->x, pt->y, 0.0));
+  // A hazard in place of a real object stays in the lane that object drives in: its sideways offset follows the
+  // real one's measured offset (smoothed), so an error in the ego's estimated yaw does not slide it out of the
+  // lane (on the KITTI raw clip the footage's yaw rate reads -2..-4 deg/s while the queue goes straight).
+  if (res.hazard.taken_over && taken_lateral_) {
+    const double shift = *taken_lateral_ - centre[1];
+    lane_shift_ = lane_shift_ ? 0.7 * *lane_shift_ + 0.3 * shift : shift;
+    for (auto& c : corners) c[1] += *lane_shift_;
+    centre[1] += *lane_shift_;
+    res.hazard.taken_over->lateral_shift_m = *lane_shift_;
+  }
   const double heading = pt->heading + yaw_of(cur_from_anchor);
   res.hazard.distance_m = centre[0];
   res.hazard.lateral_m = centre[1];
@@ -256,6 +268,7 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
     taken_box_ = found->box;
     taken_unseen_ = 0;
     to.seen = true;
+    if (found->lateral_m) taken_lateral_ = found->lateral_m;
   } else if (taken_box_ && ++taken_unseen_ <= 5) {
     to.seen = false;  // held for a few frames: a missed detection must not bring the real object back
   } else {
@@ -478,11 +491,11 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   // One source of occluders, the richest available: states carry distances, tracks and detections boxes only.
   std::vector<OccluderCandidate> occ;
   if (const auto* s = in.get<ObjectStates>("states")) {
-    for (const auto& o : s->objects) occ.push_back({o.box, o.score, o.distance_m, o.label, o.truncated, o.misses, o.track_id});
+    for (const auto& o : s->objects) occ.push_back({o.box, o.score, o.distance_m, o.label, o.truncated, o.misses, o.track_id, o.lateral_m});
   } else if (const auto* t = in.get<Tracks>("tracks")) {
-    for (const auto& o : t->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses, o.id});
+    for (const auto& o : t->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses, o.id, std::nullopt});
   } else if (const auto* d = in.get<Detections>("detections")) {
-    for (const auto& o : d->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, 0});
+    for (const auto& o : d->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, 0, -1, std::nullopt});
   }
   HazardRenderer::Result r = renderer_->render(f, traj, occ);
   for (const auto& w : renderer_->take_warnings()) ctx.log(LogLevel::kWarning, w);

@@ -24,6 +24,7 @@ struct OccluderCandidate {
   unsigned truncated = 0;            // hf::truncation flags of the box
   int misses = 0;                    // frames the track has not been seen (its box is predicted)
   int64_t track_id = -1;             // the recording's track, -1 for a bare detection
+  std::optional<double> lateral_m;   // its ego-frame lateral offset if an estimator gave one
 };
 
 // Realism measurement: the inserted object's appearance in every frame it is drawn, and the recording's own
@@ -88,6 +89,8 @@ class HazardRenderer {
   std::optional<int64_t> taken_id_;        // the hazard's extra.track_id: a real object it replaces
   std::optional<cv::Rect2f> taken_box_;    // that object's latest box
   int taken_unseen_ = 0;                   // frames since its track last had it
+  std::optional<double> taken_lateral_;    // its latest measured lateral offset (m)
+  std::optional<double> lane_shift_;       // smoothed sideways correction keeping the hazard in its lane (m)
   std::vector<std::string> warnings_;
 };
 

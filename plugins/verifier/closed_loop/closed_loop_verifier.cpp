@@ -211,12 +211,14 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
     ++taken_frames_;
     if (!to.seen) ++taken_unseen_frames_;
     taken_uncovered_.push_back(to.uncovered_fraction);
+    taken_max_shift_ = std::max(taken_max_shift_, std::abs(to.lateral_shift_m));
     if (to.uncovered_fraction > taken_worst_ || taken_worst_frame_ < 0)
       taken_worst_ = to.uncovered_fraction, taken_worst_frame_ = frame;
     rec["taken_over"] = {{"track_id", to.track_id},
                          {"box", box_json(to.box)},
                          {"seen", to.seen},
-                         {"uncovered_fraction", to.uncovered_fraction}};
+                         {"uncovered_fraction", to.uncovered_fraction},
+                         {"lateral_shift_m", to.lateral_shift_m}};
   }
 
   // Reported only: realism and the independent detector.
@@ -380,7 +382,8 @@ Json ClosedLoopVerifier::takeover_json() const {
           {"median_uncovered_fraction", maybe(median(taken_uncovered_))},
           {"max_uncovered_fraction", taken_worst_},
           {"max_at_frame", taken_worst_frame_},
-          {"max_allowed", max_takeover_uncovered_}};
+          {"max_allowed", max_takeover_uncovered_},
+          {"max_abs_lateral_shift_m", taken_max_shift_}};
 }
 
 Json ClosedLoopVerifier::summary() const {

@@ -77,7 +77,7 @@ class ClosedLoopVerifier : public Stage {
   std::optional<int64_t> taken_track_;
   int taken_frames_ = 0, taken_unseen_frames_ = 0;
   std::vector<double> taken_uncovered_;
-  double taken_worst_ = 0;
+  double taken_worst_ = 0, taken_max_shift_ = 0;
   int64_t taken_worst_frame_ = -1;
   Json takeover_json() const;
 };

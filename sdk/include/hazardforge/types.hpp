@@ -318,6 +318,7 @@ struct TakenOver {
   cv::Rect2f box;                  // the real object's box in this frame (from the recording's tracks)
   bool seen = false;               // the recording's tracks had it in this frame (else its last box, predicted)
   double uncovered_fraction = 0;   // share of that box the drawn hazard does not hide: filled by inpainting
+  double lateral_shift_m = 0;      // sideways correction keeping the hazard in the real one's lane
 };
 
 // Where the renderer put the hazard in one frame (the intent that verification checks against).
