@@ -2,6 +2,8 @@
 // critical track, and required with require_hazard_critical.
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include "closed_loop_verifier.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 
@@ -10,7 +12,8 @@ namespace {
 
 // Three visible frames: the inserted person is re-detected and tracked as track 4 at the box; frame 2 is
 // Unsafe (TTC 1.1 s) with `critical` as the metric's critical track.
-Json run_verifier(const std::string& params, int64_t critical, std::vector<double> uncovered = {}) {
+Json run_verifier(const std::string& params, int64_t critical, std::vector<double> uncovered = {},
+                  std::optional<cv::Rect2f> last_state_box = std::nullopt, int64_t last_track = 4) {
   auto r = testing::StageRunner::create<ClosedLoopVerifier>(params);
   HazardTrajectory tr;
   tr.kind = "pedestrian_crossing";
@@ -37,9 +40,9 @@ Json run_verifier(const std::string& params, int64_t critical, std::vector<doubl
     ObjectStates s;
     s.frame_index = i;
     ObjectState o;
-    o.track_id = 4;
+    o.track_id = i == 2 ? last_track : 4;
     o.label = "person";
-    o.box = box;
+    o.box = i == 2 && last_state_box ? *last_state_box : box;
     o.distance_m = h.distance_m;
     s.objects.push_back(o);
     r.push("states", s, t);
@@ -75,6 +78,23 @@ TEST(VerifierAttribution, UnsafeCausedBySomeoneElseFailsWhenRequired) {
   EXPECT_EQ(strict["reasons"],
             Json::array({"none of the 1 Unsafe visible frames is the hazard's: 1 with another object critical, 0 where "
                            "the plan does not make the hazard critical (spurious Unsafe frames never pass)"}));
+}
+
+// Close up, the tracked box and the inserted object's projected box part ways (the border cuts one): the track
+// that was on the inserted object stays its track while it still overlaps it (min_iou_tracked), so an Unsafe
+// frame it causes is the hazard's; a different track there is not.
+TEST(VerifierAttribution, TheHazardsTrackKeepsItWhenTheBoxesPartWays) {
+  const std::string params = "{state_distance_origin: ego_origin, require_hazard_critical: true}";
+  const cv::Rect2f apart(130, 100, 50, 100);  // IoU 0.25 with the inserted box
+  const Json same = run_verifier(params, 4, {}, apart, 4);
+  EXPECT_TRUE(same["passed"].get<bool>()) << same.dump(2);
+  EXPECT_EQ(same["unsafe"]["attributed_frames"], 1);
+  const Json other = run_verifier(params, 9, {}, apart, 9);
+  EXPECT_FALSE(other["passed"].get<bool>());
+  EXPECT_EQ(other["unsafe"]["attributed_frames"], 0);
+  const Json strict = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true, "
+                                   "min_iou_tracked: 0.5}", 4, {}, apart, 4);
+  EXPECT_FALSE(strict["passed"].get<bool>());
 }
 
 // A hazard that took over a real object (track 7) passes only while the drawn one hides it: in no frame may more

@@ -115,6 +115,11 @@ ComponentInfo ClosedLoopVerifier::describe() {
           .describe(
               "compare with the inserted object's near face (centre - length/2: what a camera measures) or "
               "its centre"),
+      ParamSpec::number("min_iou_tracked", 0.1)
+          .range(0, 1)
+          .describe("in a frame where no state overlaps the inserted box by min_iou, the track that did in an "
+                    "earlier frame still counts as the inserted object's (for attribution, not for distances) "
+                    "while it overlaps it by this much"),
       ParamSpec::number("max_takeover_uncovered", 0.5)
           .range(0, 1)
           .describe("pass, when the hazard took over a real object (the renderer removed it): in every frame at "
@@ -134,6 +139,7 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
   require_critical_ = p.get_bool("require_hazard_critical");
   planned_tolerance_ = p.get_double("planned_ttc_tolerance_s");
   max_takeover_uncovered_ = p.get_double("max_takeover_uncovered");
+  min_iou_tracked_ = p.get_double("min_iou_tracked");
   require_class_match_ = p.get_bool("require_class_match");
   ttc_metric_ = p.get_string("ttc_metric");
   unsafe_metrics_ = p.get_strings("unsafe_metrics");
@@ -204,6 +210,18 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   }
   rec["state"] =
       match ? Json{{"track_id", match->track_id}, {"distance_m", maybe(match->distance_m)}} : Json();
+  // The inserted object's track: the state on its box, else the track that was on it before while it still
+  // overlaps it (min_iou_tracked). Close up a box cut by the image border and the projected 3D box part ways
+  // (IoU 0.1-0.4 on the KITTI raw clip) while the tracker keeps following the object.
+  std::optional<int64_t> hazard_track;
+  if (match) {
+    hazard_track = match->track_id;
+    hazard_track_ = match->track_id;
+  } else if (states && hazard_track_) {
+    for (const ObjectState& s : states->objects)
+      if (s.track_id == *hazard_track_ && box_iou(s.box, inst->box) >= min_iou_tracked_) hazard_track = s.track_id;
+    if (hazard_track) rec["hazard_track"] = {{"track_id", *hazard_track}, {"by", "track continuity"}};
+  }
 
   if (inst->taken_over) {
     const TakenOver& to = *inst->taken_over;
@@ -287,7 +305,7 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   rec["scene_ttc_s"] = ttc ? maybe(ttc->scene_value) : Json();
   rec["labels"] = labels;
   rec["unsafe"] = unsafe;
-  rec["hazard_is_critical"] = ttc && match && ttc->critical_track == match->track_id;
+  rec["hazard_is_critical"] = ttc && hazard_track && ttc->critical_track == *hazard_track;
   // Attribution: an Unsafe frame is the hazard's only when the hazard is the critical object and the plan also
   // says it is critical there; otherwise it is an artefact (another road user, a tracking error) — spurious.
   const double threshold = ttc ? ttc->threshold : 1.5;
@@ -479,6 +497,7 @@ Json ClosedLoopVerifier::summary() const {
                    {"planned_ttc_tolerance_s", planned_tolerance_},
                    {"require_class_match", require_class_match_},
                    {"max_ttc_error_s", max_ttc_error_},
+                   {"min_iou_tracked", min_iou_tracked_},
                    {"max_takeover_uncovered", max_takeover_uncovered_}};
   if (taken_track_) j["taken_over"] = takeover_json();
   if (!appearance_.empty() || !references_.empty()) j["realism"] = realism_json();
