@@ -222,6 +222,23 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     EXPECT_NEAR(left.hazard.lateral_m, 0.6, 1e-9);
     EXPECT_LT(left.hazard.box.x, hb.x - 10);  // left in the image
   }
+  // After the plan ends (it covers 0-1 s) the hazard stays where it stopped and the real object stays removed;
+  // a plain hazard's frames pass through.
+  {
+    cv::Mat frame = img.clone();
+    cv::rectangle(frame, cv::Rect(same), cv::Scalar(255, 0, 0), cv::FILLED);
+    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    r.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), taking,
+             {{same, 0.9f, std::nullopt, "car", 0, 0, 3, std::nullopt}});
+    const auto later = r.render(make_frame(3, 2.0, frame, cam, cv::Matx44d::eye()), taking,
+                                {{same, 0.9f, std::nullopt, "car", 0, 0, 3, std::nullopt}});
+    EXPECT_TRUE(later.hazard.visible);
+    EXPECT_TRUE(later.hazard.taken_over.has_value());
+    EXPECT_EQ(is_blue(later.frame.image), 0);
+    HazardRenderer r2(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    r2.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), plain, {});
+    EXPECT_FALSE(r2.render(make_frame(3, 2.0, frame, cam, cv::Matx44d::eye()), plain, {}).hazard.visible);
+  }
   // Without the takeover the real object stays, in front of the hazard it occludes.
   const auto kept = run(plain, same);
   EXPECT_FALSE(kept.hazard.taken_over.has_value());

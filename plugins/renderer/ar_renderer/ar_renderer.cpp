@@ -113,7 +113,15 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   const HazardTrajectory& T = *traj_;
   res.hazard.kind = T.kind;
   res.hazard.object_class = T.object_class;
-  const auto pt = T.at(f.timestamp);
+  auto pt = T.at(f.timestamp);
+  if (!pt && taken_id_ && f.timestamp > T.points.back().t) {
+    // After its plan ends (at contact, or standing) a hazard in place of a real object stays where it stopped:
+    // the real one must not come back.
+    pt = T.points.back();
+    pt->t = f.timestamp;
+    pt->speed = 0;
+    pt->accel = 0;
+  }
   if (!pt) {
     prev_center_px_.reset();
     return res;  // before the hazard starts or after it ends: the frame passes through
