@@ -114,9 +114,10 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   res.hazard.kind = T.kind;
   res.hazard.object_class = T.object_class;
   auto pt = T.at(f.timestamp);
-  if (!pt && taken_id_ && f.timestamp > T.points.back().t) {
-    // After its plan ends (at contact, or standing) a hazard in place of a real object stays where it stopped:
-    // the real one must not come back.
+  const bool held = !pt && taken_id_ && f.timestamp > T.points.back().t;
+  if (held) {
+    // After its plan ends a hazard in place of a real object stays where it stopped, and the real one does not
+    // come back; once the ego has reached it (a plan that ends at contact) it is no longer drawn.
     pt = T.points.back();
     pt->t = f.timestamp;
     pt->speed = 0;
@@ -171,6 +172,11 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
     res.hazard.taken_over->lateral_shift_m = *lane_shift_;
   }
   const double heading = pt->heading + yaw_of(cur_from_anchor);
+  if (held && centre[0] - opt_.ego_front_m - size[0] / 2 <= 0) {
+    prev_center_px_.reset();
+    res.composite_seconds = seconds_since(t0);
+    return res;
+  }
   res.hazard.distance_m = centre[0];
   res.hazard.lateral_m = centre[1];
 
@@ -263,6 +269,7 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
                                                            const std::vector<OccluderCandidate>& objects) {
   TakenOver to;
   to.track_id = *taken_id_;
+  to.uncovered_fraction = 1.0;  // until the hazard is drawn over it
   const OccluderCandidate* found = nullptr;
   for (const auto& o : objects)
     if (o.track_id == *taken_id_ && o.misses == 0) found = &o;
@@ -370,6 +377,7 @@ ComponentInfo ArRenderer::describe() {
                   "re-detection that costs nothing on the other frames); none when visible_frames is off")};
   i.params = {
       ParamSpec::path("assets_dir", "")
+          .from_scene("assets.dir")
           .describe("folder with assets.yaml and the pictures; empty = the default set (share/assets)"),
       ParamSpec::boolean("fallback_assets", true)
           .describe("use the default set for classes/views assets_dir lacks"),

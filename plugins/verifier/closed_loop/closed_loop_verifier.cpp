@@ -228,10 +228,13 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
     taken_track_ = to.track_id;
     ++taken_frames_;
     if (!to.seen) ++taken_unseen_frames_;
-    taken_uncovered_.push_back(to.uncovered_fraction);
-    taken_max_shift_ = std::max(taken_max_shift_, std::abs(to.lateral_shift_m));
-    if (to.uncovered_fraction > taken_worst_ || taken_worst_frame_ < 0)
-      taken_worst_ = to.uncovered_fraction, taken_worst_frame_ = frame;
+    // Judged where the hazard is drawn: after a plan that ends at contact nothing is drawn in its place.
+    if (inst->visible) {
+      taken_uncovered_.push_back(to.uncovered_fraction);
+      taken_max_shift_ = std::max(taken_max_shift_, std::abs(to.lateral_shift_m));
+      if (to.uncovered_fraction > taken_worst_ || taken_worst_frame_ < 0)
+        taken_worst_ = to.uncovered_fraction, taken_worst_frame_ = frame;
+    }
     rec["taken_over"] = {{"track_id", to.track_id},
                          {"box", box_json(to.box)},
                          {"seen", to.seen},
