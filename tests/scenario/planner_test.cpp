@@ -142,7 +142,8 @@ TEST(HazardPlanner, TakesTheEgoSpeedFromTheStatesAndTrackedObjects) {
   const auto out = r.collect<HazardTrajectory>("trajectory");
   ASSERT_EQ(out.size(), 1u);
   EXPECT_DOUBLE_EQ(out[0].ego.front().speed, 10.0);
-  EXPECT_DOUBLE_EQ(out[0].points.front().x, 26.5);  // 25 m from the camera, 1.5 m ahead of the rear axle
+  // Its rear 25 m from the camera, 1.5 m ahead of the rear axle; its centre half a car (4.5 m) further.
+  EXPECT_DOUBLE_EQ(out[0].points.front().x, 28.75);
   EXPECT_DOUBLE_EQ(out[0].points.front().speed, 10.0);
 }
 

@@ -218,7 +218,7 @@ TEST(SuddenStop, UsesATrackedObject) {
   s.extra = {{"track_id", 7}};
   const hazard::PlanOutcome o = tpl->evaluate(s, scene);
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
-  EXPECT_DOUBLE_EQ(o.trajectory.points.front().x, 20.0);
+  EXPECT_DOUBLE_EQ(o.trajectory.points.front().x, 22.3);  // its rear at 20 m: its centre half its length on
   EXPECT_DOUBLE_EQ(o.trajectory.points.front().y, 0.2);
   EXPECT_DOUBLE_EQ(o.trajectory.points.front().speed, 11.0);
   EXPECT_DOUBLE_EQ(o.trajectory.size_lwh[0], 4.6);
@@ -227,7 +227,7 @@ TEST(SuddenStop, UsesATrackedObject) {
   // Measured from the camera (the estimators' default), the same distance is 1.5 m further from the rear
   // axle.
   auto from_camera = make_template("sudden_stop");
-  EXPECT_DOUBLE_EQ(from_camera->plan(s, scene).points.front().x, 21.5);
+  EXPECT_DOUBLE_EQ(from_camera->plan(s, scene).points.front().x, 23.8);
 
   s.extra = {{"track_id", 9}};
   EXPECT_EQ(tpl->check(s, scene),

@@ -90,18 +90,19 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
       reasons.push_back("tracked object " + std::to_string(found->track_id) + " has no distance estimate");
       return {};
     }
-    // Estimators measure from the camera, the bumper or the rear axle (their distance_origin); the plan works
-    // from the rear axle.
+    if (found->length_m > 0) size[0] = found->length_m;
+    if (found->width_m > 0) size[1] = found->width_m;
+    // Estimators measure from the camera, the bumper or the rear axle (their distance_origin) to the face they
+    // see, the lead's rear; the plan works with its centre, from the rear axle.
     const std::string origin = req.params.get_string("track_distance_origin");
-    const double x_anchor = found->distance_m + (origin == "camera"   ? req.scene.camera.t_ego_cam[0]
-                                                 : origin == "bumper" ? req.ttc.ego_front
-                                                                      : 0.0);
+    const double x_anchor = found->distance_m + size[0] / 2.0 +
+                            (origin == "camera"   ? req.scene.camera.t_ego_cam[0]
+                             : origin == "bumper" ? req.ttc.ego_front
+                                                  : 0.0);
     // Measured in the anchor frame; the plan works in road coordinates along the ego's path.
     const cv::Vec2d road = req.ego.to_road(x_anchor, found->lateral_m);
     x0 = road[0];
     y0 = road[1];
-    if (found->length_m > 0) size[0] = found->length_m;
-    if (found->width_m > 0) size[1] = found->width_m;
     if (found->velocity_rel)
       v0 = req.ego_speed + (*found->velocity_rel)[0];
     else if (found->speed_mps)
@@ -193,7 +194,7 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   if (request.may_take_over && lead && !avoided && is_vehicle(lead->label) && request.class_allowed(lead->label) && lead->speed &&
       *lead->speed >= 0.5 && sc.limits.has(lead->label)) {
     const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(lead->label).max_decel_mps2, 0.1);
-    const double gap = lead->x - sc.ego_front - lead->length / 2.0;
+    const double gap = lead->x - sc.ego_front;  // x: the face the estimator measured, its rear
     if (gap > 0 &&
         time_to_ttc(gap, sc.ego_speed, *lead->speed, delay, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
       Json spec = hazard::proposal_spec(kind, lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
