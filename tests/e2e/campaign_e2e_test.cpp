@@ -30,7 +30,7 @@ std::string slurp(const fs::path& p) {
 void write_nuscenes_campaign(const fs::path& file, const std::string& head, const std::string& extra_set) {
   std::ofstream(file) << head << "recordings:\n  - name: nus\n    config: "
                       << (test::source_dir() / "configs/paper.yaml").string()
-                      << "\n    set: [renderer.assets_dir=" << extra_set << "]\n";
+                      << "\n    set: [scene.assets.dir=" << extra_set << "]\n";
 }
 
 // The CLI with the shared data's location.
