@@ -185,6 +185,38 @@ TEST(OfflinePlanner, ShortHorizonSuddenStopIsFirstSeenSmall) {
   }
 }
 
+// In slow traffic (a queue at 3 m/s) a cut-in is a vehicle from the next lane squeezing into the gap ahead and
+// rolling on slower than the ego; a standing ego is not cut off.
+TEST(OfflinePlanner, SlowTrafficCutInSqueezesIntoTheGapAndStops) {
+  OfflinePlanner p = planner();
+  int planned = 0;
+  for (int64_t seed : {1, 2, 3, 4, 5, 6, 7, 8}) {
+    auto scene = scene_context(false, true, 3.0, {"cut_in"});
+    try {
+      const Json j = Json::parse(p.complete(request(scene, seed)).content);
+      ++planned;
+      EXPECT_EQ(j["kind"], "cut_in");
+      EXPECT_GT(j["speed_mps"].get<double>(), 3.0 + 1.0) << j.dump();
+      EXPECT_LE(j["speed_mps"].get<double>(), 3.0 + 3.5);
+      EXPECT_GE(j["extra"]["final_speed_mps"].get<double>(), 0.9 - 0.05);  // slower than the ego, still rolling
+      EXPECT_LE(j["extra"]["final_speed_mps"].get<double>(), 1.5 + 0.05);
+      EXPECT_NE(j["rationale"].get<std::string>().find("In slow traffic"), std::string::npos);
+      EXPECT_EQ(scene->checker().check(j).errors, std::vector<std::string>{});
+    } catch (const Error& e) {
+      // A seed may draw a class or side that does not fit; it says why.
+      EXPECT_NE(std::string(e.what()).find("cut_in: "), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_GE(planned, 4);
+  try {
+    p.complete(request(scene_context(false, true, 0.5, {"cut_in"}), 1));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("the ego speed 0.5 m/s is below 1.0 m/s"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(OfflinePlanner, PersonOnTheShoulderOnlyWhenExplicitlyAllowed) {
   OfflinePlanner p = planner();
   EXPECT_THROW(p.complete(request(short_highway({"pedestrian_crossing"}, 1.0, false), 3)), Error);

@@ -235,12 +235,14 @@ bool CutInTemplate::enters_from_border(const ProposalRequest& request, const std
   return !v.in_front || v.inside_fraction < 0.98;
 }
 
-// Overtakes from beside/behind at v0 > ego, then brakes to v1 < ego while changing lanes.
+// Overtakes from beside/behind at v0 > ego, then brakes to v1 < ego while changing lanes. In slow traffic (the
+// ego below 5 m/s: a queue) a vehicle from the next lane squeezes into the gap ahead of the ego and stops there.
 HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   using hazard::fmt1;
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
   if (!sc.multi_lane) return {nullptr, "the road has a single lane"};
-  if (sc.ego_speed < 5.0) return {nullptr, "the ego is too slow (< 5 m/s) to be overtaken and cut off"};
+  if (sc.ego_speed < 1.0) return {nullptr, "the ego is (nearly) standing: nothing cuts in ahead of it"};
+  const bool queue = sc.ego_speed < 5.0;
   static const char* kClasses[] = {"car", "car", "car", "motorcycle", "truck"};
   const std::string cls = kClasses[d.index(5)];
   if (!sc.limits.has(cls)) return {nullptr, "the limits table has no '" + cls + "'"};
@@ -256,9 +258,11 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
   const int sign = left ? 1 : -1;
   if (!room(sign)) return {nullptr, "there is no lane going the ego's way beside the ego lane"};
   const double y0 = sign * sc.road.lane_width;
-  const double v0 = std::min(sc.ego_speed + d.uniform(3.0, 5.0), lim.max_speed_mps);
-  const double v1 = std::max(0.0, sc.ego_speed - d.uniform(2.0, 4.0));
-  const double decel = std::min(d.uniform(2.5, 4.0), lim.max_decel_mps2);
+  // In a queue it keeps rolling slower than the ego at the end (a vehicle cannot move sideways while standing),
+  // and brakes gently so that the long, slow lane change fits.
+  const double v0 = std::min(sc.ego_speed + (queue ? d.uniform(2.0, 3.5) : d.uniform(3.0, 5.0)), lim.max_speed_mps);
+  const double v1 = queue ? sc.ego_speed * d.uniform(0.3, 0.5) : std::max(0.0, sc.ego_speed - d.uniform(2.0, 4.0));
+  const double decel = std::min(queue ? d.uniform(0.8, 1.5) : d.uniform(2.5, 4.0), lim.max_decel_mps2);
   if (v0 <= sc.ego_speed + 1.0) return {nullptr, "a " + cls + " cannot overtake the ego here"};
   const double ttc = request.aim * sc.target;
   const double gap_end = ttc * (sc.ego_speed - v1);
@@ -297,9 +301,13 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
                                     "overtakes in the " + side + " lane and cuts in, braking", sc.target);
   spec["deceleration_mps2"] = hazard::round_to(decel, 0.1);
   spec["extra"]["final_speed_mps"] = hazard::round_to(v1, 0.05);
-  spec["rationale"] = "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " + fmt1(v0) +
-                      " m/s and cuts in ahead of the ego, braking to " + fmt1(v1) + " m/s; it ends about " +
-                      fmt1(gap_end) + " m ahead, TTC near " + fmt1(ttc) + " s.";
+  spec["rationale"] = queue ? "In slow traffic a " + cls + " in the " + side + " lane, moving at " + fmt1(v0) +
+                                  " m/s, squeezes into the gap ahead of the ego, slowing to " + fmt1(v1) +
+                                  " m/s, about " +
+                                  fmt1(gap_end) + " m ahead; TTC near " + fmt1(ttc) + " s."
+                            : "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " +
+                                  fmt1(v0) + " m/s and cuts in ahead of the ego, braking to " + fmt1(v1) +
+                                  " m/s; it ends about " + fmt1(gap_end) + " m ahead, TTC near " + fmt1(ttc) + " s.";
   if (under_way > 0) {
     spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
     spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fmt1(under_way) +
