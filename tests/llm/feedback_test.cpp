@@ -29,7 +29,7 @@ struct Generated {
   HazardSpec spec;
   Json call;  // its llm/calls.jsonl record
 };
-Generated generate(const std::string& yaml, const Json& feedback = nullptr) {
+Generated generate(const std::string& yaml, const Json& feedback = nullptr, bool with_lead = false) {
   test::TempDir dir;
   std::string params = yaml;
   if (!feedback.is_null()) {
@@ -37,7 +37,28 @@ Generated generate(const std::string& yaml, const Json& feedback = nullptr) {
     params += "feedback: '" + (dir / "feedback.json").string() + "'\n";
   }
   auto r = test::make_runner(params);
-  test::push_scene(r, 6, kCity);
+  if (!with_lead) {
+    test::push_scene(r, 6, kCity);
+  } else {
+    // The same street with a car 22 m ahead in the ego lane at 7 m/s (the ego at 10 m/s): a lead to take over.
+    for (int i = 0; i < 6; ++i) {
+      const double t = 0.5 * i;
+      ObjectStates st = test::make_states(i, t);
+      ObjectState lead = st.objects.front();
+      lead.track_id = 3;
+      lead.distance_m = 22.0 - 1.5 * t;
+      lead.lateral_m = 0.1;
+      lead.speed_mps = 7.0;
+      lead.velocity_rel = cv::Vec2d(-3.0, 0.0);
+      lead.in_path = true;
+      st.objects.push_back(lead);
+      RiskAssessment risk = test::make_risk(i, true);
+      risk.objects.push_back({3, 22.0 / 3.0, true});
+      r.push("frames", test::make_frame(i, t, kCity), t);
+      r.push("states", st, t);
+      r.push("risk", risk, t, "ttc");
+    }
+  }
   r.run();
   auto specs = r.collect<HazardSpec>("hazard");
   if (specs.size() != 1) throw std::runtime_error("no spec");
@@ -130,6 +151,29 @@ TEST(Feedback, TheOfflinePlannerChangesItsChoice) {
     EXPECT_DOUBLE_EQ(again.call["response"]["feedback"]["aim"].get<double>(), 0.75 * 0.85);
     EXPECT_EQ(again.call["response"]["feedback"]["avoided"], 1);
   }
+}
+
+// A lead taken over in a failed attempt is not taken over again at the same frame; at another frame (another
+// state of the lead, another aim) it may be.
+TEST(Feedback, AFailedTakeoverRulesOutItsTrackOnlyAtItsFrame) {
+  const std::string yaml = "force_kind: sudden_stop\nseed: 1\n";
+  const Generated first = generate(yaml, nullptr, true);
+  ASSERT_TRUE(first.spec.extra.contains("track_id")) << Json(first.spec).dump();
+  const Json failed = attempt(Json(first.spec), {"the scene never becomes Unsafe while the hazard is visible "
+                                                 "(minimum scene TTC 1.94 s)"},
+                              first.spec.provenance.value("frame_index", int64_t{5}));
+  try {  // the lead avoided, there is no room left before it for an inserted one
+    generate(yaml, {{"attempts", {failed}}}, true);
+    FAIL() << "expected no plan at the failed attempt's frame";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no room to insert a lead vehicle before the car"), std::string::npos)
+        << e.what();
+  }
+  Json elsewhere = failed;
+  elsewhere["trigger_frame"] = elsewhere["trigger_frame"].get<int64_t>() + 10;
+  const Generated there = generate(yaml, {{"attempts", {elsewhere}}}, true);
+  ASSERT_TRUE(there.spec.extra.contains("track_id")) << Json(there.spec).dump();
+  EXPECT_EQ(there.spec.extra["track_id"], first.spec.extra["track_id"]);
 }
 
 // Never re-detected: of each kind's plans the largest object, then the nearest (a cut-in by a truck rather than a

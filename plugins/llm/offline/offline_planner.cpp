@@ -121,8 +121,10 @@ class Selection {
         aim_(aim),
         avoid_(avoid),
         prefer_visible_(prefer_visible) {
+    // A tracked object that failed as the hazard at this frame is not taken over again here; at another frame it
+    // is in another state (nearer, slower), and the aim or the braking changes, so it may serve again.
     for (const Signature& s : avoid)
-      if (s.track) avoid_tracks_.push_back(*s.track);
+      if (s.track && s.same_frame) avoid_tracks_.push_back(*s.track);
   }
 
   // Each kind's first usable plan; then one kind is drawn, its plan checked with the generator's rules and,
