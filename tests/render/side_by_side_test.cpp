@@ -56,6 +56,50 @@ TEST(SideBySide, WritesEveryFrameAndTheRequestedStills) {
   EXPECT_EQ(cv::countNonZero(d.reshape(1)), 0);
 }
 
+// Per realism metric, the close-ups of the frames whose inserted object is nearest to and farthest from the
+// recording's real objects of its class; metrics without real values are left out.
+TEST(SideBySide, RealismStillsShowTheBestAndWorstFramePerMetric) {
+  auto runner = hf::testing::StageRunner::create<SideBySideSink>("critical_still: false");
+  const cv::Mat img = hf::test::textured_image();
+  const double halo[] = {2.0, 5.2, 9.0};  // the inserted car's halo in frames 0, 1, 2
+  for (int k = 0; k < 3; ++k) {
+    cv::Mat aug = img.clone();
+    cv::rectangle(aug, cv::Rect(700, 400, 200, 150), cv::Scalar(0, 0, 200 + 20 * k), cv::FILLED);
+    runner.push("original", hf::test::make_frame(k, 0.1 * k, img, hf::test::test_camera()), 0.1 * k);
+    runner.push("augmented", hf::test::make_frame(k, 0.1 * k, aug, hf::test::test_camera()), 0.1 * k);
+    HazardInstance h;
+    h.frame_index = k;
+    h.visible = true;
+    h.object_class = "car";
+    h.box = cv::Rect2f(700, 400, 200, 150);
+    AppearanceStats in;
+    in.label = "car";
+    in.halo = halo[k];
+    h.appearance = in;
+    for (double v : {4.0, 5.0, 6.0, 5.0, 5.5}) {  // the recording's cars
+      AppearanceStats r;
+      r.label = "car";
+      r.halo = v;
+      h.references.push_back(r);
+    }
+    runner.push("hazard", h, 0.1 * k);
+  }
+  runner.run();
+  const fs::path dir = runner.output_dir() / "stills" / "realism";
+  const cv::Mat best = cv::imread((dir / "halo_best.png").string()), worst = cv::imread((dir / "halo_worst.png").string());
+  ASSERT_FALSE(best.empty());
+  ASSERT_FALSE(worst.empty());
+  // The close-up: twice the box (400 x 300) at 240 px tall per half = 320 x 240, the augmented half on the right
+  // with its red square (frame 1 nearest the real halos, frame 2 farthest).
+  EXPECT_GE(best.cols, 640);
+  EXPECT_EQ(best.rows - 240, worst.rows - 240);  // the same close-up size, a caption strip below
+  const cv::Vec3b b = best.at<cv::Vec3b>(120, 320 + 160), w = worst.at<cv::Vec3b>(120, 320 + 160);
+  EXPECT_NEAR(b[2], 220, 3);
+  EXPECT_NEAR(w[2], 240, 3);
+  EXPECT_FALSE(fs::exists(dir / "sharpness_best.png"));  // no real sharpness was measured
+  EXPECT_FALSE(fs::exists(runner.output_dir() / "stills" / "critical.png"));
+}
+
 TEST(SideBySide, RefusesMismatchedPairs) {
   auto runner = hf::testing::StageRunner::create<SideBySideSink>();
   const cv::Mat img = hf::test::textured_image();

@@ -11,6 +11,7 @@
 #include "hazardforge/atomic_file.hpp"
 #include "hazardforge/error.hpp"
 #include "hazardforge/output_path.hpp"
+#include "hazardforge/realism/compare.hpp"
 
 namespace hf::render {
 
@@ -69,6 +70,11 @@ ComponentInfo SideBySideSink::describe() {
       ParamSpec::boolean("critical_still", true)
           .describe("also write <stills_dir>/critical.png: the visible hazard frame with the lowest intended "
                     "TTC (the moment the scenario is about; galleries use it)"),
+      ParamSpec::boolean("realism_stills", true)
+          .describe("also write <stills_dir>/realism/<metric>_best.png and _worst.png for every realism metric "
+                    "the hazard packets carry: the close-up (original | augmented) of the visible frame whose "
+                    "value of the inserted object lies nearest to / farthest from the median of the recording's "
+                    "real objects of its class (by percentile rank), captioned with both"),
   };
   for (ParamSpec& e : sink::encoder_params()) i.params.push_back(std::move(e));
   return i;
@@ -81,7 +87,8 @@ void SideBySideSink::open(StageContext& ctx) {
     throw Error("file '" + file.string() + "' must end in .mp4");
   file_ = output_param_path(ctx, "file");
   critical_still_ = p.get_bool("critical_still");
-  if (!p.get_ints("stills").empty() || critical_still_) stills_dir_ = output_param_path(ctx, "stills_dir", /*is_dir=*/true);
+  realism_stills_ = p.get_bool("realism_stills");
+  if (!p.get_ints("stills").empty() || critical_still_ || realism_stills_) stills_dir_ = output_param_path(ctx, "stills_dir", /*is_dir=*/true);
   fps_ = p.get_double("fps");
   fourcc_ = p.get_string("fourcc");
   if (fourcc_.size() != 4) throw Error("fourcc '" + fourcc_ + "' must have four characters");
@@ -170,6 +177,26 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
     critical_ttc_ = hz->intended_ttc_s;
     critical_ = compose(a, b, hz, stills_scale_);
   }
+  if (realism_stills_ && hz) {
+    for (const AppearanceStats& r : hz->references) references_.push_back(r);
+    if (hz->visible && hz->appearance && hz->box.area() > 0) {
+      // The object and as much again around it, at most 240 px tall per half.
+      const cv::Rect2f& bx = hz->box;
+      const cv::Rect img_rect(0, 0, b.image.cols, b.image.rows);
+      const cv::Rect around = cv::Rect(cv::Rect2f(bx.x - bx.width / 2, bx.y - bx.height / 2, 2 * bx.width,
+                                                  2 * bx.height)) & img_rect;
+      if (around.area() > 0) {
+        const double k = std::min(1.0, 240.0 / around.height);
+        const cv::Size sz(std::max(1, cvRound(around.width * k)), std::max(1, cvRound(around.height * k)));
+        cv::Mat l, r, pair;
+        cv::resize(a.image(around), l, sz, 0, 0, cv::INTER_AREA);
+        cv::resize(b.image(around), r, sz, 0, 0, cv::INTER_AREA);
+        cv::hconcat(l, r, pair);
+        closeups_.push_back({b.index, *hz->appearance, pair});
+        object_class_ = hz->object_class;
+      }
+    }
+  }
   cv::Mat img = compose(a, b, hz, scale_);
   if (!writer_.is_open()) {
     if (fps_ > 0) {
@@ -190,7 +217,60 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
   write(ctx, img);
 }
 
+void SideBySideSink::write_realism_stills(StageContext& ctx) const {
+  if (closeups_.empty()) return;
+  const std::vector<AppearanceStats> real = realism::references_for(object_class_, references_, 5);
+  if (real.empty()) {
+    ctx.log(LogLevel::kInfo, "side_by_side: no real objects were measured, so no realism stills");
+    return;
+  }
+  const fs::path dir = stills_dir_ / "realism";
+  fs::create_directories(dir);
+  int written = 0;
+  for (const realism::MetricDef& m : realism::metric_defs()) {
+    std::vector<double> values;
+    for (const AppearanceStats& r : real) values.push_back(m.get(r));
+    const realism::Spread sp = realism::spread(values);
+    if (sp.n == 0) continue;
+    // How far from the recording's median each frame's value is: |percentile rank - 0.5|, ties broken by the
+    // distance in the metric's own unit.
+    const Closeup *best = nullptr, *worst = nullptr;
+    double best_d = 0, worst_d = 0;
+    for (const Closeup& c : closeups_) {
+      const double v = m.get(c.stats);
+      if (!std::isfinite(v)) continue;
+      const double d = std::abs(realism::percentile_rank(values, v) - 0.5) * 1e6 + std::abs(v - sp.median);
+      if (!best || d < best_d) best = &c, best_d = d;
+      if (!worst || d > worst_d) worst = &c, worst_d = d;
+    }
+    if (!best) continue;
+    for (const auto& [which, c] : {std::pair{"best", best}, std::pair{"worst", worst}}) {
+      cv::Mat img = c->pair.clone();
+      char text[200];
+      std::snprintf(text, sizeof text, "%s %s: inserted %.3g (frame %lld); real median %.3g, p10-p90 %.3g-%.3g (n=%d)",
+                    m.name, which, m.get(c->stats), static_cast<long long>(c->frame), sp.median, sp.p10, sp.p90,
+                    sp.n);
+      // The caption on a strip below the pair, wide enough for it.
+      const int font = cv::FONT_HERSHEY_SIMPLEX;
+      int base = 0;
+      const cv::Size ts = cv::getTextSize(text, font, 0.45, 1, &base);
+      cv::Mat canvas(img.rows + ts.height + base + 12, std::max(img.cols, ts.width + 12), CV_8UC3,
+                     cv::Scalar(32, 32, 32));
+      img.copyTo(canvas(cv::Rect(0, 0, img.cols, img.rows)));
+      cv::putText(canvas, text, cv::Point(6, img.rows + ts.height + 5), font, 0.45, cv::Scalar(255, 255, 255), 1,
+                  cv::LINE_AA);
+      const fs::path still = dir / (std::string(m.name) + "_" + which + ".png");
+      std::vector<uchar> png;
+      if (!cv::imencode(".png", canvas, png)) throw Error("cannot encode '" + still.string() + "'");
+      write_file_atomic(still, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+      ++written;
+    }
+  }
+  ctx.log(LogLevel::kInfo, "side_by_side: " + std::to_string(written) + " realism stills in " + dir.string());
+}
+
 void SideBySideSink::finish(StageContext& ctx, Outputs& /*out*/) {
+  if (realism_stills_) write_realism_stills(ctx);
   if (critical_) {
     const fs::path still = stills_dir_ / "critical.png";
     std::vector<uchar> png;

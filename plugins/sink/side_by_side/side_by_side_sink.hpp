@@ -20,7 +20,8 @@ namespace hf::render {
 //  to
 //           MPEG-4 'mp4v' when no encoder exists; written under a temporary name and renamed in finish())
 //           and, for the frame indices in `stills`, PNGs <stills_dir>/before_after_<index>.png, plus
-//           <stills_dir>/critical.png at the visible hazard frame with the lowest intended TTC. Timestamps:
+//           <stills_dir>/critical.png at the visible hazard frame with the lowest intended TTC, and
+//           <stills_dir>/realism/<metric>_best.png / _worst.png (realism_stills). Timestamps:
 //           the video's rate is `fps`, or the first two frames' interval when fps is 0.
 //  params:  file, fps, fourcc, scale, layout, labels, stills, stills_dir, stills_scale, draw_hazard_box,
 //  encoder,
@@ -51,6 +52,18 @@ class SideBySideSink : public Stage {
   bool critical_still_ = true;
   std::optional<double> critical_ttc_;
   std::optional<cv::Mat> critical_;  // the composite at the lowest intended TTC so far
+  // Realism stills: every visible frame's close-up pair and the inserted object's appearance there, and the
+  // recording's real objects measured alongside; the best and worst frame per metric are written at the end.
+  struct Closeup {
+    int64_t frame = 0;
+    AppearanceStats stats;
+    cv::Mat pair;  // original | augmented around the inserted object
+  };
+  bool realism_stills_ = true;
+  std::string object_class_;
+  std::vector<Closeup> closeups_;
+  std::vector<AppearanceStats> references_;
+  void write_realism_stills(StageContext& ctx) const;
   sink::VideoWriterOptions encoder_;  // encoder, preset, threads, crf from the params
   sink::VideoFileWriter writer_;
   std::string codec_;
