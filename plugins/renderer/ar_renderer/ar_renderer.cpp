@@ -131,8 +131,10 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   // A taken-over real object leaves the picture first; the hazard is then drawn in its place.
   std::vector<OccluderCandidate> others = occluders;
   if (taken_id_) {
+    const auto tt = std::chrono::steady_clock::now();
     cv::Mat cleaned = f.image.clone();
     res.hazard.taken_over = remove_taken_over(cleaned, occluders);
+    res.takeover_seconds = seconds_since(tt);
     if (res.hazard.taken_over) {
       res.frame.image = cleaned;
       const cv::Rect2f gone = res.hazard.taken_over->box;
@@ -293,7 +295,8 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
   const cv::Rect2f b = *taken_box_;
   // The box grown by 4 % and 3 px each way (detector boxes are tight), filled from its surroundings: a lead
   // that keeps its place in the picture hides the same background in every neighbouring frame, so the fill is
-  // spatial. Large boxes are filled at a reduced scale: the drawn hazard hides most of it.
+  // spatial. Large boxes are filled at a reduced scale (at most 96 px across; the fill is smooth anyway): the
+  // drawn hazard hides most of it.
   const float gx = 0.04f * b.width + 3, gy = 0.04f * b.height + 3;
   const cv::Rect hole = cv::Rect(cv::Rect2f(b.x - gx, b.y - gy, b.width + 2 * gx, b.height + 2 * gy)) & img;
   to.box = cv::Rect2f(hole);
@@ -303,7 +306,7 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
                                 hole.height + 2 * margin) & img;
   cv::Mat mask = cv::Mat::zeros(roi.size(), CV_8U);
   mask(hole - roi.tl()).setTo(255);
-  const double scale = std::min(1.0, 160.0 / std::max(roi.width, roi.height));
+  const double scale = std::min(1.0, 96.0 / std::max(roi.width, roi.height));
   cv::Mat src = image(roi), small, small_mask, filled;
   if (scale < 1.0) {
     cv::resize(src, small, cv::Size(), scale, scale, cv::INTER_AREA);
@@ -312,7 +315,7 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
     small = src;
     small_mask = mask;
   }
-  cv::inpaint(small, small_mask, filled, 5, cv::INPAINT_TELEA);
+  cv::inpaint(small, small_mask, filled, 3, cv::INPAINT_TELEA);
   if (scale < 1.0) cv::resize(filled, filled, roi.size(), 0, 0, cv::INTER_LINEAR);
   filled.copyTo(src, mask);
   return to;
@@ -519,6 +522,7 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (r.prepare_seconds > 0) ctx.record_timing("asset_prepare", r.prepare_seconds);
   if (r.hazard.visible || r.composite_seconds > 0) ctx.record_timing("composite", r.composite_seconds);
   if (r.realism_seconds > 0) ctx.record_timing("realism", r.realism_seconds);
+  if (r.takeover_seconds > 0) ctx.record_timing("takeover", r.takeover_seconds);
   if (emit_visible_ && r.hazard.visible) out.emit("visible_frames", r.frame);
   out.emit("frames", std::move(r.frame));
   out.emit("hazard", std::move(r.hazard));

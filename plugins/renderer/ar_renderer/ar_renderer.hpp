@@ -62,6 +62,7 @@ class HazardRenderer {
     double ego_seconds = 0;        // time spent on ego motion
     double composite_seconds = 0;  // time spent placing and drawing
     double realism_seconds = 0;    // time spent measuring appearances (not part of drawing)
+    double takeover_seconds = 0;   // time spent removing a taken-over real object (part of composite_seconds)
   };
   // Call once per frame, in order. `trajectory` may be null (no hazard yet).
   Result render(const Frame& frame, const std::shared_ptr<const HazardTrajectory>& trajectory,
