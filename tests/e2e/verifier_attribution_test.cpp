@@ -13,7 +13,8 @@ namespace {
 // Three visible frames: the inserted person is re-detected and tracked as track 4 at the box; frame 2 is
 // Unsafe (TTC 1.1 s) with `critical` as the metric's critical track.
 Json run_verifier(const std::string& params, int64_t critical, std::vector<double> uncovered = {},
-                  std::optional<cv::Rect2f> last_state_box = std::nullopt, int64_t last_track = 4) {
+                  std::optional<cv::Rect2f> last_state_box = std::nullopt, int64_t last_track = 4,
+                  int64_t new_track_on_box = -1) {
   auto r = testing::StageRunner::create<ClosedLoopVerifier>(params);
   HazardTrajectory tr;
   tr.kind = "pedestrian_crossing";
@@ -45,6 +46,13 @@ Json run_verifier(const std::string& params, int64_t critical, std::vector<doubl
     o.box = i == 2 && last_state_box ? *last_state_box : box;
     o.distance_m = h.distance_m;
     s.objects.push_back(o);
+    if (i == 2 && new_track_on_box >= 0) {  // a second track starts right on the inserted object
+      ObjectState twin = o;
+      twin.track_id = new_track_on_box;
+      twin.box = box;
+      twin.distance_m = 14.7;
+      s.objects.push_back(twin);
+    }
     r.push("states", s, t);
     RiskAssessment risk;
     risk.frame_index = i;
@@ -95,6 +103,11 @@ TEST(VerifierAttribution, TheHazardsTrackKeepsItWhenTheBoxesPartWays) {
   const Json strict = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true, "
                                    "min_iou_tracked: 0.5}", 4, {}, apart, 4);
   EXPECT_FALSE(strict["passed"].get<bool>());
+  // A second track (11) starting right on the object does not take the first one's place: both are its tracks.
+  const Json twin = run_verifier(params, 4, {}, apart, 4, 11);
+  EXPECT_TRUE(twin["passed"].get<bool>()) << twin.dump(2);
+  EXPECT_TRUE(run_verifier(params, 11, {}, apart, 4, 11)["passed"].get<bool>());
+  EXPECT_FALSE(run_verifier(params, 9, {}, apart, 4, 11)["passed"].get<bool>());
 }
 
 // A hazard that took over a real object (track 7) passes only while the drawn one hides it: in no frame may more

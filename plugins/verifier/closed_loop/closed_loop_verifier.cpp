@@ -117,9 +117,9 @@ ComponentInfo ClosedLoopVerifier::describe() {
               "its centre"),
       ParamSpec::number("min_iou_tracked", 0.1)
           .range(0, 1)
-          .describe("in a frame where no state overlaps the inserted box by min_iou, the track that did in an "
-                    "earlier frame still counts as the inserted object's (for attribution, not for distances) "
-                    "while it overlaps it by this much"),
+          .describe("a track that overlapped the inserted box by min_iou in an earlier frame still counts as the "
+                    "inserted object's (for attribution, not for distances) while it overlaps it by this much, "
+                    "beside the state that overlaps it by min_iou now"),
       ParamSpec::number("max_takeover_uncovered", 0.5)
           .range(0, 1)
           .describe("pass, when the hazard took over a real object (the renderer removed it): in every frame at "
@@ -210,18 +210,19 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   }
   rec["state"] =
       match ? Json{{"track_id", match->track_id}, {"distance_m", maybe(match->distance_m)}} : Json();
-  // The inserted object's track: the state on its box, else the track that was on it before while it still
-  // overlaps it (min_iou_tracked). Close up a box cut by the image border and the projected 3D box part ways
-  // (IoU 0.1-0.4 on the KITTI raw clip) while the tracker keeps following the object.
-  std::optional<int64_t> hazard_track;
-  if (match) {
-    hazard_track = match->track_id;
-    hazard_track_ = match->track_id;
-  } else if (states && hazard_track_) {
+  // The inserted object's tracks: the state on its box, and every track that was on it in an earlier frame while
+  // it still overlaps it (min_iou_tracked). Close up a box cut by the image border and the projected 3D box
+  // part ways (IoU 0.1-0.4 on the KITTI raw clip) while the tracker keeps following the object, and a second
+  // track may start on it beside the first.
+  std::set<int64_t> hazard_tracks;
+  if (match) hazard_tracks.insert(match->track_id);
+  if (states)
     for (const ObjectState& s : states->objects)
-      if (s.track_id == *hazard_track_ && box_iou(s.box, inst->box) >= min_iou_tracked_) hazard_track = s.track_id;
-    if (hazard_track) rec["hazard_track"] = {{"track_id", *hazard_track}, {"by", "track continuity"}};
-  }
+      if (hazard_tracks_seen_.count(s.track_id) && box_iou(s.box, inst->box) >= min_iou_tracked_)
+        hazard_tracks.insert(s.track_id);
+  if (match) hazard_tracks_seen_.insert(match->track_id);
+  if (!hazard_tracks.empty() && (!match || hazard_tracks.size() > 1))
+    rec["hazard_tracks"] = Json(std::vector<int64_t>(hazard_tracks.begin(), hazard_tracks.end()));
 
   if (inst->taken_over) {
     const TakenOver& to = *inst->taken_over;
@@ -308,7 +309,7 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   rec["scene_ttc_s"] = ttc ? maybe(ttc->scene_value) : Json();
   rec["labels"] = labels;
   rec["unsafe"] = unsafe;
-  rec["hazard_is_critical"] = ttc && hazard_track && ttc->critical_track == *hazard_track;
+  rec["hazard_is_critical"] = ttc && hazard_tracks.count(ttc->critical_track) > 0;
   // Attribution: an Unsafe frame is the hazard's only when the hazard is the critical object and the plan also
   // says it is critical there; otherwise it is an artefact (another road user, a tracking error) — spurious.
   const double threshold = ttc ? ttc->threshold : 1.5;

@@ -4,6 +4,7 @@
 
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -75,7 +76,7 @@ class ClosedLoopVerifier : public Stage {
   // A real object the hazard took over: how much of it the drawn hazard left to inpainting, per frame.
   double max_takeover_uncovered_ = 0.5;
   double min_iou_tracked_ = 0.1;
-  std::optional<int64_t> hazard_track_;  // the track last seen on the inserted box
+  std::set<int64_t> hazard_tracks_seen_;  // tracks that were on the inserted box (IoU >= min_iou) in some frame
   std::optional<int64_t> taken_track_;
   int taken_frames_ = 0, taken_unseen_frames_ = 0;
   std::vector<double> taken_uncovered_;
