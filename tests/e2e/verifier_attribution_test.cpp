@@ -14,12 +14,13 @@ namespace {
 // Unsafe (TTC 1.1 s) with `critical` as the metric's critical track.
 Json run_verifier(const std::string& params, int64_t critical, std::vector<double> uncovered = {},
                   std::optional<cv::Rect2f> last_state_box = std::nullopt, int64_t last_track = 4,
-                  int64_t new_track_on_box = -1) {
+                  int64_t new_track_on_box = -1, bool plan_takes_over_7 = false) {
   auto r = testing::StageRunner::create<ClosedLoopVerifier>(params);
   HazardTrajectory tr;
   tr.kind = "pedestrian_crossing";
   tr.object_class = "person";
   tr.intended_min_ttc_s = 0.1;
+  if (plan_takes_over_7 || !uncovered.empty()) tr.spec.extra = {{"track_id", 7}};
   r.push("trajectory", tr, 0.0);
   const cv::Rect2f box(100, 100, 50, 100);
   for (int i = 0; i < 3; ++i) {
@@ -127,6 +128,11 @@ TEST(VerifierAttribution, ATakenOverObjectMustBeHiddenByTheHazard) {
                                            "(max_takeover_uncovered 0.5)"}));
   // Without a takeover there is nothing to report.
   EXPECT_FALSE(run_verifier(params, 4).contains("taken_over"));
+  // A plan that takes over track 7 where the renderer never removed it (no taken_over in any frame) fails.
+  const Json kept = run_verifier(params, 4, {}, std::nullopt, 4, -1, true);
+  EXPECT_FALSE(kept["passed"].get<bool>());
+  EXPECT_EQ(kept["reasons"], Json::array({"the hazard takes over track 7, but the renderer never removed the real "
+                                          "one: it stays in the video beside the hazard"}));
 }
 
 }  // namespace

@@ -239,6 +239,16 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     r2.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), plain, {});
     EXPECT_FALSE(r2.render(make_frame(3, 2.0, frame, cam, cv::Matx44d::eye()), plain, {}).hazard.visible);
   }
+  // A track the renderer never sees is not removed, and it says so once.
+  {
+    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    const auto alone = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), taking, {});
+    EXPECT_FALSE(alone.hazard.taken_over.has_value());
+    r.render(make_frame(1, 0.1, img, cam, cv::Matx44d::eye()), taking, {});
+    EXPECT_EQ(r.take_warnings(),
+              std::vector<std::string>{"the hazard takes over track 3, which is not among the renderer's tracked "
+                                       "objects (its states or tracks input): the real object is not removed"});
+  }
   // Without the takeover the real object stays, in front of the hazard it occludes.
   const auto kept = run(plain, same);
   EXPECT_FALSE(kept.hazard.taken_over.has_value());

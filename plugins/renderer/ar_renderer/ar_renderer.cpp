@@ -70,6 +70,7 @@ void HazardRenderer::start_hazard(const HazardTrajectory& t) {
   taken_unseen_ = 0;
   taken_lateral_.reset();
   lane_shift_.reset();
+  warned_taken_missing_ = false;
   if (t.spec.extra.is_object() && t.spec.extra.contains("track_id") && t.spec.extra["track_id"].is_number())
     taken_id_ = static_cast<int64_t>(t.spec.extra["track_id"].get<double>());
   compositor_ = CompositorState{};
@@ -289,6 +290,12 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
   } else if (taken_box_ && ++taken_unseen_ <= 5) {
     to.seen = false;  // held for a few frames: a missed detection must not bring the real object back
   } else {
+    if (!taken_box_ && !warned_taken_missing_) {
+      warnings_.push_back("the hazard takes over track " + std::to_string(*taken_id_) +
+                          ", which is not among the renderer's tracked objects (its states or tracks input): the "
+                          "real object is not removed");
+      warned_taken_missing_ = true;
+    }
     return std::nullopt;
   }
   const cv::Rect img(0, 0, image.cols, image.rows);

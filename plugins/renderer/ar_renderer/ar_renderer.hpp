@@ -92,6 +92,7 @@ class HazardRenderer {
   int taken_unseen_ = 0;                   // frames since its track last had it
   std::optional<double> taken_lateral_;    // its latest measured lateral offset (m)
   std::optional<double> lane_shift_;       // smoothed sideways correction keeping the hazard in its lane (m)
+  bool warned_taken_missing_ = false;
   std::vector<std::string> warnings_;
 };
 

@@ -165,6 +165,8 @@ double ClosedLoopVerifier::origin_offset(StageContext& ctx, const Inputs& in) co
 void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (const HazardTrajectory* tr = in.get<HazardTrajectory>("trajectory")) {
     trajectory_seen_ = true;
+    if (tr->spec.extra.is_object() && tr->spec.extra.contains("track_id") && tr->spec.extra["track_id"].is_number())
+      planned_takeover_ = static_cast<int64_t>(tr->spec.extra["track_id"].get<double>());
     intended_traj_min_ = tr->intended_min_ttc_s;
     length_ = tr->size_lwh[0];
     kind_ = tr->kind;
@@ -442,6 +444,9 @@ Json ClosedLoopVerifier::summary() const {
         "the scene never becomes Unsafe while the hazard is visible, so the inserted object is never "
         "the cause (minimum scene TTC " +
         num(achieved_min_ttc_) + " s)");
+  if (planned_takeover_ && !taken_track_ && visible_ > 0)
+    reasons.push_back("the hazard takes over track " + std::to_string(*planned_takeover_) +
+                      ", but the renderer never removed the real one: it stays in the video beside the hazard");
   if (taken_track_ && taken_worst_ > max_takeover_uncovered_)
     reasons.push_back("the taken-over real object (track " + std::to_string(*taken_track_) +
                       ") is not hidden by the hazard drawn in its place: " + num(taken_worst_) +

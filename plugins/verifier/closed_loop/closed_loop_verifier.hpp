@@ -78,6 +78,7 @@ class ClosedLoopVerifier : public Stage {
   double min_iou_tracked_ = 0.1;
   std::set<int64_t> hazard_tracks_seen_;  // tracks that were on the inserted box (IoU >= min_iou) in some frame
   std::optional<int64_t> taken_track_;
+  std::optional<int64_t> planned_takeover_;  // the trajectory's spec names a real object to take over
   int taken_frames_ = 0, taken_unseen_frames_ = 0;
   std::vector<double> taken_uncovered_;
   double taken_worst_ = 0, taken_max_shift_ = 0;
