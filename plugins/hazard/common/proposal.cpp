@@ -53,6 +53,7 @@ ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tp
   sc.corridor.margin = ttc.corridor.margin;
   sc.ego_front = ttc.ego_front;
   sc.ego_speed = r.scene.ego_speed_mps.value_or(0.0);
+  sc.ego = tpl.planned_ego(r.scene);
   sc.target = r.target_ttc_s;
   sc.horizon = r.horizon_s;
   sc.sidewalk = r.sidewalk_width_m;

@@ -409,4 +409,13 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   return out;
 }
 
+EgoPath TemplateBase::planned_ego(const SceneContext& scene) const {
+  const bool has_track = scene.ego_track && scene.ego_track->samples.size() >= 2;
+  if (ego_plan_ != "constant_speed" && has_track && scene.timestamp >= scene.ego_track->samples.front().t &&
+      scene.timestamp <= scene.ego_track->samples.back().t)
+    return EgoPath::recorded(scene.ego_track->samples, scene.timestamp,
+                             "scene at t=" + num(scene.timestamp, 3) + " s", ego_smoothing_s_);
+  return EgoPath::straight(scene.ego_speed_mps.value_or(0.0));
+}
+
 }  // namespace hf::hazard

@@ -156,11 +156,14 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
 
 namespace {
 
-// First time (s) the TTC to a lead braking after `delay` falls to `ttc`, by a 20 ms replay; kInf if never.
-// A negative delay: braking began that long before (v0 is the speed before braking, gap0 the gap now).
-double time_to_ttc(double gap0, double ego, double v0, double delay, double decel, double ttc, double horizon) {
+// First time (s) the TTC to a lead braking after `delay` falls to `ttc`, by a 20 ms replay against the ego's
+// planned motion (its recorded speeds when the scene has a track: a queue that slows closes in less); kInf if
+// never. A negative delay: braking began that long before (v0 is the speed before braking, gap0 the gap now).
+double time_to_ttc(double gap0, const hazard::ProposalScene& sc, double v0, double delay, double decel, double ttc,
+                   double horizon) {
   double gap = gap0, v = delay < 0 ? std::max(0.0, v0 + decel * delay) : v0;
   for (double t = 0; t <= horizon; t += 0.02) {
+    const double ego = sc.ego_speed_at(t);
     const double closing = ego - v;
     if (gap <= 0 || (closing > 0.1 && gap / closing <= ttc)) return t;
     gap += (v - ego) * 0.02;
@@ -195,17 +198,22 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
       *lead->speed >= 0.5 && sc.limits.has(lead->label)) {
     const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(lead->label).max_decel_mps2, 0.1);
     const double gap = lead->x - sc.ego_front;  // x: the face the estimator measured, its rear
+    // It brakes after the drawn delay, or at once when only that brings the TTC down in time (a queue that is
+    // slowing leaves little time).
+    double brake_after = delay;
+    if (gap > 0 && time_to_ttc(gap, sc, *lead->speed, delay, decel, ttc, sc.horizon) >= sc.horizon - 0.7)
+      brake_after = 0.0;
     if (gap > 0 &&
-        time_to_ttc(gap, sc.ego_speed, *lead->speed, delay, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
+        time_to_ttc(gap, sc, *lead->speed, brake_after, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
       Json spec = hazard::proposal_spec(kind, lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
                                         "the tracked lead brakes hard in the ego lane", sc.target);
       spec["side"] = std::abs(lead->y) <= sc.path_half(0.0) ? "center" : (lead->y > 0 ? "left" : "right");
       spec["deceleration_mps2"] = decel;
-      spec["extra"]["brake_delay_s"] = delay;
+      spec["extra"]["brake_delay_s"] = brake_after;
       spec["extra"]["track_id"] = lead->track_id;
       spec["rationale"] = "The " + lead->label + " (track " + std::to_string(lead->track_id) + ") " +
                           fmt1(lead->x) + " m ahead in the ego lane brakes at " + fmt1(decel) + " m/s^2 after " +
-                          fmt1(delay) + " s; the ego, keeping " + fmt1(sc.ego_speed) + " m/s, closes in to a TTC near " +
+                          fmt1(brake_after) + " s; the ego, at " + fmt1(sc.ego_speed) + " m/s now, closes in to a TTC near " +
                           fmt1(ttc) + " s.";
       return {spec, {}};
     }
@@ -231,7 +239,7 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double gap_now = x0 - front;
     if (v_now < 0.5) return {nullptr, "the ego is too slow for a slower lead to brake in front of it"};
     if (v_start > sc.limits.at(cls).max_speed_mps) return {nullptr, "the lead would have braked from above its limit"};
-    const double t = time_to_ttc(gap_now, sc.ego_speed, v_start, b > 0 ? -b : delay, decel, ttc, sc.horizon);
+    const double t = time_to_ttc(gap_now, sc, v_start, b > 0 ? -b : delay, decel, ttc, sc.horizon);
     if (t > sc.horizon - std::min(0.7, 0.3 * sc.horizon))
       return {nullptr, "a lead first seen small (from " + fmt1(small_from) + " m) cannot bring the TTC to " + fmt1(ttc) +
                            " s within the horizon"};
@@ -262,7 +270,7 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double gap_start = gap_now + decel * b * b / 2.0;  // the closing covered while braking before
     const double x0 = sc.ego_front + size.length / 2.0 + gap_start;
     const double y0 = d.uniform(-0.3, 0.3);
-    if (time_to_ttc(gap_now, sc.ego_speed, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
+    if (time_to_ttc(gap_now, sc, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
       return {nullptr, "the stop would come too late within the horizon"};
     if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
       return {nullptr, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
@@ -285,7 +293,7 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   const double x0 = sc.ego_front + size.length / 2.0 + gap;
   const double y0 = d.uniform(-0.3, 0.3);
   if (x0 < 4.0 || x0 > 120.0) return {nullptr, "no start distance within [4, 120] m"};
-  if (time_to_ttc(gap, sc.ego_speed, speed, delay, decel, ttc, sc.horizon) > sc.horizon - 0.7)
+  if (time_to_ttc(gap, sc, speed, delay, decel, ttc, sc.horizon) > sc.horizon - 0.7)
     return {nullptr, "the stop would come too late within the horizon"};
   if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
     return {nullptr, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};

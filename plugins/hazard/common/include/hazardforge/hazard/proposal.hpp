@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "hazardforge/geometry.hpp"
+#include "hazardforge/hazard/ego_path.hpp"
 #include "hazardforge/hazard/kinematics.hpp"
 #include "hazardforge/hazard/template_base.hpp"
 #include "hazardforge/stage.hpp"
@@ -32,6 +33,11 @@ struct ProposalScene {
   double ego_speed = 0, target = 1.0, horizon = 6, sidewalk = 3.0, max_under_way = 0;
   bool sidewalks = false, on_shoulder = false, multi_lane = false, intersection = false;
   std::optional<CameraModel> camera;
+  // The ego's motion the template plans against (TemplateBase::planned_ego): the recorded track when there is
+  // one — a queue that comes to a stop, a bend — else straight on at ego_speed.
+  EgoPath ego = EgoPath::straight(0.0);
+  // The ego's speed `t` s from now along that motion.
+  double ego_speed_at(double t) const { return ego.is_recorded() ? ego.at(t).speed : ego_speed; }
   // A tracked object with a distance: position (x along ego x, y left), footprint (measured, else its class's
   // prior, else a car's), whether it is in the ego path and its absolute speed along the ego heading if known.
   struct Obj {

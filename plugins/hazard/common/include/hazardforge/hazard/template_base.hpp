@@ -136,6 +136,9 @@ class TemplateBase : public HazardTemplate {
   const ClassPriors& class_sizes() const { return sizes_; }
   const RoadModel& road() const { return road_; }
   const TtcConventions& ttc_conventions() const { return ttc_; }
+  // The ego's motion this template plans against from the scene's time on: the recorded track when the scene
+  // carries one (and ego_plan allows it), else straight on at the scene's ego speed (0 when unknown).
+  EgoPath planned_ego(const SceneContext& scene) const;
 
  protected:
   // Classes this kind accepts (empty = any class in the limits table).
