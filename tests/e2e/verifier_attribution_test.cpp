@@ -84,14 +84,16 @@ TEST(VerifierAttribution, UnsafeCausedBySomeoneElseFailsWhenRequired) {
   EXPECT_EQ(lenient["unsafe"]["hazard_critical_frames"], 0);  // ... but reports it
   const Json strict = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 9);
   EXPECT_FALSE(strict["passed"].get<bool>());
-  EXPECT_EQ(strict["reasons"],
-            Json::array({"none of the 1 Unsafe visible frames is the hazard's: 1 with another object critical, 0 where "
-                           "the plan does not make the hazard critical (spurious Unsafe frames never pass)"}));
+  EXPECT_EQ(
+      strict["reasons"],
+      Json::array(
+          {"none of the 1 Unsafe visible frames is the hazard's: 1 with another object critical, 0 where "
+           "the plan does not make the hazard critical (spurious Unsafe frames never pass)"}));
 }
 
-// Close up, the tracked box and the inserted object's projected box part ways (the border cuts one): the track
-// that was on the inserted object stays its track while it still overlaps it (min_iou_tracked), so an Unsafe
-// frame it causes is the hazard's; a different track there is not.
+// Close up, the tracked box and the inserted object's projected box part ways (the border cuts one): the
+// track that was on the inserted object stays its track while it still overlaps it (min_iou_tracked), so an
+// Unsafe frame it causes is the hazard's; a different track there is not.
 TEST(VerifierAttribution, TheHazardsTrackKeepsItWhenTheBoxesPartWays) {
   const std::string params = "{state_distance_origin: ego_origin, require_hazard_critical: true}";
   const cv::Rect2f apart(130, 100, 50, 100);  // IoU 0.25 with the inserted box
@@ -101,18 +103,21 @@ TEST(VerifierAttribution, TheHazardsTrackKeepsItWhenTheBoxesPartWays) {
   const Json other = run_verifier(params, 9, {}, apart, 9);
   EXPECT_FALSE(other["passed"].get<bool>());
   EXPECT_EQ(other["unsafe"]["attributed_frames"], 0);
-  const Json strict = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true, "
-                                   "min_iou_tracked: 0.5}", 4, {}, apart, 4);
+  const Json strict = run_verifier(
+      "{state_distance_origin: ego_origin, require_hazard_critical: true, "
+      "min_iou_tracked: 0.5}",
+      4, {}, apart, 4);
   EXPECT_FALSE(strict["passed"].get<bool>());
-  // A second track (11) starting right on the object does not take the first one's place: both are its tracks.
+  // A second track (11) starting right on the object does not take the first one's place: both are its
+  // tracks.
   const Json twin = run_verifier(params, 4, {}, apart, 4, 11);
   EXPECT_TRUE(twin["passed"].get<bool>()) << twin.dump(2);
   EXPECT_TRUE(run_verifier(params, 11, {}, apart, 4, 11)["passed"].get<bool>());
   EXPECT_FALSE(run_verifier(params, 9, {}, apart, 4, 11)["passed"].get<bool>());
 }
 
-// A hazard that took over a real object (track 7) passes only while the drawn one hides it: in no frame may more
-// than max_takeover_uncovered of the real one's box show the inpainted fill.
+// A hazard that took over a real object (track 7) passes only while the drawn one hides it: in no frame may
+// more than max_takeover_uncovered of the real one's box show the inpainted fill.
 TEST(VerifierAttribution, ATakenOverObjectMustBeHiddenByTheHazard) {
   const std::string params = "{state_distance_origin: ego_origin, require_hazard_critical: true}";
   const Json hidden = run_verifier(params, 4, {0.2, 0.1, 0.35});
@@ -123,16 +128,18 @@ TEST(VerifierAttribution, ATakenOverObjectMustBeHiddenByTheHazard) {
   EXPECT_DOUBLE_EQ(hidden["taken_over"]["max_uncovered_fraction"].get<double>(), 0.35);
   const Json shows = run_verifier(params, 4, {0.2, 0.62, 0.35});
   EXPECT_FALSE(shows["passed"].get<bool>());
-  EXPECT_EQ(shows["reasons"], Json::array({"the taken-over real object (track 7) is not hidden by the hazard drawn in "
-                                           "its place: 0.62 of its box shows the inpainted fill at frame 1 "
-                                           "(max_takeover_uncovered 0.5)"}));
+  EXPECT_EQ(shows["reasons"],
+            Json::array({"the taken-over real object (track 7) is not hidden by the hazard drawn in "
+                         "its place: 0.62 of its box shows the inpainted fill at frame 1 "
+                         "(max_takeover_uncovered 0.5)"}));
   // Without a takeover there is nothing to report.
   EXPECT_FALSE(run_verifier(params, 4).contains("taken_over"));
   // A plan that takes over track 7 where the renderer never removed it (no taken_over in any frame) fails.
   const Json kept = run_verifier(params, 4, {}, std::nullopt, 4, -1, true);
   EXPECT_FALSE(kept["passed"].get<bool>());
-  EXPECT_EQ(kept["reasons"], Json::array({"the hazard takes over track 7, but the renderer never removed the real "
-                                          "one: it stays in the video beside the hazard"}));
+  EXPECT_EQ(kept["reasons"],
+            Json::array({"the hazard takes over track 7, but the renderer never removed the real "
+                         "one: it stays in the video beside the hazard"}));
 }
 
 }  // namespace

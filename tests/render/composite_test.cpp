@@ -1,5 +1,5 @@
-// Compositing: alpha is respected for default and harvested assets, nearer objects occlude, the shadow darkens the
-// road, harmonisation moves colours towards the surroundings, and the stage's ports behave.
+// Compositing: alpha is respected for default and harvested assets, nearer objects occlude, the shadow
+// darkens the road, harmonisation moves colours towards the surroundings, and the stage's ports behave.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -19,7 +19,9 @@ using hf::test::make_frame;
 using hf::test::static_object;
 using hf::test::test_camera;
 
-fs::path default_dir() { return fs::path(share_dir()) / "assets"; }
+fs::path default_dir() {
+  return fs::path(share_dir()) / "assets";
+}
 
 RendererOptions options(bool shadow = false) {
   RendererOptions o;
@@ -29,8 +31,8 @@ RendererOptions options(bool shadow = false) {
   return o;
 }
 
-// A harvested-style asset folder: a real-looking picture (textured cuboid with a soft silhouette) with the box
-// geometry a harvester writes, so the renderer sees exactly what `asset_harvester` produces.
+// A harvested-style asset folder: a real-looking picture (textured cuboid with a soft silhouette) with the
+// box geometry a harvester writes, so the renderer sees exactly what `asset_harvester` produces.
 fs::path make_harvested_folder(const fs::path& dir) {
   fs::create_directories(dir);
   const CameraModel cam = test_camera();
@@ -40,11 +42,11 @@ fs::path make_harvested_folder(const fs::path& dir) {
   const cv::Rect pic(static_cast<int>(pb->bounds.x) - 1, static_cast<int>(pb->bounds.y) - 1,
                      static_cast<int>(pb->bounds.width) + 3, static_cast<int>(pb->bounds.height) + 3);
   cv::Mat colour = hf::test::textured_image(pic.size(), 3);
-  colour.forEach<cv::Vec3b>([](cv::Vec3b& p, const int*) { p = cv::Vec3b(p[0] / 3, p[1] / 3, p[2]); });  // reddish
+  colour.forEach<cv::Vec3b>(
+      [](cv::Vec3b& p, const int*) { p = cv::Vec3b(p[0] / 3, p[1] / 3, p[2]); });  // reddish
   cv::Mat alpha(pic.size(), CV_8U, cv::Scalar(0));
   std::vector<cv::Point> poly;
-  for (int k : {2, 3, 7, 6})
-    poly.emplace_back(cvRound(pb->px[k].x - pic.x), cvRound(pb->px[k].y - pic.y));
+  for (int k : {2, 3, 7, 6}) poly.emplace_back(cvRound(pb->px[k].x - pic.x), cvRound(pb->px[k].y - pic.y));
   cv::fillConvexPoly(alpha, poly, cv::Scalar(255));
   cv::GaussianBlur(alpha, alpha, cv::Size(), 0.7);
   std::vector<cv::Mat> ch;
@@ -70,8 +72,8 @@ fs::path make_harvested_folder(const fs::path& dir) {
   return dir;
 }
 
-// Checks the alpha contract on one rendering: outside the ROI and where alpha is 0 nothing changed; where alpha
-// is (nearly) 1 nearly everything changed.
+// Checks the alpha contract on one rendering: outside the ROI and where alpha is 0 nothing changed; where
+// alpha is (nearly) 1 nearly everything changed.
 void expect_alpha_respected(const cv::Mat& before, const HazardRenderer::Result& r) {
   ASSERT_TRUE(r.composite.drawn);
   const cv::Rect roi = r.composite.roi;
@@ -105,8 +107,8 @@ TEST(Composite, DefaultAssetsRespectAlpha) {
   for (const char* cls : {"car", "person", "truck", "bus"}) {
     HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
     auto traj = std::make_shared<const HazardTrajectory>(
-        static_object(cls, 18.0, 1.0, 0.7, 0.0, 1.0, 0.0, std::string(cls) == "person" ? cv::Vec3d(0.5, 0.6, 1.7)
-                                                                                        : cv::Vec3d(4.5, 1.85, 1.52)));
+        static_object(cls, 18.0, 1.0, 0.7, 0.0, 1.0, 0.0,
+                      std::string(cls) == "person" ? cv::Vec3d(0.5, 0.6, 1.7) : cv::Vec3d(4.5, 1.85, 1.52)));
     auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
     SCOPED_TRACE(cls);
     EXPECT_NE(res.asset_file.find(default_dir().string()), std::string::npos);
@@ -145,12 +147,13 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   const cv::Rect2f hb = free.hazard.box;
   ASSERT_GT(hb.area(), 1000);
   EXPECT_NEAR(free.hazard.occluded_fraction, 0.0, 1e-9);
-  // A detection covering the left half of the hazard, standing on the road 9 m ahead of the camera (its bottom
-  // edge lower in the image than the hazard's).
+  // A detection covering the left half of the hazard, standing on the road 9 m ahead of the camera (its
+  // bottom edge lower in the image than the hazard's).
   const double near_bottom = cam.project_ego({1.5 + 9.0, 0, 0})->y;
   const cv::Rect2f near_box(hb.x - 20, static_cast<float>(near_bottom) - 160, hb.width / 2 + 20, 160);
   HazardRenderer r(options(true), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{near_box, 0.9f, std::nullopt, "car", 0, 0, -1, std::nullopt}});
+  const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj,
+                            {{near_box, 0.9f, std::nullopt, "car", 0, 0, -1, std::nullopt}});
   // Every pixel of the nearer object's box is untouched (the hazard and its shadow are behind it).
   const cv::Rect ib = cv::Rect(near_box) & cv::Rect(0, 0, img.cols, img.rows);
   cv::Mat d;
@@ -165,13 +168,14 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   const double far_bottom = cam.project_ego({1.5 + 40.0, 0, 0})->y;
   const cv::Rect2f far_box(hb.x - 20, static_cast<float>(far_bottom) - 160, hb.width / 2 + 20, 160);
   HazardRenderer r3(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {{far_box, 0.9f, std::nullopt, "car", 0, 0, -1, std::nullopt}});
+  const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj,
+                                {{far_box, 0.9f, std::nullopt, "car", 0, 0, -1, std::nullopt}});
   EXPECT_NEAR(behind.hazard.occluded_fraction, 0.0, 1e-9);
 }
 
-// A hazard that takes over a real object (spec extra.track_id): the real one leaves the picture — covered by the
-// hazard drawn in its place, the rest of its box filled from the surroundings — it occludes nothing, and the
-// share of its box left to the fill is reported.
+// A hazard that takes over a real object (spec extra.track_id): the real one leaves the picture — covered by
+// the hazard drawn in its place, the rest of its box filled from the surroundings — it occludes nothing, and
+// the share of its box left to the fill is reported.
 TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   const cv::Mat img = hf::test::textured_image();  // grey texture: no saturated blue anywhere
   const CameraModel cam = test_camera();
@@ -189,7 +193,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   };
   auto run = [&](const std::shared_ptr<const HazardTrajectory>& t, const cv::Rect2f& real) {
     cv::Mat frame = img.clone();
-    cv::rectangle(frame, cv::Rect(real), cv::Scalar(255, 0, 0), cv::FILLED);  // the real object: saturated blue
+    cv::rectangle(frame, cv::Rect(real), cv::Scalar(255, 0, 0),
+                  cv::FILLED);  // the real object: saturated blue
     HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
     // As an occluder it stands nearer (bottom edge lower than the hazard's): it would hide a plain hazard.
     return r.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), t,
@@ -202,8 +207,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   EXPECT_EQ(took.hazard.taken_over->track_id, 3);
   EXPECT_TRUE(took.hazard.taken_over->seen);
   EXPECT_TRUE(took.hazard.taken_over->box.contains(same.tl()));
-  EXPECT_EQ(is_blue(took.frame.image), 0);             // gone: drawn over or filled
-  EXPECT_NEAR(took.hazard.occluded_fraction, 0.0, 1e-9);  // and it hides nothing
+  EXPECT_EQ(is_blue(took.frame.image), 0);                      // gone: drawn over or filled
+  EXPECT_NEAR(took.hazard.occluded_fraction, 0.0, 1e-9);        // and it hides nothing
   EXPECT_GT(took.hazard.taken_over->uncovered_fraction, 0.05);  // the roof strip and the grown margin
   EXPECT_LT(took.hazard.taken_over->uncovered_fraction, 0.5);
   // A real object twice as wide as the hazard leaves most of its box to the fill.
@@ -222,8 +227,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     EXPECT_NEAR(left.hazard.lateral_m, 0.6, 1e-9);
     EXPECT_LT(left.hazard.box.x, hb.x - 10);  // left in the image
   }
-  // After the plan ends (it covers 0-1 s) the hazard stays where it stopped and the real object stays removed;
-  // a plain hazard's frames pass through.
+  // After the plan ends (it covers 0-1 s) the hazard stays where it stopped and the real object stays
+  // removed; a plain hazard's frames pass through.
   {
     cv::Mat frame = img.clone();
     cv::rectangle(frame, cv::Rect(same), cv::Scalar(255, 0, 0), cv::FILLED);
@@ -245,9 +250,10 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     const auto alone = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), taking, {});
     EXPECT_FALSE(alone.hazard.taken_over.has_value());
     r.render(make_frame(1, 0.1, img, cam, cv::Matx44d::eye()), taking, {});
-    EXPECT_EQ(r.take_warnings(),
-              std::vector<std::string>{"the hazard takes over track 3, which is not among the renderer's tracked "
-                                       "objects (its states or tracks input): the real object is not removed"});
+    EXPECT_EQ(
+        r.take_warnings(),
+        std::vector<std::string>{"the hazard takes over track 3, which is not among the renderer's tracked "
+                                 "objects (its states or tracks input): the real object is not removed"});
   }
   // Without the takeover the real object stays, in front of the hazard it occludes.
   const auto kept = run(plain, same);
@@ -300,7 +306,8 @@ TEST(ArRendererStage, PassesFramesThroughUntilTheHazardStartsAndEmitsOneInstance
     runner.push("frames", f, f.timestamp);
   }
   // The plan arrives with frame 1 and starts at t = 0.3 s; the sticky port keeps it for later frames.
-  runner.push("trajectory", static_object("car", 25.0, 0.0, 0.0, 0.3, 2.0, 0.1, cv::Vec3d(4.5, 1.85, 1.52)), 0.1);
+  runner.push("trajectory", static_object("car", 25.0, 0.0, 0.0, 0.3, 2.0, 0.1, cv::Vec3d(4.5, 1.85, 1.52)),
+              0.1);
   runner.run();
   const auto frames = runner.collect<Frame>("frames");
   const auto hazards = runner.collect<HazardInstance>("hazard");
@@ -328,13 +335,15 @@ TEST(ArRendererStage, VisibleFramesAndAppearancesOnlyWhereTheHazardIsDrawn) {
   for (int k = 0; k < 5; ++k) {
     Frame f = make_frame(k, k * 0.1, img, test_camera(), planar_pose(k * 1.0, 0, 0));
     runner.push("frames", f, f.timestamp);
-    // A real car in every frame (painted nowhere: a flat-textured box), measured as a reference on frames 0 and 3.
+    // A real car in every frame (painted nowhere: a flat-textured box), measured as a reference on frames 0
+    // and 3.
     Detections d;
     d.frame_index = k;
     d.items.push_back(Detection{cv::Rect2f(1200, 480, 160, 120), 2, "car", 0.9f});
     runner.push("detections", d, f.timestamp);
   }
-  runner.push("trajectory", static_object("car", 25.0, 0.0, 0.0, 0.25, 2.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)), 0.0);
+  runner.push("trajectory", static_object("car", 25.0, 0.0, 0.0, 0.25, 2.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)),
+              0.0);
   runner.run();
   const auto hazards = runner.collect<HazardInstance>("hazard");
   const auto visible = runner.collect<Frame>("visible_frames");

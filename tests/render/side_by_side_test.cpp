@@ -16,7 +16,8 @@ namespace {
 namespace fs = std::filesystem;
 
 TEST(SideBySide, WritesEveryFrameAndTheRequestedStills) {
-  auto runner = hf::testing::StageRunner::create<SideBySideSink>("stills: [2]\nscale: 0.5\nstills_scale: 0.5");
+  auto runner =
+      hf::testing::StageRunner::create<SideBySideSink>("stills: [2]\nscale: 0.5\nstills_scale: 0.5");
   const cv::Mat img = hf::test::textured_image();
   cv::Mat aug = img.clone();
   cv::rectangle(aug, cv::Rect(1000, 300, 300, 300), cv::Scalar(255, 255, 255), cv::FILLED);
@@ -86,11 +87,12 @@ TEST(SideBySide, RealismStillsShowTheBestAndWorstFramePerMetric) {
   }
   runner.run();
   const fs::path dir = runner.output_dir() / "stills" / "realism";
-  const cv::Mat best = cv::imread((dir / "halo_best.png").string()), worst = cv::imread((dir / "halo_worst.png").string());
+  const cv::Mat best = cv::imread((dir / "halo_best.png").string()),
+                worst = cv::imread((dir / "halo_worst.png").string());
   ASSERT_FALSE(best.empty());
   ASSERT_FALSE(worst.empty());
-  // The close-up: twice the box (400 x 300) at 240 px tall per half = 320 x 240, the augmented half on the right
-  // with its red square (frame 1 nearest the real halos, frame 2 farthest).
+  // The close-up: twice the box (400 x 300) at 240 px tall per half = 320 x 240, the augmented half on the
+  // right with its red square (frame 1 nearest the real halos, frame 2 farthest).
   EXPECT_GE(best.cols, 640);
   EXPECT_EQ(best.rows - 240, worst.rows - 240);  // the same close-up size, a caption strip below
   const cv::Vec3b b = best.at<cv::Vec3b>(120, 320 + 160), w = worst.at<cv::Vec3b>(120, 320 + 160);
@@ -104,12 +106,15 @@ TEST(SideBySide, RefusesMismatchedPairs) {
   auto runner = hf::testing::StageRunner::create<SideBySideSink>();
   const cv::Mat img = hf::test::textured_image();
   runner.push("original", hf::test::make_frame(0, 0.0, img, hf::test::test_camera()), 0.0);
-  runner.push("augmented", hf::test::make_frame(0, 0.0, img(cv::Rect(0, 0, 800, 450)).clone(), hf::test::test_camera()), 0.0);
+  runner.push("augmented",
+              hf::test::make_frame(0, 0.0, img(cv::Rect(0, 0, 800, 450)).clone(), hf::test::test_camera()),
+              0.0);
   try {
     runner.run();
     FAIL() << "expected an error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("frame 0: original is 1600x900 but augmented is 800x450"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("frame 0: original is 1600x900 but augmented is 800x450"),
+              std::string::npos)
         << e.what();
   }
 }

@@ -18,7 +18,8 @@ HazardKindInfo SuddenStopTemplate::info() {
   k.play_out =
       "a lead vehicle in the ego lane (side center, y near 0) at initial_distance_m driving at speed_mps, "
       "cruising for extra.brake_delay_s seconds and then braking at deceleration_mps2 to a standstill; "
-      "where the rules allow taking over a detected object, extra.track_id may name a detected vehicle to use as "
+      "where the rules allow taking over a detected object, extra.track_id may name a detected vehicle to "
+      "use as "
       "the lead instead.";
   k.object_classes = {"car", "truck", "bus", "motorcycle"};
   k.extra_fields = {{"brake_delay_s",
@@ -92,8 +93,8 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
     }
     if (found->length_m > 0) size[0] = found->length_m;
     if (found->width_m > 0) size[1] = found->width_m;
-    // Estimators measure from the camera, the bumper or the rear axle (their distance_origin) to the face they
-    // see, the lead's rear; the plan works with its centre, from the rear axle.
+    // Estimators measure from the camera, the bumper or the rear axle (their distance_origin) to the face
+    // they see, the lead's rear; the plan works with its centre, from the rear axle.
     const std::string origin = req.params.get_string("track_distance_origin");
     const double x_anchor = found->distance_m + size[0] / 2.0 +
                             (origin == "camera"   ? req.scene.camera.t_ego_cam[0]
@@ -159,8 +160,8 @@ namespace {
 // First time (s) the TTC to a lead braking after `delay` falls to `ttc`, by a 20 ms replay against the ego's
 // planned motion (its recorded speeds when the scene has a track: a queue that slows closes in less); kInf if
 // never. A negative delay: braking began that long before (v0 is the speed before braking, gap0 the gap now).
-double time_to_ttc(double gap0, const hazard::ProposalScene& sc, double v0, double delay, double decel, double ttc,
-                   double horizon) {
+double time_to_ttc(double gap0, const hazard::ProposalScene& sc, double v0, double delay, double decel,
+                   double ttc, double horizon) {
   double gap = gap0, v = delay < 0 ? std::max(0.0, v0 + decel * delay) : v0;
   for (double t = 0; t <= horizon; t += 0.02) {
     const double ego = sc.ego_speed_at(t);
@@ -188,14 +189,17 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   const double ttc = request.aim * sc.target;
   const double delay = round_to(d.uniform(0.5, 1.5), 0.1);
   const hazard::ProposalScene::Obj* lead = nullptr;
-  // The lead is the nearest object centred in the ego lane; the corridor also holds wide neighbours beside it.
+  // The lead is the nearest object centred in the ego lane; the corridor also holds wide neighbours beside
+  // it.
   for (const auto& o : sc.objects)
     if (o.in_path && o.x > 0 && std::abs(o.y) <= sc.path_half(0.0) && (!lead || o.x < lead->x)) lead = &o;
   const bool avoided = lead && std::find(request.avoid_tracks.begin(), request.avoid_tracks.end(),
                                          lead->track_id) != request.avoid_tracks.end();
-  // A moving lead vehicle that brakes is the most natural sudden stop, where the renderer can remove the real one.
-  if (request.may_take_over && lead && !avoided && is_vehicle(lead->label) && request.class_allowed(lead->label) && lead->speed &&
-      *lead->speed >= 0.5 && sc.limits.has(lead->label)) {
+  // A moving lead vehicle that brakes is the most natural sudden stop, where the renderer can remove the real
+  // one.
+  if (request.may_take_over && lead && !avoided && is_vehicle(lead->label) &&
+      request.class_allowed(lead->label) && lead->speed && *lead->speed >= 0.5 &&
+      sc.limits.has(lead->label)) {
     const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(lead->label).max_decel_mps2, 0.1);
     const double gap = lead->x - sc.ego_front;  // x: the face the estimator measured, its rear
     // It brakes after the drawn delay, or at once when only that brings the TTC down in time (a queue that is
@@ -212,9 +216,9 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
       spec["extra"]["brake_delay_s"] = brake_after;
       spec["extra"]["track_id"] = lead->track_id;
       spec["rationale"] = "The " + lead->label + " (track " + std::to_string(lead->track_id) + ") " +
-                          fmt1(lead->x) + " m ahead in the ego lane brakes at " + fmt1(decel) + " m/s^2 after " +
-                          fmt1(brake_after) + " s; the ego, at " + fmt1(sc.ego_speed) + " m/s now, closes in to a TTC near " +
-                          fmt1(ttc) + " s.";
+                          fmt1(lead->x) + " m ahead in the ego lane brakes at " + fmt1(decel) +
+                          " m/s^2 after " + fmt1(brake_after) + " s; the ego, at " + fmt1(sc.ego_speed) +
+                          " m/s now, closes in to a TTC near " + fmt1(ttc) + " s.";
       return {spec, {}};
     }
   }
@@ -228,8 +232,9 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   if (speed < 1.0) return {nullptr, "a lead vehicle cannot brake from standstill"};
   const bool short_horizon = sc.max_under_way > 0 && delay + 1.0 > sc.horizon - 0.7;
   if (const double small_from = sc.first_seen_small_from(cls); small_from > 0) {
-    // Appearing in the ego lane, it must be first seen small: a slower lead far ahead (the end of a queue, a car
-    // slowing for something) that brakes soon after it appears, or is already braking when the horizon is short.
+    // Appearing in the ego lane, it must be first seen small: a slower lead far ahead (the end of a queue, a
+    // car slowing for something) that brakes soon after it appears, or is already braking when the horizon is
+    // short.
     const double front = sc.ego_front + size.length / 2.0;
     const double x0 = std::max(small_from, front + 1.0) + d.uniform(0.0, 8.0);
     const double v_now = std::min(sc.limits.at(cls).max_speed_mps, sc.ego_speed * d.uniform(0.2, 0.7));
@@ -238,13 +243,15 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double v_start = v_now + decel * b;  // its speed when it began to brake
     const double gap_now = x0 - front;
     if (v_now < 0.5) return {nullptr, "the ego is too slow for a slower lead to brake in front of it"};
-    if (v_start > sc.limits.at(cls).max_speed_mps) return {nullptr, "the lead would have braked from above its limit"};
+    if (v_start > sc.limits.at(cls).max_speed_mps)
+      return {nullptr, "the lead would have braked from above its limit"};
     const double t = time_to_ttc(gap_now, sc, v_start, b > 0 ? -b : delay, decel, ttc, sc.horizon);
     if (t > sc.horizon - std::min(0.7, 0.3 * sc.horizon))
-      return {nullptr, "a lead first seen small (from " + fmt1(small_from) + " m) cannot bring the TTC to " + fmt1(ttc) +
-                           " s within the horizon"};
+      return {nullptr, "a lead first seen small (from " + fmt1(small_from) + " m) cannot bring the TTC to " +
+                           fmt1(ttc) + " s within the horizon"};
     if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
-      return {nullptr, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
+      return {nullptr,
+              "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
     if (!sc.visible(x0, y0))
       return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
     if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
@@ -254,10 +261,11 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
                                       "drives slower ahead in the ego lane, then brakes hard", sc.target);
     spec["deceleration_mps2"] = decel;
     spec["extra"]["brake_delay_s"] = b > 0 ? 0.0 : delay;
-    spec["rationale"] = "A " + cls + " " + fmt1(x0) + " m ahead in the ego lane at " + fmt1(v_now) +
-                        " m/s, slower than the ego, brakes at " + fmt1(decel) + " m/s^2" +
-                        (b > 0 ? " (braking for " + fmt1(b) + " s when it appears)" : " after " + fmt1(delay) + " s") +
-                        "; the TTC falls to about " + fmt1(ttc) + " s.";
+    spec["rationale"] =
+        "A " + cls + " " + fmt1(x0) + " m ahead in the ego lane at " + fmt1(v_now) +
+        " m/s, slower than the ego, brakes at " + fmt1(decel) + " m/s^2" +
+        (b > 0 ? " (braking for " + fmt1(b) + " s when it appears)" : " after " + fmt1(delay) + " s") +
+        "; the TTC falls to about " + fmt1(ttc) + " s.";
     if (b > 0) spec["extra"]["under_way_s"] = round_to(b, 0.05);
     return {spec, {}};
   }
@@ -273,18 +281,20 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     if (time_to_ttc(gap_now, sc, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
       return {nullptr, "the stop would come too late within the horizon"};
     if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
-      return {nullptr, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
+      return {nullptr,
+              "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
     if (!sc.visible(x0, y0))
       return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
     Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
-                                      "follows in the ego lane and is already braking hard when it appears", sc.target);
+                                      "follows in the ego lane and is already braking hard when it appears",
+                                      sc.target);
     spec["deceleration_mps2"] = decel;
     spec["extra"]["brake_delay_s"] = 0.0;
     spec["extra"]["under_way_s"] = round_to(b, 0.05);
     spec["rationale"] = "A " + cls + " following " + fmt1(gap_start) + " m ahead of the ego at the same " +
                         fmt1(speed) + " m/s has been braking at " + fmt1(decel) + " m/s^2 for " + fmt1(b) +
-                        " s when it appears " + fmt1(gap_now) + " m ahead; the TTC falls to about " + fmt1(ttc) +
-                        " s " + fmt1(t_hit) + " s later.";
+                        " s when it appears " + fmt1(gap_now) + " m ahead; the TTC falls to about " +
+                        fmt1(ttc) + " s " + fmt1(t_hit) + " s later.";
     return {spec, {}};
   }
   // Same speed as the ego: the gap holds until braking starts, then TTC = gap / closing falls.
@@ -296,7 +306,8 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   if (time_to_ttc(gap, sc, speed, delay, decel, ttc, sc.horizon) > sc.horizon - 0.7)
     return {nullptr, "the stop would come too late within the horizon"};
   if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
-    return {nullptr, "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
+    return {nullptr,
+            "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
   if (!sc.visible(x0, y0))
     return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
   if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
@@ -304,8 +315,8 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
                                     "drives ahead in the ego lane, then brakes hard", sc.target);
   spec["deceleration_mps2"] = decel;
   spec["extra"]["brake_delay_s"] = delay;
-  spec["rationale"] = "A " + cls + " driving " + fmt1(gap) + " m ahead of the ego at the same " + fmt1(speed) +
-                      " m/s brakes at " + fmt1(decel) + " m/s^2 after " + fmt1(delay) +
+  spec["rationale"] = "A " + cls + " driving " + fmt1(gap) + " m ahead of the ego at the same " +
+                      fmt1(speed) + " m/s brakes at " + fmt1(decel) + " m/s^2 after " + fmt1(delay) +
                       " s; the TTC falls to about " + fmt1(ttc) + " s.";
   return {spec, {}};
 }

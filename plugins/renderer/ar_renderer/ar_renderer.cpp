@@ -117,8 +117,8 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   auto pt = T.at(f.timestamp);
   const bool held = !pt && taken_id_ && f.timestamp > T.points.back().t;
   if (held) {
-    // After its plan ends a hazard in place of a real object stays where it stopped, and the real one does not
-    // come back; once the ego has reached it (a plan that ends at contact) it is no longer drawn.
+    // After its plan ends a hazard in place of a real object stays where it stopped, and the real one does
+    // not come back; once the ego has reached it (a plan that ends at contact) it is no longer drawn.
     pt = T.points.back();
     pt->t = f.timestamp;
     pt->speed = 0;
@@ -164,9 +164,10 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   BoxCorners corners = box_corners(pt->x, pt->y, pt->heading, size);
   for (auto& c : corners) c = transform(cur_from_anchor, c);
   cv::Vec3d centre = transform(cur_from_anchor, cv::Vec3d(pt->x, pt->y, 0.0));
-  // A hazard in place of a real object stays in the lane that object drives in: its sideways offset follows the
-  // real one's measured offset (smoothed), so an error in the ego's estimated yaw does not slide it out of the
-  // lane (on the KITTI raw clip the footage's yaw rate reads -2..-4 deg/s while the queue goes straight).
+  // A hazard in place of a real object stays in the lane that object drives in: its sideways offset follows
+  // the real one's measured offset (smoothed), so an error in the ego's estimated yaw does not slide it out
+  // of the lane (on the KITTI raw clip the footage's yaw rate reads -2..-4 deg/s while the queue goes
+  // straight).
   if (res.hazard.taken_over && taken_lateral_) {
     const double shift = *taken_lateral_ - centre[1];
     lane_shift_ = lane_shift_ ? 0.7 * *lane_shift_ + 0.3 * shift : shift;
@@ -291,9 +292,10 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
     to.seen = false;  // held for a few frames: a missed detection must not bring the real object back
   } else {
     if (!taken_box_ && !warned_taken_missing_) {
-      warnings_.push_back("the hazard takes over track " + std::to_string(*taken_id_) +
-                          ", which is not among the renderer's tracked objects (its states or tracks input): the "
-                          "real object is not removed");
+      warnings_.push_back(
+          "the hazard takes over track " + std::to_string(*taken_id_) +
+          ", which is not among the renderer's tracked objects (its states or tracks input): the "
+          "real object is not removed");
       warned_taken_missing_ = true;
     }
     return std::nullopt;
@@ -309,8 +311,8 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
   to.box = cv::Rect2f(hole);
   if (hole.area() <= 0) return to;
   const int margin = std::max(8, static_cast<int>(0.15 * std::max(hole.width, hole.height)));
-  const cv::Rect roi = cv::Rect(hole.x - margin, hole.y - margin, hole.width + 2 * margin,
-                                hole.height + 2 * margin) & img;
+  const cv::Rect roi =
+      cv::Rect(hole.x - margin, hole.y - margin, hole.width + 2 * margin, hole.height + 2 * margin) & img;
   cv::Mat mask = cv::Mat::zeros(roi.size(), CV_8U);
   mask(hole - roi.tl()).setTo(255);
   const double scale = std::min(1.0, 96.0 / std::max(roi.width, roi.height));
@@ -330,7 +332,8 @@ std::optional<TakenOver> HazardRenderer::remove_taken_over(cv::Mat& image,
 
 void HazardRenderer::measure_realism(const Frame& f, const std::vector<OccluderCandidate>& objects,
                                      Result& res) const {
-  if (!opt_.realism.enabled || opt_.realism.references <= 0 || f.index % opt_.realism.reference_every != 0) return;
+  if (!opt_.realism.enabled || opt_.realism.references <= 0 || f.index % opt_.realism.reference_every != 0)
+    return;
   const auto t0 = std::chrono::steady_clock::now();
   // The tallest well-detected, whole road users of each group: vehicles and people.
   const ClassGroups& groups = realism::reference_groups();
@@ -340,8 +343,9 @@ void HazardRenderer::measure_realism(const Frame& f, const std::vector<OccluderC
       if (!o.label.empty() && groups.same(o.label, group) && o.score >= opt_.realism.min_score &&
           o.box.height >= opt_.realism.min_height_px && o.truncated == 0 && o.misses == 0)
         pick.push_back(&o);
-    std::sort(pick.begin(), pick.end(),
-              [](const OccluderCandidate* a, const OccluderCandidate* b) { return a->box.height > b->box.height; });
+    std::sort(pick.begin(), pick.end(), [](const OccluderCandidate* a, const OccluderCandidate* b) {
+      return a->box.height > b->box.height;
+    });
     if (pick.size() > static_cast<size_t>(opt_.realism.references))
       pick.resize(static_cast<size_t>(opt_.realism.references));
     for (const OccluderCandidate* o : pick) {
@@ -397,7 +401,8 @@ ComponentInfo ArRenderer::describe() {
               "how the hazard is kept fixed in the world: auto = poses when frames carry them, else the "
               "recording's ego track (Frame.ego_track: what the video source estimated), else the renderer's "
               "own flow"),
-      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .from_scene("ego.speed_mps")
           .range(-1.0, 80.0)
           .describe(
               "ego speed for constant_speed and when flow is degenerate (frame speed first); -1 = unknown"),
@@ -446,8 +451,9 @@ ComponentInfo ArRenderer::describe() {
       ParamSpec::boolean("visible_frames", true)
           .describe("emit the frames with the hazard visible on the visible_frames output"),
       ParamSpec::boolean("realism", true)
-          .describe("measure the inserted object's appearance (edge contrast, halo, sharpness, noise, Lab, size) "
-                    "and the recording's real road users the same way, into the hazard packet"),
+          .describe(
+              "measure the inserted object's appearance (edge contrast, halo, sharpness, noise, Lab, size) "
+              "and the recording's real road users the same way, into the hazard packet"),
       ParamSpec::integer("realism_references", 1)
           .range(0, 20)
           .describe("real objects measured per class group (vehicles, people) and frame, tallest first"),
@@ -517,11 +523,14 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   // One source of occluders, the richest available: states carry distances, tracks and detections boxes only.
   std::vector<OccluderCandidate> occ;
   if (const auto* s = in.get<ObjectStates>("states")) {
-    for (const auto& o : s->objects) occ.push_back({o.box, o.score, o.distance_m, o.label, o.truncated, o.misses, o.track_id, o.lateral_m});
+    for (const auto& o : s->objects)
+      occ.push_back({o.box, o.score, o.distance_m, o.label, o.truncated, o.misses, o.track_id, o.lateral_m});
   } else if (const auto* t = in.get<Tracks>("tracks")) {
-    for (const auto& o : t->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses, o.id, std::nullopt});
+    for (const auto& o : t->items)
+      occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses, o.id, std::nullopt});
   } else if (const auto* d = in.get<Detections>("detections")) {
-    for (const auto& o : d->items) occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, 0, -1, std::nullopt});
+    for (const auto& o : d->items)
+      occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, 0, -1, std::nullopt});
   }
   HazardRenderer::Result r = renderer_->render(f, traj, occ);
   for (const auto& w : renderer_->take_warnings()) ctx.log(LogLevel::kWarning, w);

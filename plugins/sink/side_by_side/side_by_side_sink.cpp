@@ -71,10 +71,11 @@ ComponentInfo SideBySideSink::describe() {
           .describe("also write <stills_dir>/critical.png: the visible hazard frame with the lowest intended "
                     "TTC (the moment the scenario is about; galleries use it)"),
       ParamSpec::boolean("realism_stills", true)
-          .describe("also write <stills_dir>/realism/<metric>_best.png and _worst.png for every realism metric "
-                    "the hazard packets carry: the close-up (original | augmented) of the visible frame whose "
-                    "value of the inserted object lies nearest to / farthest from the median of the recording's "
-                    "real objects of its class (by percentile rank), captioned with both"),
+          .describe(
+              "also write <stills_dir>/realism/<metric>_best.png and _worst.png for every realism metric "
+              "the hazard packets carry: the close-up (original | augmented) of the visible frame whose "
+              "value of the inserted object lies nearest to / farthest from the median of the recording's "
+              "real objects of its class (by percentile rank), captioned with both"),
   };
   for (ParamSpec& e : sink::encoder_params()) i.params.push_back(std::move(e));
   return i;
@@ -88,7 +89,8 @@ void SideBySideSink::open(StageContext& ctx) {
   file_ = output_param_path(ctx, "file");
   critical_still_ = p.get_bool("critical_still");
   realism_stills_ = p.get_bool("realism_stills");
-  if (!p.get_ints("stills").empty() || critical_still_ || realism_stills_) stills_dir_ = output_param_path(ctx, "stills_dir", /*is_dir=*/true);
+  if (!p.get_ints("stills").empty() || critical_still_ || realism_stills_)
+    stills_dir_ = output_param_path(ctx, "stills_dir", /*is_dir=*/true);
   fps_ = p.get_double("fps");
   fourcc_ = p.get_string("fourcc");
   if (fourcc_.size() != 4) throw Error("fourcc '" + fourcc_ + "' must have four characters");
@@ -183,8 +185,9 @@ void SideBySideSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out
       // The object and as much again around it, at most 240 px tall per half.
       const cv::Rect2f& bx = hz->box;
       const cv::Rect img_rect(0, 0, b.image.cols, b.image.rows);
-      const cv::Rect around = cv::Rect(cv::Rect2f(bx.x - bx.width / 2, bx.y - bx.height / 2, 2 * bx.width,
-                                                  2 * bx.height)) & img_rect;
+      const cv::Rect around =
+          cv::Rect(cv::Rect2f(bx.x - bx.width / 2, bx.y - bx.height / 2, 2 * bx.width, 2 * bx.height)) &
+          img_rect;
       if (around.area() > 0) {
         const double k = std::min(1.0, 240.0 / around.height);
         const cv::Size sz(std::max(1, cvRound(around.width * k)), std::max(1, cvRound(around.height * k)));
@@ -247,9 +250,9 @@ void SideBySideSink::write_realism_stills(StageContext& ctx) const {
     for (const auto& [which, c] : {std::pair{"best", best}, std::pair{"worst", worst}}) {
       cv::Mat img = c->pair.clone();
       char text[200];
-      std::snprintf(text, sizeof text, "%s %s: inserted %.3g (frame %lld); real median %.3g, p10-p90 %.3g-%.3g (n=%d)",
-                    m.name, which, m.get(c->stats), static_cast<long long>(c->frame), sp.median, sp.p10, sp.p90,
-                    sp.n);
+      std::snprintf(
+          text, sizeof text, "%s %s: inserted %.3g (frame %lld); real median %.3g, p10-p90 %.3g-%.3g (n=%d)",
+          m.name, which, m.get(c->stats), static_cast<long long>(c->frame), sp.median, sp.p10, sp.p90, sp.n);
       // The caption on a strip below the pair, wide enough for it.
       const int font = cv::FONT_HERSHEY_SIMPLEX;
       int base = 0;
@@ -257,8 +260,8 @@ void SideBySideSink::write_realism_stills(StageContext& ctx) const {
       cv::Mat canvas(img.rows + ts.height + base + 12, std::max(img.cols, ts.width + 12), CV_8UC3,
                      cv::Scalar(32, 32, 32));
       img.copyTo(canvas(cv::Rect(0, 0, img.cols, img.rows)));
-      cv::putText(canvas, text, cv::Point(6, img.rows + ts.height + 5), font, 0.45, cv::Scalar(255, 255, 255), 1,
-                  cv::LINE_AA);
+      cv::putText(canvas, text, cv::Point(6, img.rows + ts.height + 5), font, 0.45, cv::Scalar(255, 255, 255),
+                  1, cv::LINE_AA);
       const fs::path still = dir / (std::string(m.name) + "_" + which + ".png");
       std::vector<uchar> png;
       if (!cv::imencode(".png", canvas, png)) throw Error("cannot encode '" + still.string() + "'");

@@ -60,7 +60,8 @@ ComponentInfo ClosedLoopVerifier::describe() {
       "against "
       "the intended one, whether any frame was Unsafe while the hazard was visible, the re-detection rate "
       "over "
-      "visible frames, distance errors; passed = every criterion holds. Reported beside the verdict, never part "
+      "visible frames, distance errors; passed = every criterion holds. Reported beside the verdict, never "
+      "part "
       "of it: `realism` (the inserted object's appearance in its visible frames against the recording's real "
       "objects of its class, from the renderer's hazard packets) and `independent_redetection` (the "
       "independent_detections input: share of visible frames with a detection of IoU >= min_iou of the class "
@@ -72,9 +73,10 @@ ComponentInfo ClosedLoopVerifier::describe() {
       optional(port<ObjectStates>("states", "re-estimated object states")),
       sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
       optional(port<Frame>("frames", "the augmented frames: camera position for state_distance_origin")),
-      optional(port<Detections>("independent_detections",
-                                "an independent detector's detections on the augmented frames (reported, never "
-                                "part of the verdict)"))};
+      optional(
+          port<Detections>("independent_detections",
+                           "an independent detector's detections on the augmented frames (reported, never "
+                           "part of the verdict)"))};
   i.outputs = {port<Record>("records", "per-frame verification records and the final summary")};
   i.params = {
       ParamSpec::number("min_iou", 0.5)
@@ -86,9 +88,10 @@ ComponentInfo ClosedLoopVerifier::describe() {
       ParamSpec::boolean("require_unsafe", true)
           .describe("pass: some frame is Unsafe while the hazard is visible"),
       ParamSpec::boolean("require_hazard_critical", false)
-          .describe("pass: some visible Unsafe frame is the hazard's: the inserted object is the TTC metric's "
-                    "critical track AND its planned TTC there is below the threshold (+ planned_ttc_tolerance_s); "
-                    "every other Unsafe frame is reported as spurious and never makes a pass"),
+          .describe(
+              "pass: some visible Unsafe frame is the hazard's: the inserted object is the TTC metric's "
+              "critical track AND its planned TTC there is below the threshold (+ planned_ttc_tolerance_s); "
+              "every other Unsafe frame is reported as spurious and never makes a pass"),
       ParamSpec::number("planned_ttc_tolerance_s", 0.5)
           .range(0, 10)
           .describe("how far above the risk threshold the hazard's planned TTC may be in a frame that is "
@@ -117,14 +120,16 @@ ComponentInfo ClosedLoopVerifier::describe() {
               "its centre"),
       ParamSpec::number("min_iou_tracked", 0.1)
           .range(0, 1)
-          .describe("a track that overlapped the inserted box by min_iou in an earlier frame still counts as the "
-                    "inserted object's (for attribution, not for distances) while it overlaps it by this much, "
-                    "beside the state that overlaps it by min_iou now"),
+          .describe(
+              "a track that overlapped the inserted box by min_iou in an earlier frame still counts as the "
+              "inserted object's (for attribution, not for distances) while it overlaps it by this much, "
+              "beside the state that overlaps it by min_iou now"),
       ParamSpec::number("max_takeover_uncovered", 0.5)
           .range(0, 1)
-          .describe("pass, when the hazard took over a real object (the renderer removed it): in every frame at "
-                    "most this share of the real object's box is left uncovered by the drawn hazard and shows "
-                    "the inpainted fill"),
+          .describe(
+              "pass, when the hazard took over a real object (the renderer removed it): in every frame at "
+              "most this share of the real object's box is left uncovered by the drawn hazard and shows "
+              "the inpainted fill"),
       ParamSpec::string("file", "verification.json")
           .describe("summary written below the run's output folder"),
   };
@@ -165,7 +170,8 @@ double ClosedLoopVerifier::origin_offset(StageContext& ctx, const Inputs& in) co
 void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (const HazardTrajectory* tr = in.get<HazardTrajectory>("trajectory")) {
     trajectory_seen_ = true;
-    if (tr->spec.extra.is_object() && tr->spec.extra.contains("track_id") && tr->spec.extra["track_id"].is_number())
+    if (tr->spec.extra.is_object() && tr->spec.extra.contains("track_id") &&
+        tr->spec.extra["track_id"].is_number())
       planned_takeover_ = static_cast<int64_t>(tr->spec.extra["track_id"].get<double>());
     intended_traj_min_ = tr->intended_min_ttc_s;
     length_ = tr->size_lwh[0];
@@ -212,10 +218,10 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   }
   rec["state"] =
       match ? Json{{"track_id", match->track_id}, {"distance_m", maybe(match->distance_m)}} : Json();
-  // The inserted object's tracks: the state on its box, and every track that was on it in an earlier frame while
-  // it still overlaps it (min_iou_tracked). Close up a box cut by the image border and the projected 3D box
-  // part ways (IoU 0.1-0.4 on the KITTI raw clip) while the tracker keeps following the object, and a second
-  // track may start on it beside the first.
+  // The inserted object's tracks: the state on its box, and every track that was on it in an earlier frame
+  // while it still overlaps it (min_iou_tracked). Close up a box cut by the image border and the projected 3D
+  // box part ways (IoU 0.1-0.4 on the KITTI raw clip) while the tracker keeps following the object, and a
+  // second track may start on it beside the first.
   std::set<int64_t> hazard_tracks;
   if (match) hazard_tracks.insert(match->track_id);
   if (states)
@@ -312,8 +318,9 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   rec["labels"] = labels;
   rec["unsafe"] = unsafe;
   rec["hazard_is_critical"] = ttc && hazard_tracks.count(ttc->critical_track) > 0;
-  // Attribution: an Unsafe frame is the hazard's only when the hazard is the critical object and the plan also
-  // says it is critical there; otherwise it is an artefact (another road user, a tracking error) — spurious.
+  // Attribution: an Unsafe frame is the hazard's only when the hazard is the critical object and the plan
+  // also says it is critical there; otherwise it is an artefact (another road user, a tracking error) —
+  // spurious.
   const double threshold = ttc ? ttc->threshold : 1.5;
   const bool planned_critical = inst->intended_ttc_s < threshold + planned_tolerance_;
   bool attributed = false;
@@ -325,8 +332,8 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
       rec["attribution"] = "spurious: the inserted object is not the critical track";
     else
       rec["attribution"] = "spurious: the hazard's planned TTC " + num(inst->intended_ttc_s) +
-                           " s is not below the threshold " + num(threshold) + " s + " + num(planned_tolerance_) +
-                           " s";
+                           " s is not below the threshold " + num(threshold) + " s + " +
+                           num(planned_tolerance_) + " s";
   }
 
   if (inst->visible) {
@@ -416,8 +423,9 @@ Json ClosedLoopVerifier::summary() const {
   const double intended =
       std::isfinite(intended_visible_min_) ? intended_visible_min_ : intended_traj_min_.value_or(kInf);
   if (visible_ == 0 && !trajectory_seen_ && kind_.empty()) {
-    reasons.push_back("no hazard was inserted: no planned trajectory arrived (the generator or the planner "
-                      "produced none; the run's errors say why)");
+    reasons.push_back(
+        "no hazard was inserted: no planned trajectory arrived (the generator or the planner "
+        "produced none; the run's errors say why)");
   } else if (visible_ == 0) {
     reasons.push_back("the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
   } else if (rate < min_rate_) {
@@ -433,20 +441,21 @@ Json ClosedLoopVerifier::summary() const {
   }
   if (require_critical_ && visible_ > 0 && first_unsafe_frame_ && !first_unsafe_critical_frame_) {
     int other = 0, plan = 0;
-    for (const auto& [f, why] : spurious_frames_) (why.find("not the critical track") != std::string::npos ? other : plan)++;
-    reasons.push_back("none of the " + std::to_string(unsafe_frames_) +
-                      " Unsafe visible frames is the hazard's: " + std::to_string(other) +
-                      " with another object critical, " + std::to_string(plan) +
-                      " where the plan does not make the hazard critical (spurious Unsafe frames never pass)");
-  }
-  else if (require_critical_ && visible_ > 0 && !first_unsafe_frame_ && !require_unsafe_)
+    for (const auto& [f, why] : spurious_frames_)
+      (why.find("not the critical track") != std::string::npos ? other : plan)++;
+    reasons.push_back(
+        "none of the " + std::to_string(unsafe_frames_) + " Unsafe visible frames is the hazard's: " +
+        std::to_string(other) + " with another object critical, " + std::to_string(plan) +
+        " where the plan does not make the hazard critical (spurious Unsafe frames never pass)");
+  } else if (require_critical_ && visible_ > 0 && !first_unsafe_frame_ && !require_unsafe_)
     reasons.push_back(
         "the scene never becomes Unsafe while the hazard is visible, so the inserted object is never "
         "the cause (minimum scene TTC " +
         num(achieved_min_ttc_) + " s)");
   if (planned_takeover_ && !taken_track_ && visible_ > 0)
-    reasons.push_back("the hazard takes over track " + std::to_string(*planned_takeover_) +
-                      ", but the renderer never removed the real one: it stays in the video beside the hazard");
+    reasons.push_back(
+        "the hazard takes over track " + std::to_string(*planned_takeover_) +
+        ", but the renderer never removed the real one: it stays in the video beside the hazard");
   if (taken_track_ && taken_worst_ > max_takeover_uncovered_)
     reasons.push_back("the taken-over real object (track " + std::to_string(*taken_track_) +
                       ") is not hidden by the hazard drawn in its place: " + num(taken_worst_) +
