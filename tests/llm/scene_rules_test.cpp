@@ -59,7 +59,8 @@ TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
   const HazardTrajectory tr = trajectory("person", walk, kPerson);
   hazard::RoadModel road;
   SceneRules rules;
-  const auto errs = check_trajectory_rules(tr, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), road, sizes(), rules);
+  // The car's rear 37.75 m ahead (what distance_m measures): its centre at 40 m.
+  const auto errs = check_trajectory_rules(tr, scene_with({tracked(7, "car", 37.75, -3.5, 0.0)}), road, sizes(), rules);
   ASSERT_EQ(errs.size(), 1u);
   EXPECT_EQ(errs[0],
             "the planned path of the person runs into the tracked car (track 7, predicted at constant velocity): "

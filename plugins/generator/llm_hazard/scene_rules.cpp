@@ -174,7 +174,8 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
     // collision with anything planned in the next lane. People keep their velocity.
     const bool in_lane = is_vehicle(o.label);
     const double oh = cv::norm(v) > 0.5 ? std::atan2(v[1], v[0]) : 0.0;
-    const double x0 = o.distance_m + rules.distance_origin_x, y0 = o.lateral_m;
+    // distance_m reaches the face the camera sees; the footprint is placed by its centre, half its length on.
+    const double x0 = o.distance_m + rules.distance_origin_x + ol / 2.0, y0 = o.lateral_m;
     // A taken-over object starts where the real one is: a neighbour as close as the recording shows them is not a
     // collision; only coming closer than that is — sideways for one in the next lane (which may pass it), in
     // any direction for one in its own lane.

@@ -127,6 +127,7 @@ ProposalRequest proposal_request(const SceneSettings& s, const SceneContext& sce
   r.object_classes = s.rules.asset_classes;
   r.first_seen_max_height = s.rules.entry_max_height;
   r.may_take_over = s.rules.take_over_tracks;
+  r.distance_origin_x = s.rules.distance_origin_x;
   r.target_ttc_s = s.target_ttc_s;
   r.horizon_s = s.horizon_s;
   r.max_under_way_s = s.max_under_way_s;

@@ -71,9 +71,11 @@ ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tp
       speed = sc.ego_speed + (*o.velocity_rel)[0];
     else if (o.speed_mps && std::isfinite(*o.speed_mps))
       speed = *o.speed_mps;
-    sc.objects.push_back({o.track_id, o.label, o.distance_m, o.lateral_m,
-                          o.length_m > 0 ? o.length_m : prior.length, o.width_m > 0 ? o.width_m : prior.width,
-                          o.in_path, speed});
+    // distance_m reaches the face the camera sees (its rear, for an object ahead) from the request's origin:
+    // its centre is half its length further on, in the ego frame the templates plan in.
+    const double length = o.length_m > 0 ? o.length_m : prior.length;
+    sc.objects.push_back({o.track_id, o.label, o.distance_m + r.distance_origin_x + length / 2.0, o.lateral_m,
+                          length, o.width_m > 0 ? o.width_m : prior.width, o.in_path, speed});
   }
   return sc;
 }

@@ -173,6 +173,17 @@ double time_to_ttc(double gap0, const hazard::ProposalScene& sc, double v0, doub
   return kInf;
 }
 
+// "" or why an inserted lead of footprint `size` cannot start at (x0, y0): 2 m short of the tracked lead's rear,
+// in view, clear of the other tracked objects.
+std::string insert_problem(const hazard::ProposalScene& sc, const hazard::ProposalScene::Obj* lead, double x0,
+                           double y0, const hazard::Footprint& size) {
+  if (lead && x0 + size.length / 2.0 + 2.0 > lead->x - lead->length / 2.0)
+    return "no room to insert a lead vehicle before the " + lead->label + " at " + hazard::fmt1(lead->x) + " m";
+  if (!sc.visible(x0, y0))
+    return "the start point (" + hazard::fmt1(x0) + ", " + hazard::fmt1(y0) + ") m is outside the camera view";
+  return sc.overlap_problem(x0, y0, size);
+}
+
 bool is_vehicle(const std::string& c) {
   const auto classes = SuddenStopTemplate::info().object_classes;
   return std::find(classes.begin(), classes.end(), c) != classes.end();
@@ -201,7 +212,7 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
       request.class_allowed(lead->label) && lead->speed && *lead->speed >= 0.5 &&
       sc.limits.has(lead->label)) {
     const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(lead->label).max_decel_mps2, 0.1);
-    const double gap = lead->x - sc.ego_front;  // x: the face the estimator measured, its rear
+    const double gap = lead->x - lead->length / 2.0 - sc.ego_front;
     // It brakes after the drawn delay, or at once when only that brings the TTC down in time (a queue that is
     // slowing leaves little time).
     double brake_after = delay;
@@ -249,12 +260,7 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     if (t > sc.horizon - std::min(0.7, 0.3 * sc.horizon))
       return {nullptr, "a lead first seen small (from " + fmt1(small_from) + " m) cannot bring the TTC to " +
                            fmt1(ttc) + " s within the horizon"};
-    if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
-      return {nullptr,
-              "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
-    if (!sc.visible(x0, y0))
-      return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
-    if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
+    if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return {nullptr, p};
     // The spec states the manoeuvre's start: b s before, the gap was larger by what the ego closed since.
     const double gap_start = gap_now + sc.ego_speed * b - (v_start * b - decel * b * b / 2.0);
     Json spec = hazard::proposal_spec(kind, cls, front + gap_start, y0, "center", v_start, 0.0,
@@ -280,11 +286,7 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double y0 = d.uniform(-0.3, 0.3);
     if (time_to_ttc(gap_now, sc, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
       return {nullptr, "the stop would come too late within the horizon"};
-    if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
-      return {nullptr,
-              "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
-    if (!sc.visible(x0, y0))
-      return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
+    if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return {nullptr, p};
     Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
                                       "follows in the ego lane and is already braking hard when it appears",
                                       sc.target);
@@ -305,12 +307,7 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   if (x0 < 4.0 || x0 > 120.0) return {nullptr, "no start distance within [4, 120] m"};
   if (time_to_ttc(gap, sc, speed, delay, decel, ttc, sc.horizon) > sc.horizon - 0.7)
     return {nullptr, "the stop would come too late within the horizon"};
-  if (lead && x0 + (size.length + lead->length) / 2.0 + 2.0 > lead->x)
-    return {nullptr,
-            "no room to insert a lead vehicle before the " + lead->label + " at " + fmt1(lead->x) + " m"};
-  if (!sc.visible(x0, y0))
-    return {nullptr, "the start point (" + fmt1(x0) + ", " + fmt1(y0) + ") m is outside the camera view"};
-  if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
+  if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return {nullptr, p};
   Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
                                     "drives ahead in the ego lane, then brakes hard", sc.target);
   spec["deceleration_mps2"] = decel;

@@ -333,6 +333,9 @@ struct ProposalRequest {
   // Whether a hazard may take over a tracked object (extra.track_id): only when the renderer removes the real one.
   bool may_take_over = false;
   std::vector<int64_t> avoid_tracks;        // tracked objects not to take over (earlier attempts failed with them)
+  // Ego x (m, from the rear axle) that the scene objects' distance_m is measured from (ObjectStates::
+  // distance_origin_x: the camera, the bumper or the rear axle); distance_m reaches the face the camera sees.
+  double distance_origin_x = 0.0;
 
   bool class_allowed(const std::string& object_class) const;
 };

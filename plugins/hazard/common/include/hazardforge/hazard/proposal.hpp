@@ -38,8 +38,9 @@ struct ProposalScene {
   EgoPath ego = EgoPath::straight(0.0);
   // The ego's speed `t` s from now along that motion.
   double ego_speed_at(double t) const { return ego.is_recorded() ? ego.at(t).speed : ego_speed; }
-  // A tracked object with a distance: position (x along ego x, y left), footprint (measured, else its class's
-  // prior, else a car's), whether it is in the ego path and its absolute speed along the ego heading if known.
+  // A tracked object with a distance: position of its centre (x along ego x from the rear axle, y left),
+  // footprint (measured, else its class's prior, else a car's), whether it is in the ego path and its absolute
+  // speed along the ego heading if known.
   struct Obj {
     int64_t track_id;
     std::string label;
