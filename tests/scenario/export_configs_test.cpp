@@ -82,7 +82,8 @@ TEST_P(ShippedConfig, ExportsAValidScenarioWhoseHazardTheEgoMeets) {
   const fs::path cut = dir / (GetParam() + ".yaml");
   test::write_text(cut, export_only(config));
   const test::CommandResult r =
-      test::run_command("HAZARDFORGE_SHARED=" + test::quote(shared) + " " + test::quote(exe) + " run " +
+      test::run_command("HAZARDFORGE_SHARED=" + test::quote(shared) + " HAZARDFORGE_ASSETS=" +
+                        test::quote(HF_TEST_ASSETS_DIR) + " " + test::quote(exe) + " run " +
                         test::quote(cut) + " -o " + test::quote(dir / "run"));
   ASSERT_EQ(r.code, 0) << r.out;
   const fs::path xosc = dir / "run" / "scenario.xosc", xodr = dir / "run" / "scenario.xodr";
