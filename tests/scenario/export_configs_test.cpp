@@ -1,6 +1,7 @@
 // Every shipped scenario config exports a scenario and road that validate and whose hazard the ego meets.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -77,13 +78,14 @@ TEST_P(ShippedConfig, ExportsAValidScenarioWhoseHazardTheEgoMeets) {
   HF_REQUIRE_SHARED(shared / "models/yolov8n/yolov8n_deq_640x384.onnx");
   const fs::path exe = fs::path(HF_BINARY_DIR "/bin/hazardforge");
   ASSERT_TRUE(fs::exists(exe)) << exe;
+  // The configs name their harvested assets as ${HAZARDFORGE_ASSETS:-...}; cutting them expands it here.
+  ::setenv("HAZARDFORGE_ASSETS", HF_TEST_ASSETS_DIR, 1);
   const fs::path dir = test::unique_temp_dir();
   const fs::path config = test::source_dir() / "configs" / (GetParam() + ".yaml");
   const fs::path cut = dir / (GetParam() + ".yaml");
   test::write_text(cut, export_only(config));
   const test::CommandResult r =
-      test::run_command("HAZARDFORGE_SHARED=" + test::quote(shared) + " HAZARDFORGE_ASSETS=" +
-                        test::quote(HF_TEST_ASSETS_DIR) + " " + test::quote(exe) + " run " +
+      test::run_command("HAZARDFORGE_SHARED=" + test::quote(shared) + " " + test::quote(exe) + " run " +
                         test::quote(cut) + " -o " + test::quote(dir / "run"));
   ASSERT_EQ(r.code, 0) << r.out;
   const fs::path xosc = dir / "run" / "scenario.xosc", xodr = dir / "run" / "scenario.xodr";
