@@ -119,7 +119,7 @@ int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b) {
   GraphConfig cfg;
   Graph g;
   try {
-    g = load_graph(host, o.config, o.overrides, &cfg);
+    g = load_graph(host, o.config, o.overrides, &cfg, true, {}, o.set_base);
   } catch (const Error& e) {
     std::cerr << e.what() << "\n";
     return 1;

@@ -178,6 +178,7 @@ CampaignSpec load_campaign(const std::string& file) {
       fs::path c = expand_vars(r["config"].get<std::string>());
       if (c.is_relative()) c = s.file.parent_path() / c;
       rec.config = c.lexically_normal();
+      rec.set_base = fs::absolute(s.file).parent_path();
       if (!fs::exists(rec.config)) bad(ptr + "/config", "config " + rec.config.string() + " not found");
       if (r.contains("set")) {
         const Json& set = r["set"];
@@ -209,7 +210,7 @@ struct Scouted {
 Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec, const fs::path& dir,
               const CampaignOptions& o) {
   Scouted out;
-  Graph g = load_graph(host, rec.config, rec.set);
+  Graph g = load_graph(host, rec.config, rec.set, nullptr, true, {}, rec.set_base);
   const NodeSpec* gen = g.node("generator");
   const NodeSpec* ver = g.node("verifier");
   if (!gen || !ver)
@@ -234,6 +235,7 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
     RunRequest req;
     req.config = rec.config;
     req.overrides = rec.set;
+    req.overrides_dir = rec.set_base;
     req.output_dir = run_dir;
     req.progress = false;
     req.quiet = true;
@@ -512,12 +514,14 @@ std::vector<std::string> attempt_args(const CampaignOptions& o, const Pair& p, c
   for (const auto& pp : o.plugin_paths) args.insert(args.end(), {"--plugin-path", pp});
   args.insert(args.end(), {"run", p.rec->config.string(), "-o", a.dir.string(), "-q", "--overwrite", "--frames",
                            std::to_string(a.window.first) + ":" + std::to_string(a.window.last)});
+  args.insert(args.end(), {"--set-base", p.rec->set_base.string()});
   for (const std::string& s : p.rec->set) args.insert(args.end(), {"--set", s});
   args.insert(args.end(), {"--set", "generator.trigger=frame", "--set",
                            "generator.trigger_frame=" + std::to_string(a.window.trigger), "--set",
                            "generator.seed=" + std::to_string(a.seed), "--set", "generator.force_kind=" + p.kind,
                            "--set", "generator.kinds=[" + p.kind + "]"});
-  if (!feedback.empty()) args.insert(args.end(), {"--set", "generator.feedback=" + feedback.string()});
+  if (!feedback.empty())
+    args.insert(args.end(), {"--set", "generator.feedback=" + fs::absolute(feedback).string()});
   return args;
 }
 

@@ -57,6 +57,7 @@ RunRequest run_request(const CommonOptions& o) {
   RunRequest req;
   req.config = o.config;
   req.overrides = o.overrides;
+  req.overrides_dir = o.set_base;
   req.output_dir = o.output_dir;
   req.max_frames = o.max_frames;
   req.quiet = o.quiet;
@@ -165,7 +166,7 @@ int cmd_run(Host& host, const CommonOptions& o) {
 
 int cmd_validate(Host& host, const CommonOptions& o) {
   try {
-    Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins);
+    Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins, {}, o.set_base);
     for (const Diagnostic& w : g.warnings) std::cerr << w.str() << "\n";
     std::cout << o.config << ": ok (" << g.nodes.size() << " nodes)\n";
     return 0;
@@ -250,7 +251,7 @@ int cmd_inspect_all(Host& host, bool markdown) {
 
 int cmd_graph(Host& host, const CommonOptions& o) {
   try {
-    Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins);
+    Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins, {}, o.set_base);
     std::cout << g.to_dot();
     return 0;
   } catch (const Error& e) {

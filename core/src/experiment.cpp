@@ -187,7 +187,8 @@ int cmd_experiment(Host& /*host*/, const ExperimentOptions& o) {
       std::vector<std::string> args = {exe};
       for (const auto& p : o.plugin_paths) args.insert(args.end(), {"--plugin-path", p});
       // A run not completed (or forced) is re-run from scratch; its folder belongs to the new run.
-      args.insert(args.end(), {"run", base.string(), "-o", rdir.string(), "-q", "--overwrite"});
+      args.insert(args.end(), {"run", base.string(), "-o", rdir.string(), "-q", "--overwrite", "--set-base",
+                               std::filesystem::absolute(o.spec).parent_path().string()});
       for (const auto& s : r.overrides) args.insert(args.end(), {"--set", s});
       // The log stays beside the run folder while the run owns that folder, and moves into it afterwards.
       running[spawn_logged(args, log_while_running(dir, r.id))] = next;

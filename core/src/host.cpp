@@ -28,8 +28,9 @@ std::vector<std::string> Host::load_plugins(const std::vector<std::filesystem::p
 }
 
 Graph load_graph(Host& host, const std::filesystem::path& config, const std::vector<std::string>& overrides,
-                 GraphConfig* config_out, bool load_config_plugins, const std::vector<Json>& extra_nodes) {
-  GraphConfig cfg = load_graph_config(config, overrides);
+                 GraphConfig* config_out, bool load_config_plugins, const std::vector<Json>& extra_nodes,
+                 const std::filesystem::path& overrides_dir) {
+  GraphConfig cfg = load_graph_config(config, overrides, overrides_dir);
   if (!extra_nodes.empty() && cfg.doc.value.contains("nodes") && cfg.doc.value["nodes"].is_array())
     for (const Json& n : extra_nodes) cfg.doc.value["nodes"].push_back(n);
   std::vector<std::filesystem::path> config_paths;
@@ -186,7 +187,7 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   GraphConfig cfg;
   Graph graph;
   try {
-    graph = load_graph(host, req.config, req.overrides, &cfg, true, req.extra_nodes);
+    graph = load_graph(host, req.config, req.overrides, &cfg, true, req.extra_nodes, req.overrides_dir);
   } catch (const Error& e) {
     o.exit_code = 1;
     o.message = e.what();

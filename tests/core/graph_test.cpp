@@ -279,6 +279,44 @@ nodes:
   EXPECT_NE(e.find("'lanes'"), std::string::npos) << e;
 }
 
+TEST(Graph, RelativePathsFromTheCommandLineAreRelativeToWhereItWasTyped) {
+  const hf::test::TempDir tmp;
+  const std::filesystem::path dir = tmp.path() / "configs";
+  std::filesystem::create_directories(dir);
+  const auto file = dir / "paths.yaml";
+  std::ofstream(file) << R"(name: paths
+scene:
+  assets: {dir: ../assets}
+nodes:
+  - id: source
+    stage: test_source
+  - id: detector
+    stage: test_detector
+    inputs: {frames: source.frames}
+    params: {weights: models/w.onnx}
+)";
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  // Written in the file: left relative, the stage resolves it against the config's folder (Params::get_path).
+  Graph g = build_graph(load_graph_config(file), reg);
+  EXPECT_EQ(g.node("detector")->params["weights"], "models/w.onnx");
+  EXPECT_EQ(g.node("detector")->params["assets"], "../assets");
+  EXPECT_EQ(g.dir, std::filesystem::absolute(dir));
+  // Typed on the command line: relative to the folder it was typed in (or the one a campaign names).
+  const std::filesystem::path typed_in = tmp.path() / "elsewhere";
+  Graph g2 = build_graph(
+      load_graph_config(file, {"detector.weights=m/x.onnx", "scene.assets.dir=../mine", "detector.mode=accurate"},
+                        typed_in),
+      reg);
+  EXPECT_EQ(g2.node("detector")->params["weights"], (typed_in / "m/x.onnx").lexically_normal().string());
+  EXPECT_EQ(g2.node("detector")->params["assets"], (tmp.path() / "mine").lexically_normal().string());
+  EXPECT_EQ(g2.node("detector")->params["mode"], "accurate");  // not a path: untouched
+  Graph g3 = build_graph(load_graph_config(file, {"detector.weights=/abs/w.onnx", "detector.assets=a"}), reg);
+  EXPECT_EQ(g3.node("detector")->params["weights"], "/abs/w.onnx");
+  EXPECT_EQ(g3.node("detector")->params["assets"],
+            (std::filesystem::current_path() / "a").lexically_normal().string());
+}
+
 TEST(SceneBlock, AFactStatedTwiceAndUnknownKeysAreErrors) {
   const hf::test::TempDir tmp;
   const std::filesystem::path dir = tmp.path();

@@ -41,7 +41,7 @@ TEST(ShippedConfigs, CampaignsNameRunnableScenarioGraphs) {
       const CampaignSpec spec = load_campaign(e.path().string());
       for (const std::string& k : spec.kinds) EXPECT_NE(host.registry().find(kind::kHazardTemplate, k), nullptr) << k;
       for (const CampaignRecording& r : spec.recordings) {
-        const Graph g = load_graph(host, r.config, r.set);
+        const Graph g = load_graph(host, r.config, r.set, nullptr, true, {}, r.set_base);
         EXPECT_NE(g.node("generator"), nullptr) << r.name;
         EXPECT_NE(g.node("verifier"), nullptr) << r.name;
       }

@@ -17,6 +17,7 @@ struct CampaignRecording {
   std::string name;                   // path-safe; names its folders
   std::filesystem::path config;       // a scenario graph with nodes 'generator' and 'verifier'
   std::vector<std::string> set;       // overrides for this recording (source path, scene facts, ...)
+  std::filesystem::path set_base;     // relative paths in `set` refer to this (the campaign file's folder)
   SourceLocation where;               // in the campaign file
 };
 

@@ -12,6 +12,7 @@ namespace hf::core {
 struct CommonOptions {
   std::string config;
   std::vector<std::string> overrides;
+  std::string set_base;  // --set-base: the folder relative paths in --set values refer to (default: current)
   std::string output_dir;
   int64_t max_frames = -1;
   std::string frames;  // --frames FIRST:LAST, the recording's frame window

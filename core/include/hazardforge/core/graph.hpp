@@ -18,14 +18,18 @@ struct GraphConfig {
   YamlDocument doc;           // after overrides and ${VAR} expansion
   std::vector<std::filesystem::path> plugin_paths;
   std::vector<std::string> overrides;
+  std::filesystem::path overrides_dir;     // relative paths given by overrides resolve against this
   std::set<std::string> stage_overridden;  // node ids whose stage a --set NODE.stage=... replaced
   std::set<std::string> params_overridden;  // "node/param" a --set replaced (wins over the scene block)
 };
 
 // Reads the file, applies `--set node.key[.sub]=value` overrides (`--set node.stage=NAME` swaps the stage; the
 // node's params the new stage does not declare are then dropped with a warning) and expands ${VAR}/${VAR:-default} in every
-// string. Throws hf::DiagnosticError (all problems found) or hf::Error (unreadable file, YAML syntax).
-GraphConfig load_graph_config(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
+// string. A relative path in the file is relative to the file's folder; one given by an override is relative to
+// `overrides_dir` (empty = the current folder: what a user typed on the command line). Throws
+// hf::DiagnosticError (all problems found) or hf::Error (unreadable file, YAML syntax).
+GraphConfig load_graph_config(const std::filesystem::path& file, const std::vector<std::string>& overrides = {},
+                              const std::filesystem::path& overrides_dir = {});
 
 struct NodeSpec {
   std::string id;

@@ -44,6 +44,7 @@ enum class FolderUse {
 struct RunRequest {
   std::filesystem::path config;
   std::vector<std::string> overrides;
+  std::filesystem::path overrides_dir;  // relative paths in overrides resolve against it; empty = current folder
   std::filesystem::path output_dir;  // empty = runs/<config name, made path-safe>-<UTC time>
   int64_t max_frames = -1;
   int64_t first_frame = 0;  // the recording's frame window (RunOptions::first_frame / last_frame)
@@ -77,7 +78,7 @@ RunOutcome run_config(Host& host, const RunRequest& request);
 // its code, and validating or drawing a config someone sent must not.
 Graph load_graph(Host& host, const std::filesystem::path& config, const std::vector<std::string>& overrides,
                  GraphConfig* config_out = nullptr, bool load_config_plugins = true,
-                 const std::vector<Json>& extra_nodes = {});
+                 const std::vector<Json>& extra_nodes = {}, const std::filesystem::path& overrides_dir = {});
 
 // Node ids whose outputs `node` depends on, directly or not (not `node` itself), in the graph's order.
 std::vector<std::string> upstream_of(const Graph& graph, const std::string& node);
