@@ -160,6 +160,11 @@ TEST(Cli, GeneratedStageReferenceCoversEveryComponent) {
       ++n;
     }
   EXPECT_GE(n, 25);
+  // And it is exactly what the code declares today.
+  Cmd gen = run("inspect --all --markdown");
+  ASSERT_EQ(gen.code, 0) << gen.out;
+  EXPECT_TRUE(gen.out == doc) << "docs/stages.md differs from the stages' declarations: regenerate it with "
+                              << "`build/bin/hazardforge inspect --all --markdown > docs/stages.md`";
 }
 
 }  // namespace
