@@ -15,6 +15,7 @@ Outputs::~Outputs() = default;
 Component::~Component() = default;
 Stage::~Stage() = default;
 LlmProvider::~LlmProvider() = default;
+NoHazardFits::~NoHazardFits() = default;
 HazardTemplate::~HazardTemplate() = default;
 HazardCatalog::~HazardCatalog() = default;
 RandomDraw::~RandomDraw() = default;

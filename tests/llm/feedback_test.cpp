@@ -31,7 +31,7 @@ struct Generated {
 };
 Generated generate(const std::string& yaml, const Json& feedback = nullptr, bool with_lead = false) {
   test::TempDir dir;
-  std::string params = yaml;
+  std::string params = "trigger: frame\ntrigger_frame: 5\n" + yaml;  // as a campaign's attempt runs it
   if (!feedback.is_null()) {
     std::ofstream(dir / "feedback.json") << feedback.dump();
     params += "feedback: '" + (dir / "feedback.json").string() + "'\n";

@@ -189,7 +189,7 @@ TEST(LlmHazard, GivesUpWithTheLastErrors) {
   ScriptedServer srv("/api/chat");
   srv.then_ollama("I think a pedestrian would be nice.");
   srv.then_ollama("{\"kind\": \"pedestrian_crossing\"");
-  auto r = test::make_runner(ollama_yaml(srv.url(), "max_retries: 1\n"));
+  auto r = test::make_runner(ollama_yaml(srv.url(), "max_retries: 1\ntrigger: frame\ntrigger_frame: 5\n"));
   test::push_scene(r, 6, kDescription);
   EXPECT_EQ(run_error(r), "no valid hazard spec after 2 attempt(s) from ollama llama3 @ " + srv.url() +
                               "; last errors: reply JSON object is cut off: the '{' at character 0 is "
@@ -197,6 +197,57 @@ TEST(LlmHazard, GivesUpWithTheLastErrors) {
   EXPECT_TRUE(r.outputs("hazard").empty());
   EXPECT_FALSE(std::filesystem::exists(r.output_dir() / "hazard_spec.json"));
   EXPECT_EQ(test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl").size(), 2u);
+}
+
+TEST(LlmHazard, FirstSafeTriesALaterFrameWhenNoHazardFits) {
+  ScriptedServer srv("/api/chat");
+  srv.then_ollama("I think a pedestrian would be nice.");
+  srv.then_ollama("{\"kind\": \"pedestrian_crossing\"");
+  srv.then_ollama(test::valid_reply().dump());
+  // Frames every 0.5 s: frame 1 gets two invalid replies; the next try is the first Safe frame from t = 1.5 s
+  // on, and frame 3 is Unsafe, so frame 4.
+  auto r = test::make_runner(ollama_yaml(srv.url(), "max_retries: 1\nwarmup_frames: 1\nretry_every_s: 1.0\n"));
+  test::push_scene(r, 8, kDescription, {3});
+  r.run();
+  auto out = r.collect<HazardSpec>("hazard");
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_DOUBLE_EQ(r.outputs("hazard")[0].timestamp(), 2.0);
+  EXPECT_EQ(out[0].provenance["frame_index"], 4);
+  ASSERT_EQ(out[0].provenance["frames_without_a_fit"].size(), 1u);
+  EXPECT_EQ(out[0].provenance["frames_without_a_fit"][0]["frame_index"], 1);
+  EXPECT_NE(out[0].provenance["frames_without_a_fit"][0]["why"].get<std::string>().find(
+                "no valid hazard spec after 2 attempt(s)"),
+            std::string::npos);
+  const Json written = test::read_json(r.output_dir() / "hazard_spec.json");
+  EXPECT_EQ(written["provenance"]["frames_without_a_fit"], out[0].provenance["frames_without_a_fit"]);
+  const auto calls = test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl");
+  ASSERT_EQ(calls.size(), 3u);
+  EXPECT_EQ(calls[1]["frame_index"], 1);
+  EXPECT_EQ(calls[2]["frame_index"], 4);
+  const auto& log = r.log();
+  EXPECT_NE(std::find_if(log.begin(), log.end(),
+                         [](const std::string& l) {
+                           return l.rfind("warning: frame 1: no valid hazard spec after 2 attempt(s)", 0) == 0 &&
+                                  l.find("; trying a Safe frame from t = 1.5 s on") != std::string::npos;
+                         }),
+            log.end());
+}
+
+TEST(LlmHazard, FirstSafeStopsAfterMaxTriggerAttemptsAndSaysWhichFrames) {
+  ScriptedServer srv("/api/chat");
+  for (int i = 0; i < 2; ++i) srv.then_ollama("no JSON here");
+  auto r = test::make_runner(
+      ollama_yaml(srv.url(), "max_retries: 0\nwarmup_frames: 1\nretry_every_s: 0.5\nmax_trigger_attempts: 2\n"));
+  test::push_scene(r, 8, kDescription);
+  r.run();  // not a fault: the scene got no hazard, the run goes on
+  EXPECT_TRUE(r.outputs("hazard").empty());
+  EXPECT_EQ(srv.requests().size(), 2u);
+  EXPECT_FALSE(std::filesystem::exists(r.output_dir() / "hazard_spec.json"));
+  EXPECT_EQ(r.log().back().rfind("warning: no hazard generated: none fitted the scene at frame(s) 1, 2 (the last: "
+                                 "no valid hazard spec after 1 attempt(s)",
+                                 0),
+            0u)
+      << r.log().back();
 }
 
 TEST(LlmHazard, Http500FailsAtOnceWithTheServersWords) {

@@ -61,7 +61,8 @@ TEST(LlmLimits, AReplyNestedDeeperThanTheLimitIsRejectedBeforeParsing) {
   ScriptedServer srv("/api/chat");
   const int levels = 100000;
   srv.then_ollama(std::string(levels, '[') + std::string(levels, ']'));
-  auto r = test::make_runner("provider: {name: ollama, host: '" + srv.url() + "'}\nmax_retries: 0\n");
+  auto r = test::make_runner("provider: {name: ollama, host: '" + srv.url() +
+                             "'}\nmax_retries: 0\ntrigger: frame\ntrigger_frame: 5\n");
   test::push_scene(r, 6, kDescription);
   EXPECT_EQ(run_error(r), "no valid hazard spec after 1 attempt(s) from ollama llama3 @ " + srv.url() +
                               "; last errors: reply nests JSON 100000 levels deep (at most 64)");

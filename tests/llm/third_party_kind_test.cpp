@@ -74,7 +74,8 @@ TEST(ThirdPartyKind, ThePromptAndTheReplySchemaDescribeIt) {
 
 TEST(ThirdPartyKind, TheScenesConditionsApplyToIt) {
   // Without an oncoming lane the prompt says so, and the offline planner finds nothing to propose.
-  auto r = test::make_runner("kinds: [oncoming_overtaker]\nseed: 3\n", true, &register_overtaker);
+  auto r = test::make_runner("kinds: [oncoming_overtaker]\nseed: 3\ntrigger: frame\ntrigger_frame: 5\n", true,
+                             &register_overtaker);
   test::push_scene(r, 6, "city street");
   try {
     r.run();

@@ -85,6 +85,14 @@ ComponentInfo LlmHazardGenerator::describe() {
       ParamSpec::integer("warmup_frames", 5)
           .range(0, std::nullopt)
           .describe("frames skipped by first_safe so tracks have velocities"),
+      ParamSpec::number("retry_every_s", 1.0)
+          .range(0, 3600)
+          .describe("first_safe: when no hazard fits a Safe frame (the provider finds none, or every reply stays "
+                    "invalid), the first Safe frame this much later is tried, while at least 1 s of the clip is "
+                    "left; 0 = only the first Safe frame"),
+      ParamSpec::integer("max_trigger_attempts", 8)
+          .range(1, 1000)
+          .describe("first_safe: frames tried at most (each with up to 1 + max_retries provider calls)"),
       ParamSpec::string("environment", "").from_scene("environment")
           .describe("scene environment for the prompt; empty = dataset description"),
       ParamSpec::string("road_type", "").from_scene("road.type").describe("road type for the prompt, e.g. 'urban two-lane street'"),
@@ -314,7 +322,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     if (pk && !pk->empty()) risks.push_back(&pk->get<RiskAssessment>());
   const int64_t seen = frames_seen_++;
 
-  if (trigger_ == "first_safe" && seen < warmup_frames_) return;
+  if (trigger_ == "first_safe" && (seen < warmup_frames_ || frame.timestamp < next_try_s_ - 1e-9)) return;
   if (trigger_ == "frame" && frame.index != trigger_frame_) return;
   if (risks.empty())
     throw Error("frame " + std::to_string(frame.index) +
@@ -334,16 +342,54 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     return;
   }
 
-  std::optional<HazardSpec> spec = generate(ctx, frame, states, risks);
+  if (trigger_ == "first_safe" && !tried_.empty() && frame.stream_end && *frame.stream_end - frame.timestamp < 1.0) {
+    done_ = true;  // less than the shortest horizon left; finish() says what was tried
+    return;
+  }
+  std::optional<HazardSpec> spec;
+  try {
+    spec = generate(ctx, frame, states, risks);
+  } catch (const NoHazardFits& e) {
+    if (trigger_ == "frame") throw;
+    tried_.emplace_back(frame.index, e.what());
+    const Params& p = ctx.params();
+    const double every = p.get_double("retry_every_s");
+    if (every <= 0 || static_cast<int64_t>(tried_.size()) >= p.get_int("max_trigger_attempts")) {
+      done_ = true;  // finish() says what was tried
+      return;
+    }
+    next_try_s_ = frame.timestamp + every;
+    ctx.log(LogLevel::kWarning, "frame " + std::to_string(frame.index) + ": " + e.what() +
+                                    "; trying a Safe frame from t = " + num(next_try_s_) + " s on");
+    return;
+  }
   done_ = true;
   if (spec) {
+    emitted_ = true;
     spec->horizon_s = horizon_s_;
     spec->max_under_way_s = max_under_way_s_;
     out.emit("hazard", std::move(*spec));
   }
 }
 
+Json LlmHazardGenerator::frames_tried() const {
+  Json j = Json::array();
+  for (const auto& [f, why] : tried_) j.push_back({{"frame_index", f}, {"why", why}});
+  return j;
+}
+
+void LlmHazardGenerator::log_nothing_fitted(StageContext& ctx) const {
+  std::string frames;
+  for (const auto& [f, why] : tried_) frames += (frames.empty() ? "" : ", ") + std::to_string(f);
+  ctx.log(LogLevel::kWarning, "no hazard generated: none fitted the scene at frame(s) " + frames +
+                                  " (the last: " + tried_.back().second + ")");
+}
+
 void LlmHazardGenerator::finish(StageContext& ctx, Outputs&) {
+  if (!tried_.empty() && !emitted_) {
+    log_nothing_fitted(ctx);
+    return;
+  }
   if (done_) return;
   if (trigger_ == "frame")
     ctx.log(LogLevel::kWarning, "no hazard generated: frame " + std::to_string(trigger_frame_) +
@@ -526,6 +572,7 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                            {"sidewalks", s.sidewalks.value},
                            {"sidewalk_width_m", s.sidewalk_width_m},
                            {"pedestrians_without_sidewalks", s.pedestrians_without_sidewalks}}}};
+      if (!tried_.empty()) spec.provenance["frames_without_a_fit"] = frames_tried();
       Json written = spec;
       if (std::vector<std::string> bad = spec_validator_->validate(written); !bad.empty())
         throw Error("internal error: the accepted spec does not follow the schema: " + join(bad, "; "));
@@ -540,8 +587,8 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
       req.messages.push_back({"user", retry_prompt_->render({{"errors", bullet_list(errors)}})});
     }
   }
-  throw Error("no valid hazard spec after " + std::to_string(max_attempts) + " attempt(s) from " + backend +
-              "; last errors: " + join(errors, "; "));
+  throw NoHazardFits("no valid hazard spec after " + std::to_string(max_attempts) + " attempt(s) from " + backend +
+                     "; last errors: " + join(errors, "; "));
 }
 
 }  // namespace hf::llm_hazard

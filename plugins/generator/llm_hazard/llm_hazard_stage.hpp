@@ -27,13 +27,15 @@ Json template_params(const hazard::RoadModel& road, const hazard::TtcConventions
 // LlmHazardGenerator (stage "llm_hazard", kind generator).
 // Inputs: states (ObjectStates), risk (RiskAssessment, multi), frames (Frame).
 // Output: hazard (HazardSpec), emitted once, stamped with the trigger frame's timestamp.
-// Trigger: `first_safe` = the first frame after `warmup_frames` frames that every risk input labels Safe;
-// `frame` = the frame whose index is `trigger_frame` (if it is Unsafe nothing is generated; logged).
+// Trigger: `first_safe` = the first frame after `warmup_frames` frames that every risk input labels Safe and at
+// which a hazard fits: when none fits there (NoHazardFits), a Safe frame `retry_every_s` later is tried, at most
+// `max_trigger_attempts` frames and only while at least 1 s of the clip is left; `frame` = the frame whose index
+// is `trigger_frame` (if it is Unsafe nothing is generated, logged; if no hazard fits, the stage fails).
 // At the trigger the scene is summarised into the prompt (share/prompts/hazard_generation.md), the provider
 // (`provider: {name: ..., <its params>}`) answers, and the reply is extracted, validated against the hazard
 // spec schema, checked for physical feasibility and by the kind's hazard template. Invalid replies go back to
 // the model with the errors (share/prompts/hazard_retry.md), up to `max_retries` times; then the stage fails
-// with the last errors. Transport failures fail at once. Every call is appended to llm/calls.jsonl and the
+// with the last errors (NoHazardFits, see Trigger). Transport failures fail at once. Every call is appended to llm/calls.jsonl and the
 // accepted spec is written to hazard_spec.json in the run folder.
 class LlmHazardGenerator : public Stage {
  public:
@@ -53,6 +55,8 @@ class LlmHazardGenerator : public Stage {
                                      const std::vector<const RiskAssessment*>& risks);
   double ego_speed(const Frame& frame, const ObjectStates& states) const;
   double risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const;
+  Json frames_tried() const;                        // the first_safe frames where no hazard fitted, and why
+  void log_nothing_fitted(StageContext& ctx) const;
 
   std::unique_ptr<LlmProvider> provider_;
   std::string provider_name_;
@@ -80,6 +84,10 @@ class LlmHazardGenerator : public Stage {
   int64_t warmup_frames_ = 5;
   int64_t frames_seen_ = 0;
   bool done_ = false;
+  // first_safe: frames tried where no hazard fitted, why, and when the next try may come.
+  std::vector<std::pair<int64_t, std::string>> tried_;
+  double next_try_s_ = -1e300;
+  bool emitted_ = false;
   bool warned_skipped_ = false;
 };
 

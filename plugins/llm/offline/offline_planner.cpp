@@ -315,7 +315,7 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
   if (!chosen) {
     std::string why = join(problems, "; ");
     if (why.empty()) why = "no kind was offered";
-    throw Error("offline: no hazard fits this scene (allowed kinds: " + join(offered, ", ") + "): " + why);
+    throw NoHazardFits("offline: no hazard fits this scene (allowed kinds: " + join(offered, ", ") + "): " + why);
   }
   LlmReply reply;
   reply.content = chosen->dump(2);

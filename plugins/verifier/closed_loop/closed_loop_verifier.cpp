@@ -425,7 +425,7 @@ Json ClosedLoopVerifier::summary() const {
   if (visible_ == 0 && !trajectory_seen_ && kind_.empty()) {
     reasons.push_back(
         "no hazard was inserted: no planned trajectory arrived (the generator or the planner "
-        "produced none; the run's errors say why)");
+        "produced none; the run's log says why)");
   } else if (visible_ == 0) {
     reasons.push_back("the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
   } else if (rate < min_rate_) {
