@@ -239,7 +239,7 @@ ComponentInfo OfflinePlanner::describe() {
       "plan of each kind is chosen.";
   i.params = {
       ParamSpec::number("aim", 0.85).range(0.3, 1.0).describe("planned TTC as a fraction of target_ttc_s"),
-      ParamSpec::integer("candidates_per_kind", 12)
+      ParamSpec::integer("candidates_per_kind", 48)
           .range(1, 100)
           .describe("draws tried per kind before giving up"),
       ParamSpec::string_list("kind_order", {"pedestrian_crossing", "cut_in", "sudden_stop"})
