@@ -76,11 +76,15 @@ TEST(PaperEndToEnd, Scene0916ScenarioPassesVerification) {
   const Json tr = read_json_file(out / "trajectory.json");
   EXPECT_TRUE(tr["planner"]["feasible"].get<bool>());
   EXPECT_EQ(tr["kind"], spec["kind"]);
-  // Planned against the recorded ego track: the ego's planned speed follows the recording (it speeds up
-  // from 5.2 m/s on this stretch), unlike a constant-speed plan.
+  // Planned against the recorded ego track: the ego's planned speed follows the recording (between 5.2 and
+  // 6.1 m/s on this stretch), unlike a constant-speed plan.
   ASSERT_GE(tr["ego"].size(), 2u);
-  const double v0 = tr["ego"].front()["speed"].get<double>(), v1 = tr["ego"].back()["speed"].get<double>();
-  EXPECT_GT(std::abs(v1 - v0), 0.05) << v0 << " -> " << v1;
+  double vmin = kInf, vmax = -kInf;
+  for (const Json& e : tr["ego"]) {
+    vmin = std::min(vmin, e["speed"].get<double>());
+    vmax = std::max(vmax, e["speed"].get<double>());
+  }
+  EXPECT_GT(vmax - vmin, 0.3) << vmin << " .. " << vmax;
 
   // The exported scenario is valid ASAM OpenSCENARIO 1.2.
   const Cmd xsd = run_command("xmllint --noout --schema " + quote(shared / "schemas/OpenSCENARIOv1.2.xsd") +

@@ -117,7 +117,10 @@ TEST_P(ShippedConfig, ExportsAValidScenarioWhoseHazardTheEgoMeets) {
             << " s); ego x0.8: trigger " << slower.trigger_time << " s, min TTC " << slower.min_ttc
             << " s; x1.2: trigger " << faster.trigger_time << " s, min TTC " << faster.min_ttc << " s\n";
   EXPECT_TRUE(nominal.triggered);
-  EXPECT_NEAR(nominal.min_ttc, plan_min, 0.3);
+  // At least as critical as planned (within 0.3 s): the story goes on after the plan's end, so a person who
+  // stopped in the lane is met later still, closer than the plan's last moment.
+  EXPECT_LE(nominal.min_ttc, plan_min + 0.3);
+  EXPECT_LT(nominal.min_ttc, 1.5);
   for (const resim::Result* x : {&slower, &faster}) {
     EXPECT_TRUE(x->triggered);
     EXPECT_LT(x->min_ttc, 1.5);
