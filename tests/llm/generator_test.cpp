@@ -233,6 +233,51 @@ TEST(LlmHazard, FirstSafeTriesALaterFrameWhenNoHazardFits) {
             log.end());
 }
 
+// The recorded ego path turns at 0.3 rad/s until t = `turn_until`, then runs straight; 10 m/s, frames every 0.5 s.
+void push_turning_scene(testing::StageRunner& r, int n, double turn_until) {
+  auto track = std::make_shared<EgoTrack>();
+  track->source = "dataset";
+  for (int i = 0; i <= 2 * n; ++i) {
+    const double t = 0.25 * i;
+    track->samples.push_back({t, 10.0 * t, 0.0, 0.3 * std::min(t, turn_until), 10.0, t < turn_until ? 0.3 : 0.0});
+  }
+  for (int i = 0; i < n; ++i) {
+    const double t = 0.5 * i;
+    Frame f = test::make_frame(i, t, kDescription);
+    f.ego_track = track;
+    f.stream_end = 0.5 * (n - 1);
+    r.push("frames", f, t);
+    r.push("states", test::make_states(i, t), t);
+    r.push("risk", test::make_risk(i, true), t, "ttc");
+  }
+}
+
+TEST(LlmHazard, FirstSafeWaitsForAStraighterStretchOfTheEgoPath) {
+  // At t = 0.5 the path turns 0.3 rad/s x 1.5 s = 25.8 deg over the horizon (to the clip's end at 5 s); from
+  // t = 1.0 on at most 17.2 deg: frame 2. A path that turns until t = 4.5 looks straight only over the short
+  // horizons at the clip's end, which do not count.
+  auto r = test::make_runner("warmup_frames: 1\n");
+  push_turning_scene(r, 11, 2.0);
+  r.run();
+  const auto calls = test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl");
+  ASSERT_FALSE(calls.empty());
+  EXPECT_EQ(calls[0]["frame_index"], 2);
+  const auto& log = r.log();
+  EXPECT_NE(std::find(log.begin(), log.end(),
+                      "info: frame 1: the ego path turns 25.78 deg over the horizon (max_turn_deg 20); waiting for "
+                      "the straighter stretch from t = 1 s"),
+            log.end());
+  // A path that never straightens out: the first Safe frame, as without the rule; max_turn_deg 0: no rule.
+  for (const char* yaml : {"warmup_frames: 1\n", "warmup_frames: 1\nmax_turn_deg: 0\n"}) {
+    auto again = test::make_runner(yaml);
+    push_turning_scene(again, 11, 4.5);
+    again.run();
+    const auto c = test::read_jsonl(again.output_dir() / "llm" / "calls.jsonl");
+    ASSERT_FALSE(c.empty()) << yaml;
+    EXPECT_EQ(c[0]["frame_index"], 1) << yaml;
+  }
+}
+
 TEST(LlmHazard, FirstSafeStopsAfterMaxTriggerAttemptsAndSaysWhichFrames) {
   ScriptedServer srv("/api/chat");
   for (int i = 0; i < 2; ++i) srv.then_ollama("no JSON here");

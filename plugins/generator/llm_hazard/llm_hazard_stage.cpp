@@ -90,6 +90,13 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe("first_safe: when no hazard fits a Safe frame (the provider finds none, or every reply stays "
                     "invalid), the first Safe frame this much later is tried, while at least 1 s of the clip is "
                     "left; 0 = only the first Safe frame"),
+      ParamSpec::number("max_turn_deg", 20.0)
+          .range(0, 360)
+          .describe("first_safe: a Safe frame where the recorded ego path turns by more than this over the "
+                    "horizon is passed over while a later frame (with at least 3 s of the clip left, or this "
+                    "frame's horizon if shorter) turns less; "
+                    "hazards are laid out along the ego's path, and in a bend they leave the view or cross "
+                    "kerbs; 0 = no such rule (needs the recording's ego track)"),
       ParamSpec::integer("max_trigger_attempts", 8)
           .range(1, 1000)
           .describe("first_safe: frames tried at most (each with up to 1 + max_retries provider calls)"),
@@ -346,6 +353,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     done_ = true;  // less than the shortest horizon left; finish() says what was tried
     return;
   }
+  if (trigger_ == "first_safe" && turns_too_much(ctx, frame)) return;
   std::optional<HazardSpec> spec;
   try {
     spec = generate(ctx, frame, states, risks);
@@ -370,6 +378,42 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     spec->max_under_way_s = max_under_way_s_;
     out.emit("hazard", std::move(*spec));
   }
+}
+
+namespace {
+
+// How far the ego's recorded heading turns from t over the hazard's horizon (what is left of the clip, at most
+// 6 s, or the stated horizon), degrees.
+double turn_deg(const EgoTrack& track, double t, double end, double horizon_s) {
+  const double h = horizon_s > 0 ? horizon_s : std::clamp(end - t, 1.0, 6.0);
+  return std::abs(track.at(std::min(t + h, end)).yaw - track.at(t).yaw) * 180.0 / M_PI;
+}
+
+}  // namespace
+
+bool LlmHazardGenerator::turns_too_much(StageContext& ctx, const Frame& frame) {
+  const double max_turn = ctx.params().get_double("max_turn_deg");
+  if (max_turn <= 0 || !frame.ego_track || frame.ego_track->samples.size() < 2) return false;
+  const EgoTrack& track = *frame.ego_track;
+  const double end = frame.stream_end ? *frame.stream_end : track.samples.back().t;
+  const double horizon = ctx.params().get_double("horizon_s");
+  const double here = turn_deg(track, frame.timestamp, end, horizon);
+  if (here <= max_turn) return false;
+  // Passed over only when a later moment of the clip is straighter over a horizon that is not much shorter (at
+  // least 3 s, or this frame's if shorter): near the clip's end every short horizon looks straight.
+  const double need_left = horizon > 0 ? horizon : std::min(3.0, std::clamp(end - frame.timestamp, 1.0, 6.0));
+  for (const EgoTrackSample& s : track.samples) {
+    if (s.t <= frame.timestamp + 1e-9 || end - s.t < need_left - 1e-9) continue;
+    if (turn_deg(track, s.t, end, horizon) <= max_turn) {
+      if (!warned_turn_)
+        ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + ": the ego path turns " + num(here) +
+                                     " deg over the horizon (max_turn_deg " + num(max_turn) +
+                                     "); waiting for the straighter stretch from t = " + num(s.t) + " s");
+      warned_turn_ = true;
+      return true;
+    }
+  }
+  return false;
 }
 
 Json LlmHazardGenerator::frames_tried() const {

@@ -27,7 +27,8 @@ Json template_params(const hazard::RoadModel& road, const hazard::TtcConventions
 // LlmHazardGenerator (stage "llm_hazard", kind generator).
 // Inputs: states (ObjectStates), risk (RiskAssessment, multi), frames (Frame).
 // Output: hazard (HazardSpec), emitted once, stamped with the trigger frame's timestamp.
-// Trigger: `first_safe` = the first frame after `warmup_frames` frames that every risk input labels Safe and at
+// Trigger: `first_safe` = the first frame after `warmup_frames` frames that every risk input labels Safe, where
+// the recorded ego path turns at most `max_turn_deg` over the horizon (unless no later frame turns less), and at
 // which a hazard fits: when none fits there (NoHazardFits), a Safe frame `retry_every_s` later is tried, at most
 // `max_trigger_attempts` frames and only while at least 1 s of the clip is left; `frame` = the frame whose index
 // is `trigger_frame` (if it is Unsafe nothing is generated, logged; if no hazard fits, the stage fails).
@@ -55,6 +56,8 @@ class LlmHazardGenerator : public Stage {
                                      const std::vector<const RiskAssessment*>& risks);
   double ego_speed(const Frame& frame, const ObjectStates& states) const;
   double risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const;
+  // first_safe: whether this frame's ego path turns more than max_turn_deg while a later one turns less.
+  bool turns_too_much(StageContext& ctx, const Frame& frame);
   Json frames_tried() const;                        // the first_safe frames where no hazard fitted, and why
   void log_nothing_fitted(StageContext& ctx) const;
 
@@ -88,6 +91,7 @@ class LlmHazardGenerator : public Stage {
   std::vector<std::pair<int64_t, std::string>> tried_;
   double next_try_s_ = -1e300;
   bool emitted_ = false;
+  bool warned_turn_ = false;
   bool warned_skipped_ = false;
 };
 
