@@ -307,7 +307,8 @@ GraphConfig load_graph_config(const std::filesystem::path& file, const std::vect
   cfg.file = file;
   cfg.dir = std::filesystem::absolute(file).parent_path();
   cfg.overrides = overrides;
-  cfg.overrides_dir = std::filesystem::absolute(overrides_dir.empty() ? std::filesystem::current_path() : overrides_dir);
+  cfg.overrides_dir =
+      std::filesystem::absolute(overrides_dir.empty() ? std::filesystem::current_path() : overrides_dir);
   if (!std::filesystem::exists(file)) throw Error(file.string() + ": error: config file not found");
   cfg.doc = load_yaml_file(file.string());
   std::vector<Diagnostic> diags;
@@ -476,7 +477,8 @@ Graph build_graph(const GraphConfig& cfg, const ComponentRegistry& registry) {
     // A relative path in the config file is relative to the config's folder; one typed on the command line
     // (--set node.param=..., --set scene....) to the folder the command was typed in (cfg.overrides_dir).
     for (const ParamSpec& ps : info.params) {
-      if (ps.type != ParamType::kPath || !n.params.contains(ps.name) || !n.params[ps.name].is_string()) continue;
+      if (ps.type != ParamType::kPath || !n.params.contains(ps.name) || !n.params[ps.name].is_string())
+        continue;
       const auto loc = locs.find(ps.name);
       const std::string text = n.params[ps.name].get<std::string>();
       if (loc == locs.end() || loc->second.file.rfind("--set ", 0) != 0 || text.empty() ||

@@ -36,13 +36,15 @@ int main(int argc, char** argv) {
   CommonOptions common;
   auto add_config = [&](CLI::App* c) {
     c->add_option("config", common.config, "Graph config (YAML)")->required()->check(CLI::ExistingFile);
-    c->add_option("--set", common.overrides,
-                  "Override a param: node.param=value (repeatable; a relative path is relative to the current "
-                  "folder)")
+    c->add_option(
+         "--set", common.overrides,
+         "Override a param: node.param=value (repeatable; a relative path is relative to the current "
+         "folder)")
         ->type_name("NODE.PARAM=VALUE");
-    c->add_option("--set-base", common.set_base,
-                  "Folder that relative paths in --set values refer to instead (campaigns and experiments pass "
-                  "their file's folder)")
+    c->add_option(
+         "--set-base", common.set_base,
+         "Folder that relative paths in --set values refer to instead (campaigns and experiments pass "
+         "their file's folder)")
         ->type_name("DIR");
   };
 

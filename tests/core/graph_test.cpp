@@ -305,7 +305,8 @@ nodes:
   // Typed on the command line: relative to the folder it was typed in (or the one a campaign names).
   const std::filesystem::path typed_in = tmp.path() / "elsewhere";
   Graph g2 = build_graph(
-      load_graph_config(file, {"detector.weights=m/x.onnx", "scene.assets.dir=../mine", "detector.mode=accurate"},
+      load_graph_config(file,
+                        {"detector.weights=m/x.onnx", "scene.assets.dir=../mine", "detector.mode=accurate"},
                         typed_in),
       reg);
   EXPECT_EQ(g2.node("detector")->params["weights"], (typed_in / "m/x.onnx").lexically_normal().string());

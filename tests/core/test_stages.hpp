@@ -45,10 +45,12 @@ class TestDetector : public Detector {
   static ComponentInfo describe() {
     ComponentInfo i = base_info("test_detector", "synthetic detections");
     i.params = {ParamSpec::number("conf_threshold", 0.25).range(0, 1).describe("confidence"),
-                ParamSpec::integer("throw_at", -1), ParamSpec::integer("sleep_ms", 0).range(0, 1000),
+                ParamSpec::integer("throw_at", -1),
+                ParamSpec::integer("sleep_ms", 0).range(0, 1000),
                 ParamSpec::string("mode", "fast").one_of({"fast", "accurate"}),
                 ParamSpec::integer("lanes", 1).range(0, 5).from_scene("road.lanes_left"),
-                ParamSpec::path("weights", ""), ParamSpec::path("assets", "").from_scene("assets.dir")};
+                ParamSpec::path("weights", ""),
+                ParamSpec::path("assets", "").from_scene("assets.dir")};
     return i;
   }
   void open(StageContext& ctx) override {

@@ -206,7 +206,8 @@ TEST(LlmHazard, FirstSafeTriesALaterFrameWhenNoHazardFits) {
   srv.then_ollama(test::valid_reply().dump());
   // Frames every 0.5 s: frame 1 gets two invalid replies; the next try is the first Safe frame from t = 1.5 s
   // on, and frame 3 is Unsafe, so frame 4.
-  auto r = test::make_runner(ollama_yaml(srv.url(), "max_retries: 1\nwarmup_frames: 1\nretry_every_s: 1.0\n"));
+  auto r =
+      test::make_runner(ollama_yaml(srv.url(), "max_retries: 1\nwarmup_frames: 1\nretry_every_s: 1.0\n"));
   test::push_scene(r, 8, kDescription, {3});
   r.run();
   auto out = r.collect<HazardSpec>("hazard");
@@ -227,19 +228,22 @@ TEST(LlmHazard, FirstSafeTriesALaterFrameWhenNoHazardFits) {
   const auto& log = r.log();
   EXPECT_NE(std::find_if(log.begin(), log.end(),
                          [](const std::string& l) {
-                           return l.rfind("warning: frame 1: no valid hazard spec after 2 attempt(s)", 0) == 0 &&
+                           return l.rfind("warning: frame 1: no valid hazard spec after 2 attempt(s)", 0) ==
+                                      0 &&
                                   l.find("; trying a Safe frame from t = 1.5 s on") != std::string::npos;
                          }),
             log.end());
 }
 
-// The recorded ego path turns at 0.3 rad/s until t = `turn_until`, then runs straight; 10 m/s, frames every 0.5 s.
+// The recorded ego path turns at 0.3 rad/s until t = `turn_until`, then runs straight; 10 m/s, frames every
+// 0.5 s.
 void push_turning_scene(testing::StageRunner& r, int n, double turn_until) {
   auto track = std::make_shared<EgoTrack>();
   track->source = "dataset";
   for (int i = 0; i <= 2 * n; ++i) {
     const double t = 0.25 * i;
-    track->samples.push_back({t, 10.0 * t, 0.0, 0.3 * std::min(t, turn_until), 10.0, t < turn_until ? 0.3 : 0.0});
+    track->samples.push_back(
+        {t, 10.0 * t, 0.0, 0.3 * std::min(t, turn_until), 10.0, t < turn_until ? 0.3 : 0.0});
   }
   for (int i = 0; i < n; ++i) {
     const double t = 0.5 * i;
@@ -263,10 +267,11 @@ TEST(LlmHazard, FirstSafeWaitsForAStraighterStretchOfTheEgoPath) {
   ASSERT_FALSE(calls.empty());
   EXPECT_EQ(calls[0]["frame_index"], 2);
   const auto& log = r.log();
-  EXPECT_NE(std::find(log.begin(), log.end(),
-                      "info: frame 1: the ego path turns 25.78 deg over the horizon (max_turn_deg 20); waiting for "
-                      "the straighter stretch from t = 1 s"),
-            log.end());
+  EXPECT_NE(
+      std::find(log.begin(), log.end(),
+                "info: frame 1: the ego path turns 25.78 deg over the horizon (max_turn_deg 20); waiting for "
+                "the straighter stretch from t = 1 s"),
+      log.end());
   // A path that never straightens out: the first Safe frame, as without the rule; max_turn_deg 0: no rule.
   for (const char* yaml : {"warmup_frames: 1\n", "warmup_frames: 1\nmax_turn_deg: 0\n"}) {
     auto again = test::make_runner(yaml);
@@ -281,17 +286,18 @@ TEST(LlmHazard, FirstSafeWaitsForAStraighterStretchOfTheEgoPath) {
 TEST(LlmHazard, FirstSafeStopsAfterMaxTriggerAttemptsAndSaysWhichFrames) {
   ScriptedServer srv("/api/chat");
   for (int i = 0; i < 2; ++i) srv.then_ollama("no JSON here");
-  auto r = test::make_runner(
-      ollama_yaml(srv.url(), "max_retries: 0\nwarmup_frames: 1\nretry_every_s: 0.5\nmax_trigger_attempts: 2\n"));
+  auto r = test::make_runner(ollama_yaml(
+      srv.url(), "max_retries: 0\nwarmup_frames: 1\nretry_every_s: 0.5\nmax_trigger_attempts: 2\n"));
   test::push_scene(r, 8, kDescription);
   r.run();  // not a fault: the scene got no hazard, the run goes on
   EXPECT_TRUE(r.outputs("hazard").empty());
   EXPECT_EQ(srv.requests().size(), 2u);
   EXPECT_FALSE(std::filesystem::exists(r.output_dir() / "hazard_spec.json"));
-  EXPECT_EQ(r.log().back().rfind("warning: no hazard generated: none fitted the scene at frame(s) 1, 2 (the last: "
-                                 "no valid hazard spec after 1 attempt(s)",
-                                 0),
-            0u)
+  EXPECT_EQ(
+      r.log().back().rfind("warning: no hazard generated: none fitted the scene at frame(s) 1, 2 (the last: "
+                           "no valid hazard spec after 1 attempt(s)",
+                           0),
+      0u)
       << r.log().back();
 }
 

@@ -268,8 +268,9 @@ TEST(Verifier, NoPlannedHazardSaysSoInsteadOfNeverVisible) {
   }
   r.run();
   const Json s = r.collect<Record>("records").back().data;
-  EXPECT_EQ(s["reasons"], Json::array({"no hazard was inserted: no planned trajectory arrived (the generator or "
-                                       "the planner produced none; the run's log says why)"}));
+  EXPECT_EQ(s["reasons"],
+            Json::array({"no hazard was inserted: no planned trajectory arrived (the generator or "
+                         "the planner produced none; the run's log says why)"}));
   EXPECT_EQ(s["passed"], false);
 }
 

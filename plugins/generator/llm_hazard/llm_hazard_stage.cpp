@@ -87,9 +87,10 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe("frames skipped by first_safe so tracks have velocities"),
       ParamSpec::number("retry_every_s", 1.0)
           .range(0, 3600)
-          .describe("first_safe: when no hazard fits a Safe frame (the provider finds none, or every reply stays "
-                    "invalid), the first Safe frame this much later is tried, while at least 1 s of the clip is "
-                    "left; 0 = only the first Safe frame"),
+          .describe(
+              "first_safe: when no hazard fits a Safe frame (the provider finds none, or every reply stays "
+              "invalid), the first Safe frame this much later is tried, while at least 1 s of the clip is "
+              "left; 0 = only the first Safe frame"),
       ParamSpec::number("max_turn_deg", 20.0)
           .range(0, 360)
           .describe("first_safe: a Safe frame where the recorded ego path turns by more than this over the "
@@ -100,43 +101,65 @@ ComponentInfo LlmHazardGenerator::describe() {
       ParamSpec::integer("max_trigger_attempts", 8)
           .range(1, 1000)
           .describe("first_safe: frames tried at most (each with up to 1 + max_retries provider calls)"),
-      ParamSpec::string("environment", "").from_scene("environment")
+      ParamSpec::string("environment", "")
+          .from_scene("environment")
           .describe("scene environment for the prompt; empty = dataset description"),
-      ParamSpec::string("road_type", "").from_scene("road.type").describe("road type for the prompt, e.g. 'urban two-lane street'"),
-      ParamSpec::string("sidewalks", "auto").from_scene("road.sidewalks").one_of({"auto", "yes", "no"}).describe("pedestrians allowed"),
-      ParamSpec::string("intersection", "auto").from_scene("road.intersection")
+      ParamSpec::string("road_type", "")
+          .from_scene("road.type")
+          .describe("road type for the prompt, e.g. 'urban two-lane street'"),
+      ParamSpec::string("sidewalks", "auto")
+          .from_scene("road.sidewalks")
+          .one_of({"auto", "yes", "no"})
+          .describe("pedestrians allowed"),
+      ParamSpec::string("intersection", "auto")
+          .from_scene("road.intersection")
           .one_of({"auto", "yes", "no"})
           .describe("crossing vehicles allowed"),
-      ParamSpec::string("multi_lane", "auto").from_scene("road.multi_lane").one_of({"auto", "yes", "no"}).describe("cut-ins allowed"),
-      ParamSpec::number("sidewalk_width_m", 3.0).from_scene("road.sidewalk_width_m").range(0, 15).describe("sidewalk width beyond the road edge"),
+      ParamSpec::string("multi_lane", "auto")
+          .from_scene("road.multi_lane")
+          .one_of({"auto", "yes", "no"})
+          .describe("cut-ins allowed"),
+      ParamSpec::number("sidewalk_width_m", 3.0)
+          .from_scene("road.sidewalk_width_m")
+          .range(0, 15)
+          .describe("sidewalk width beyond the road edge"),
       ParamSpec::boolean("pedestrians_without_sidewalks", false)
           .describe("edge-case tests: a person may appear on a road without sidewalks, on the shoulder "
                     "(sidewalk_width_m beyond the road edge) — e.g. someone who left a broken-down car. "
                     "Relaxes the rule 'no pedestrians without sidewalks' explicitly; the prompt says so"),
-      ParamSpec::path("assets_dir", "").from_scene("assets.dir")
-          .describe("folder of appearance assets (assets.yaml) the renderer draws from; the hazard's class must "
-                    "have pictures there or in the default set (share/assets), which the renderer falls back to; "
-                    "empty = the default set"),
+      ParamSpec::path("assets_dir", "")
+          .from_scene("assets.dir")
+          .describe(
+              "folder of appearance assets (assets.yaml) the renderer draws from; the hazard's class must "
+              "have pictures there or in the default set (share/assets), which the renderer falls back to; "
+              "empty = the default set"),
       ParamSpec::path("feedback", "")
-          .describe("JSON file of failed attempts on this recording, {\"attempts\": [{\"kind\", \"object_class\", "
-                    "\"spec\" (or null), \"reasons\": [...], \"trigger_frame\", \"seed\"}]}: their reasons go into the "
-                    "prompt and into the scene context, where the offline planner avoids their designs and, after one "
-                    "that never became critical or was never re-detected, aims lower or picks larger, nearer "
-                    "objects; empty = none"),
+          .describe(
+              "JSON file of failed attempts on this recording, {\"attempts\": [{\"kind\", \"object_class\", "
+              "\"spec\" (or null), \"reasons\": [...], \"trigger_frame\", \"seed\"}]}: their reasons go into "
+              "the "
+              "prompt and into the scene context, where the offline planner avoids their designs and, after "
+              "one "
+              "that never became critical or was never re-detected, aims lower or picks larger, nearer "
+              "objects; empty = none"),
       ParamSpec::boolean("take_over_tracks", true)
-          .describe("a spec may take over a tracked object (extra.track_id, e.g. the real lead of a sudden stop): "
-                    "ar_renderer removes the real one and draws the hazard in its place, and the verifier fails a "
-                    "scenario where the drawn one does not hide it; false = such specs are refused (for a "
-                    "renderer that cannot remove objects)"),
+          .describe(
+              "a spec may take over a tracked object (extra.track_id, e.g. the real lead of a sudden stop): "
+              "ar_renderer removes the real one and draws the hazard in its place, and the verifier fails a "
+              "scenario where the drawn one does not hide it; false = such specs are refused (for a "
+              "renderer that cannot remove objects)"),
       ParamSpec::number("entry_max_height", 0.07)
           .range(0, 1)
-          .describe("a hazard that comes into view fully in the image, on the road and not hidden by a nearer "
-                    "tracked object must then be at most this tall (share of the image height): far enough to be "
-                    "first seen small, never popping up close ahead; 0 = no such rule"),
+          .describe(
+              "a hazard that comes into view fully in the image, on the road and not hidden by a nearer "
+              "tracked object must then be at most this tall (share of the image height): far enough to be "
+              "first seen small, never popping up close ahead; 0 = no such rule"),
       ParamSpec::number("entry_after_s", 0.5)
           .range(0, 3600)
-          .describe("entry_max_height applies to hazards that appear this long or more after the recording's first "
-                    "frame; one that appears earlier is there from the start of the video, as the real objects are"),
+          .describe(
+              "entry_max_height applies to hazards that appear this long or more after the recording's first "
+              "frame; one that appears earlier is there from the start of the video, as the real objects "
+              "are"),
       ParamSpec::number("clearance_m", 0.3)
           .range(0, 5)
           .describe("room the hazard's planned path keeps from every tracked object's predicted box (m)"),
@@ -148,9 +171,11 @@ ComponentInfo LlmHazardGenerator::describe() {
                     "horizon when the clip's end cut the horizon short, else 0"),
       ParamSpec::number("horizon_s", 0.0)
           .range(0, 60)
-          .describe("how long hazards are planned/replayed for the TTC check (templates' duration_s); 0 = what "
-                    "is left of the clip after the trigger (Frame::stream_end), at least 1 s and at most 6 s"),
-      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
+          .describe(
+              "how long hazards are planned/replayed for the TTC check (templates' duration_s); 0 = what "
+              "is left of the clip after the trigger (Frame::stream_end), at least 1 s and at most 6 s"),
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .from_scene("ego.speed_mps")
           .range(-1, 80)
           .describe("ego speed if the data has none; negative = from ObjectStates / Frame.ego"),
       ParamSpec::path("prompt_template", "")
@@ -349,7 +374,8 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     return;
   }
 
-  if (trigger_ == "first_safe" && !tried_.empty() && frame.stream_end && *frame.stream_end - frame.timestamp < 1.0) {
+  if (trigger_ == "first_safe" && !tried_.empty() && frame.stream_end &&
+      *frame.stream_end - frame.timestamp < 1.0) {
     done_ = true;  // less than the shortest horizon left; finish() says what was tried
     return;
   }
@@ -382,8 +408,8 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
 
 namespace {
 
-// How far the ego's recorded heading turns from t over the hazard's horizon (what is left of the clip, at most
-// 6 s, or the stated horizon), degrees.
+// How far the ego's recorded heading turns from t over the hazard's horizon (what is left of the clip, at
+// most 6 s, or the stated horizon), degrees.
 double turn_deg(const EgoTrack& track, double t, double end, double horizon_s) {
   const double h = horizon_s > 0 ? horizon_s : std::clamp(end - t, 1.0, 6.0);
   return std::abs(track.at(std::min(t + h, end)).yaw - track.at(t).yaw) * 180.0 / M_PI;
@@ -399,15 +425,15 @@ bool LlmHazardGenerator::turns_too_much(StageContext& ctx, const Frame& frame) {
   const double horizon = ctx.params().get_double("horizon_s");
   const double here = turn_deg(track, frame.timestamp, end, horizon);
   if (here <= max_turn) return false;
-  // Passed over only when a later moment of the clip is straighter over a horizon that is not much shorter (at
-  // least 3 s, or this frame's if shorter): near the clip's end every short horizon looks straight.
+  // Passed over only when a later moment of the clip is straighter over a horizon that is not much shorter
+  // (at least 3 s, or this frame's if shorter): near the clip's end every short horizon looks straight.
   const double need_left = horizon > 0 ? horizon : std::min(3.0, std::clamp(end - frame.timestamp, 1.0, 6.0));
   for (const EgoTrackSample& s : track.samples) {
     if (s.t <= frame.timestamp + 1e-9 || end - s.t < need_left - 1e-9) continue;
     if (turn_deg(track, s.t, end, horizon) <= max_turn) {
       if (!warned_turn_)
-        ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + ": the ego path turns " + num(here) +
-                                     " deg over the horizon (max_turn_deg " + num(max_turn) +
+        ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + ": the ego path turns " +
+                                     num(here) + " deg over the horizon (max_turn_deg " + num(max_turn) +
                                      "); waiting for the straighter stretch from t = " + num(s.t) + " s");
       warned_turn_ = true;
       return true;
@@ -631,8 +657,8 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
       req.messages.push_back({"user", retry_prompt_->render({{"errors", bullet_list(errors)}})});
     }
   }
-  throw NoHazardFits("no valid hazard spec after " + std::to_string(max_attempts) + " attempt(s) from " + backend +
-                     "; last errors: " + join(errors, "; "));
+  throw NoHazardFits("no valid hazard spec after " + std::to_string(max_attempts) + " attempt(s) from " +
+                     backend + "; last errors: " + join(errors, "; "));
 }
 
 }  // namespace hf::llm_hazard

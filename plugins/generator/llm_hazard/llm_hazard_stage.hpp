@@ -27,17 +27,18 @@ Json template_params(const hazard::RoadModel& road, const hazard::TtcConventions
 // LlmHazardGenerator (stage "llm_hazard", kind generator).
 // Inputs: states (ObjectStates), risk (RiskAssessment, multi), frames (Frame).
 // Output: hazard (HazardSpec), emitted once, stamped with the trigger frame's timestamp.
-// Trigger: `first_safe` = the first frame after `warmup_frames` frames that every risk input labels Safe, where
-// the recorded ego path turns at most `max_turn_deg` over the horizon (unless no later frame turns less), and at
-// which a hazard fits: when none fits there (NoHazardFits), a Safe frame `retry_every_s` later is tried, at most
-// `max_trigger_attempts` frames and only while at least 1 s of the clip is left; `frame` = the frame whose index
-// is `trigger_frame` (if it is Unsafe nothing is generated, logged; if no hazard fits, the stage fails).
-// At the trigger the scene is summarised into the prompt (share/prompts/hazard_generation.md), the provider
+// Trigger: `first_safe` = the first frame after `warmup_frames` frames that every risk input labels Safe,
+// where the recorded ego path turns at most `max_turn_deg` over the horizon (unless no later frame turns
+// less), and at which a hazard fits: when none fits there (NoHazardFits), a Safe frame `retry_every_s` later
+// is tried, at most `max_trigger_attempts` frames and only while at least 1 s of the clip is left; `frame` =
+// the frame whose index is `trigger_frame` (if it is Unsafe nothing is generated, logged; if no hazard fits,
+// the stage fails). At the trigger the scene is summarised into the prompt
+// (share/prompts/hazard_generation.md), the provider
 // (`provider: {name: ..., <its params>}`) answers, and the reply is extracted, validated against the hazard
 // spec schema, checked for physical feasibility and by the kind's hazard template. Invalid replies go back to
 // the model with the errors (share/prompts/hazard_retry.md), up to `max_retries` times; then the stage fails
-// with the last errors (NoHazardFits, see Trigger). Transport failures fail at once. Every call is appended to llm/calls.jsonl and the
-// accepted spec is written to hazard_spec.json in the run folder.
+// with the last errors (NoHazardFits, see Trigger). Transport failures fail at once. Every call is appended
+// to llm/calls.jsonl and the accepted spec is written to hazard_spec.json in the run folder.
 class LlmHazardGenerator : public Stage {
  public:
   static ComponentInfo describe();
@@ -58,7 +59,7 @@ class LlmHazardGenerator : public Stage {
   double risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const;
   // first_safe: whether this frame's ego path turns more than max_turn_deg while a later one turns less.
   bool turns_too_much(StageContext& ctx, const Frame& frame);
-  Json frames_tried() const;                        // the first_safe frames where no hazard fitted, and why
+  Json frames_tried() const;  // the first_safe frames where no hazard fitted, and why
   void log_nothing_fitted(StageContext& ctx) const;
 
   std::unique_ptr<LlmProvider> provider_;

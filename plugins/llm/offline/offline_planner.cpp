@@ -243,9 +243,10 @@ ComponentInfo OfflinePlanner::describe() {
           .range(1, 100)
           .describe("draws tried per kind before giving up"),
       ParamSpec::string_list("kind_order", {"pedestrian_crossing", "cut_in", "sudden_stop"})
-          .describe("kinds draw their plans in this order, the other allowed kinds after them in the generator's "
-                    "order; the order decides which random numbers each kind gets, so it is part of what a seed "
-                    "means"),
+          .describe(
+              "kinds draw their plans in this order, the other allowed kinds after them in the generator's "
+              "order; the order decides which random numbers each kind gets, so it is part of what a seed "
+              "means"),
   };
   return i;
 }
@@ -315,7 +316,8 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
   if (!chosen) {
     std::string why = join(problems, "; ");
     if (why.empty()) why = "no kind was offered";
-    throw NoHazardFits("offline: no hazard fits this scene (allowed kinds: " + join(offered, ", ") + "): " + why);
+    throw NoHazardFits("offline: no hazard fits this scene (allowed kinds: " + join(offered, ", ") +
+                       "): " + why);
   }
   LlmReply reply;
   reply.content = chosen->dump(2);

@@ -121,9 +121,10 @@ void bleed_colours(cv::Mat& bgr, const cv::Mat& alpha) {
 AssetIndex load_asset_index(const fs::path& dir) {
   const fs::path file = dir / kAssetIndexFile;
   if (!fs::exists(file))
-    throw Error(file.string() + ": error: asset index not found (assets_dir '" + dir.string() + "' holds no " +
-                kAssetIndexFile + "; write one with `hazardforge assets harvest -o " + dir.string() +
-                " --config configs/harvest_assets.yaml`, or leave scene.assets.dir unset for the default set)");
+    throw Error(
+        file.string() + ": error: asset index not found (assets_dir '" + dir.string() + "' holds no " +
+        kAssetIndexFile + "; write one with `hazardforge assets harvest -o " + dir.string() +
+        " --config configs/harvest_assets.yaml`, or leave scene.assets.dir unset for the default set)");
   const YamlDocument doc = load_yaml_file(file.string());
   IndexReader r(doc);
   const Json& root = doc.value;

@@ -4,16 +4,15 @@
 #include <opencv2/core/version.hpp>
 #include <nlohmann/json.hpp>
 
-// Major: a change that breaks plugins built for the previous version (a virtual function or a member added to a
-// class or struct that crosses the boundary: vtables and layouts differ); the host refuses them. Minor: additions
-// that plugins built for an older minor still work with (new free functions, new classes); a plugin needing a
-// newer minor is refused by an older host.
-// 2.0: HazardTemplate describes its kind and proposes plans (kind_info, propose), LlmRequest carries the
-// generator's HazardCatalog. 3.0: ProposalRequest, which the generator fills and templates read, carries the
-// scene's rules (first_seen_max_height, may_take_over). 4.0: HazardInstance (v3) says which real object the
-// hazard took over and how much of it had to be inpainted (TakenOver); ProposalRequest says where the scene's
-// object distances are measured from (distance_origin_x). 4.1: NoHazardFits, the exception a provider throws
-// when no hazard fits the scene.
+// Major: a change that breaks plugins built for the previous version (a virtual function or a member added to
+// a class or struct that crosses the boundary: vtables and layouts differ); the host refuses them. Minor:
+// additions that plugins built for an older minor still work with (new free functions, new classes); a plugin
+// needing a newer minor is refused by an older host. 2.0: HazardTemplate describes its kind and proposes
+// plans (kind_info, propose), LlmRequest carries the generator's HazardCatalog. 3.0: ProposalRequest, which
+// the generator fills and templates read, carries the scene's rules (first_seen_max_height,
+// may_take_over). 4.0: HazardInstance (v3) says which real object the hazard took over and how much of it had
+// to be inpainted (TakenOver); ProposalRequest says where the scene's object distances are measured from
+// (distance_origin_x). 4.1: NoHazardFits, the exception a provider throws when no hazard fits the scene.
 #define HF_SDK_ABI_MAJOR 4
 #define HF_SDK_ABI_MINOR 1
 #define HF_SDK_VERSION "0.1.0"

@@ -253,16 +253,17 @@ struct LlmReply {
   Json raw = Json::object();  // the full response body, for the run record
 };
 
-// Thrown by a provider (and by the generator after its retries) when no hazard fits the scene at this frame: a
-// verdict about the scene, not a fault. A generator that triggers on the first Safe frame tries a later frame.
+// Thrown by a provider (and by the generator after its retries) when no hazard fits the scene at this frame:
+// a verdict about the scene, not a fault. A generator that triggers on the first Safe frame tries a later
+// frame.
 class NoHazardFits : public Error {
  public:
   explicit NoHazardFits(const std::string& message) : Error(message) {}
   ~NoHazardFits() override;
 };
 
-// A text-generation backend. Throws hf::Error (with the endpoint and cause) on transport failures, NoHazardFits
-// when it knows that no hazard fits the scene (a planner without a model).
+// A text-generation backend. Throws hf::Error (with the endpoint and cause) on transport failures,
+// NoHazardFits when it knows that no hazard fits the scene (a planner without a model).
 class LlmProvider : public Component {
  public:
   ~LlmProvider() override;

@@ -23,12 +23,13 @@ struct GraphConfig {
   std::set<std::string> params_overridden;  // "node/param" a --set replaced (wins over the scene block)
 };
 
-// Reads the file, applies `--set node.key[.sub]=value` overrides (`--set node.stage=NAME` swaps the stage; the
-// node's params the new stage does not declare are then dropped with a warning) and expands ${VAR}/${VAR:-default} in every
-// string. A relative path in the file is relative to the file's folder; one given by an override is relative to
-// `overrides_dir` (empty = the current folder: what a user typed on the command line). Throws
-// hf::DiagnosticError (all problems found) or hf::Error (unreadable file, YAML syntax).
-GraphConfig load_graph_config(const std::filesystem::path& file, const std::vector<std::string>& overrides = {},
+// Reads the file, applies `--set node.key[.sub]=value` overrides (`--set node.stage=NAME` swaps the stage;
+// the node's params the new stage does not declare are then dropped with a warning) and expands
+// ${VAR}/${VAR:-default} in every string. A relative path in the file is relative to the file's folder; one
+// given by an override is relative to `overrides_dir` (empty = the current folder: what a user typed on the
+// command line). Throws hf::DiagnosticError (all problems found) or hf::Error (unreadable file, YAML syntax).
+GraphConfig load_graph_config(const std::filesystem::path& file,
+                              const std::vector<std::string>& overrides = {},
                               const std::filesystem::path& overrides_dir = {});
 
 struct NodeSpec {

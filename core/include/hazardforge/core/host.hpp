@@ -44,7 +44,8 @@ enum class FolderUse {
 struct RunRequest {
   std::filesystem::path config;
   std::vector<std::string> overrides;
-  std::filesystem::path overrides_dir;  // relative paths in overrides resolve against it; empty = current folder
+  std::filesystem::path
+      overrides_dir;                 // relative paths in overrides resolve against it; empty = current folder
   std::filesystem::path output_dir;  // empty = runs/<config name, made path-safe>-<UTC time>
   int64_t max_frames = -1;
   int64_t first_frame = 0;  // the recording's frame window (RunOptions::first_frame / last_frame)
