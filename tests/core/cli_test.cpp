@@ -82,6 +82,23 @@ TEST(Cli, RunWritesPlayableVideoJsonlAndManifest) {
   EXPECT_TRUE(std::filesystem::exists(out / "timing.md"));
 }
 
+// A path typed in --set is relative to the folder the command is typed in (or --set-base), not to the
+// config's.
+TEST(Cli, RelativeSetPathsAreRelativeToWhereTheCommandIsTyped) {
+  std::filesystem::current_path(hf::test::source_dir());
+  const auto out = std::filesystem::temp_directory_path() / ("hf_cli_set_base_" + std::to_string(::getpid()));
+  for (const std::string& base : {std::string(), std::string("/nonexistent/base")}) {
+    std::filesystem::remove_all(out);
+    Cmd c = run("run configs/examples/video_to_jsonl.yaml -o " + out.string() +
+                " --set source.path=no_such/clip.mp4" + (base.empty() ? "" : " --set-base " + base));
+    EXPECT_NE(c.code, 0);
+    const std::string expected =
+        ((base.empty() ? hf::test::source_dir() : std::filesystem::path(base)) / "no_such/clip.mp4").string();
+    EXPECT_NE(c.out.find("'" + expected + "' does not exist"), std::string::npos) << c.out;
+  }
+  std::filesystem::remove_all(out);
+}
+
 TEST(Cli, GraphDot) {
   std::filesystem::current_path(hf::test::source_dir());
   Cmd c = run("graph configs/examples/video_to_jsonl.yaml --dot");
