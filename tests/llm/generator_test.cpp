@@ -283,6 +283,44 @@ TEST(LlmHazard, FirstSafeWaitsForAStraighterStretchOfTheEgoPath) {
   }
 }
 
+// Sidewalks on auto with a scene text that says nothing about them: the people the recording shows decide.
+TEST(LlmHazard, PeopleTheRecordingShowsMeanSidewalks) {
+  auto sidewalks_line = [](const std::string& yaml, int person_frames) {
+    auto r = test::make_runner(yaml);
+    for (int i = 0; i < 6; ++i) {
+      const double t = 0.5 * i;
+      ObjectStates st = test::make_states(i, t);
+      if (i < person_frames) {
+        ObjectState p = st.objects.front();
+        p.track_id = 9;
+        p.label = "person";
+        p.distance_m = 25.0;
+        p.lateral_m = 6.0;
+        st.objects.push_back(p);
+      }
+      r.push("frames", test::make_frame(i, t, "a road"), t);
+      r.push("states", st, t);
+      r.push("risk", test::make_risk(i, true), t, "ttc");
+    }
+    try {
+      r.run();
+    } catch (const Error&) {  // no hazard may fit; the log line is what is checked
+    }
+    for (const std::string& l : r.log())
+      if (l.find("is Safe: generating a hazard (sidewalks") != std::string::npos)
+        return l.substr(l.find("(sidewalks") + 1, l.find("; intersection") - l.find("(sidewalks") - 1);
+    return std::string("(no generation)");
+  };
+  EXPECT_EQ(sidewalks_line("trigger: frame\ntrigger_frame: 5\n", 5),
+            "sidewalks yes, auto: the recording shows people (person track 9 followed for 2 s)");
+  EXPECT_EQ(sidewalks_line("trigger: frame\ntrigger_frame: 5\n", 2),
+            "sidewalks no, auto: nothing in the scene text suggests sidewalks");  // 0.5 s < people_seen_s 1 s
+  EXPECT_EQ(sidewalks_line("trigger: frame\ntrigger_frame: 5\npeople_seen_s: 0\n", 5),
+            "sidewalks no, auto: nothing in the scene text suggests sidewalks");
+  EXPECT_EQ(sidewalks_line("trigger: frame\ntrigger_frame: 5\nsidewalks: 'no'\n", 5),
+            "sidewalks no, set to no");
+}
+
 TEST(LlmHazard, FirstSafeStopsAfterMaxTriggerAttemptsAndSaysWhichFrames) {
   ScriptedServer srv("/api/chat");
   for (int i = 0; i < 2; ++i) srv.then_ollama("no JSON here");

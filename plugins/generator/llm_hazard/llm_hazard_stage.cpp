@@ -111,6 +111,12 @@ ComponentInfo LlmHazardGenerator::describe() {
           .from_scene("road.sidewalks")
           .one_of({"auto", "yes", "no"})
           .describe("pedestrians allowed"),
+      ParamSpec::number("people_seen_s", 1.0)
+          .range(0, 3600)
+          .describe(
+              "sidewalks: auto with no word for or against them in the scene text: people walk here when the "
+              "recording shows a person tracked for at least this long (up to the trigger frame); 0 = only "
+              "the scene text decides"),
       ParamSpec::string("intersection", "auto")
           .from_scene("road.intersection")
           .one_of({"auto", "yes", "no"})
@@ -354,6 +360,11 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     if (pk && !pk->empty()) risks.push_back(&pk->get<RiskAssessment>());
   const int64_t seen = frames_seen_++;
 
+  for (const ObjectState& o : states.objects) {  // people the recording shows, for the sidewalks' auto rule
+    if (o.label != "person" || o.track_id < 0) continue;
+    auto [it, added] = people_.try_emplace(o.track_id, std::make_pair(frame.timestamp, frame.timestamp));
+    if (!added) it->second.second = frame.timestamp;
+  }
   if (trigger_ == "first_safe" && (seen < warmup_frames_ || frame.timestamp < next_try_s_ - 1e-9)) return;
   if (trigger_ == "frame" && frame.index != trigger_frame_) return;
   if (risks.empty())
@@ -497,6 +508,17 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   if (s.road_type.empty()) s.road_type = "unknown";
   const std::string text = s.environment + " " + s.road_type + " " + s.description;
   s.sidewalks = resolve_sidewalks(p.get_string("sidewalks"), text);
+  if (const double seen_s = p.get_double("people_seen_s");
+      seen_s > 0 && p.get_string("sidewalks") == "auto" && !s.sidewalks.value &&
+      s.sidewalks.why.rfind("auto: nothing", 0) == 0) {
+    int64_t longest = -1;
+    double longest_s = 0;
+    for (const auto& [id, span] : people_)
+      if (span.second - span.first > longest_s) longest = id, longest_s = span.second - span.first;
+    if (longest >= 0 && longest_s >= seen_s - 1e-9)
+      s.sidewalks = {true, "auto: the recording shows people (person track " + std::to_string(longest) +
+                               " followed for " + num(longest_s) + " s)"};
+  }
   s.intersection = resolve_intersection(p.get_string("intersection"), text);
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
   s.allowed_kinds = allowed_kinds_;
