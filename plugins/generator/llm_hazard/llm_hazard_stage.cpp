@@ -93,11 +93,12 @@ ComponentInfo LlmHazardGenerator::describe() {
               "left; 0 = only the first Safe frame"),
       ParamSpec::number("max_turn_deg", 20.0)
           .range(0, 360)
-          .describe("first_safe: a Safe frame where the recorded ego path turns by more than this over the "
-                    "horizon is passed over while a later frame (with at least 3 s of the clip left, or this "
-                    "frame's horizon if shorter) turns less; "
-                    "hazards are laid out along the ego's path, and in a bend they leave the view or cross "
-                    "kerbs; 0 = no such rule (needs the recording's ego track)"),
+          .describe(
+              "first_safe: a Safe frame where the recorded ego path turns by more than this over the "
+              "horizon is passed over while a later frame (with at least 3 s of the clip left, or this "
+              "frame's horizon if shorter) turns less; hazards are laid out along the ego's path, and in "
+              "a bend they leave the view or cross kerbs; 0 = no such rule (needs the recording's ego "
+              "track)"),
       ParamSpec::integer("max_trigger_attempts", 8)
           .range(1, 1000)
           .describe("first_safe: frames tried at most (each with up to 1 + max_retries provider calls)"),
@@ -143,11 +144,9 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe(
               "JSON file of failed attempts on this recording, {\"attempts\": [{\"kind\", \"object_class\", "
               "\"spec\" (or null), \"reasons\": [...], \"trigger_frame\", \"seed\"}]}: their reasons go into "
-              "the "
-              "prompt and into the scene context, where the offline planner avoids their designs and, after "
-              "one "
-              "that never became critical or was never re-detected, aims lower or picks larger, nearer "
-              "objects; empty = none"),
+              "the prompt and into the scene context, where the offline planner avoids their designs and, "
+              "after one that never became critical or was never re-detected, aims lower or picks larger, "
+              "nearer objects; empty = none"),
       ParamSpec::boolean("take_over_tracks", true)
           .describe(
               "a spec may take over a tracked object (extra.track_id, e.g. the real lead of a sudden stop): "
@@ -162,10 +161,9 @@ ComponentInfo LlmHazardGenerator::describe() {
               "first seen small, never popping up close ahead; 0 = no such rule"),
       ParamSpec::number("entry_after_s", 0.5)
           .range(0, 3600)
-          .describe(
-              "entry_max_height applies to hazards that appear this long or more after the recording's first "
-              "frame; one that appears earlier is there from the start of the video, as the real objects "
-              "are"),
+          .describe("entry_max_height applies to hazards that appear this long or more after the recording's "
+                    "first frame; one that appears earlier is there from the start of the video, as the real "
+                    "objects are"),
       ParamSpec::number("clearance_m", 0.3)
           .range(0, 5)
           .describe("room the hazard's planned path keeps from every tracked object's predicted box (m)"),
