@@ -18,6 +18,12 @@ namespace hf::llm_hazard {
 
 namespace {
 
+// A hazard's horizon when none is stated: what is left of the clip after t, at least 1 s and at most 6 s.
+constexpr double kMinHorizonS = 1.0, kMaxHorizonS = 6.0;
+double clip_horizon(double end, double t) {
+  return std::clamp(end - t, kMinHorizonS, kMaxHorizonS);
+}
+
 std::string share_file(const Params& p, const std::string& param, const std::string& rel) {
   std::filesystem::path given = p.get_path(param);
   return given.empty() ? (std::filesystem::path(share_dir()) / rel).string() : given.string();
@@ -384,7 +390,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
   }
 
   if (trigger_ == "first_safe" && !tried_.empty() && frame.stream_end &&
-      *frame.stream_end - frame.timestamp < 1.0) {
+      *frame.stream_end - frame.timestamp < kMinHorizonS) {
     done_ = true;  // less than the shortest horizon left; finish() says what was tried
     return;
   }
@@ -420,7 +426,7 @@ namespace {
 // How far the ego's recorded heading turns from t over the hazard's horizon (what is left of the clip, at
 // most 6 s, or the stated horizon), degrees.
 double turn_deg(const EgoTrack& track, double t, double end, double horizon_s) {
-  const double h = horizon_s > 0 ? horizon_s : std::clamp(end - t, 1.0, 6.0);
+  const double h = horizon_s > 0 ? horizon_s : clip_horizon(end, t);
   return std::abs(track.at(std::min(t + h, end)).yaw - track.at(t).yaw) * 180.0 / M_PI;
 }
 
@@ -429,6 +435,7 @@ double turn_deg(const EgoTrack& track, double t, double end, double horizon_s) {
 bool LlmHazardGenerator::turns_too_much(StageContext& ctx, const Frame& frame) {
   const double max_turn = ctx.params().get_double("max_turn_deg");
   if (max_turn <= 0 || !frame.ego_track || frame.ego_track->samples.size() < 2) return false;
+  if (frame.timestamp < straight_from_ - 1e-9) return true;  // the straighter stretch found earlier is ahead
   const EgoTrack& track = *frame.ego_track;
   const double end = frame.stream_end ? *frame.stream_end : track.samples.back().t;
   const double horizon = ctx.params().get_double("horizon_s");
@@ -436,15 +443,19 @@ bool LlmHazardGenerator::turns_too_much(StageContext& ctx, const Frame& frame) {
   if (here <= max_turn) return false;
   // Passed over only when a later moment of the clip is straighter over a horizon that is not much shorter
   // (at least 3 s, or this frame's if shorter): near the clip's end every short horizon looks straight.
-  const double need_left = horizon > 0 ? horizon : std::min(3.0, std::clamp(end - frame.timestamp, 1.0, 6.0));
-  for (const EgoTrackSample& s : track.samples) {
-    if (s.t <= frame.timestamp + 1e-9 || end - s.t < need_left - 1e-9) continue;
+  const double need_left = horizon > 0 ? horizon : std::min(3.0, clip_horizon(end, frame.timestamp));
+  const auto later = std::upper_bound(track.samples.begin(), track.samples.end(), frame.timestamp + 1e-9,
+                                      [](double t, const EgoTrackSample& s) { return t < s.t; });
+  for (auto it = later; it != track.samples.end(); ++it) {
+    const EgoTrackSample& s = *it;
+    if (end - s.t < need_left - 1e-9) break;  // later samples leave even less
     if (turn_deg(track, s.t, end, horizon) <= max_turn) {
       if (!warned_turn_)
         ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + ": the ego path turns " +
                                      num(here) + " deg over the horizon (max_turn_deg " + num(max_turn) +
                                      "); waiting for the straighter stretch from t = " + num(s.t) + " s");
       warned_turn_ = true;
+      straight_from_ = s.t;
       return true;
     }
   }
@@ -539,8 +550,8 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                 " is unknown (neither ObjectStates nor the frame carry it); set param ego_speed_mps");
   if (p.get_double("horizon_s") <= 0 && frame.stream_end) {
     // What is left of the clip: a hazard planned beyond its end could never be seen.
-    const double left = std::clamp(*frame.stream_end - frame.timestamp, 1.0, 6.0);
-    const double under_way = p.get_double("max_under_way_s") < 0 ? 6.0 - left : max_under_way_s_;
+    const double left = clip_horizon(*frame.stream_end, frame.timestamp);
+    const double under_way = p.get_double("max_under_way_s") < 0 ? kMaxHorizonS - left : max_under_way_s_;
     if (std::abs(left - horizon_s_) > 1e-9 || std::abs(under_way - max_under_way_s_) > 1e-9) {
       horizon_s_ = left;
       max_under_way_s_ = under_way;

@@ -93,6 +93,7 @@ class LlmHazardGenerator : public Stage {
   double next_try_s_ = -1e300;
   bool emitted_ = false;
   bool warned_turn_ = false;
+  double straight_from_ = -1e300;  // first_safe: where the straighter stretch found by turns_too_much begins
   std::map<int64_t, std::pair<double, double>> people_;  // person tracks seen so far: first and last time
   bool warned_skipped_ = false;
 };
