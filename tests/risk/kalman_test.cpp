@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "hazardforge/estimation/keypoint_scale.hpp"
+#include "hazardforge/estimation/range_alignment.hpp"
 #include "hazardforge/estimation/track_filter.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "kalman_estimator.hpp"
@@ -221,6 +222,87 @@ TEST(KalmanEstimator, ALabelFlipNeitherResetsNorJumpsTheTtc) {
     const ObjectState* s = find(out[k], 1);
     ASSERT_TRUE(s && s->velocity_rel);
     EXPECT_NE(s->distance_method, "rejected") << "frame " << k;
+  }
+}
+
+// The learnt noise the estimator logs at the end of a run ("box edge jitter 0.4 px ...", "body pitch jitter
+// ...").
+double learnt(const std::vector<std::string>& log, const std::string& what) {
+  for (const std::string& line : log) {
+    const auto at = line.find(what);
+    if (at != std::string::npos) return std::stod(line.substr(at + what.size()));
+  }
+  ADD_FAILURE() << "no '" << what << "' in the log";
+  return -1.0;
+}
+
+TEST(KalmanEstimator, LearnsTheBoxJitterFromTheBoxesThemselves) {
+  // Stated 1.5 px; the boxes jitter by 0.3 px (label boxes) or 3 px (a coarse detector) on each edge.
+  auto x_of = [](double t) { return 40.0 - 5.0 * t; };
+  for (const double noise : {0.3, 3.0}) {
+    auto r = testing::StageRunner::create<KalmanEstimator>("keypoints: false");
+    for (const Step& s : lead_sequence(70, 0.1, 12.0, x_of, noise)) {
+      r.push("frames", s.frame, s.frame.timestamp);
+      r.push("tracks", s.tracks, s.frame.timestamp);
+    }
+    r.run();
+    // Each edge moves independently here (lead_sequence jitters y and height), so the edge jitter seen
+    // through the height is about noise x sqrt(1.5) / sqrt(2); between 0.6 and 1.4 times the edge noise
+    // either way.
+    const double j = learnt(r.log(), "box edge jitter ");
+    EXPECT_GT(j, 0.6 * noise) << "noise " << noise;
+    EXPECT_LT(j, 1.4 * noise + 0.1) << "noise " << noise;
+  }
+}
+
+TEST(RangeAlignment, RecoversAPitchOffsetAndAHeightScaleFromAnApproachingObject) {
+  // Ground cue g = a + b p: a pitch error of 0.3 deg with the camera 1.5 m up (a = tan / hc) and a class
+  // prior 8 % too tall (b = 1.08), the object approaching from 40 m to 8 m, 0.5 % noise on both cues.
+  const double a = std::tan(0.3 * 3.14159265358979 / 180.0) / 1.5, b = 1.08;
+  estimation::RangeAlignment fit(std::tan(0.5 * 3.14159265358979 / 180.0) / 1.5, 0.12);
+  cv::RNG rng(11);
+  for (int k = 0; k < 60; ++k) {
+    const double z = 40.0 - 32.0 * k / 59.0;
+    const double p = 1.0 / z * (1.0 + rng.gaussian(0.005)), g = a + b / z * (1.0 + rng.gaussian(0.005));
+    fit.add(g, p, std::pow(0.005 / z, 2), std::pow(0.005 / z, 2));
+  }
+  EXPECT_NEAR(fit.offset(), a, 0.15 * a);
+  EXPECT_NEAR(fit.scale(), b, 0.02);
+  for (const double z : {10.0, 25.0, 40.0}) EXPECT_NEAR(1.0 / fit.to_pinhole(a + b / z), z, 0.02 * z);
+  // A track relabelled to a class half as tall: its pinhole ranges halve, so the ground cue maps onto them.
+  fit.rescale_pinhole(0.5);
+  EXPECT_NEAR(1.0 / fit.to_pinhole(a + b / 20.0), 10.0, 0.3);
+}
+
+TEST(KalmanEstimator, TheBodysPitchingDoesNotReadAsAClosingSpeed) {
+  // Ego at 10 m/s, lead at 6 m/s from 35 m, a second car in the next lane at the ego's speed; the body
+  // pitches by +-0.4 deg with a 1.2 s period, which moves every box up and down by the same rows. The
+  // ground-contact range swings by metres at 20-30 m; the closing speed must not.
+  const CameraModel cam = front_camera();
+  cv::RNG rng(5);
+  std::vector<Step> seq;
+  for (int k = 0; k < 60; ++k) {
+    const double t = 0.1 * k;
+    const double pitch = 0.4 * std::sin(2.0 * 3.14159265358979 * t / 1.2) * 3.14159265358979 / 180.0;
+    const float dy = static_cast<float>(cam.fy * std::tan(pitch));
+    Step s{frame_at(k, t, cam, 10.0), {}};
+    s.tracks.frame_index = k;
+    cv::Rect2f lead = box_of(cam, 35.0 - 4.0 * t, 0.2, kCarH, kCarW);
+    cv::Rect2f side = box_of(cam, 18.0, 3.6, kCarH, kCarW);
+    for (cv::Rect2f* b : {&lead, &side}) {
+      b->y += dy + static_cast<float>(rng.gaussian(0.4));
+      b->height += static_cast<float>(rng.gaussian(0.4));
+    }
+    s.tracks.items = {track(1, "car", lead), track(2, "car", side)};
+    seq.push_back(std::move(s));
+  }
+  const auto out = run_kalman("keypoints: false", seq);
+  for (size_t k = 20; k < out.size(); ++k) {
+    const ObjectState* lead = find(out[k], 1);
+    const ObjectState* side = find(out[k], 2);
+    ASSERT_TRUE(lead && side && lead->velocity_rel && side->velocity_rel) << "frame " << k;
+    EXPECT_NEAR((*lead->velocity_rel)[0], -4.0, 1.0) << "frame " << k;
+    EXPECT_NEAR((*side->velocity_rel)[0], 0.0, 1.0) << "frame " << k;
   }
 }
 

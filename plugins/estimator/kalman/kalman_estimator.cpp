@@ -43,11 +43,18 @@ ComponentInfo KalmanEstimator::describe() {
       "Predicted "
       "with constant velocity and moved by the ego's motion between frames (dataset poses; else ego speed "
       "and "
-      "yaw rate; else the velocity is relative to the ego). Range measurement: the pinhole depth fy*H/h "
-      "(error "
-      "from height_rel_sd and box_jitter_px) and the ground-contact depth (error from box_jitter_px, "
-      "pitch_sd_deg and ground_height_sd, growing with the square of the distance) fused by inverse "
-      "variance; a "
+      "yaw rate; else the velocity is relative to the ego). Range measurement: the pinhole depth fy*H/h and "
+      "the "
+      "ground-contact depth; per track the ground cue's inverse depth is fitted as a + b x the pinhole's "
+      "(pitch "
+      "offset a, scale b; priors from pitch_sd_deg, height_rel_sd and ground_height_sd), mapped onto the "
+      "pinhole "
+      "scale, cleared of the frame's common offset (the body's pitch: the median residual of the frame's "
+      "tracks) and fused by the cues' frame-to-frame noise. That noise is learnt from the recording: the box "
+      "edge jitter from the second difference of 1/h over consecutive boxes (prior box_jitter_px), the "
+      "ground "
+      "cue's from the residuals and their lag correlation (prior pitch_jitter_deg); the log ends with both. "
+      "A "
       "box touching the top or bottom border gives no pinhole range, one touching the bottom no ground "
       "range. "
       "Updates are gated (99.9 % Mahalanobis gate, and the class's max speed from share/hazard_limits.yaml); "
@@ -58,8 +65,8 @@ ComponentInfo KalmanEstimator::describe() {
       "relabelled (car -> truck) is rescaled by the ratio of the class heights, so its TTC does not jump. "
       "Process noise: accel_sd_fraction x the class's max acceleration. Velocity, heading and scale_rate are "
       "reported after min_updates measurements (from the first, with the prior's wide covariance, by "
-      "default); a "
-      "track is reported until max_gap_s after its last accepted measurement; the state's covariance goes "
+      "default); "
+      "a track is reported until max_gap_s after its last accepted measurement; the state's covariance goes "
       "into ObjectState::covariance.";
   i.params = {
       ParamSpec::path("class_sizes", "")
@@ -69,8 +76,15 @@ ComponentInfo KalmanEstimator::describe() {
       ParamSpec::number("height_rel_sd", 0.10)
           .range(0, 1)
           .describe("relative spread of a class's real height"),
-      ParamSpec::number("box_jitter_px", 1.5).range(0, 100).describe("detector jitter of a box edge (px)"),
+      ParamSpec::number("box_jitter_px", 1.5)
+          .range(0, 100)
+          .describe("detector jitter of a box edge (px): the prior until the boxes' own frame-to-frame noise "
+                    "measures it"),
       ParamSpec::number("pitch_sd_deg", 0.5).range(0, 10).describe("uncertainty of the camera pitch (deg)"),
+      ParamSpec::number("pitch_jitter_deg", 0.25)
+          .range(0, 10)
+          .describe("frame-to-frame pitch of the vehicle body (deg): the prior until the tracks' ground and "
+                    "pinhole ranges measure it"),
       ParamSpec::number("ground_height_sd", 0.1)
           .range(0, 5)
           .describe("road surface height at the object relative to the ego's ground plane (m, 1 sigma)"),
@@ -141,6 +155,24 @@ void KalmanEstimator::open(StageContext& ctx) {
   corridor_ = Corridor::from(p);
   tracks_.clear();
   keypoints_ = estimation::KeypointScaleTracker();
+  jitter_ = estimation::RobustSpread();
+  pitch_rows_ = estimation::RobustSpread();
+  lag_products_ = estimation::LagCorrelation();
+  noise_rows2_ = 0.0;
+  cfg_.pitch_jitter_deg = p.get_double("pitch_jitter_deg");
+}
+
+void KalmanEstimator::finish(StageContext& ctx, Outputs& /*out*/) {
+  using hazard::num;
+  std::string msg = "noise learnt from the recording: box edge jitter " + num(box_jitter_px(), 2) +
+                    " px (stated " + num(cfg_.box_jitter_px, 2) + ", " + std::to_string(jitter_.size()) +
+                    " box triples)";
+  if (last_camera_)
+    msg += ", ground-contact noise as a pitch " + num(pitch_jitter_deg(*last_camera_), 2) +
+           " deg (body pitch, slopes, occluded box bottoms; stated " + num(cfg_.pitch_jitter_deg, 2) + ", " +
+           std::to_string(pitch_rows_.size()) + " ground/pinhole residuals, lag correlation " +
+           num(std::clamp(lag_products_.correlation(), 0.0, 0.9), 2) + ")";
+  ctx.log(LogLevel::kInfo, msg);
 }
 
 void KalmanEstimator::drop_shadowed(ObjectStates& out) const {
@@ -167,6 +199,112 @@ void KalmanEstimator::drop_shadowed(ObjectStates& out) const {
     if (!shadowed) kept.push_back(s);
   }
   out.objects = std::move(kept);
+}
+
+estimation::RangeAlignment KalmanEstimator::new_alignment(const CameraModel& cam) const {
+  // Offset: a pitch error of pitch_sd_deg moves the horizon by fy tan(pitch), i.e. the ground cue's inverse
+  // depth by tan(pitch) / hc. Scale: the class height's spread and a road surface off the ego's plane (dz /
+  // hc).
+  const double hc = std::max(cam.height_above_ground(), 0.1);
+  const double offset_sd = std::tan(cfg_.pitch_sd_deg * kDeg) / hc;
+  const double g = cfg_.ground_height_sd / hc;
+  return estimation::RangeAlignment(offset_sd, std::sqrt(cfg_.height_rel_sd * cfg_.height_rel_sd + g * g));
+}
+
+double KalmanEstimator::ground_offset_of_frame(const CameraModel& cam, const Tracks& tracks,
+                                               const cv::Size& image_size, const Config& live,
+                                               double frame_t) {
+  Config boxes_only = live;  // the residuals' share of box noise, without the pitch jitter being learnt
+  boxes_only.pitch_jitter_deg = 0.0;
+  // The ego's body pitches on every bump and brake, and the horizon row with it: every object's ground cue in
+  // this frame is off by the same inverse depth (a row offset dv moves 1/z by dv / (fy hc) whatever the
+  // distance). Each established track's residual against its own fit, g - a - b p, measures that offset;
+  // their weighted median is removed from every ground cue of the frame. (One track alone then agrees with
+  // itself: a frame's pitch and a track's range cannot be told apart from one object.)
+  std::vector<std::pair<double, double>> res;  // residual, weight
+  for (const Track& tr : tracks.items) {
+    if (tr.misses != 0 || !priors_.has(tr.label)) continue;
+    const auto m = tracks_.find(tr.id);
+    if (m == tracks_.end() || m->second.label != tr.label || m->second.alignment.frames() < 3) continue;
+    const unsigned truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
+    const RangeCue c = range_cue(cam, tr.box, truncated, priors_.at(tr.label).height, boxes_only);
+    if (!c.pinhole_depth || !c.ground_depth) continue;
+    const estimation::RangeAlignment& al = m->second.alignment;
+    const double zg = *c.ground_depth, zp = *c.pinhole_depth;
+    const double var = c.ground_noise_var / std::pow(zg, 4) +
+                       al.scale() * al.scale() * c.pinhole_noise_var / std::pow(zp, 4);
+    if (!(var > 0)) continue;
+    const double rho = 1.0 / zg - al.offset() - al.scale() / zp;
+    res.emplace_back(rho, 1.0 / var);
+    // The same residual in image rows, without the box noise it carries, teaches the body's pitch jitter.
+    const double row = cam.fy * cam.height_above_ground();
+    const double noise_rows2 = var * row * row;
+    pitch_rows_.add(rho * row);
+    // Consecutive residuals of one track: the body's pitch moves in slow waves, and noise that persists over
+    // frames averages out far less than white noise.
+    TrackMemory& mem = m->second;
+    if (mem.last_residual_rows && mem.last_residual_t < frame_t)
+      lag_products_.add_pair(*mem.last_residual_rows, rho * row);
+    mem.last_residual_rows = rho * row;
+    mem.last_residual_t = frame_t;
+    noise_rows2_ +=
+        (noise_rows2 - noise_rows2_) / static_cast<double>(std::min<std::size_t>(pitch_rows_.size(), 400));
+  }
+  if (res.empty()) return 0.0;
+  std::sort(res.begin(), res.end());
+  double total = 0.0;
+  for (const auto& r : res) total += r.second;
+  double acc = 0.0;
+  for (const auto& r : res) {
+    acc += r.second;
+    if (acc >= total / 2) return r.first;
+  }
+  return res.back().first;
+}
+
+void KalmanEstimator::learn_jitter(TrackMemory& mem, const Track& tr, unsigned truncated, double t) {
+  // Three consecutive whole boxes at even spacing: the second difference of 1/h is zero for an object closing
+  // at constant speed (h = fy H / z), so h^2 times it is the box height's noise: variance 6 x (2 x edge
+  // jitter^2).
+  const bool whole = !(truncated & (truncation::kTop | truncation::kBottom)) && tr.box.height > 1.0f;
+  if (tr.misses != 0 || !whole || mem.label != tr.label) {
+    mem.heights = 0;
+    return;
+  }
+  if (mem.heights > 0 && !(t > mem.height_t[mem.heights - 1])) return;
+  if (mem.heights == 3) {
+    std::rotate(mem.height.begin(), mem.height.begin() + 1, mem.height.end());
+    std::rotate(mem.height_t.begin(), mem.height_t.begin() + 1, mem.height_t.end());
+    mem.heights = 2;
+  }
+  mem.height[mem.heights] = tr.box.height;
+  mem.height_t[mem.heights] = t;
+  ++mem.heights;
+  if (mem.heights < 3) return;
+  const double d1 = mem.height_t[1] - mem.height_t[0], d2 = mem.height_t[2] - mem.height_t[1];
+  if (std::abs(d1 - d2) > 0.2 * std::max(d1, d2)) return;
+  const double h = mem.height[1];
+  jitter_.add(h * h * (1.0 / mem.height[0] - 2.0 / mem.height[1] + 1.0 / mem.height[2]) / std::sqrt(12.0));
+}
+
+double KalmanEstimator::box_jitter_px() const {
+  return std::max(jitter_.blended(cfg_.box_jitter_px, kPriorSamples), 0.1);
+}
+
+double KalmanEstimator::pitch_jitter_deg(const CameraModel& cam) const {
+  const double prior = cfg_.pitch_jitter_deg;
+  if (pitch_rows_.size() == 0) return prior;
+  // The residuals' spread in rows, less the part the boxes' own noise explains.
+  const double measured2 = std::max(0.0, std::pow(pitch_rows_.sigma(), 2) - noise_rows2_);
+  const double prior_rows = cam.fy * std::tan(prior * kDeg);
+  const double n = static_cast<double>(pitch_rows_.size());
+  // Persistent noise: an AR(1) process with lag correlation phi has (1 + phi) / (1 - phi) times the variance
+  // of white noise when averaged over many frames.
+  const double phi = std::clamp(lag_products_.correlation(), 0.0, 0.9);
+  const double effective2 = measured2 * (1.0 + phi) / (1.0 - phi);
+  const double rows =
+      estimation::RobustSpread::blend(prior_rows, kPriorSamples, std::max(std::sqrt(effective2), 0.05), n);
+  return std::atan(rows / cam.fy) / kDeg;
 }
 
 RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
@@ -201,7 +339,9 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
         const double var = k * k * (j2 + pitch_px * pitch_px) + std::pow(z * c.ground_height_sd / hc, 2);
         r.ground_depth = z;
         r.ground_var = var;
-        ground_noise = k * k * j2;
+        // From frame to frame the row also moves with the body's pitch (bumps, braking).
+        const double jitter_px = cam.fy * std::tan(c.pitch_jitter_deg * kDeg);
+        ground_noise = k * k * (j2 + jitter_px * jitter_px);
         r.ground_noise_var = ground_noise;
       }
     }
@@ -226,22 +366,49 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
   return r;
 }
 
-RangeCue KalmanEstimator::aligned(const RangeCue& cue, double log_ratio) {
+RangeCue KalmanEstimator::aligned(const RangeCue& cue, const estimation::RangeAlignment& fit,
+                                  double frame_offset) {
   if (!cue.ground_depth) return cue;
   RangeCue r = cue;
-  const double k = std::exp(-log_ratio);
-  r.ground_depth = *cue.ground_depth * k;
-  r.ground_var = *cue.ground_var * k * k;
-  r.ground_noise_var = cue.ground_noise_var * k * k;
-  if (r.pinhole_depth) {
-    const double wp = 1.0 / *r.pinhole_var, wg = 1.0 / *r.ground_var;
+  const double zg = *cue.ground_depth;
+  const double inv = fit.to_pinhole(1.0 / zg - frame_offset);
+  if (inv > 1e-3) {
+    // z = 1 / ((1/zg - a) / b): a depth error dzg moves z by (z / zg)^2 / b dzg.
+    const double z = 1.0 / inv;
+    const double k = z * z / (zg * zg) / fit.scale();
+    r.ground_depth = z;
+    r.ground_var = *cue.ground_var * k * k;
+    r.ground_noise_var = cue.ground_noise_var * k * k;
+  } else {
+    // The track's fit puts this bottom row at or above its horizon: the ground cue says nothing here.
+    r.ground_depth.reset();
+    r.ground_var.reset();
+    r.ground_noise_var = 0.0;
+  }
+  if (r.pinhole_depth && r.ground_depth) {
+    // On one scale the cues' lasting errors are the fit's; what is left to weigh is their frame-to-frame
+    // noise.
+    const double wp = 1.0 / std::max(r.pinhole_noise_var, 1e-12),
+                 wg = 1.0 / std::max(r.ground_noise_var, 1e-12);
     r.depth = (wp * *r.pinhole_depth + wg * *r.ground_depth) / (wp + wg);
     r.var = 1.0 / (wp + wg);
     r.noise_var = (wp * wp * r.pinhole_noise_var + wg * wg * r.ground_noise_var) / ((wp + wg) * (wp + wg));
-  } else {
+    r.method = "fused";
+  } else if (r.pinhole_depth) {
+    r.depth = r.pinhole_depth;
+    r.var = r.pinhole_var;
+    r.noise_var = r.pinhole_noise_var;
+    r.method = "pinhole";
+  } else if (r.ground_depth) {
     r.depth = r.ground_depth;
     r.var = r.ground_var;
     r.noise_var = r.ground_noise_var;
+    r.method = "ground";
+  } else {
+    r.depth.reset();
+    r.var.reset();
+    r.noise_var.reset();
+    r.method.clear();
   }
   return r;
 }
@@ -313,6 +480,12 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     ratios = keypoints_.update(frame.image, t, boxes);
   }
 
+  // This frame's noise model: the box jitter and the body's pitch as learnt so far.
+  Config live = cfg_;
+  live.box_jitter_px = box_jitter_px();
+  live.pitch_jitter_deg = pitch_jitter_deg(cam);
+  const double frame_offset = ground_offset_of_frame(cam, tracks, image_size, live, t);
+  last_camera_ = cam;
   std::set<int64_t> alive;
   for (const Track& tr : tracks.items) {
     alive.insert(tr.id);
@@ -332,7 +505,8 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
         fc.accel_sd = cfg_.accel_sd_fraction * L.max_accel_mps2;
         fc.init_velocity_sd = std::min(L.max_speed_mps / 3.0, 15.0);
       }
-      found = tracks_.emplace(tr.id, TrackMemory{estimation::TrackFilter(fc), tr.label}).first;
+      found = tracks_.emplace(tr.id, TrackMemory(estimation::TrackFilter(fc), tr.label, new_alignment(cam)))
+                  .first;
     }
     TrackMemory& mem = found->second;
     estimation::TrackFilter& f = mem.filter;
@@ -345,7 +519,7 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
       if (mem.label != tr.label && priors_.has(mem.label)) {
         const double k = size.height / priors_.at(mem.label).height;
         f.rescale(k, cam_x, ego_vx);
-        if (mem.ratios > 0) mem.log_ratio -= std::log(k);
+        mem.alignment.rescale_pinhole(k);
         if (limits_.has(tr.label)) {
           const hazard::KinematicLimits& L = limits_.at(tr.label);
           f.set_class_limits(L.max_speed_mps, cfg_.accel_sd_fraction * L.max_accel_mps2);
@@ -369,14 +543,14 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     s.distance_method = "predicted";
 
     if (tr.misses == 0) {
-      RangeCue cue = range_cue(cam, tr.box, s.truncated, size.height, cfg_);
+      learn_jitter(mem, tr, s.truncated, t);
+      RangeCue cue = range_cue(cam, tr.box, s.truncated, size.height, live);
       if (cue.pinhole_depth && cue.ground_depth) {
-        // Mean over the track's first frames, then a slow running mean (the factor is a property of the track).
-        const double lr = std::log(*cue.ground_depth / *cue.pinhole_depth);
-        ++mem.ratios;
-        mem.log_ratio += (lr - mem.log_ratio) / std::min(mem.ratios, 20);
+        const double zg = *cue.ground_depth, zp = *cue.pinhole_depth;
+        mem.alignment.add(1.0 / zg, 1.0 / zp, cue.ground_noise_var / std::pow(zg, 4),
+                          cue.pinhole_noise_var / std::pow(zp, 4));
       }
-      if (mem.ratios > 0) cue = aligned(cue, mem.log_ratio);
+      cue = aligned(cue, mem.alignment, frame_offset);
       if (cue.depth) {
         const cv::Point2d bottom(tr.box.x + tr.box.width / 2.0, tr.box.y + tr.box.height);
         const cv::Vec3d p = cam.cam_to_ego(cv::Vec3d((bottom.x - cam.cx) * *cue.depth / cam.fx,
@@ -384,7 +558,7 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
         // Along the viewing ray the depth error moves x and y together; across it, the column's jitter (and a
         // side cut off by the border) moves y.
         const cv::Vec2d a((p[0] - cam_x) / *cue.depth, (p[1] - cam.t_ego_cam[1]) / *cue.depth);
-        double lat_px = cfg_.box_jitter_px;
+        double lat_px = live.box_jitter_px;
         if (s.truncated & (truncation::kLeft | truncation::kRight)) lat_px += tr.box.width / 2.0;
         const double lat = lat_px * *cue.depth / cam.fx;
         const double v = *cue.noise_var;

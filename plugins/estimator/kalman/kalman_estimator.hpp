@@ -1,6 +1,7 @@
 // Filtered monocular state estimation: fused range cues, a Kalman filter per track, keypoint scale change.
 #pragma once
 
+#include <array>
 #include <map>
 #include <optional>
 #include <set>
@@ -8,6 +9,8 @@
 
 #include <hazardforge/class_groups.hpp>
 #include <hazardforge/estimation/keypoint_scale.hpp>
+#include <hazardforge/estimation/range_alignment.hpp>
+#include <hazardforge/estimation/robust_spread.hpp>
 #include <hazardforge/estimation/track_filter.hpp>
 #include <hazardforge/geometry.hpp>
 #include <hazardforge/hazard/kinematics.hpp>
@@ -46,11 +49,14 @@ class KalmanEstimator : public Estimator {
   static ComponentInfo describe();
   void open(StageContext& ctx) override;
   ObjectStates estimate(StageContext& ctx, const Tracks& tracks, const Frame& frame) override;
+  // Logs the noise the boxes and the ground cue taught (and from how many samples).
+  void finish(StageContext& ctx, Outputs& out) override;
 
   struct Config {
     double height_rel_sd = 0.10;    // relative spread of the class's real height
     double box_jitter_px = 1.5;     // detector jitter of a box edge
     double pitch_sd_deg = 0.5;      // uncertainty of the camera pitch (ground range)
+    double pitch_jitter_deg = 0.0;  // frame-to-frame pitch of the body (ground range noise)
     double ground_height_sd = 0.1;  // m, road surface off the ego's ground plane at the object (ground range)
     double min_horizon_gap_px = 10.0;  // ground range only for bottoms this far below the horizon
     double border_margin_px = 2.0;
@@ -64,28 +70,47 @@ class KalmanEstimator : public Estimator {
     std::string origin = "bumper";
     double front_overhang = 3.4;
   };
-  // Re-fuses a cue with its ground depth divided by exp(log_ratio): a track's ground and pinhole ranges differ by
-  // a factor that is the same on every frame (the class prior's height error, the road's offset), so once the
-  // track has measured it, the two cues are fused on one scale and the fused range does not drift when their
-  // weights change with distance or when one cue comes and goes (which would read as a velocity).
-  static RangeCue aligned(const RangeCue& cue, double log_ratio);
+  // Re-fuses a cue with its ground range mapped onto the pinhole range's scale by the track's fit
+  // (hazardforge/estimation/range_alignment.hpp: pitch offset and height scale), so the fused range does not
+  // drift when the cues' weights change with distance or when one of them comes and goes (which would read as
+  // a velocity). frame_offset: the inverse-depth offset every ground cue of this frame shares (the ego's body
+  // pitch).
+  static RangeCue aligned(const RangeCue& cue, const estimation::RangeAlignment& fit,
+                          double frame_offset = 0.0);
   // Range cue of a box (exposed for tests on synthetic geometry).
   static RangeCue range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
                             double real_height, const Config& c);
 
  private:
   void drop_shadowed(ObjectStates& out) const;
+  estimation::RangeAlignment new_alignment(const CameraModel& cam) const;
+  double ground_offset_of_frame(const CameraModel& cam, const Tracks& tracks, const cv::Size& image_size,
+                                const Config& live, double frame_t);
+  double box_jitter_px() const;
+  double pitch_jitter_deg(const CameraModel& cam) const;
+  static constexpr double kPriorSamples = 10.0;  // weight of a stated noise against the measured samples
   struct TrackMemory {
+    TrackMemory(estimation::TrackFilter f, std::string l, estimation::RangeAlignment a)
+        : filter(std::move(f)), label(std::move(l)), alignment(a) {}
     estimation::TrackFilter filter;
     std::string label;
-    double log_ratio = 0.0;  // running mean of ln(ground depth / pinhole depth) on this track
-    int ratios = 0;
+    estimation::RangeAlignment alignment;        // ground cue -> pinhole cue, fitted on this track's frames
+    std::array<double, 3> height{}, height_t{};  // the last whole box heights and their times
+    int heights = 0;
+    std::optional<double> last_residual_rows;  // the ground/pinhole residual of its last frame (rows)
+    double last_residual_t = 0.0;
   };
+  void learn_jitter(TrackMemory& mem, const Track& tr, unsigned truncated, double t);
   Config cfg_;
   ClassPriors priors_;
   hazard::LimitsTable limits_;
   std::map<int64_t, TrackMemory> tracks_;
   estimation::KeypointScaleTracker keypoints_;
+  estimation::RobustSpread jitter_;          // box edge jitter samples (px)
+  estimation::RobustSpread pitch_rows_;      // ground-vs-pinhole residuals in image rows
+  estimation::LagCorrelation lag_products_;  // their correlation from one frame to the next
+  double noise_rows2_ = 0.0;                 // their mean variance explained by box noise (rows^2)
+  std::optional<CameraModel> last_camera_;
   Corridor corridor_;
   std::optional<cv::Matx44d> last_pose_;
   double last_t_ = 0.0;
