@@ -109,6 +109,59 @@ inline cv::Mat render(const CameraModel& cam, const Pose& pose) {
   return img;
 }
 
+// A building front: plaster (the asphalt's noise, brighter) with windows of varied size and shade on a 3 m
+// grid, each cell's window drawn from a hash of the cell (no two neighbours alike, so features match
+// unambiguously).
+inline double facade(double x, double z, bool left, double foot) {
+  const int i = static_cast<int>(std::floor(x / 3.0)), j = static_cast<int>(std::floor(z / 3.0));
+  unsigned h =
+      static_cast<unsigned>(i * 73856093) ^ static_cast<unsigned>(j * 19349663) ^ (left ? 83492791u : 0u);
+  h ^= h >> 13;
+  h *= 0x5bd1e995u;
+  h ^= h >> 15;
+  const double u = x - 3.0 * i, v = z - 3.0 * j;
+  const double w = 0.8 + 1.4 * static_cast<double>(h % 97) / 96.0,
+               ht = 0.8 + 1.2 * static_cast<double>((h / 97) % 89) / 88.0;
+  const bool window = (h % 5) != 0 && std::abs(u - 1.5) < w / 2 && std::abs(v - 1.5) < ht / 2;
+  const double plaster = 60 + 1.1 * world().sample(x, std::fmod(std::abs(z), 12.0) - 19.0, foot);
+  return window ? 25.0 + static_cast<double>((h >> 8) % 60) : plaster;
+}
+
+// The same road between two rows of building fronts (world y = +-wall_y, up to 12 m high, textured like the
+// asphalt): a scene with depth, for what needs more than one plane (the essential matrix of two views). Every
+// pixel's ray meets the ground or a wall, whichever is nearer.
+inline cv::Mat render_with_walls(const CameraModel& cam, const Pose& pose, double wall_y = 11.0) {
+  cv::Mat img(cam.height, cam.width, CV_8UC3);
+  const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
+  const cv::Vec3d o = cam.cam_to_ego({0, 0, 0});
+  const double ox = pose.x + c * o[0] - s * o[1], oy = pose.y + s * o[0] + c * o[1], oz = o[2];
+  for (int v = 0; v < cam.height; ++v) {
+    for (int u = 0; u < cam.width; ++u) {
+      const cv::Vec3d e = cam.cam_to_ego({(u + 0.5 - cam.cx) / cam.fx, (v + 0.5 - cam.cy) / cam.fy, 1.0}) - o;
+      const double dx = c * e[0] - s * e[1], dy = s * e[0] + c * e[1], dz = e[2];
+      double t = 1e9;
+      int what = 0;  // 0 sky, 1 ground, 2 wall
+      if (dz < -1e-9) t = -oz / dz, what = 1;
+      if (std::abs(dy) > 1e-9) {
+        const double tw = ((dy > 0 ? wall_y : -wall_y) - oy) / dy;
+        if (tw > 0 && tw < t && oz + tw * dz < 12.0) t = tw, what = 2;
+      }
+      const double range = t * cv::norm(e);
+      double val;
+      if (what == 0 || range > 150) {
+        val = 170 + 40.0 * v / cam.height;
+      } else {
+        const double foot = std::max(range / cam.fx, 0.01);
+        const double wx = ox + t * dx, wy = oy + t * dy, wz = oz + t * dz;
+        val = what == 1 ? world().sample(wx, wy, foot) : facade(wx, wz, wy > 0, foot);
+      }
+      const auto b = cv::saturate_cast<uchar>(val);
+      img.at<cv::Vec3b>(v, u) = cv::Vec3b(b, b, b);
+    }
+  }
+  return img;
+}
+
 // Constant speed and yaw rate from a start pose: the exact arc.
 inline Pose pose_at(double t, double speed, double yaw_rate, Pose start = {}) {
   Pose p = start;

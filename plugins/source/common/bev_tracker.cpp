@@ -215,7 +215,8 @@ cv::Matx23d BevTracker::motion_to_pixels(double dist, double yaw, double k) cons
 }
 
 cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur, double dt,
-                                         std::optional<double> prior_speed) const {
+                                         std::optional<double> prior_speed,
+                                         std::optional<double> known_yaw) const {
   // Search over distance and yaw change only (a car does not slide sideways), scoring the zero-mean normalised
   // correlation of the current view's textured pixels with the previous view at the predicted places. A free 2-D
   // search (phase correlation) locks onto the streaks that tall objects leave in a bird's-eye view.
@@ -291,8 +292,14 @@ cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur
     d_lo = std::max(d_lo, centre - margin);
     d_hi = std::min(d_hi, centre + margin);
   }
+  double y_lo = -yaw_max, y_hi = yaw_max, y_step = 1.0 * kDeg;
+  if (known_yaw) {
+    y_lo = *known_yaw - 1.5 * kDeg;
+    y_hi = *known_yaw + 1.5 * kDeg;
+    y_step = 0.5 * kDeg;
+  }
   double d = 0, yaw = 0;
-  const double coarse = search(4.0, d_lo, d_hi, 0.2, -yaw_max, yaw_max, 1.0 * kDeg, d, yaw);
+  const double coarse = search(4.0, d_lo, d_hi, 0.2, y_lo, y_hi, y_step, d, yaw);
   if (coarse > -1) search(2.0, d - 0.2, d + 0.2, 0.05, yaw - 1.0 * kDeg, yaw + 1.0 * kDeg, 0.25 * kDeg, d, yaw);
   last_coarse_yaw_ = coarse > -1 ? std::optional<double>(yaw) : std::nullopt;
   cv::Mat inv;
@@ -300,7 +307,8 @@ cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur
   return cv::Matx23d(inv);
 }
 
-std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::optional<double> prior_speed) {
+std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::optional<double> prior_speed,
+                                         std::optional<double> known_yaw) {
   std::vector<GroundMatch> out;
   last_coarse_yaw_.reset();
   if (bgr.empty()) {
@@ -328,7 +336,7 @@ std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::opt
   std::vector<cv::Point2f> f0, f1, back;
   cv::goodFeaturesToTrack(prev, f0, opt_.max_corners, opt_.corner_quality, opt_.min_corner_distance_px, mask);
   if (f0.size() < static_cast<size_t>(opt_.min_inliers)) return out;
-  cv::Matx23d A = coarse_alignment(prev, bev, dt, prior_speed);
+  cv::Matx23d A = coarse_alignment(prev, bev, dt, prior_speed, known_yaw);
   f1.reserve(f0.size());
   for (const cv::Point2f& p : f0)
     f1.emplace_back(static_cast<float>(A(0, 0) * p.x + A(0, 1) * p.y + A(0, 2)),

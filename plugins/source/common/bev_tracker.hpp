@@ -32,9 +32,13 @@ Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Poi
 class BevTracker {
  public:
   BevTracker(const CameraModel& camera, const OdometryOptions& opt);
-  // Pushes a frame taken dt seconds after the previous one; returns the ground points tracked from the previous
-  // frame (empty for the first one). prior_speed (m/s), when given, narrows the coarse distance search.
-  std::vector<GroundMatch> add(const cv::Mat& bgr, double dt, std::optional<double> prior_speed = std::nullopt);
+  // Pushes a frame taken dt seconds after the previous one; returns the ground points tracked from the
+  // previous frame (empty for the first one). prior_speed (m/s), when given, narrows the coarse distance
+  // search; known_yaw (rad, the heading change from the previous frame, e.g. from the two-view rotation)
+  // narrows the coarse yaw search to +- 1.5 degrees around it.
+  std::vector<GroundMatch> add(const cv::Mat& bgr, double dt,
+                               std::optional<double> prior_speed = std::nullopt,
+                               std::optional<double> known_yaw = std::nullopt);
   void reset() { prev_bev_.release(); }
   int bonnet_rows() const { return bonnet_rows_; }
   const cv::Mat& last_bev() const { return prev_bev_; }
@@ -50,7 +54,7 @@ class BevTracker {
   // Coarse alignment of two views (search over distance and yaw) as the KLT starting guess: returns the 2x3 map
   // from previous-view pixels to current-view pixels.
   cv::Matx23d coarse_alignment(const cv::Mat& prev, const cv::Mat& cur, double dt,
-                               std::optional<double> prior_speed) const;
+                               std::optional<double> prior_speed, std::optional<double> known_yaw) const;
   cv::Matx23d motion_to_pixels(double dist, double yaw, double k) const;
   CameraModel cam_;
   OdometryOptions opt_;

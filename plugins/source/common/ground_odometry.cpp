@@ -5,13 +5,15 @@
 
 #include "bev_tracker.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
+#include "hazardforge/footage/two_view.hpp"
 
 namespace hf::footage {
 
 struct GroundOdometry::Impl {
-  Impl(const CameraModel& c, const OdometryOptions& o) : opt(o), tracker(c, o) {}
+  Impl(const CameraModel& c, const OdometryOptions& o) : opt(o), tracker(c, o), rotation(c) {}
   OdometryOptions opt;
   detail::BevTracker tracker;
+  TwoViewRotation rotation;
   double prev_t = 0;
   bool have_prev = false;
   std::optional<double> last_measured_t;
@@ -35,10 +37,26 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   const bool had_prev = s.have_prev;
   std::optional<double> prior;
   if (s.last_measured_t && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s) prior = s.last_speed;
-  const auto matches = s.tracker.add(bgr, had_prev ? dt : 0.0, prior);
+  std::optional<double> known_yaw;
+  double known_yaw_sigma = 0;
+  if (s.opt.two_view_rotation && had_prev && dt < s.opt.two_view_min_interval_s) {
+    s.rotation.reset();  // video-rate frames: the road's turn suffices (and no stale frame is compared later)
+  } else if (s.opt.two_view_rotation) {
+    if (const auto r = s.rotation.add(bgr, s.opt.max_yaw_rate * std::max(dt, 0.0) + 0.02)) {
+      known_yaw = r->yaw;
+      known_yaw_sigma = r->yaw_sigma;
+    }
+  }
+  const auto matches = s.tracker.add(bgr, had_prev ? dt : 0.0, prior, had_prev ? known_yaw : std::nullopt);
   s.have_prev = !bgr.empty();
   s.prev_t = timestamp;
   if (!had_prev || !(dt > 1e-6)) return out;
+  // The heading change from the whole picture is a measurement of its own, also when the road gives no speed.
+  if (known_yaw) {
+    out.yaw_measured = true;
+    out.yaw_rate = *known_yaw / dt;
+    out.yaw_rate_sigma = known_yaw_sigma / dt;
+  }
   const int n = static_cast<int>(matches.size());
   if (n < s.opt.min_inliers) return out;
   std::vector<cv::Point2d> p, q;
@@ -50,8 +68,6 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   const detail::Rigid2 m = detail::ransac_rigid(p, q, s.opt.ransac_threshold_m, s.opt.ransac_iterations, best);
   const int k = static_cast<int>(best.size());
   if (k < 2) return out;
-  out.inliers = k;
-  out.quality = static_cast<double>(k) / n;
   double ss = 0, spread = 0;
   cv::Point2d mq(0, 0);
   for (int i : best) mq += q[i];
@@ -62,11 +78,28 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
     spread += (q[i] - mq).dot(q[i] - mq);
   }
   const double sigma = std::sqrt(ss / std::max(1, 2 * k - 3));  // per-axis residual, m
+  const double road_yaw = m.theta / dt, road_sigma = sigma / std::sqrt(std::max(spread, 1e-6)) / dt;
+  // The road's free fit may turn differently from the whole picture when it locked onto something else (a
+  // vehicle moving through the road view, the streaks of a wall): then its turn is not used (its distance
+  // still is, the smoother weighs it against its neighbours).
+  const bool turns_alike = !known_yaw || !(road_sigma > 0) ||
+                           std::abs(road_yaw - out.yaw_rate) <=
+                               s.opt.two_view_gate_sigma * std::hypot(road_sigma, out.yaw_rate_sigma);
+  out.inliers = k;
+  out.quality = static_cast<double>(k) / n;
   // p = R q + t: t is where the current ego origin sits in the previous ego frame; its x is the distance driven.
   out.speed_mps = m.t.x / dt;
-  out.yaw_rate = m.theta / dt;
   out.speed_sigma = sigma / std::sqrt(static_cast<double>(k)) / dt;
-  out.yaw_rate_sigma = sigma / std::sqrt(std::max(spread, 1e-6)) / dt;
+  if (!known_yaw) {
+    out.yaw_rate = road_yaw;
+    out.yaw_rate_sigma = road_sigma;
+  } else if (turns_alike && road_sigma > 0) {
+    // Both agree: by inverse variance. Far apart frames favour the picture (its error is a fixed angle per
+    // pair), close ones the road (its error shrinks with the interval's lever arm).
+    const double wr = 1.0 / (road_sigma * road_sigma), wt = 1.0 / (out.yaw_rate_sigma * out.yaw_rate_sigma);
+    out.yaw_rate = (wr * road_yaw + wt * out.yaw_rate) / (wr + wt);
+    out.yaw_rate_sigma = 1.0 / std::sqrt(wr + wt);
+  }
   out.measured = k >= s.opt.min_inliers && out.quality >= s.opt.min_inlier_fraction;
   if (out.measured) {
     s.last_measured_t = timestamp;

@@ -49,7 +49,9 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
       const double mv = median_of(vs), mw = median_of(ws);
       const EgoMotionSample& s = raw[measured[k]];
       if (std::abs(s.speed_mps - mv) > std::max(opt.median_gate_mps, opt.median_gate_rel * std::abs(mv))) ok = false;
-      if (std::abs(s.yaw_rate - mw) > opt.median_gate_yaw) ok = false;
+      // A two-view yaw rate (yaw_measured) follows a real turn from frame to frame; the gate is for the
+      // road's.
+      if (!s.yaw_measured && std::abs(s.yaw_rate - mw) > opt.median_gate_yaw) ok = false;
     }
     use[measured[k]] = ok;
   }
@@ -66,6 +68,7 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
   Vec3 x(first < n ? raw[first].speed_mps : 0.0, 0.0, first < n ? raw[first].yaw_rate : 0.0);
   Mat3 P = Mat3::diag(cv::Vec3d(opt.initial_speed_sigma * opt.initial_speed_sigma, 4.0, 0.25));
   int rejected_run = 0;
+  std::vector<bool> yaw_used(n, false);
   const double qj = opt.accel_noise * opt.accel_noise, qw = opt.yaw_accel_noise * opt.yaw_accel_noise;
   for (size_t i = 0; i < n; ++i) {
     double dt = i == 0 ? 0.0 : raw[i].t - raw[i - 1].t;
@@ -112,6 +115,20 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
         P = P - kw * Vec3(P(2, 0), P(2, 1), P(2, 2)).t();
       }
     }
+    if (!use[i] && raw[i].yaw_measured && std::isfinite(raw[i].yaw_rate)) {
+      // The yaw rate alone (the two-view rotation without a road measurement of the speed): one scalar
+      // update, gated like the others.
+      const EgoMotionSample& s = raw[i];
+      const double rw = s.yaw_rate_sigma * s.yaw_rate_sigma + opt.yaw_sigma_floor * opt.yaw_sigma_floor;
+      const double sw = P(2, 2) + rw;
+      const double iw = s.yaw_rate - x(2);
+      if (std::abs(iw) <= opt.gate_sigma * std::sqrt(sw)) {
+        Vec3 kw(P(0, 2) / sw, P(1, 2) / sw, P(2, 2) / sw);
+        x = x + kw * iw;
+        P = P - kw * Vec3(P(2, 0), P(2, 1), P(2, 2)).t();
+        yaw_used[i] = true;
+      }
+    }
     xf[i] = x;
     Pf[i] = P;
   }
@@ -131,6 +148,7 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
     o.speed_sigma = std::sqrt(std::max(Ps(0, 0), 0.0));
     o.yaw_rate_sigma = std::sqrt(std::max(Ps(2, 2), 0.0));
     o.measured = use[k];
+    o.yaw_measured = use[k] || yaw_used[k];
   }
   return out;
 }

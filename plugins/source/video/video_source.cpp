@@ -25,7 +25,8 @@ ComponentInfo VideoSource::describe() {
       "a calibration that has distortion, frames are undistorted with the calibrated K and the model's "
       "distortion is cleared. Resizing scales the model. What is not stated is estimated from the footage "
       "before the first frame is emitted (self_calibrate): the camera's pitch and roll from the horizon, the "
-      "ego's speed and yaw rate from ground-plane odometry; every frame then carries them (EgoState source "
+      "ego's speed from ground-plane odometry, its yaw rate from that and the whole picture's rotation "
+      "between frames (essential matrix); every frame then carries them (EgoState source "
       "'video') and the clip's ego track. The run folder gets camera.json (the geometry used and where each "
       "value came from) and ego_motion.jsonl (one line per frame).";
   i.params = {

@@ -17,6 +17,7 @@ struct EgoMotionSample {
   double speed_mps = 0;   // forward speed
   double yaw_rate = 0;    // rad/s, positive = turning left
   bool measured = false;  // false = no usable measurement at this frame (filled by the filter/smoother)
+  bool yaw_measured = false;  // the yaw rate alone was measured (the two-view rotation), also without a speed
   double speed_sigma = 0, yaw_rate_sigma = 0;  // 1-sigma (raw: from the fit residuals; smoothed: posterior)
   double quality = 0;     // inlier fraction of the raw measurement
   int inliers = 0;        // ground points that agreed with the fitted motion
@@ -51,6 +52,16 @@ struct OdometryOptions {
   int patch_radius_px = 7;
   double min_patch_contrast = 3.0;
   double min_patch_zncc = 0.8;
+  // The heading change between frames from the whole picture's features (essential matrix): the far scene
+  // fixes the rotation however far the car turned between frames, and the road's coarse search is then only
+  // over the distance driven (and +- 1.5 degrees).
+  bool two_view_rotation = true;
+  // ... on frames at least this far apart (it costs ~25-30 ms a frame; between video frames the road's own
+  // turn is precise, between 2 Hz keyframes it is not).
+  double two_view_min_interval_s = 0.15;
+  // The road's own turn is not used when it differs from the picture's by more than this many sigmas of the
+  // two combined (else the two are averaged by inverse variance).
+  double two_view_gate_sigma = 3.0;
   // Rigid 2-D fit on the ground (RANSAC on point pairs, then least squares on the inliers).
   double ransac_threshold_m = 0.15;
   int ransac_iterations = 300;
