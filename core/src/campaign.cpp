@@ -204,6 +204,7 @@ struct Scouted {
   std::vector<ScoutFrame> frames;
   double cpu_s = 0;
   bool has_feedback = false;  // the generator takes `feedback`
+  fs::path states;            // the recording's object states (scout.jsonl), when the generator takes them
 };
 
 // What the generator node reads (its risk and states inputs) is what the scout records.
@@ -219,6 +220,9 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
                 " has no node 'generator' and 'verifier' (include configs/subgraphs/hazard_ar.yaml)");
   for (const ParamSpec& p : gen->component->info.params)
     if (p.name == "feedback") out.has_feedback = true;
+  bool takes_states = false;
+  for (const ParamSpec& p : gen->component->info.params)
+    if (p.name == "recording_states") takes_states = true;
   Json records = Json::array();
   for (const char* port : {"states", "risk"})
     if (auto it = gen->inputs.find(port); it != gen->inputs.end())
@@ -255,6 +259,9 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
     const Json cpu = read_json(run_dir / "cpu.json");
     out.cpu_s = cpu.is_object() ? cpu.value("cpu_s", 0.0) : 0.0;
   }
+  // The whole recording's states: an attempt runs on its window only, yet what the recording shows elsewhere
+  // (people on the pavement) is a fact about the scene.
+  if (takes_states) out.states = fs::absolute(run_dir / "scout.jsonl");
   std::ifstream in(run_dir / "scout.jsonl");
   std::string line;
   while (std::getline(in, line)) {
@@ -408,6 +415,7 @@ namespace {
 
 struct Pair {
   const CampaignRecording* rec = nullptr;
+  fs::path recording_states;  // the scout's object states, passed to the generator
   std::string kind;
   size_t rec_index = 0;
   std::vector<Json> attempts;  // finished, in order
@@ -522,6 +530,8 @@ std::vector<std::string> attempt_args(const CampaignOptions& o, const Pair& p, c
                            "--set", "generator.kinds=[" + p.kind + "]"});
   if (!feedback.empty())
     args.insert(args.end(), {"--set", "generator.feedback=" + fs::absolute(feedback).string()});
+  if (!p.recording_states.empty())
+    args.insert(args.end(), {"--set", "generator.recording_states=" + p.recording_states.string()});
   return args;
 }
 
@@ -840,6 +850,7 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
         p.rec = &spec.recordings[i];
         p.kind = k;
         p.rec_index = i;
+        p.recording_states = sc.states;
         // Finished attempts of an earlier invocation: kept, never repeated.
         for (int n = 1;; ++n) {
           std::string why;

@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <fstream>
 #include <thread>
 
 #include "llm_hash.hpp"
 #include "llm_test_support.hpp"
+#include "temp_dir.hpp"
 
 namespace hf {
 namespace {
@@ -319,6 +321,33 @@ TEST(LlmHazard, PeopleTheRecordingShowsMeanSidewalks) {
             "sidewalks no, auto: nothing in the scene text suggests sidewalks");
   EXPECT_EQ(sidewalks_line("trigger: frame\ntrigger_frame: 5\nsidewalks: 'no'\n", 5),
             "sidewalks no, set to no");
+
+  // A run that sees only a window of the recording (a campaign's attempt): the whole recording's states, as
+  // its scouting run wrote them, say a person was followed for 3 s elsewhere in the clip.
+  test::TempDir tmp;
+  const auto states = tmp / "scout.jsonl";
+  {
+    std::ofstream f(states);
+    for (int i = 0; i <= 6; ++i)
+      f << "{\"frame\":" << i << ",\"timestamp\":" << 0.5 * i
+        << ",\"estimator.states\":{\"objects\":[{\"label\":\"person\",\"track_id\":4},"
+           "{\"label\":\"car\",\"track_id\":5}]},\"ttc.risk\":{\"label\":\"Safe\"}}\n";
+  }
+  EXPECT_EQ(
+      sidewalks_line("trigger: frame\ntrigger_frame: 5\nrecording_states: " + states.string() + "\n", 0),
+      "sidewalks yes, auto: the recording shows people (person track 4 followed for 3 s in scout.jsonl)");
+  // A file that is not the jsonl sink's: one message naming the file and line.
+  const auto bad = tmp / "bad.jsonl";
+  std::ofstream(bad) << "{\"frame\":0,\"timestamp\":0}\nnot json\n";
+  auto r = test::make_runner("recording_states: " + bad.string() + "\n");
+  try {
+    r.run();
+    ADD_FAILURE() << "a malformed recording_states file was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(bad.string() + ":2: not a record of the jsonl sink"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(LlmHazard, FirstSafeStopsAfterMaxTriggerAttemptsAndSaysWhichFrames) {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 
 #include <hazardforge/atomic_file.hpp>
 #include <hazardforge/error.hpp>
@@ -146,6 +147,11 @@ ComponentInfo LlmHazardGenerator::describe() {
               "folder of appearance assets (assets.yaml) the renderer draws from; the hazard's class must "
               "have pictures there or in the default set (share/assets), which the renderer falls back to; "
               "empty = the default set"),
+      ParamSpec::path("recording_states", "")
+          .describe(
+              "JSON-lines file of the whole recording's object states, as the jsonl sink writes them (a "
+              "campaign's scouting run): the people it shows count for people_seen_s too, when this run sees "
+              "only a window of the recording"),
       ParamSpec::path("feedback", "")
           .describe(
               "JSON file of failed attempts on this recording, {\"attempts\": [{\"kind\", \"object_class\", "
@@ -251,6 +257,39 @@ void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std
 
 }
 
+// Person tracks in a jsonl sink's file of object states: per track, the first and last time it was seen.
+std::map<int64_t, std::pair<double, double>> LlmHazardGenerator::people_in_states_file(
+    const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) throw Error("recording_states: cannot read " + file.string());
+  std::map<int64_t, std::pair<double, double>> people;
+  std::string line;
+  int64_t n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const Json j = Json::parse(line, nullptr, false);
+    if (j.is_discarded() || !j.is_object() || !j.contains("timestamp") || !j["timestamp"].is_number())
+      throw Error(file.string() + ":" + std::to_string(n) +
+                  ": not a record of the jsonl sink (a JSON object with a numeric 'timestamp')");
+    const double t = j["timestamp"].get<double>();
+    for (const auto& [key, value] : j.items()) {
+      if (!value.is_object() || !value.contains("objects") || !value["objects"].is_array()) continue;
+      for (const Json& o : value["objects"]) {
+        if (!o.is_object() || o.value("label", "") != "person" || !o.contains("track_id") ||
+            !o["track_id"].is_number_integer() || o["track_id"].get<int64_t>() < 0)
+          continue;
+        auto [it, added] = people.try_emplace(o["track_id"].get<int64_t>(), std::make_pair(t, t));
+        if (!added) {
+          it->second.first = std::min(it->second.first, t);
+          it->second.second = std::max(it->second.second, t);
+        }
+      }
+    }
+  }
+  return people;
+}
+
 void LlmHazardGenerator::open(StageContext& ctx) {
   const Params& p = ctx.params();
 
@@ -309,6 +348,11 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   rules_.take_over_tracks = p.get_bool("take_over_tracks");
   rules_.entry_max_height = p.get_double("entry_max_height");
   rules_.clearance_m = p.get_double("clearance_m");
+  recording_people_.clear();
+  if (const std::filesystem::path rs = p.get_path("recording_states"); !rs.empty()) {
+    recording_people_ = people_in_states_file(rs);
+    ctx.record_resource(rs);
+  }
   const std::filesystem::path feedback_file = p.get_path("feedback");
   feedback_ = feedback_file.empty() ? Feedback() : Feedback::load(feedback_file.string());
   if (!feedback_file.empty()) ctx.record_resource(feedback_file);
@@ -522,11 +566,16 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
       s.sidewalks.why.rfind("auto: nothing", 0) == 0) {
     int64_t longest = -1;
     double longest_s = 0;
-    for (const auto& [id, span] : people_)
-      if (span.second - span.first > longest_s) longest = id, longest_s = span.second - span.first;
+    bool whole = false;  // found in the whole recording's states rather than in this run's frames
+    for (const auto* seen : {&people_, &recording_people_})
+      for (const auto& [id, span] : *seen)
+        if (span.second - span.first > longest_s)
+          longest = id, longest_s = span.second - span.first, whole = seen == &recording_people_;
     if (longest >= 0 && longest_s >= seen_s - 1e-9)
       s.sidewalks = {true, "auto: the recording shows people (person track " + std::to_string(longest) +
-                               " followed for " + num(longest_s) + " s)"};
+                               " followed for " + num(longest_s) + " s" +
+                               (whole ? " in " + p.get_path("recording_states").filename().string() : "") +
+                               ")"};
   }
   s.intersection = resolve_intersection(p.get_string("intersection"), text);
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);

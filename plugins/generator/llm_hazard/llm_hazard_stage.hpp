@@ -1,6 +1,7 @@
 // The llm_hazard generator: asks an LLM provider for a collision-inducing hazard when the scene is Safe.
 #pragma once
 
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
@@ -95,6 +96,9 @@ class LlmHazardGenerator : public Stage {
   bool warned_turn_ = false;
   double straight_from_ = -1e300;  // first_safe: where the straighter stretch found by turns_too_much begins
   std::map<int64_t, std::pair<double, double>> people_;  // person tracks seen so far: first and last time
+  std::map<int64_t, std::pair<double, double>> recording_people_;  // the same from recording_states
+  static std::map<int64_t, std::pair<double, double>> people_in_states_file(
+      const std::filesystem::path& file);
   bool warned_skipped_ = false;
 };
 
