@@ -308,7 +308,7 @@ cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur
 }
 
 std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::optional<double> prior_speed,
-                                         std::optional<double> known_yaw) {
+                                         std::optional<double> known_yaw, bool prewarp) {
   std::vector<GroundMatch> out;
   last_coarse_yaw_.reset();
   if (bgr.empty()) {
@@ -337,26 +337,37 @@ std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::opt
   cv::goodFeaturesToTrack(prev, f0, opt_.max_corners, opt_.corner_quality, opt_.min_corner_distance_px, mask);
   if (f0.size() < static_cast<size_t>(opt_.min_inliers)) return out;
   cv::Matx23d A = coarse_alignment(prev, bev, dt, prior_speed, known_yaw);
-  f1.reserve(f0.size());
+  // With prewarp, the previous view is warped by the coarse motion first: what is left for KLT is a small
+  // shift, with the patches turned alike (between 2 Hz keyframes the road view turns by 10 degrees and more,
+  // which neither KLT's translation-only window nor the patch check survive).
+  cv::Mat from = prev;
+  std::vector<cv::Point2f> g0;
+  g0.reserve(f0.size());
   for (const cv::Point2f& p : f0)
-    f1.emplace_back(static_cast<float>(A(0, 0) * p.x + A(0, 1) * p.y + A(0, 2)),
+    g0.emplace_back(static_cast<float>(A(0, 0) * p.x + A(0, 1) * p.y + A(0, 2)),
                     static_cast<float>(A(1, 0) * p.x + A(1, 1) * p.y + A(1, 2)));
-  back = f0;
+  if (prewarp)
+    cv::warpAffine(prev, from, cv::Mat(A), bev.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  const std::vector<cv::Point2f>& start = prewarp ? g0 : f0;  // the points in `from`
+  f1 = g0;
+  back = start;
   std::vector<uchar> st, st_back;
   std::vector<float> err;
   const cv::TermCriteria tc(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 40, 0.01);
   const cv::Size win(opt_.klt_window, opt_.klt_window);
-  cv::calcOpticalFlowPyrLK(prev, bev, f0, f1, st, err, win, opt_.klt_levels, tc, cv::OPTFLOW_USE_INITIAL_FLOW);
-  cv::calcOpticalFlowPyrLK(bev, prev, f1, back, st_back, err, win, opt_.klt_levels, tc, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(from, bev, start, f1, st, err, win, opt_.klt_levels, tc,
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(bev, from, f1, back, st_back, err, win, opt_.klt_levels, tc,
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
   for (size_t i = 0; i < f0.size(); ++i) {
     if (!st[i] || !st_back[i]) continue;
-    const cv::Point2f e = back[i] - f0[i];
+    const cv::Point2f e = back[i] - start[i];
     if (std::hypot(e.x, e.y) > opt_.fb_max_px) continue;
     const int cx = static_cast<int>(std::lround(f1[i].x)), cy = static_cast<int>(std::lround(f1[i].y));
     if (cx < 0 || cy < 0 || cx >= mask.cols || cy >= mask.rows || !mask.at<uchar>(cy, cx)) continue;
     // KLT started from the coarse guess stays put on a blank patch (and so does its backward check): a track
     // counts only where the patch has contrast and really looks the same in both views.
-    if (!patch_agrees(prev, bev, f0[i], f1[i])) continue;
+    if (!patch_agrees(from, bev, start[i], f1[i])) continue;
     GroundMatch m;
     m.p = bev_to_ego(f0[i]);
     m.q = bev_to_ego(f1[i]);

@@ -35,10 +35,11 @@ class BevTracker {
   // Pushes a frame taken dt seconds after the previous one; returns the ground points tracked from the
   // previous frame (empty for the first one). prior_speed (m/s), when given, narrows the coarse distance
   // search; known_yaw (rad, the heading change from the previous frame, e.g. from the two-view rotation)
-  // narrows the coarse yaw search to +- 1.5 degrees around it.
+  // narrows the coarse yaw search to +- 1.5 degrees around it. prewarp: the previous view is warped by the
+  // coarse motion before KLT (patches turned alike).
   std::vector<GroundMatch> add(const cv::Mat& bgr, double dt,
                                std::optional<double> prior_speed = std::nullopt,
-                               std::optional<double> known_yaw = std::nullopt);
+                               std::optional<double> known_yaw = std::nullopt, bool prewarp = false);
   void reset() { prev_bev_.release(); }
   int bonnet_rows() const { return bonnet_rows_; }
   const cv::Mat& last_bev() const { return prev_bev_; }

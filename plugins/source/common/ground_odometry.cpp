@@ -47,7 +47,8 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
       known_yaw_sigma = r->yaw_sigma;
     }
   }
-  const auto matches = s.tracker.add(bgr, had_prev ? dt : 0.0, prior, had_prev ? known_yaw : std::nullopt);
+  const auto matches = s.tracker.add(bgr, had_prev ? dt : 0.0, prior, had_prev ? known_yaw : std::nullopt,
+                                     s.opt.prewarp && had_prev && dt >= s.opt.two_view_min_interval_s);
   s.have_prev = !bgr.empty();
   s.prev_t = timestamp;
   if (!had_prev || !(dt > 1e-6)) return out;

@@ -62,6 +62,9 @@ struct OdometryOptions {
   // The road's own turn is not used when it differs from the picture's by more than this many sigmas of the
   // two combined (else the two are averaged by inverse variance).
   double two_view_gate_sigma = 3.0;
+  // On frames as far apart, the previous road view is warped by the coarse motion before KLT, so the patches
+  // turn alike (KLT's window and the patch check assume a shift; 2 Hz keyframes turn by 10 degrees and more).
+  bool prewarp = true;
   // Rigid 2-D fit on the ground (RANSAC on point pairs, then least squares on the inliers).
   double ransac_threshold_m = 0.15;
   int ransac_iterations = 300;
