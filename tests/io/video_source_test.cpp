@@ -398,6 +398,11 @@ TEST(VideoSource, AnImageFolderTellsItsPitchAndEgoMotion) {
     EXPECT_EQ(j["source"], "video");
     EXPECT_TRUE(j["speed_mps"].is_number());
     EXPECT_TRUE(j["yaw_rate_dps"].is_number());
+    EXPECT_GT(j["yaw_rate_sigma_dps"].get<double>(), 0.0);
+    // At 10 fps the turn comes from the road (no two-view step): measured where the speed is.
+    if (j["measured"].get<bool>()) {
+      EXPECT_TRUE(j["yaw_measured"].get<bool>()) << l;
+    }
   }
   EXPECT_EQ(n, 16);
 }

@@ -456,7 +456,9 @@ void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, c
     if (static_cast<size_t>(k) < smooth_motion_.size()) {
       const auto& m = smooth_motion_[static_cast<size_t>(k)];
       l["speed_sigma_mps"] = m.speed_sigma;
-      l["measured"] = m.measured;
+      l["yaw_rate_sigma_dps"] = m.yaw_rate_sigma * deg;
+      l["measured"] = m.measured;          // this frame's speed (and turn) measured on the road
+      l["yaw_measured"] = m.yaw_measured;  // this frame's turn measured (road or whole picture)
       if (static_cast<size_t>(k) < raw_motion_.size() && raw_motion_[static_cast<size_t>(k)].measured)
         l["raw_speed_mps"] = raw_motion_[static_cast<size_t>(k)].speed_mps;
     }
