@@ -28,33 +28,17 @@ std::string size_str(cv::Size s) {
 
 std::vector<ParamSpec> CameraSetup::params() {
   return {
-      ParamSpec::path("calibration", "")
-          .from_scene("camera.calibration")
+      ParamSpec::path("calibration", "").from_scene("camera.calibration")
           .describe("calibration YAML (from `hazardforge calibrate`); overrides fx/fy/cx/cy/hfov_deg"),
-      ParamSpec::number("fx", 0.0)
-          .range(0, 1e6)
-          .from_scene("camera.fx")
-          .describe("focal length x in px at the native size (0 = unset)"),
-      ParamSpec::number("fy", 0.0)
-          .range(0, 1e6)
-          .from_scene("camera.fy")
-          .describe("focal length y in px (0 = fx)"),
-      ParamSpec::number("cx", 0.0)
-          .range(0, 1e6)
-          .from_scene("camera.cx")
-          .describe("principal point x in px (0 = image centre)"),
-      ParamSpec::number("cy", 0.0)
-          .range(0, 1e6)
-          .from_scene("camera.cy")
-          .describe("principal point y in px (0 = image centre)"),
-      ParamSpec::number("hfov_deg", 0.0)
-          .from_scene("camera.hfov_deg")
+      ParamSpec::number("fx", 0.0).range(0, 1e6).from_scene("camera.fx").describe(
+          "focal length x in px at the native size (0 = unset)"),
+      ParamSpec::number("fy", 0.0).range(0, 1e6).from_scene("camera.fy").describe("focal length y in px (0 = fx)"),
+      ParamSpec::number("cx", 0.0).range(0, 1e6).from_scene("camera.cx").describe("principal point x in px (0 = image centre)"),
+      ParamSpec::number("cy", 0.0).range(0, 1e6).from_scene("camera.cy").describe("principal point y in px (0 = image centre)"),
+      ParamSpec::number("hfov_deg", 0.0).from_scene("camera.hfov_deg")
           .range(0, 179)
           .describe("horizontal field of view when no calibration/fx is given (0 = assume 60 deg, warned)"),
-      ParamSpec::number("camera_height", 1.5)
-          .range(0.1, 10)
-          .from_scene("camera.height_m")
-          .describe("camera height above the ground, m"),
+      ParamSpec::number("camera_height", 1.5).range(0.1, 10).from_scene("camera.height_m").describe("camera height above the ground, m"),
       ParamSpec::number("camera_pitch_deg", 0.0)
           .range(-45, 45)
           .from_scene("camera.pitch_deg")
@@ -66,23 +50,20 @@ std::vector<ParamSpec> CameraSetup::params() {
       ParamSpec::int_list("intrinsics_size", {})
           .from_scene("camera.intrinsics_size")
           .describe("[width, height] of the images fx/fy/cx/cy refer to (empty = the native frames)"),
-      ParamSpec::number("camera_forward", 1.5)
-          .from_scene("camera.forward_m")
+      ParamSpec::number("camera_forward", 1.5).from_scene("camera.forward_m")
           .range(-10, 10)
           .describe("camera position ahead of the rear axle, m"),
       ParamSpec::boolean("self_calibrate", true)
-          .describe(
-              "estimate from the footage what is not stated: pitch and roll from the horizon, ego speed "
-              "and yaw rate from ground-plane odometry and the picture's rotation between frames (written to "
-              "camera.json and ego_motion.jsonl)"),
+          .describe("estimate from the footage what is not stated: pitch and roll from the horizon, ego speed "
+                    "and yaw rate from ground-plane odometry and the picture's rotation between frames (written "
+                    "to camera.json and ego_motion.jsonl)"),
       ParamSpec::boolean("undistort", true)
           .describe("undistort frames with the calibrated K when the calibration has distortion"),
       ParamSpec::integer("resize_width", 0)
           .range(0, 16384)
           .describe("output width (0 = keep; aspect kept if only one is set)"),
       ParamSpec::integer("resize_height", 0).range(0, 16384).describe("output height (0 = keep)"),
-      ParamSpec::number("ego_speed_mps", -1.0)
-          .from_scene("ego.speed_mps")
+      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
           .range(-1, 100)
           .describe("constant ego speed, m/s (-1 = unknown)"),
   };
