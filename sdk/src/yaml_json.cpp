@@ -7,6 +7,7 @@
 #include <limits>
 #include <regex>
 #include <sstream>
+#include <vector>
 
 namespace hf {
 
@@ -58,17 +59,44 @@ Json convert(const YAML::Node& n, const std::string& ptr, const std::string& fil
     }
     case YAML::NodeType::Map: {
       Json o = Json::object();
+      std::vector<YAML::Node>
+          merged;  // "<<: *anchor" (or a list of them): the anchors' keys, unless stated here
       for (const auto& kv : n) {
         const std::string key = kv.first.as<std::string>();
-        const std::string child = ptr + "/" + escape_pointer_token(key);
         const YAML::Mark km = kv.first.Mark();
-        locs[child + "#key"] = SourceLocation{file, km.line + 1, km.column + 1};
-        if (o.contains(key))
-          throw Error(SourceLocation{file, km.line + 1, km.column + 1}, "duplicate key '" + key + "'");
+        const SourceLocation at{file, km.line + 1, km.column + 1};
+        if (key == "<<" && kv.first.Tag() != "!") {
+          if (kv.second.IsMap()) {
+            merged.push_back(kv.second);
+          } else if (kv.second.IsSequence()) {
+            for (const YAML::Node& e : kv.second) {
+              if (!e.IsMap())
+                throw Error(at, "'<<' merges mappings only (an alias like *name, or a list of them)");
+              merged.push_back(e);
+            }
+          } else {
+            throw Error(at, "'<<' merges mappings only (an alias like *name, or a list of them)");
+          }
+          continue;
+        }
+        const std::string child = ptr + "/" + escape_pointer_token(key);
+        locs[child + "#key"] = at;
+        if (o.contains(key)) throw Error(at, "duplicate key '" + key + "'");
         o[key] = convert(kv.second, child, file, locs);
         // A null value has no useful mark of its own: point at its key.
         if (kv.second.IsNull()) locs[child] = locs[child + "#key"];
       }
+      // Merged keys keep the positions where the anchor states them: one fact, one place.
+      for (const YAML::Node& m : merged)
+        for (const auto& kv : m) {
+          const std::string key = kv.first.as<std::string>();
+          if (o.contains(key)) continue;  // stated here, or by an earlier anchor of the list
+          const std::string child = ptr + "/" + escape_pointer_token(key);
+          const YAML::Mark km = kv.first.Mark();
+          locs[child + "#key"] = SourceLocation{file, km.line + 1, km.column + 1};
+          o[key] = convert(kv.second, child, file, locs);
+          if (kv.second.IsNull()) locs[child] = locs[child + "#key"];
+        }
       return o;
     }
   }

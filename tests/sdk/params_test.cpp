@@ -68,6 +68,25 @@ TEST(Yaml, SyntaxErrorNamesFileLineColumn) {
   }
 }
 
+TEST(Yaml, MergeKeysTakeTheAnchorsKeysUnlessStatedAndKeepTheirPositions) {
+  const YamlDocument doc = parse_yaml(
+      "base: &b {x: 1, y: 2}\nmore: &m {z: 3}\none: {<<: *b, y: 5}\ntwo:\n  <<: [*b, *m]\n  w: 0\n",
+      "m.yaml");
+  EXPECT_EQ(doc.value["one"], (Json{{"x", 1}, {"y", 5}}));
+  EXPECT_EQ(doc.value["two"], (Json{{"x", 1}, {"y", 2}, {"z", 3}, {"w", 0}}));
+  EXPECT_FALSE(doc.value["one"].contains("<<"));
+  // A merged value is where the anchor states it.
+  EXPECT_EQ(doc.at("/one/x").str(), doc.at("/base/x").str());
+  EXPECT_EQ(doc.at("/one/y").line, 3);
+  try {
+    parse_yaml("a: {<<: 5}\n", "bad.yaml");
+    FAIL() << "a merge of a scalar was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml:1:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'<<' merges mappings only"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Yaml, DuplicateKeyRejected) {
   EXPECT_THROW(parse_yaml("a: 1\na: 2\n", "dup.yaml"), Error);
 }
