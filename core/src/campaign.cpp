@@ -409,6 +409,27 @@ std::string reason_class(const std::string& reason) {
   return out.size() > 160 ? out.substr(0, 157) + "..." : out;
 }
 
+// A refusal whose every reason is a road user of this moment (a planned path running into a tracked object, a
+// start overlapping a detected one) says nothing about the scene: another window has other traffic.
+bool refusal_is_only_traffic(const std::string& reason) {
+  const size_t at = reason.find("no hazard fits this scene");
+  if (at == std::string::npos) return false;
+  const size_t kinds = reason.find("): ", at);  // after "(allowed kinds: ...)"
+  const std::string why = reason.substr(kinds == std::string::npos ? at : kinds + 3);
+  size_t from = 0;
+  bool any = false;
+  while (from < why.size()) {
+    size_t to = why.find("; ", from);
+    if (to == std::string::npos) to = why.size();
+    const std::string part = why.substr(from, to - from);
+    if (part.find("the tracked ") == std::string::npos && part.find("the detected ") == std::string::npos)
+      return false;
+    any = true;
+    from = to + 2;
+  }
+  return any;
+}
+
 namespace {
 
 // ---- attempts -------------------------------------------------------------------------------------------------
@@ -478,9 +499,19 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
     auto refusal = [](const Json& x) {
       std::set<std::string> r;
       if (x.value("outcome", "") != "no hazard") return r;
-      for (const Json& reason : x.value("reasons", Json::array()))
-        if (reason.is_string() && reason.get<std::string>().find("generator") != std::string::npos)
-          r.insert(reason_class(reason.get<std::string>()));
+      const Json reasons = x.value("reasons", Json::array());
+      // The generator's own error says why; the verifier's "no hazard was inserted" only repeats that it did.
+      bool own = false;
+      for (const Json& reason : reasons)
+        if (reason.is_string() && reason.get<std::string>().rfind("node 'generator'", 0) == 0) own = true;
+      for (const Json& reason : reasons) {
+        if (!reason.is_string()) continue;
+        const std::string& why = reason.get<std::string>();
+        if (own ? why.rfind("node 'generator'", 0) != 0 : why.find("generator") == std::string::npos)
+          continue;
+        if (refusal_is_only_traffic(why)) continue;
+        r.insert(reason_class(why));
+      }
       return r;
     };
     const auto ra = refusal(a), rb = refusal(b);

@@ -106,6 +106,29 @@ TEST(CampaignReasons, NumbersAreLeftOutSoReasonsCount) {
   EXPECT_EQ(reason_class("x at -3.5 m"), "x at # m");
 }
 
+TEST(CampaignReasons, ARefusalForTrafficDoesNotSayTheSceneForbidsTheKind) {
+  const std::string head =
+      "node 'generator': frame 21: offline: no hazard fits this scene (allowed kinds: cut_in): ";
+  // Road users of that moment: another window has other traffic.
+  EXPECT_TRUE(refusal_is_only_traffic(
+      head +
+      "cut_in: the planned path of the car runs into the tracked car (track 6, predicted at constant "
+      "velocity): 1.3 s after it appears the car would be at (x 11.1, y 3.47) m. Place it where its path "
+      "stays clear of the tracked objects"));
+  EXPECT_TRUE(refusal_is_only_traffic(
+      head +
+      "cut_in: start point (x 1.4 m, y 3.5 m) overlaps the detected car (track 1) at x 4.46 m, y 4.18 m; "
+      "the planned path of the car runs into the tracked truck (track 3)"));
+  // What the scene is, alone or beside traffic: the pair stops when it repeats.
+  EXPECT_FALSE(refusal_is_only_traffic(head + "cut_in: the road has a single lane"));
+  EXPECT_FALSE(refusal_is_only_traffic(
+      head +
+      "cut_in: start point (x 1.4 m, y 3.5 m) overlaps the detected car (track 1) at x 4.46 m, y 4.18 m; "
+      "hazard template 'cut_in': the lane change needs 3.97 s but the vehicle reaches its cut-in point "
+      "3.82 s after the hazard starts"));
+  EXPECT_FALSE(refusal_is_only_traffic("the scene never becomes Unsafe while the hazard is visible"));
+}
+
 TEST(CampaignCli, ABadCampaignFileIsRefusedNamingFileLineAndKey) {
   test::TempDir dir;
   const auto spec = dir / "c.yaml";

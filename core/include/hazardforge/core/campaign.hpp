@@ -72,6 +72,11 @@ struct CampaignWindow {
 // better one moved to the end.
 std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& frames, const CampaignSpec& spec);
 
+// Whether a generator's refusal names only road users of that moment (a planned path running into a tracked
+// object, a start overlapping a detected one): such a refusal at two trigger frames does not stop a pair,
+// another window has other traffic; a refusal for what the scene is (a single lane, no sidewalks) does.
+bool refusal_is_only_traffic(const std::string& reason);
+
 // A failure reason with its numbers replaced by '#', so reasons can be counted across attempts.
 std::string reason_class(const std::string& reason);
 
