@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <optional>
+#include <set>
 
 #include "centroid_tracker.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
@@ -209,6 +210,69 @@ std::vector<std::vector<Obj>> occluded(int gap, int n = 30) {
       frames.push_back({{box_at(200 + 5.0 * f, 400)}});
   }
   return frames;
+}
+
+// Two parked cars 2.5 m apart, 20 m ahead, seen from 2 Hz keyframes while the ego turns right at 20 deg/s:
+// the picture sweeps 10 deg (about 220 px at fx 1250) between frames. Moving the tracks with the ego's
+// heading keeps both identities; without it the sweep is a jump the tracker cannot tell from the neighbour.
+std::vector<Tracks> turning_parked_cars(bool compensate, bool poses) {
+  const CameraModel cam = CameraModel::pinhole(1600, 900, 1250, 1250, 800, 450, 1.5, 0.0, 1.7);
+  testing::StageRunner r = testing::StageRunner::create<CentroidTracker>(std::string("compensate_turn: ") +
+                                                                         (compensate ? "true" : "false"));
+  const double rate = -20.0 * CV_PI / 180.0;
+  for (int f = 0; f < 6; ++f) {
+    const double t = 0.5 * f, yaw = rate * t;
+    Frame fr;
+    fr.index = f;
+    fr.timestamp = t;
+    fr.camera = cam;
+    if (poses) {
+      cv::Matx44d T = cv::Matx44d::eye();
+      T(0, 0) = T(1, 1) = std::cos(yaw);
+      T(1, 0) = std::sin(yaw);
+      T(0, 1) = -std::sin(yaw);
+      fr.ego.T_world_ego = T;
+    } else {
+      fr.ego.yaw_rate = rate;
+    }
+    Detections d;
+    d.frame_index = f;
+    d.image_size = cv::Size(1600, 900);
+    for (const double wy : {1.0, 3.5}) {  // world points, the ego turning in place at the origin
+      const double c = std::cos(-yaw), s = std::sin(-yaw);
+      const cv::Vec3d ego(c * 20.0 - s * wy, s * 20.0 + c * wy, 0.0);
+      const auto px = cam.project_ego(ego);
+      Detection det;
+      det.box = cv::Rect2f(static_cast<float>(px->x - 40), static_cast<float>(px->y - 60), 80.f, 60.f);
+      det.label = "car";
+      det.score = 0.9f;
+      d.items.push_back(det);
+    }
+    r.push("frames", fr, t);
+    r.push("detections", d, t);
+  }
+  r.run();
+  return r.collect<Tracks>("tracks");
+}
+
+TEST(CentroidTracker, TurnCompensationKeepsIdentitiesWhileTheEgoTurns) {
+  for (const bool poses : {true, false}) {
+    const auto out = turning_parked_cars(true, poses);
+    ASSERT_EQ(out.size(), 6u);
+    for (const Tracks& t : out) {
+      std::set<int64_t> ids;
+      for (const Track& tr : t.items)
+        if (tr.misses == 0) ids.insert(tr.id);
+      EXPECT_EQ(ids, (std::set<int64_t>{1, 2}))
+          << (poses ? "poses" : "yaw rate") << ", frame " << t.frame_index;
+    }
+  }
+  // Without it, new identities are born in the turn.
+  const auto plain = turning_parked_cars(false, true);
+  int64_t highest = 0;
+  for (const Tracks& t : plain)
+    for (const Track& tr : t.items) highest = std::max(highest, tr.id);
+  EXPECT_GT(highest, 2);
 }
 
 TEST(CentroidTracker, ShortOcclusionKeepsTheId) {

@@ -37,6 +37,11 @@ ComponentInfo CentroidTracker::describe() {
       ParamSpec::boolean("predict", true)
           .describe(
               "compare detections with the centre extrapolated by the track's velocity, not its last one"),
+      ParamSpec::boolean("compensate_turn", false)
+          .describe(
+              "before matching, move every track with the picture by the ego's heading change since the "
+              "last frame (dataset poses, else the frame's yaw rate): between 2 Hz keyframes in a bend "
+              "the scene sweeps by 200 px and more"),
       ParamSpec::number("velocity_smoothing", 0.5)
           .range(0.01, 1)
           .describe("weight of the newest displacement in the exponentially smoothed velocity_px (1 = none)"),
@@ -54,6 +59,7 @@ void CentroidTracker::open(StageContext& ctx) {
   c.hungarian = p.get_string("association") == "hungarian";
   c.predict = p.get_bool("predict");
   c.velocity_smoothing = p.get_double("velocity_smoothing");
+  c.compensate_turn = p.get_bool("compensate_turn");
   configure(c);
 }
 
@@ -76,9 +82,42 @@ Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
     throw Error("centroid tracker: frame " + std::to_string(frame.index) + " has timestamp " +
                 std::to_string(t) + " s, not after frame " + std::to_string(last_frame_) + " at " +
                 std::to_string(last_time_) + " s");
+  const double prev_t = have_time_ ? last_time_ : t;
   have_time_ = true;
   last_time_ = t;
   last_frame_ = frame.index;
+
+  // The ego's heading, and the picture's sweep since the last frame: a fixed point's bearing grows by the
+  // turn.
+  std::optional<double> heading;
+  if (frame.ego.T_world_ego) {
+    const cv::Matx44d& T = *frame.ego.T_world_ego;
+    heading = std::atan2(T(1, 0), T(0, 0));
+  } else if (frame.ego.yaw_rate && heading_) {
+    heading = *heading_ + *frame.ego.yaw_rate * (t - prev_t);
+  } else if (frame.ego.yaw_rate) {
+    heading = 0.0;
+  }
+  if (cfg_.compensate_turn && heading && heading_ && frame.camera.valid()) {
+    double turn = *heading - *heading_;
+    turn = std::remainder(turn, 2.0 * M_PI);
+    const cv::Size sz = image_size_of(dets, frame);
+    const CameraModel cam =
+        sz.area() > 0 && (sz.width != frame.camera.width || sz.height != frame.camera.height)
+            ? frame.camera.scaled_to(sz.width, sz.height)
+            : frame.camera;
+    auto sweep = [&](float x) {
+      const double bearing = std::atan((x - cam.cx) / cam.fx) + turn;
+      if (std::abs(bearing) >= 1.5) return 0.0f;
+      return static_cast<float>(cam.cx + cam.fx * std::tan(bearing) - x);
+    };
+    for (Entry& e : tracks_) {
+      const float dx = sweep(tracking::centre(e.box).x);
+      e.box.x += dx;
+      e.velocity.shift_last({dx, 0.0f});
+    }
+  }
+  heading_ = heading;
 
   double gate = cfg_.max_distance;
   if (gate <= 0.0) {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,7 @@ class CentroidTracker : public Tracker {
     bool hungarian = false;
     bool predict = true;
     double velocity_smoothing = 0.5;
+    bool compensate_turn = false;  // move the tracks with the picture when the ego turns (poses or yaw rate)
   };
   static constexpr double kAutoGateFraction = 0.1;
   void configure(const Config& c) {
@@ -64,6 +66,7 @@ class CentroidTracker : public Tracker {
   bool have_time_ = false;
   double last_time_ = 0.0;
   int64_t last_frame_ = -1;
+  std::optional<double> heading_;  // the ego's heading at the last frame (rad), for compensate_turn
 };
 
 }  // namespace hf

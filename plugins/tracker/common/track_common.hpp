@@ -45,6 +45,9 @@ class VelocityEstimator {
     return {static_cast<float>(last_.x + v_.x * dt), static_cast<float>(last_.y + v_.y * dt)};
   }
   double last_time() const { return last_t_; }
+  // The camera turned: the last observation moves with the picture (the velocity, measured in a picture that
+  // did not turn, stays).
+  void shift_last(const cv::Point2f& d) { last_ += d; }
 
  private:
   double alpha_;
