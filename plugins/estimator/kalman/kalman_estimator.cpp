@@ -310,7 +310,6 @@ double KalmanEstimator::pitch_jitter_deg(const CameraModel& cam) const {
 RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
                                     double real_height, const Config& c) {
   RangeCue r;
-  double pinhole_noise = 0.0, ground_noise = 0.0;
   const double h = box.height;
   const double j2 = c.box_jitter_px * c.box_jitter_px;
   const cv::Point2d bottom(box.x + box.width / 2.0, box.y + box.height);
@@ -320,8 +319,7 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
     const double rel2 = c.height_rel_sd * c.height_rel_sd + 2.0 * j2 / (h * h);
     r.pinhole_depth = z;
     r.pinhole_var = z * z * rel2;
-    pinhole_noise = z * z * 2.0 * j2 / (h * h);
-    r.pinhole_noise_var = pinhole_noise;
+    r.pinhole_noise_var = z * z * 2.0 * j2 / (h * h);
   }
   if (!(truncated & truncation::kBottom)) {
     const std::optional<cv::Vec3d> g = cam.pixel_to_ground(bottom);
@@ -341,29 +339,40 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
         r.ground_var = var;
         // From frame to frame the row also moves with the body's pitch (bumps, braking).
         const double jitter_px = cam.fy * std::tan(c.pitch_jitter_deg * kDeg);
-        ground_noise = k * k * (j2 + jitter_px * jitter_px);
-        r.ground_noise_var = ground_noise;
+        r.ground_noise_var = k * k * (j2 + jitter_px * jitter_px);
       }
     }
   }
+  fuse(r, false);
+  return r;
+}
+
+void KalmanEstimator::fuse(RangeCue& r, bool by_noise) {
   if (r.pinhole_depth && r.ground_depth) {
-    const double wp = 1.0 / *r.pinhole_var, wg = 1.0 / *r.ground_var;
+    // Both cues: by inverse variance, of their whole expected errors, or (on one scale, where the lasting
+    // errors are the track's fit's) of their frame-to-frame noise alone.
+    const double wp = 1.0 / (by_noise ? std::max(r.pinhole_noise_var, 1e-12) : *r.pinhole_var);
+    const double wg = 1.0 / (by_noise ? std::max(r.ground_noise_var, 1e-12) : *r.ground_var);
     r.depth = (wp * *r.pinhole_depth + wg * *r.ground_depth) / (wp + wg);
     r.var = 1.0 / (wp + wg);
-    r.noise_var = (wp * wp * pinhole_noise + wg * wg * ground_noise) / ((wp + wg) * (wp + wg));
+    r.noise_var = (wp * wp * r.pinhole_noise_var + wg * wg * r.ground_noise_var) / ((wp + wg) * (wp + wg));
     r.method = "fused";
   } else if (r.pinhole_depth) {
     r.depth = r.pinhole_depth;
     r.var = r.pinhole_var;
-    r.noise_var = pinhole_noise;
+    r.noise_var = r.pinhole_noise_var;
     r.method = "pinhole";
   } else if (r.ground_depth) {
     r.depth = r.ground_depth;
     r.var = r.ground_var;
-    r.noise_var = ground_noise;
+    r.noise_var = r.ground_noise_var;
     r.method = "ground";
+  } else {
+    r.depth.reset();
+    r.var.reset();
+    r.noise_var.reset();
+    r.method.clear();
   }
-  return r;
 }
 
 RangeCue KalmanEstimator::aligned(const RangeCue& cue, const estimation::RangeAlignment& fit,
@@ -385,31 +394,7 @@ RangeCue KalmanEstimator::aligned(const RangeCue& cue, const estimation::RangeAl
     r.ground_var.reset();
     r.ground_noise_var = 0.0;
   }
-  if (r.pinhole_depth && r.ground_depth) {
-    // On one scale the cues' lasting errors are the fit's; what is left to weigh is their frame-to-frame
-    // noise.
-    const double wp = 1.0 / std::max(r.pinhole_noise_var, 1e-12),
-                 wg = 1.0 / std::max(r.ground_noise_var, 1e-12);
-    r.depth = (wp * *r.pinhole_depth + wg * *r.ground_depth) / (wp + wg);
-    r.var = 1.0 / (wp + wg);
-    r.noise_var = (wp * wp * r.pinhole_noise_var + wg * wg * r.ground_noise_var) / ((wp + wg) * (wp + wg));
-    r.method = "fused";
-  } else if (r.pinhole_depth) {
-    r.depth = r.pinhole_depth;
-    r.var = r.pinhole_var;
-    r.noise_var = r.pinhole_noise_var;
-    r.method = "pinhole";
-  } else if (r.ground_depth) {
-    r.depth = r.ground_depth;
-    r.var = r.ground_var;
-    r.noise_var = r.ground_noise_var;
-    r.method = "ground";
-  } else {
-    r.depth.reset();
-    r.var.reset();
-    r.noise_var.reset();
-    r.method.clear();
-  }
+  fuse(r, true);
   return r;
 }
 

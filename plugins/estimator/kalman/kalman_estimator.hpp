@@ -75,6 +75,8 @@ class KalmanEstimator : public Estimator {
   // drift when the cues' weights change with distance or when one of them comes and goes (which would read as
   // a velocity). frame_offset: the inverse-depth offset every ground cue of this frame shares (the ego's body
   // pitch).
+  // Sets depth, var, noise_var and method from the cues present (see range_cue and aligned).
+  static void fuse(RangeCue& r, bool by_noise);
   static RangeCue aligned(const RangeCue& cue, const estimation::RangeAlignment& fit,
                           double frame_offset = 0.0);
   // Range cue of a box (exposed for tests on synthetic geometry).
