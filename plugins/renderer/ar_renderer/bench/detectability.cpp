@@ -7,7 +7,8 @@
 // inserted car `car` rather than `truck`/`bus` (the monocular estimator uses the label's height prior, so a car
 // labelled truck is placed about twice as far away).
 //
-//   hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person]   (needs $HAZARDFORGE_SHARED)
+//   hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person] [--save DIR]
+//   (needs $HAZARDFORGE_SHARED; --save writes every augmented frame with the inserted box and the best detection)
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +16,9 @@
 #include <iostream>
 #include <map>
 #include <string>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "ar_renderer.hpp"
 #include "hazardforge/geometry.hpp"
@@ -36,7 +40,7 @@ bool same_class(const std::string& hazard, const std::string& label) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  fs::path assets;
+  fs::path assets, save;
   int n_frames = 6;
   std::vector<std::string> classes = {"car", "person"};
   for (int i = 1; i < argc; ++i) {
@@ -45,10 +49,12 @@ int main(int argc, char** argv) {
       assets = argv[++i];
     } else if (a == "--frames" && i + 1 < argc) {
       n_frames = std::atoi(argv[++i]);
+    } else if (a == "--save" && i + 1 < argc) {
+      save = argv[++i];
     } else if (a == "--class" && i + 1 < argc) {
       classes = {argv[++i]};
     } else {
-      std::cerr << "usage: hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person]\n";
+      std::cerr << "usage: hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person] [--save DIR]\n";
       return 2;
     }
   }
@@ -103,13 +109,30 @@ int main(int argc, char** argv) {
             aug.image = res.frame.image;
             double best = 0;
             std::string best_label;
+            cv::Rect2f best_box;
             for (const auto& d : detect(aug).items)
               if (same_class(cls, d.label) && hf::box_iou(d.box, res.hazard.box) > best) {
                 best = hf::box_iou(d.box, res.hazard.box);
                 best_label = d.label;
+                best_box = d.box;
               }
             char key[64];
             std::snprintf(key, sizeof key, "%-6s %-8s %4.0f m", cls.c_str(), heading_names[h], dist);
+            if (!save.empty()) {
+              fs::create_directories(save);
+              cv::Mat img = aug.image.clone();
+              cv::rectangle(img, res.hazard.box, cv::Scalar(0, 255, 0), 2);
+              if (best > 0) {
+                cv::rectangle(img, best_box, cv::Scalar(0, 0, 255), 2);
+                cv::putText(img, best_label, best_box.tl() + cv::Point2f(4, 24), cv::FONT_HERSHEY_SIMPLEX, 0.9,
+                            cv::Scalar(0, 0, 255), 2);
+              }
+              char name[96];
+              std::snprintf(name, sizeof name, "f%03lld_%s_%s_%02.0fm.png", static_cast<long long>(f.index),
+                            cls.c_str(), heading_names[h], dist);
+              cv::resize(img, img, cv::Size(), 0.5, 0.5, cv::INTER_AREA);
+              cv::imwrite((save / name).string(), img);
+            }
             Cell& c = table[key];
             ++c.tried;
             c.found += best >= 0.5;
