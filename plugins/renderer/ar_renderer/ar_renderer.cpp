@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 #include <opencv2/photo.hpp>
 
@@ -99,6 +100,26 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   for (const auto& o : occluders) exclude.push_back(o.box);
   ego_.update(f, exclude);
   res.ego_seconds = seconds_since(t0);
+  if (opt_.scene_light && opt_.composite.shadow &&
+      static_cast<int>(light_.samples().size()) < opt_.scene_light_max_samples) {
+    const auto tl = std::chrono::steady_clock::now();
+    const ClassGroups& groups = realism::reference_groups();
+    std::vector<VehicleView> views;
+    for (const auto& o : occluders) {
+      if (o.label.empty() || !groups.same(o.label, "car") || o.score < opt_.realism.min_score || o.misses > 0)
+        continue;
+      if (o.truncated || truncation_flags(o.box, f.image.size())) continue;  // its bottom is not its contact
+      VehicleView v;
+      v.box = o.box;
+      const ClassSize size = opt_.vehicle_sizes.has(o.label) ? opt_.vehicle_sizes.at(o.label) : ClassSize{};
+      v.length_m = size.length;
+      v.width_m = size.width;
+      v.height_m = size.height;
+      views.push_back(v);
+    }
+    light_.add(f.image, f.camera, views, yaw_of(ego_.current()));
+    res.light_seconds = seconds_since(tl);
+  }
 
   if (traj != traj_) {
     if (traj) {
@@ -239,6 +260,28 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
       else if (o.distance_m)
         depth = *o.distance_m - f.camera.t_ego_cam[0];
       if (depth && *depth < near_depth) pl.occluders.push_back(o.box);
+    }
+  }
+
+  if (opt_.scene_light && opt_.composite.shadow) {
+    // The sun's shadow, fixed in the world: its direction in this frame's ego axes, its reach from the
+    // hazard's height.
+    const SceneLight light = light_.estimate();
+    if (light.directional) {
+      const double az = light.azimuth - yaw_of(ego_.current());
+      const double reach = light.length_per_height * size[2];
+      const cv::Vec3d shift(reach * std::cos(az), reach * std::sin(az), 0.0);
+      std::array<cv::Point2d, 4> cast;
+      bool ok = true;
+      for (size_t i = 0; i < 4 && ok; ++i) {
+        const auto q = f.camera.project_ego(corners[i] + shift);
+        ok = q.has_value();
+        if (ok) cast[i] = *q;
+      }
+      if (ok) {
+        pl.cast_px = cast;
+        pl.cast_darkness = light.darkness;
+      }
     }
   }
 
@@ -425,6 +468,9 @@ ComponentInfo ArRenderer::describe() {
           .describe("an asset of the kept instance / assets_dir is used when its view is this close"),
       ParamSpec::boolean("shadow", true).describe("draw a soft contact shadow"),
       ParamSpec::number("shadow_strength", 0.5).range(0.0, 1.0).describe("darkening at the shadow's core"),
+      ParamSpec::boolean("scene_light", true)
+          .describe("read the sun's shadow (direction, reach, darkness) off the road beside the recording's "
+                    "vehicles and cast the hazard's the same way; diffuse light: the contact shadow only"),
       ParamSpec::number("harmonize_luma", 0.6)
           .range(0.0, 1.0)
           .describe("how far the asset's lightness mean/std move to the surroundings' (Lab)"),
@@ -499,6 +545,8 @@ RendererOptions renderer_options(const Params& p) {
   o.realism.references = static_cast<int>(p.get_int("realism_references"));
   o.realism.reference_every = static_cast<int>(p.get_int("realism_reference_every"));
   o.realism.min_score = p.get_double("realism_min_score");
+  o.scene_light = p.get_bool("scene_light");
+  if (o.scene_light) o.vehicle_sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
   return o;
 }
 
@@ -509,6 +557,31 @@ std::shared_ptr<const AssetLibrary> load_assets(const Params& p) {
   if (!fs::is_directory(dir)) throw Error("assets_dir '" + dir.string() + "' is not a folder");
   const fs::path fallback = p.get_bool("fallback_assets") ? defaults : fs::path();
   return std::make_shared<const AssetLibrary>(AssetLibrary::load(dir, fallback));
+}
+
+std::string describe_light(const SceneLight& l) {
+  char msg[256];
+  if (!l.measured())
+    std::snprintf(msg, sizeof msg, "not measured (no whole vehicle seen yet): contact shadow only");
+  else if (l.directional)
+    std::snprintf(
+        msg, sizeof msg,
+        "sun shadows pointing %.0f deg (world frame), %.2f m per m of height, darkness %.2f, from %d of %d "
+        "vehicle views (consistency %.2f): the hazard casts one alike",
+        l.azimuth * 180.0 / CV_PI, l.length_per_height, l.darkness, l.directional_samples, l.samples,
+        l.consistency);
+  else
+    std::snprintf(
+        msg, sizeof msg,
+        "diffuse (%d of %d vehicle views with one darker side, consistency %.2f; the road beside them "
+        "%.2f darker): contact shadow only",
+        l.directional_samples, l.samples, l.consistency, l.darkness);
+  return msg;
+}
+
+void ArRenderer::finish(StageContext& ctx, Outputs& /*out*/) {
+  if (renderer_ && light_logged_)
+    ctx.log(LogLevel::kInfo, "scene light over the clip: " + describe_light(renderer_->light()));
 }
 
 void ArRenderer::open(StageContext& ctx) {
@@ -539,6 +612,11 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (r.hazard.visible || r.composite_seconds > 0) ctx.record_timing("composite", r.composite_seconds);
   if (r.realism_seconds > 0) ctx.record_timing("realism", r.realism_seconds);
   if (r.takeover_seconds > 0) ctx.record_timing("takeover", r.takeover_seconds);
+  if (r.light_seconds > 0) ctx.record_timing("scene_light", r.light_seconds);
+  if (r.hazard.visible && !light_logged_) {
+    light_logged_ = true;
+    ctx.log(LogLevel::kInfo, "scene light when the hazard appeared: " + describe_light(renderer_->light()));
+  }
   if (emit_visible_ && r.hazard.visible) out.emit("visible_frames", r.frame);
   out.emit("frames", std::move(r.frame));
   out.emit("hazard", std::move(r.hazard));

@@ -12,6 +12,7 @@
 #include "ego_motion.hpp"
 #include "hazardforge/geometry.hpp"
 #include "hazardforge/stage.hpp"
+#include "scene_light.hpp"
 
 namespace hf::render {
 
@@ -46,6 +47,11 @@ struct RendererOptions {
   double ego_front_m = 3.4;  // ego origin to front bumper, for the intended TTC (GUIDE protocol)
   Corridor corridor;
   RealismOptions realism;
+  // The hazard casts a shadow like the recording's vehicles do (direction, reach, darkness read from the road
+  // beside them, SceneLightEstimator); without a consistent one only the contact shadow is drawn.
+  bool scene_light = true;
+  ClassPriors vehicle_sizes;  // share/class_sizes.yaml: the real vehicles' footprints (defaults when absent)
+  int scene_light_max_samples = 300;  // vehicle views measured, then the estimate is kept
 };
 
 // Everything the stage does for one frame, without the graph plumbing (used by the stage and the benchmark).
@@ -63,12 +69,15 @@ class HazardRenderer {
     double composite_seconds = 0;  // time spent placing and drawing
     double realism_seconds = 0;    // time spent measuring appearances (not part of drawing)
     double takeover_seconds = 0;   // time spent removing a taken-over real object (part of composite_seconds)
+    double light_seconds = 0;      // time spent reading the scene's light off the real vehicles' shadows
   };
   // Call once per frame, in order. `trajectory` may be null (no hazard yet).
   Result render(const Frame& frame, const std::shared_ptr<const HazardTrajectory>& trajectory,
                 const std::vector<OccluderCandidate>& occluders);
 
   const EgoTrajectory& ego() const { return ego_; }
+  // The scene's light as measured so far on the recording's vehicles.
+  SceneLight light() const { return light_.estimate(); }
   std::vector<std::string> take_warnings();
 
  private:
@@ -94,6 +103,7 @@ class HazardRenderer {
   std::optional<double> lane_shift_;       // smoothed sideways correction keeping the hazard in its lane (m)
   bool warned_taken_missing_ = false;
   std::vector<std::string> warnings_;
+  SceneLightEstimator light_;
 };
 
 // Stage "ar_renderer" (kind renderer).
@@ -106,24 +116,29 @@ class HazardRenderer {
 //           augmented frame, only when the hazard is visible in it (param visible_frames). Frames outside the
 //           trajectory's time span pass through unchanged (hazard.visible = false).
 //  params:  assets_dir, fallback_assets, ego_motion (auto|poses|flow|constant_speed), ego_speed_mps,
-//           motion_smoothing, flow_*, max_view_error_deg, shadow, shadow_strength, harmonize_luma,
-//           harmonize_chroma, exposure_smoothing, grain, feather_px, match_sharpness, exposure_s, occlusion,
-//           occluder_min_score, ego_front_m, realism, realism_references, realism_reference_every, realism_min_score, visible_frames,
-//           corridor_half_width, corridor_margin, corridor_path (see describe()).
+//           motion_smoothing, flow_*, max_view_error_deg, shadow, shadow_strength, scene_light,
+//           harmonize_luma, harmonize_chroma, exposure_smoothing, grain, feather_px, match_sharpness,
+//           exposure_s, occlusion, occluder_min_score, ego_front_m, realism, realism_references,
+//           realism_reference_every, realism_min_score, visible_frames, corridor_half_width, corridor_margin,
+//           corridor_path (see describe()).
 //  With `realism` (default) the hazard packet carries the inserted object's appearance as drawn
-//  (HazardInstance::appearance) and that of up to `realism_references` real road users per class group measured
-//  on the original picture (HazardInstance::references), for the verifier's comparison.
+//  (HazardInstance::appearance) and that of up to `realism_references` real road users per class group
+//  measured on the original picture (HazardInstance::references), for the verifier's comparison.
 class ArRenderer : public Stage {
  public:
   static ComponentInfo describe();
   void open(StageContext& ctx) override;
   void process(StageContext& ctx, const Inputs& in, Outputs& out) override;
+  void finish(StageContext& ctx, Outputs& out) override;
 
  private:
   std::unique_ptr<HazardRenderer> renderer_;
   bool emit_visible_ = true;
+  bool light_logged_ = false;
 };
 
+// One line on the scene's light for the run log.
+std::string describe_light(const SceneLight& light);
 // Reads the renderer's options from validated params (shared by the stage and the benchmark).
 RendererOptions renderer_options(const Params& p);
 // assets_dir resolved (empty = share_dir()/assets) and the library loaded with the default set as fallback.

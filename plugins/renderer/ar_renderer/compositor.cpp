@@ -192,10 +192,19 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   const int pad = static_cast<int>(std::ceil(blur_len / 2 + 3 * o.feather_px)) + 2 + (o.match_sharpness > 0 ? 8 : 0);
   const int spad = o.shadow ? shadow_k + 2 : 0;
   const cv::Rect img_rect(0, 0, image.cols, image.rows);
-  const cv::Rect want(static_cast<int>(std::floor(std::min(x0, bx0 - spad))) - pad,
-                      static_cast<int>(std::floor(std::min(y0, by0))) - pad,
-                      static_cast<int>(std::ceil(std::max(x1, bx1 + spad) - std::min(x0, bx0 - spad))) + 2 * pad + 1,
-                      static_cast<int>(std::ceil(std::max(y1, by1 + spad) - std::min(y0, by0))) + 2 * pad + 1);
+  // A cast shadow reaches beyond the object: the region drawn covers it.
+  double rx0 = bx0 - spad, ry0 = by0, rx1 = bx1 + spad, ry1 = by1 + spad;
+  if (o.shadow && p.cast_px)
+    for (const auto& q : *p.cast_px) {
+      rx0 = std::min(rx0, q.x - spad);
+      rx1 = std::max(rx1, q.x + spad);
+      ry0 = std::min(ry0, q.y - spad);
+      ry1 = std::max(ry1, q.y + spad);
+    }
+  const cv::Rect want(static_cast<int>(std::floor(std::min(x0, rx0))) - pad,
+                      static_cast<int>(std::floor(std::min(y0, ry0))) - pad,
+                      static_cast<int>(std::ceil(std::max(x1, rx1) - std::min(x0, rx0))) + 2 * pad + 1,
+                      static_cast<int>(std::ceil(std::max(y1, ry1) - std::min(y0, ry0))) + 2 * pad + 1);
   const cv::Rect roi = want & img_rect;
   if (roi.area() <= 0) return r;
   r.roi = roi;
@@ -360,22 +369,39 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
     std::vector<cv::Point2f> foot;
     for (int i = 0; i < 4; ++i) foot.emplace_back(p.corners_px[i] - cv::Point2d(roi.x, roi.y));
     const cv::Matx33d Hf = cv::Matx33d(cv::getPerspectiveTransform(unit, foot));
-    auto outline = [&](double su, double sv) {
+    auto outline_of = [&](const cv::Matx33d& H, double su, double sv) {
       std::vector<cv::Point> poly;
       for (int k = 0; k < 32; ++k) {
         const double th = 2 * CV_PI * k / 32, c = std::cos(th), sn = std::sin(th);
         const double u = su * std::copysign(std::sqrt(std::abs(c)), c), v = sv * std::copysign(std::sqrt(std::abs(sn)), sn);
-        const cv::Vec3d q = Hf * cv::Vec3d(u, v, 1);
+        const cv::Vec3d q = H * cv::Vec3d(u, v, 1);
         if (q[2] <= 1e-9) return std::vector<cv::Point>();
         poly.emplace_back(static_cast<int>(std::lround(q[0] / q[2] * 16)), static_cast<int>(std::lround(q[1] / q[2] * 16)));
       }
       return poly;
     };
+    auto outline = [&](double su, double sv) { return outline_of(Hf, su, sv); };
     std::vector<cv::Point> outer = outline(1.12, 1.12), core = outline(0.8, 0.7);
+    // The sun's shadow: the footprint swept along the shadow (the convex hull of the footprint and its cast
+    // copy).
+    std::vector<cv::Point> cast;
+    if (p.cast_px && p.cast_darkness > 0 && !outer.empty()) {
+      std::vector<cv::Point2f> moved;
+      for (int i = 0; i < 4; ++i)
+        moved.emplace_back((*p.cast_px)[static_cast<size_t>(i)] - cv::Point2d(roi.x, roi.y));
+      const std::vector<cv::Point> far =
+          outline_of(cv::Matx33d(cv::getPerspectiveTransform(unit, moved)), 1.0, 1.0);
+      if (!far.empty()) {
+        std::vector<cv::Point> both = outline(1.0, 1.0);
+        both.insert(both.end(), far.begin(), far.end());
+        cv::convexHull(both, cast);
+      }
+    }
     shadow = area(st.shadow, roi.size(), CV_8U);
     shadow.setTo(0);
     // Only the footprint's neighbourhood is filled and blurred.
     cv::Rect fb = outer.empty() ? cv::Rect() : cv::boundingRect(outer);
+    if (!cast.empty()) fb |= cv::boundingRect(cast);
     fb = cv::Rect(fb.x / 16 - shadow_k - 1, fb.y / 16 - shadow_k - 1, fb.width / 16 + 2 * shadow_k + 3,
                   fb.height / 16 + 2 * shadow_k + 3) &
          cv::Rect(0, 0, roi.width, roi.height);
@@ -383,10 +409,18 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       cv::Mat part = shadow(fb);
       for (auto& q : outer) q -= cv::Point(fb.x * 16, fb.y * 16);
       for (auto& q : core) q -= cv::Point(fb.x * 16, fb.y * 16);
+      for (auto& q : cast) q -= cv::Point(fb.x * 16, fb.y * 16);
       cv::fillPoly(part, std::vector<std::vector<cv::Point>>{outer}, cv::Scalar(std::lround(210 * o.shadow_strength)),
                    cv::LINE_AA, 4);
       cv::fillPoly(part, std::vector<std::vector<cv::Point>>{core}, cv::Scalar(std::lround(255 * o.shadow_strength)),
                    cv::LINE_AA, 4);
+      if (!cast.empty()) {
+        // Where the sun's shadow is darker than the contact shadow, it wins.
+        cv::Mat sun(part.size(), CV_8U, cv::Scalar(0));
+        cv::fillPoly(sun, std::vector<std::vector<cv::Point>>{cast},
+                     cv::Scalar(std::lround(255 * std::clamp(p.cast_darkness, 0.0, 0.95))), cv::LINE_AA, 4);
+        cv::max(part, sun, part);
+      }
       cv::blur(part, part, cv::Size(shadow_k, shadow_k), cv::Point(-1, -1), cv::BORDER_CONSTANT);
       cv::blur(part, part, cv::Size(shadow_k, shadow_k), cv::Point(-1, -1), cv::BORDER_CONSTANT);
     }

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -32,6 +33,10 @@ struct Placement {
   std::array<cv::Point2d, 8> corners_px;  // the object's projected 3D box (order of box_geometry.hpp)
   cv::Point2d velocity_px_s{0, 0};        // image-plane velocity of the object, px/s
   std::vector<cv::Rect2f> occluders;      // boxes of nearer objects, drawn in front of the hazard
+  // A sun's cast shadow: the footprint (corners 0..3) moved along the shadow's direction and reach on the
+  // road, projected; the shadow is the footprint swept there, `cast_darkness` dark (1 - shadowed / lit).
+  std::optional<std::array<cv::Point2d, 4>> cast_px;
+  double cast_darkness = 0.0;
 };
 
 // What the compositor keeps from frame to frame for one hazard: the surroundings' colour statistics and noise,
