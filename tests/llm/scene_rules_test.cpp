@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include "asset_library.hpp"
+#include "hazardforge/hazard/kinematics.hpp"
 #include "llm_test_support.hpp"
 #include "scene_rules.hpp"
 #include "temp_dir.hpp"
@@ -78,6 +79,35 @@ TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
   over.spec.extra = {{"track_id", 7}};
   EXPECT_TRUE(check_trajectory_rules(over, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), road, sizes(), rules)
                   .empty());
+}
+
+// A filtered estimator's covariance says when a velocity is indistinguishable from standing still: a parked
+// car that reads 1.5 m/s forward with a 1 m/s sigma (an ego speed estimated too high does that) stays parked
+// in the prediction, so a person crossing just beyond it is clear; the same velocity with a tight covariance
+// is a car creeping on into the crossing.
+TEST(SceneRules, AVelocityWithinItsUncertaintyIsStandingStill) {
+  std::vector<cv::Vec3d> walk;
+  for (int k = 0; k <= 120; ++k) walk.push_back({40.0, 5.75 - 0.1 * k, -M_PI / 2});
+  const HazardTrajectory tr = trajectory("person", walk, kPerson);
+  hazard::RoadModel road;
+  SceneRules rules;
+  // Its front 2.6 m short of the crossing (centre 34.9 m), 3.5 m right: standing, it is clear of the person.
+  ObjectState parked = tracked(4, "car", 32.65, -3.5, 1.5);
+  auto with_sigma = [](ObjectState o, double sigma) {
+    cv::Matx44d P = cv::Matx44d::eye() * 0.04;
+    P(2, 2) = P(3, 3) = sigma * sigma;
+    o.covariance = P;
+    return o;
+  };
+  EXPECT_TRUE(
+      check_trajectory_rules(tr, scene_with({with_sigma(parked, 1.0)}), road, sizes(), rules).empty());
+  // Without a covariance (the paper's estimator) the velocity is taken as it is: 1.5 m/s for 4.6 s is 6.9 m.
+  EXPECT_EQ(check_trajectory_rules(tr, scene_with({parked}), road, sizes(), rules).size(), 1u);
+  EXPECT_EQ(check_trajectory_rules(tr, scene_with({with_sigma(parked, 0.3)}), road, sizes(), rules).size(),
+            1u);
+  EXPECT_EQ(hazard::ground_velocity(with_sigma(parked, 1.0), 10.0), cv::Vec2d(0, 0));
+  EXPECT_EQ(hazard::ground_velocity(with_sigma(parked, 0.3), 10.0), cv::Vec2d(1.5, 0));
+  EXPECT_FALSE(hazard::ground_velocity(ObjectState{}, 10.0).has_value());
 }
 
 // What the renderer cannot draw is not asked for: the class must have appearance assets.

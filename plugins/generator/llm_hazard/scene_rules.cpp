@@ -8,6 +8,7 @@
 #include <set>
 
 #include <hazardforge/error.hpp>
+#include <hazardforge/hazard/kinematics.hpp>
 #include <hazardforge/json_text.hpp>
 
 #include "asset_library.hpp"
@@ -157,17 +158,14 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
   if (tr.spec.extra.is_object() && tr.spec.extra.contains("track_id") && tr.spec.extra["track_id"].is_number())
     taken = static_cast<int64_t>(tr.spec.extra["track_id"].get<double>());
 
-  // Clear of every tracked object, each predicted at constant velocity from where it is now.
+  // Clear of every tracked object, each predicted at constant velocity from where it is now (standing when
+  // its estimator cannot tell its motion from none).
   for (const ObjectState& o : scene.objects) {
     if (!std::isfinite(o.distance_m) || (taken && *taken == o.track_id)) continue;
     const ClassSize prior = sizes.has(o.label) ? sizes.at(o.label) : ClassSize{};
     const double ol = o.length_m > 0 ? o.length_m : prior.length, ow = o.width_m > 0 ? o.width_m : prior.width;
     const double ego = scene.ego_speed_mps.value_or(0.0);
-    cv::Vec2d v(0, 0);
-    if (o.velocity_rel)
-      v = cv::Vec2d(ego + (*o.velocity_rel)[0], (*o.velocity_rel)[1]);
-    else if (o.speed_mps && o.heading_rad)
-      v = cv::Vec2d(*o.speed_mps * std::cos(*o.heading_rad), *o.speed_mps * std::sin(*o.heading_rad));
+    const cv::Vec2d v = hazard::ground_velocity(o, ego).value_or(cv::Vec2d(0, 0));
     // A vehicle keeps its lane (it follows the road as the ego's path does) at its speed along it: its tracked
     // lateral speed is mostly box noise (a truck beside the ego, cut off by the image border, reads 1-2.5 m/s
     // towards the ego lane on the KITTI raw clip), which a constant-velocity prediction would turn into a

@@ -336,4 +336,18 @@ std::string num(double v, int decimals) {
   return s;
 }
 
+std::optional<cv::Vec2d> ground_velocity(const ObjectState& o, double ego_speed_mps, double chi2) {
+  std::optional<cv::Vec2d> v;
+  if (o.velocity_rel)
+    v = cv::Vec2d(ego_speed_mps + (*o.velocity_rel)[0], (*o.velocity_rel)[1]);
+  else if (o.speed_mps && o.heading_rad && std::isfinite(*o.speed_mps))
+    v = cv::Vec2d(*o.speed_mps * std::cos(*o.heading_rad), *o.speed_mps * std::sin(*o.heading_rad));
+  if (!v || !o.covariance || !(chi2 > 0)) return v;
+  const cv::Matx22d S((*o.covariance)(2, 2), (*o.covariance)(2, 3), (*o.covariance)(3, 2),
+                      (*o.covariance)(3, 3));
+  if (!(cv::determinant(S) > 1e-12)) return v;
+  const double d2 = v->dot(S.inv() * *v);
+  return d2 < chi2 ? cv::Vec2d(0, 0) : *v;
+}
+
 }  // namespace hf::hazard

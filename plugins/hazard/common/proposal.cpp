@@ -67,10 +67,7 @@ ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tp
     if (!std::isfinite(o.distance_m)) continue;
     const Footprint prior = sc.sizes.has(o.label) ? sc.size(o.label) : Footprint{};
     std::optional<double> speed;
-    if (o.velocity_rel)
-      speed = sc.ego_speed + (*o.velocity_rel)[0];
-    else if (o.speed_mps && std::isfinite(*o.speed_mps))
-      speed = *o.speed_mps;
+    if (const auto v = ground_velocity(o, sc.ego_speed, 0.0)) speed = (*v)[0];  // the best estimate
     // distance_m reaches the face the camera sees (its rear, for an object ahead) from the request's origin:
     // its centre is half its length further on, in the ego frame the templates plan in.
     const double length = o.length_m > 0 ? o.length_m : prior.length;

@@ -142,4 +142,13 @@ std::vector<std::string> exceeded_limits(const MotionStats& stats, const Kinemat
 // Compact number for messages: at most `decimals` decimals, trailing zeros removed ("12", "1.25", "inf").
 std::string num(double v, int decimals = 2);
 
+// A tracked object's ground velocity (absolute, in the ego's axes, m/s) as planning and the scene rules read
+// it: the estimate's, or zero when the estimator's own covariance cannot tell it from standing still (the
+// velocity's Mahalanobis distance from zero below `chi2`, 5.99 = 95 % for two dimensions). A parked car whose
+// measured range drifts while the ego turns (its box's nearest point slides along its flank) is parked, not
+// oncoming. nullopt when the object has no velocity; without a covariance, or with chi2 = 0, the estimate is
+// taken as it is (planning a lead's braking wants its best speed, also an uncertain one; predicting where it
+// will be wants no motion it cannot show).
+std::optional<cv::Vec2d> ground_velocity(const ObjectState& o, double ego_speed_mps, double chi2 = 5.99);
+
 }  // namespace hf::hazard
