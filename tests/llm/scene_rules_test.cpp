@@ -53,11 +53,16 @@ const ClassPriors& sizes() {
 
 const cv::Vec3d kPerson(0.5, 0.6, 1.7), kCar(4.5, 1.85, 1.52);
 
-// A person who crosses at x = 40 m from the left kerb (2 m/s) walks through the car parked there on the right.
-TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
+// A person crossing at x = 40 m from the left kerb (y 5.75 m) at 2 m/s.
+HazardTrajectory crossing_at_40m() {
   std::vector<cv::Vec3d> walk;
   for (int k = 0; k <= 120; ++k) walk.push_back({40.0, 5.75 - 0.1 * k, -M_PI / 2});
-  const HazardTrajectory tr = trajectory("person", walk, kPerson);
+  return trajectory("person", walk, kPerson);
+}
+
+// A person who crosses at x = 40 m from the left kerb (2 m/s) walks through the car parked there on the right.
+TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
+  const HazardTrajectory tr = crossing_at_40m();
   hazard::RoadModel road;
   SceneRules rules;
   // The car's rear 37.75 m ahead (what distance_m measures): its centre at 40 m.
@@ -86,9 +91,7 @@ TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
 // in the prediction, so a person crossing just beyond it is clear; the same velocity with a tight covariance
 // is a car creeping on into the crossing.
 TEST(SceneRules, AVelocityWithinItsUncertaintyIsStandingStill) {
-  std::vector<cv::Vec3d> walk;
-  for (int k = 0; k <= 120; ++k) walk.push_back({40.0, 5.75 - 0.1 * k, -M_PI / 2});
-  const HazardTrajectory tr = trajectory("person", walk, kPerson);
+  const HazardTrajectory tr = crossing_at_40m();
   hazard::RoadModel road;
   SceneRules rules;
   // Its front 2.6 m short of the crossing (centre 34.9 m), 3.5 m right: standing, it is clear of the person.
