@@ -139,15 +139,13 @@ void RiskMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   const ObjectStates& states = in.require<ObjectStates>("states");
   RiskAssessment r = assess(ctx, states, in.get<Frame>("frames"));
   const Corridor corridor = Corridor::from(ctx.params());
-  const std::string rule = ctx.params().get_string("unsafe_when");
   r.frame_index = states.frame_index;
   r.metric = ctx.node_id();
   r.threshold = ctx.params().get_double("threshold");
-  r.label_rule = rule;
+  r.label_rule = ctx.params().get_string("unsafe_when");
   r.scene_value = r.lower_is_riskier ? kInf : 0.0;
   r.critical_track = -1;
   auto worse = [&](double a, double b) { return r.lower_is_riskier ? a < b : a > b; };
-  double deciding = r.scene_value;
   for (ObjectRisk& o : r.objects) {
     auto it = std::find_if(states.objects.begin(), states.objects.end(),
                            [&](const ObjectState& s) { return s.track_id == o.track_id; });
@@ -157,14 +155,8 @@ void RiskMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) {
       r.scene_value = o.value;
       r.critical_track = o.track_id;
     }
-    // The bound on the risky side is the low end for TTC-like metrics and the high end for DRAC-like ones.
-    const double risky = r.lower_is_riskier ? o.low : o.high;
-    const double safe = r.lower_is_riskier ? o.high : o.low;
-    double d = o.value;
-    if (rule == "riskier_bound" && !std::isnan(risky)) d = risky;
-    if (rule == "safer_bound" && !std::isnan(safe)) d = safe;
-    if (worse(d, deciding)) deciding = d;
   }
+  const double deciding = deciding_value(r);
   const bool unsafe = r.lower_is_riskier ? deciding < r.threshold : deciding > r.threshold;
   r.label = unsafe ? SafetyLabel::kUnsafe : SafetyLabel::kSafe;
   out.emit("risk", std::move(r));

@@ -226,6 +226,22 @@ void to_json(Json& j, const ObjectStates& v) {
        {"distance_origin_x", v.distance_origin_x},
        {"objects", v.objects}};
 }
+double deciding_value(const RiskAssessment& r) {
+  auto worse = [&](double a, double b) { return r.lower_is_riskier ? a < b : a > b; };
+  double deciding = r.lower_is_riskier ? kInf : 0.0;
+  for (const ObjectRisk& o : r.objects) {
+    if (!o.in_path || std::isnan(o.value)) continue;
+    // The bound on the risky side is the low end for TTC-like metrics and the high end for DRAC-like ones.
+    const double risky = r.lower_is_riskier ? o.low : o.high;
+    const double safe = r.lower_is_riskier ? o.high : o.low;
+    double d = o.value;
+    if (r.label_rule == "riskier_bound" && !std::isnan(risky)) d = risky;
+    if (r.label_rule == "safer_bound" && !std::isnan(safe)) d = safe;
+    if (worse(d, deciding)) deciding = d;
+  }
+  return deciding;
+}
+
 void to_json(Json& j, const RiskAssessment& v) {
   Json objs = Json::array();
   for (const ObjectRisk& o : v.objects) {

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <unistd.h>
+
 #include "evaluation_report.hpp"
 #include "evaluation_sink.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
@@ -181,8 +183,51 @@ TEST(Evaluation, NoUnsafeTruthGivesNotApplicableRecall) {
   EXPECT_NEAR(e.at("accuracy").get<double>(), 2.0 / 3.0, 1e-12);
 }
 
+// A metric labelling by its interval's safer end (unsafe_when: safer_bound) is scored by that end at every
+// threshold, its TTC error by its value; the records carry the rule and the deciding number, so the report is
+// recomputed from them.
+TEST(Evaluation, IntervalLabelRuleDecidesAtEveryThreshold) {
+  const double truth[] = {1.2, 2.5, 5.0};
+  const double value[] = {1.3, 1.4, 4.0}, high[] = {1.8, 2.2, 6.0};
+  auto r = testing::StageRunner::create<EvaluationSink>("dir: out");
+  for (int i = 0; i < 3; ++i) {
+    RiskAssessment e = assessment(i, "ttc_paper", value[i]);
+    e.label_rule = "safer_bound";
+    ObjectRisk o;
+    o.track_id = 7;
+    o.in_path = true;
+    o.value = value[i];
+    o.low = value[i] - 0.3;
+    o.high = high[i];
+    e.objects = {o, ObjectRisk{8, 0.2, false}};  // out of path: decides nothing
+    r.push("truth", assessment(i, "ground_truth", truth[i]), i * 0.1);
+    r.push("estimates", e, i * 0.1, "ttc_confirmed");
+  }
+  r.run();
+  const std::filesystem::path dir = r.output_dir() / "out";
+  const Json report = Json::parse(slurp(dir / "report.json"));
+  const Json& m = report.at("results")[0].at("metrics")[0];
+  EXPECT_EQ(m.at("label_rule"), "safer_bound");
+  auto cells = [&](int k) {
+    const Json& e = m.at("evaluations")[static_cast<size_t>(k)];
+    return std::vector<int>({e.at("tp"), e.at("fp"), e.at("fn"), e.at("tn")});
+  };
+  EXPECT_EQ(cells(0), std::vector<int>({0, 0, 1, 2}));  // 1.5 s: frame 0's high end 1.8 is not below
+  EXPECT_EQ(cells(1), std::vector<int>({1, 0, 0, 2}));  // 2 s: 1.8 < 2; frame 1's 2.2 is Safe like its truth
+  EXPECT_EQ(cells(2), std::vector<int>({2, 0, 0, 1}));  // 3 s
+  EXPECT_NEAR(m.at("ttc_error").at("median_abs_s").get<double>(), 1.0, 1e-12);  // |4 - 5|: on the values
+  const std::vector<eval::FrameRecord> records = eval::read_records((dir / "per_frame.jsonl").string());
+  ASSERT_EQ(records.size(), 3u);
+  EXPECT_EQ(records[0].estimates[0].second.label_rule, "safer_bound");
+  EXPECT_DOUBLE_EQ(records[0].estimates[0].second.decision_value.value(), 1.8);
+  EXPECT_EQ(eval::evaluate(records, eval::options_from_json(report.at("protocol"))), report);
+  EXPECT_NE(slurp(dir / "report.md").find("`ttc_confirmed` labels by its interval's safer end"),
+            std::string::npos);
+}
+
 TEST(Evaluation, MalformedRecordsNameFileLineAndField) {
-  const std::filesystem::path p = std::filesystem::temp_directory_path() / "hf_eval_bad.jsonl";
+  const std::filesystem::path p =
+      std::filesystem::temp_directory_path() / ("hf_eval_bad_" + std::to_string(::getpid()) + ".jsonl");
   {
     std::ofstream out(p);
     out << R"({"frame":0,"timestamp":0,"scene":"s","truth":{"stage":"ground_truth","unit":"s","lower_is_riskier":true,"threshold":1.5,"scene_value":"inf","critical":-1},"estimates":[]})"

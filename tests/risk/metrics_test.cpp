@@ -77,6 +77,44 @@ TEST(TtcPaper, ApproachingRecedingEqualCrossingAndOutOfPath) {
   EXPECT_TRUE(r.lower_is_riskier);
 }
 
+// The label rule picks which number of an uncertain object decides Unsafe. One object 12 m ahead closing at
+// 8.57 m/s (TTC 1.4 s) with a 1 m/s closing-speed sigma: its interval straddles the 1.5 s threshold, so the
+// value and the riskier end say Unsafe and the safer end says Safe; a certain object gives its value under
+// every rule. deciding_value is what the label compared with the threshold.
+TEST(TtcPaper, LabelRuleDecidesByValueOrIntervalEnd) {
+  ObjectState o = object(1, 12.0, 0.0, 10.0 - 12.0 / 1.4);
+  o.covariance = cv::Matx44d::zeros();
+  (*o.covariance)(0, 0) = 0.01;
+  (*o.covariance)(2, 2) = 1.0;
+  for (const char* rule : {"value", "riskier_bound", "safer_bound"}) {
+    const RiskAssessment r = assess<TtcPaperMetric>(states({o}), std::string("{unsafe_when: ") + rule + "}");
+    ASSERT_EQ(r.objects.size(), 1u);
+    const ObjectRisk& a = r.objects[0];
+    EXPECT_NEAR(a.value, 1.4, 1e-9);
+    ASSERT_TRUE(a.low < 1.5 && a.high > 1.5) << a.low << " .. " << a.high;
+    EXPECT_NEAR(r.scene_value, 1.4, 1e-9) << rule;  // the scene value is the value under every rule
+    EXPECT_EQ(r.label_rule, rule);
+    const double expect = std::string(rule) == "value"           ? a.value
+                          : std::string(rule) == "riskier_bound" ? a.low
+                                                                 : a.high;
+    EXPECT_DOUBLE_EQ(deciding_value(r), expect) << rule;
+    EXPECT_EQ(r.label, std::string(rule) == "safer_bound" ? SafetyLabel::kSafe : SafetyLabel::kUnsafe)
+        << rule;
+  }
+  // Without a covariance there is no interval: the value decides under every rule.
+  const RiskAssessment plain =
+      assess<TtcPaperMetric>(states({object(1, 12.0, 0.0, 10.0 - 12.0 / 1.4)}), "{unsafe_when: safer_bound}");
+  EXPECT_TRUE(std::isnan(plain.objects[0].high));
+  EXPECT_NEAR(deciding_value(plain), 1.4, 1e-9);
+  EXPECT_EQ(plain.label, SafetyLabel::kUnsafe);
+  // Out-of-path objects decide nothing.
+  ObjectState aside = o;
+  aside.lateral_m = 6.0;
+  const RiskAssessment none = assess<TtcPaperMetric>(states({aside}), "{unsafe_when: riskier_bound}");
+  EXPECT_EQ(deciding_value(none), kInf);
+  EXPECT_EQ(none.label, SafetyLabel::kSafe);
+}
+
 TEST(TtcPaper, ThresholdAndEpsilonAreParams) {
   const ObjectStates st = states({object(1, 12.0, 0.0, 4.0), object(2, 30.0, 0.0, 9.95)});
   EXPECT_EQ(assess<TtcPaperMetric>(st).label, SafetyLabel::kSafe);  // 2 s >= 1.5 s

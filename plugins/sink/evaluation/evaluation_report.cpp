@@ -39,6 +39,10 @@ Json verdict_json(const Verdict& v) {
             {"scene_value", number_or_inf(v.scene_value)},
             {"critical", v.critical}};
   if (v.lead_value) j["lead_value"] = number_or_inf(*v.lead_value);
+  if (v.decision_value) {
+    j["label_rule"] = v.label_rule;
+    j["decision_value"] = number_or_inf(*v.decision_value);
+  }
   return j;
 }
 
@@ -57,6 +61,12 @@ Verdict verdict_from(const Json& j, const std::string& where, const std::string&
   if (!j.contains("scene_value")) throw Error(where + ": field '" + field + "' has no 'scene_value'");
   v.scene_value = number_from(j["scene_value"], where, field + ".scene_value");
   if (j.contains("lead_value")) v.lead_value = number_from(j["lead_value"], where, field + ".lead_value");
+  if (j.contains("decision_value")) {
+    if (!j.contains("label_rule") || !j["label_rule"].is_string())
+      throw Error(where + ": field '" + field + "' has a 'decision_value' but no 'label_rule' string");
+    v.label_rule = j["label_rule"].get<std::string>();
+    v.decision_value = number_from(j["decision_value"], where, field + ".decision_value");
+  }
   return v;
 }
 
@@ -262,6 +272,15 @@ std::vector<std::string> notes_of(const Json& report) {
           "`" + m.at("name").get<std::string>() +
           "` is a time headway, not a time-to-collision: its labels and errors compare a following-"
           "distance measure with the true TTC.");
+    const std::string rule = m.value("label_rule", "value");
+    if (rule != "value")
+      notes.push_back("`" + m.at("name").get<std::string>() + "` labels by its interval's " +
+                      (rule == "safer_bound"
+                           ? "safer end (Unsafe only when even the high end of an in-path "
+                             "object's TTC interval is below the threshold)"
+                           : "riskier end (Unsafe when the low end of an in-path object's TTC "
+                             "interval is below the threshold)") +
+                      " at every threshold; its TTC error is on its value.");
   }
   for (const Json& m : report.at("metrics"))
     if (m.value("compare", "scene") == "lead") {
@@ -287,7 +306,18 @@ double median(std::vector<double> v) {
 }
 
 Verdict verdict_of(const RiskAssessment& r) {
-  return {r.stage, r.unit, r.lower_is_riskier, r.threshold, r.scene_value, r.critical_track, std::nullopt};
+  Verdict v;
+  v.stage = r.stage;
+  v.unit = r.unit;
+  v.lower_is_riskier = r.lower_is_riskier;
+  v.threshold = r.threshold;
+  v.scene_value = r.scene_value;
+  v.critical = r.critical_track;
+  if (r.label_rule != "value") {
+    v.label_rule = r.label_rule;
+    v.decision_value = deciding_value(r);
+  }
+  return v;
 }
 
 const Verdict* FrameRecord::estimate(const std::string& label) const {
@@ -413,7 +443,8 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
                        {"stage", v.stage},
                        {"unit", v.unit},
                        {"lower_is_riskier", v.lower_is_riskier},
-                       {"threshold", v.threshold}});
+                       {"threshold", v.threshold},
+                       {"label_rule", se.mode == "lead" ? std::string("value") : v.label_rule}});
   }
   report["metrics"] = metrics;
 
@@ -432,8 +463,10 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
         {"scene", g}, {"frames", in_group}, {"truth_unknown", truth_unknown}, {"metrics", Json::array()}};
     for (const Series& se : series) {
       const Verdict& meta = first[se.stream];
-      // (truth value, estimate value); frames with an unknown truth are not scored.
+      // (truth value, estimate value); frames with an unknown truth are not scored. `decide`: what the
+      // estimate's label compares with a threshold (its label rule's bound in the scene comparison).
       std::vector<std::pair<double, double>> pairs;
+      std::vector<double> decide;
       for (const FrameRecord& r : records) {
         if (g != kAllScenes && r.scene != g) continue;
         if (std::isnan(r.truth.scene_value)) continue;
@@ -441,24 +474,27 @@ Json evaluate(const std::vector<FrameRecord>& records, const Options& o) {
         if (!e) continue;
         const double v = se.mode == "lead" ? e->lead_value.value_or(std::nan("")) : e->scene_value;
         pairs.push_back({r.truth.scene_value, v});
+        decide.push_back(se.mode == "lead" ? v : e->deciding());
       }
       const double truth_threshold = records.empty() ? 1.5 : records.front().truth.threshold;
       Json m = {{"name", se.name},
                 {"stage", meta.stage},
                 {"unit", meta.unit},
                 {"lower_is_riskier", meta.lower_is_riskier},
-                {"threshold", meta.threshold}};
+                {"threshold", meta.threshold},
+                {"label_rule", se.mode == "lead" ? std::string("value") : meta.label_rule}};
       Json evals = Json::array();
       if (meta.lower_is_riskier) {
         for (double th : o.thresholds) {
           Confusion c;
-          for (const auto& [t, e] : pairs) c.add(unsafe(e, th, true), unsafe(t, th, true));
+          for (size_t k = 0; k < pairs.size(); ++k)
+            c.add(unsafe(decide[k], th, true), unsafe(pairs[k].first, th, true));
           evals.push_back(c.json(th));
         }
       } else {
         Confusion c;
-        for (const auto& [t, e] : pairs)
-          c.add(unsafe(e, meta.threshold, false), unsafe(t, truth_threshold, true));
+        for (size_t k = 0; k < pairs.size(); ++k)
+          c.add(unsafe(decide[k], meta.threshold, false), unsafe(pairs[k].first, truth_threshold, true));
         evals.push_back(c.json("own"));
       }
       m["evaluations"] = evals;
@@ -516,8 +552,8 @@ std::string render_markdown(const Json& report) {
   s << "Ground truth: stage `" << p.at("truth_stage").get<std::string>() << "`, Unsafe below "
     << num(p.at("truth_threshold")) << " s. Frames: " << num(report.at("frames"))
     << ". Labels of the truth and of "
-    << "every TTC-like estimate are recomputed from their scene values at each threshold (Unsafe when "
-       "below). TTC "
+    << "every TTC-like estimate are recomputed from their scene values (or the interval bound their label "
+       "rule names) at each threshold (Unsafe when below). TTC "
        "error on frames whose true TTC is finite and below "
     << num(p.at("max_ttc_s")) << " s; an infinite estimate there has no error and is counted apart.\n\n";
   for (const Json& g : report.at("results")) {

@@ -24,6 +24,12 @@ struct Verdict {
   // Estimates only, with the "lead" comparison: this stream's value for the truth's critical object (same
   // track id), NaN when it has no such object or the truth has none.
   std::optional<double> lead_value;
+  // A metric whose label rule is an interval bound (RiskAssessment::label_rule riskier_bound / safer_bound):
+  // the rule and the number it compares with a threshold (hf::deciding_value). The scene comparison labels
+  // the frame by it at every threshold; the TTC error stays on scene_value.
+  std::string label_rule = "value";
+  std::optional<double> decision_value;
+  double deciding() const { return decision_value.value_or(scene_value); }
 };
 
 struct FrameRecord {

@@ -235,6 +235,12 @@ struct RiskAssessment {
   std::string label_rule = "value";  // which bound decided the label: value | riskier_bound | safer_bound
 };
 
+// The number a RiskAssessment's label compares with a threshold: over the in-path objects, the riskiest of
+// each one's value or, under label_rule riskier_bound / safer_bound, of its interval's end on that side (an
+// object without an interval gives its value). Equal to scene_value under "value". The label is Unsafe when
+// it is below the threshold (above it when higher is riskier); re-thresholding an assessment uses it too.
+double deciding_value(const RiskAssessment& r);
+
 // The hazard the generator asks for (mirrors share/schemas/hazard_spec.schema.json).
 struct HazardSpec {
   static constexpr const char* kTypeName = "HazardSpec";
