@@ -351,11 +351,19 @@ std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& fra
       }
     }
     w.history_s = f.t - std::min(first_t, f.t);
+    // The time the ego moves in what is left: each frame's interval counts unless the ego is known to stand
+    // (below min_ego_speed_mps) then.
+    w.moving_s = 0;
+    for (size_t k = i; k < frames.size(); ++k) {
+      const double step = (k + 1 < frames.size() ? frames[k + 1].t : t_end) - frames[k].t;
+      if (!frames[k].ego_speed || *frames[k].ego_speed >= s.min_ego_speed_mps) w.moving_s += step;
+    }
     if (yaw_known) w.turn_deg = turn * 180.0 / M_PI;
-    // The score: time left to watch the hazard, tracking history, a Safe margin, a straight ego path (hazards are
-    // laid out along it; a bend moves them across kerbs and out of view), and whether an object that must become
+    // The score: time left to watch the hazard while the ego still moves (an ego that stops soon after the
+    // trigger closes in on nothing), tracking history, a Safe margin, a straight ego path (hazards are laid
+    // out along it; a bend moves them across kerbs and out of view), and whether an object that must become
     // critical after lead_s + a TTC of 1.5 s is first seen within the detector's reach.
-    w.score = std::min(left, s.max_horizon_s) / s.max_horizon_s +
+    w.score = std::min(w.moving_s, s.max_horizon_s) / s.max_horizon_s +
               (history > 0 ? std::min(w.history_s, history) / history : 1.0);
     w.score += (!f.scene_ttc || *f.scene_ttc >= 3.0) ? 0.5 : 0.0;
     if (w.turn_deg) w.score += 0.5 * std::max(0.0, 1.0 - std::abs(*w.turn_deg) / 20.0);
@@ -383,10 +391,19 @@ std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& fra
 
 Json to_json(const CampaignWindow& w) {
   auto opt = [](const std::optional<double>& v) { return v && std::isfinite(*v) ? Json(*v) : Json(); };
-  return {{"trigger_frame", w.trigger}, {"first_frame", w.first},  {"last_frame", w.last},
-          {"t_s", w.t},                 {"left_s", w.left_s},     {"history_s", w.history_s},
-          {"ego_speed_mps", opt(w.ego_speed)}, {"scene_ttc_s", opt(w.scene_ttc)}, {"turn_deg", opt(w.turn_deg)},
-          {"appear_m", opt(w.appear_m)}, {"reach_m", opt(w.reach_m)}, {"score", w.score}};
+  return {{"trigger_frame", w.trigger},
+          {"first_frame", w.first},
+          {"last_frame", w.last},
+          {"t_s", w.t},
+          {"left_s", w.left_s},
+          {"moving_s", w.moving_s},
+          {"history_s", w.history_s},
+          {"ego_speed_mps", opt(w.ego_speed)},
+          {"scene_ttc_s", opt(w.scene_ttc)},
+          {"turn_deg", opt(w.turn_deg)},
+          {"appear_m", opt(w.appear_m)},
+          {"reach_m", opt(w.reach_m)},
+          {"score", w.score}};
 }
 
 // The same reason with its numbers left out, so reasons can be counted across attempts.

@@ -39,7 +39,7 @@ TEST(CampaignWindows, UnsafeFramesStandingEgoAndTooLittleClipLeftAreNoCandidates
   EXPECT_TRUE(triggers.count(70));   // 1.0 s left
   EXPECT_FALSE(triggers.count(71));  // 0.9 s left < min_left_s
   EXPECT_EQ(w.size(), 80u - 1 - 2 - 9);
-  EXPECT_EQ(w.front().history_s, 1.0);
+  EXPECT_NEAR(w.front().history_s, 1.0, 1e-9);
 }
 
 TEST(CampaignWindows, AttemptFramesCoverHistoryHorizonAndMargin) {
@@ -97,6 +97,23 @@ TEST(CampaignWindows, TheDetectorsReachWeighsAFastEgo) {
   EXPECT_NEAR(*wf.front().reach_m, 35.0, 1e-9);
   EXPECT_GT(*wf.front().appear_m, 100.0);
   EXPECT_GT(ws.front().score, wf.front().score + 0.5);
+}
+
+// Stop-and-go: the ego slows from 3 m/s to a standstill at 5 s. A window is scored by the time the ego still
+// moves after it, not by the clip left: the earliest windows with a full history come first.
+TEST(CampaignWindows, AnEgoThatStopsSoonAfterTheTriggerMeetsNoHazard) {
+  CampaignSpec s;
+  auto f = clip(100);
+  for (auto& x : f) x.ego_speed = std::max(0.0, 3.0 * (1.0 - x.t / 5.0));
+  const auto w = candidate_windows(f, s);
+  ASSERT_FALSE(w.empty());
+  for (const auto& x : w) {
+    EXPECT_LT(x.t, 10.0 / 3.0 + 1e-9) << "the ego is below 1 m/s from 3.33 s on";  // min_ego_speed_mps
+    EXPECT_NEAR(x.moving_s, 10.0 / 3.0 - x.t, 0.1 + 1e-9);
+    EXPECT_GT(x.left_s, x.moving_s);
+  }
+  EXPECT_EQ(w.front().trigger, 10);  // the first frame with a whole second of history
+  EXPECT_GT(w.front().score, w.back().score);
 }
 
 TEST(CampaignReasons, NumbersAreLeftOutSoReasonsCount) {

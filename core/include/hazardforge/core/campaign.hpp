@@ -61,15 +61,18 @@ struct ScoutFrame {
 struct CampaignWindow {
   int64_t trigger = 0, first = 0, last = 0;
   double t = 0, left_s = 0, history_s = 0, score = 0;
+  // Of left_s, the time the ego moves (its speed unknown or at least min_ego_speed_mps): a hazard can only
+  // become critical for an ego that still moves.
+  double moving_s = 0;
   std::optional<double> ego_speed, scene_ttc;
   std::optional<double> turn_deg;  // the ego's heading change over the horizon
   std::optional<double> appear_m;  // where a hazard critical after lead_s must be first seen
   std::optional<double> reach_m;   // 90th percentile of the distances the detector tracked in this recording
 };
 
-// Safe frames with enough clip left, best first (time left, tracking history, Safe margin, a straight ego path
-// over the horizon, the detector's reach at the distance a hazard must appear); windows within spacing_s of a
-// better one moved to the end.
+// Safe frames with enough clip left, best first (time left while the ego moves, tracking history, Safe
+// margin, a straight ego path over the horizon, the detector's reach at the distance a hazard must appear);
+// windows within spacing_s of a better one moved to the end.
 std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& frames, const CampaignSpec& spec);
 
 // Whether a generator's refusal names only road users of that moment (a planned path running into a tracked
