@@ -350,6 +350,93 @@ TEST(LlmHazard, PeopleTheRecordingShowsMeanSidewalks) {
   }
 }
 
+// Multi-lane on auto with a scene text that says nothing about lanes: a vehicle the filtered estimator
+// follows travelling the ego's way in the next lane decides; a parked car, oncoming traffic, a car in the ego
+// lane, a velocity without its uncertainty or a run broken by one frame do not.
+TEST(LlmHazard, TrafficBesideTheEgoMeansSeveralLanes) {
+  struct Other {
+    double lateral = 3.5, ground_vx = 8.0;  // left lane, 8 m/s the ego's way (the ego drives at 10 m/s)
+    double sigma_v = 0.5;         // 1-sigma of its velocity; < 0: no covariance (the paper's estimator)
+    int frames = 6, gap_at = -1;  // frames it is seen in; a frame where it stands still
+  };
+  auto lanes_line = [](const Other& o, const std::string& more = "") {
+    auto r = test::make_runner("trigger: frame\ntrigger_frame: 5\n" + more);
+    for (int i = 0; i < 6; ++i) {
+      const double t = 0.5 * i;
+      ObjectStates st = test::make_states(i, t);
+      if (i < o.frames) {
+        ObjectState c = st.objects.front();
+        c.track_id = 12;
+        c.distance_m = 20.0;
+        c.lateral_m = o.lateral;
+        c.velocity_rel = cv::Vec2d((i == o.gap_at ? 0.0 : o.ground_vx) - 10.0, 0.0);
+        if (o.sigma_v >= 0) {
+          cv::Matx44d P = cv::Matx44d::eye() * 0.25;
+          P(2, 2) = P(3, 3) = o.sigma_v * o.sigma_v;
+          c.covariance = P;
+        }
+        st.objects.push_back(c);
+      }
+      r.push("frames", test::make_frame(i, t, "a road"), t);
+      r.push("states", st, t);
+      r.push("risk", test::make_risk(i, true), t, "ttc");
+    }
+    try {
+      r.run();
+    } catch (const Error&) {  // no hazard may fit; the log line is what is checked
+    }
+    for (const std::string& l : r.log())
+      if (l.find("is Safe: generating a hazard (") != std::string::npos)
+        return l.substr(l.find("multi-lane"), l.rfind(")") - l.find("multi-lane"));
+    return std::string("(no generation)");
+  };
+  const std::string none = "multi-lane no, auto: nothing in the scene text suggests several lanes";
+  EXPECT_EQ(lanes_line({}),
+            "multi-lane yes, auto: the recording shows a car travelling the ego's way in the lane left of it "
+            "(track 12, followed for 2.5 s)");
+  Other right;
+  right.lateral = -3.2;
+  EXPECT_NE(lanes_line(right).find("in the lane right of it"), std::string::npos);
+  Other parked, oncoming, in_lane, unsure, paper, brief, broken;
+  parked.ground_vx = 0.0;
+  oncoming.ground_vx = -8.0;
+  in_lane.lateral = 0.4;
+  unsure.sigma_v = 5.0;  // 8 m/s within its uncertainty: standing as far as the estimator can tell
+  paper.sigma_v = -1;
+  brief.frames = 2;   // 0.5 s < traffic_seen_s 1 s
+  broken.gap_at = 3;  // standing at frame 3: runs of 1 s (frames 0-2) and 0.5 s (frames 4-5)
+  for (const Other& o : {parked, oncoming, in_lane, unsure, paper, brief}) EXPECT_EQ(lanes_line(o), none);
+  EXPECT_EQ(lanes_line(broken),
+            "multi-lane yes, auto: the recording shows a car travelling the ego's way in the lane left of it "
+            "(track 12, followed for 1 s)");
+  broken.gap_at = 2;  // runs of 0.5 s and 1 s (frames 3-5): still 1 s
+  EXPECT_NE(lanes_line(broken).find("followed for 1 s"), std::string::npos);
+  Other split;
+  split.gap_at = 2;
+  EXPECT_EQ(lanes_line(split, "traffic_seen_s: 1.5\n"), none);  // no unbroken 1.5 s
+  EXPECT_EQ(lanes_line({}, "traffic_seen_s: 0\n"), none);
+  EXPECT_EQ(lanes_line({}, "multi_lane: 'no'\n"), "multi-lane no, set to no");
+
+  // A campaign's attempt sees a window only: the scouting run's states (jsonl sink records, 1-sigma values
+  // instead of the covariance) show a car travelling beside the ego for 2 s elsewhere in the clip.
+  test::TempDir tmp;
+  const auto states = tmp / "scout.jsonl";
+  {
+    std::ofstream f(states);
+    for (int i = 0; i <= 4; ++i)
+      f << "{\"frame\":" << i << ",\"timestamp\":" << 0.5 * i
+        << ",\"estimator.states\":{\"ego_speed_mps\":10,\"objects\":[{\"label\":\"car\",\"track_id\":3,"
+           "\"distance_m\":15,\"lateral_m\":-3.4,\"velocity_rel\":[-2,0.1],\"sigma\":{\"distance_m\":0.5,"
+           "\"lateral_m\":0.1,\"velocity_rel\":[0.6,0.4]}}]}}\n";
+  }
+  Other away;
+  away.frames = 0;
+  EXPECT_EQ(
+      lanes_line(away, "recording_states: " + states.string() + "\n"),
+      "multi-lane yes, auto: the recording shows a car travelling the ego's way in the lane right of it "
+      "(track 3, followed for 2 s in scout.jsonl)");
+}
+
 TEST(LlmHazard, FirstSafeStopsAfterMaxTriggerAttemptsAndSaysWhichFrames) {
   ScriptedServer srv("/api/chat");
   for (int i = 0; i < 2; ++i) srv.then_ollama("no JSON here");

@@ -125,6 +125,14 @@ ComponentInfo LlmHazardGenerator::describe() {
               "sidewalks: auto with no word for or against them in the scene text: people walk here when the "
               "recording shows a person tracked for at least this long (up to the trigger frame); 0 = only "
               "the scene text decides"),
+      ParamSpec::number("traffic_seen_s", 1.0)
+          .range(0, 3600)
+          .describe(
+              "multi_lane: auto with no word for or against it in the scene text: several lanes go the ego's "
+              "way when the recording shows a vehicle travelling the ego's way in the lane beside it (2-60 m "
+              "ahead, 0.6-1.6 lane widths to the side, 3-60 m/s on the ground within 30 degrees of the ego's "
+              "heading, beyond its estimator's uncertainty: states without a covariance never count) for at "
+              "least this long without a break (up to the trigger frame); 0 = only the scene text decides"),
       ParamSpec::string("intersection", "auto")
           .from_scene("road.intersection")
           .one_of({"auto", "yes", "no"})
@@ -150,8 +158,8 @@ ComponentInfo LlmHazardGenerator::describe() {
       ParamSpec::path("recording_states", "")
           .describe(
               "JSON-lines file of the whole recording's object states, as the jsonl sink writes them (a "
-              "campaign's scouting run): the people it shows count for people_seen_s too, when this run sees "
-              "only a window of the recording"),
+              "campaign's scouting run): the people and the traffic beside the ego it shows count for "
+              "people_seen_s and traffic_seen_s too, when this run sees only a window of the recording"),
       ParamSpec::path("feedback", "")
           .describe(
               "JSON file of failed attempts on this recording, {\"attempts\": [{\"kind\", \"object_class\", "
@@ -257,12 +265,43 @@ void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std
 
 }
 
-// Person tracks in a jsonl sink's file of object states: per track, the first and last time it was seen.
-std::map<int64_t, std::pair<double, double>> LlmHazardGenerator::people_in_states_file(
-    const std::filesystem::path& file) {
+namespace {
+
+// An object state as the jsonl sink writes it (its covariance from the 1-sigma values it keeps).
+ObjectState state_from_record(const Json& o) {
+  ObjectState s;
+  s.track_id = o["track_id"].get<int64_t>();
+  s.label = o.value("label", "");
+  auto number = [&](const char* key, double fallback) {
+    return o.contains(key) && o[key].is_number() ? o[key].get<double>() : fallback;
+  };
+  s.distance_m = number("distance_m", std::nan(""));
+  s.lateral_m = number("lateral_m", 0.0);
+  const Json v = o.value("velocity_rel", Json());
+  if (v.is_array() && v.size() == 2 && v[0].is_number() && v[1].is_number())
+    s.velocity_rel = cv::Vec2d(v[0].get<double>(), v[1].get<double>());
+  const Json sg = o.value("sigma", Json());
+  if (sg.is_object() && sg.contains("velocity_rel") && sg["velocity_rel"].is_array() &&
+      sg["velocity_rel"].size() == 2 && sg["velocity_rel"][0].is_number() &&
+      sg["velocity_rel"][1].is_number()) {
+    cv::Matx44d P = cv::Matx44d::zeros();
+    const double sd = sg.value("distance_m", 0.0), sl = sg.value("lateral_m", 0.0);
+    P(0, 0) = sd * sd;
+    P(1, 1) = sl * sl;
+    P(2, 2) = std::pow(sg["velocity_rel"][0].get<double>(), 2);
+    P(3, 3) = std::pow(sg["velocity_rel"][1].get<double>(), 2);
+    s.covariance = P;
+  }
+  return s;
+}
+
+}  // namespace
+
+void LlmHazardGenerator::read_states_file(const std::filesystem::path& file,
+                                          std::map<int64_t, std::pair<double, double>>& people,
+                                          TrafficBeside& traffic) {
   std::ifstream in(file);
   if (!in) throw Error("recording_states: cannot read " + file.string());
-  std::map<int64_t, std::pair<double, double>> people;
   std::string line;
   int64_t n = 0;
   while (std::getline(in, line)) {
@@ -275,19 +314,24 @@ std::map<int64_t, std::pair<double, double>> LlmHazardGenerator::people_in_state
     const double t = j["timestamp"].get<double>();
     for (const auto& [key, value] : j.items()) {
       if (!value.is_object() || !value.contains("objects") || !value["objects"].is_array()) continue;
+      ObjectStates states;
       for (const Json& o : value["objects"]) {
-        if (!o.is_object() || o.value("label", "") != "person" || !o.contains("track_id") ||
-            !o["track_id"].is_number_integer() || o["track_id"].get<int64_t>() < 0)
+        if (!o.is_object() || !o.contains("track_id") || !o["track_id"].is_number_integer() ||
+            o["track_id"].get<int64_t>() < 0)
           continue;
-        auto [it, added] = people.try_emplace(o["track_id"].get<int64_t>(), std::make_pair(t, t));
-        if (!added) {
-          it->second.first = std::min(it->second.first, t);
-          it->second.second = std::max(it->second.second, t);
+        if (o.value("label", "") == "person") {
+          auto [it, added] = people.try_emplace(o["track_id"].get<int64_t>(), std::make_pair(t, t));
+          if (!added) {
+            it->second.first = std::min(it->second.first, t);
+            it->second.second = std::max(it->second.second, t);
+          }
         }
+        states.objects.push_back(state_from_record(o));
       }
+      const Json ego = value.value("ego_speed_mps", Json());
+      if (ego.is_number()) traffic.add(t, states, ego.get<double>());
     }
   }
-  return people;
 }
 
 void LlmHazardGenerator::open(StageContext& ctx) {
@@ -349,8 +393,9 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   rules_.entry_max_height = p.get_double("entry_max_height");
   rules_.clearance_m = p.get_double("clearance_m");
   recording_people_.clear();
+  traffic_ = recording_traffic_ = TrafficBeside(road_.lane_width);
   if (const std::filesystem::path rs = p.get_path("recording_states"); !rs.empty()) {
-    recording_people_ = people_in_states_file(rs);
+    read_states_file(rs, recording_people_, recording_traffic_);
     ctx.record_resource(rs);
   }
   const std::filesystem::path feedback_file = p.get_path("feedback");
@@ -413,6 +458,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     auto [it, added] = people_.try_emplace(o.track_id, std::make_pair(frame.timestamp, frame.timestamp));
     if (!added) it->second.second = frame.timestamp;
   }
+  if (const double ego = ego_speed(frame, states); ego >= 0) traffic_.add(frame.timestamp, states, ego);
   if (trigger_ == "first_safe" && (seen < warmup_frames_ || frame.timestamp < next_try_s_ - 1e-9)) return;
   if (trigger_ == "frame" && frame.index != trigger_frame_) return;
   if (risks.empty())
@@ -579,6 +625,19 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   }
   s.intersection = resolve_intersection(p.get_string("intersection"), text);
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
+  if (const double seen_s = p.get_double("traffic_seen_s");
+      seen_s > 0 && p.get_string("multi_lane") == "auto" && !s.multi_lane.value &&
+      s.multi_lane.why.rfind("auto: nothing", 0) == 0) {
+    const TrafficBeside::Seen here = traffic_.longest(), there = recording_traffic_.longest();
+    const bool whole = there.seconds > here.seconds;
+    const TrafficBeside::Seen& seen = whole ? there : here;
+    if (seen.track >= 0 && seen.seconds >= seen_s - 1e-9)
+      s.multi_lane = {true,
+                      "auto: the recording shows a " + seen.label + " travelling the ego's way in the lane " +
+                          (seen.side > 0 ? "left" : "right") + " of it (track " + std::to_string(seen.track) +
+                          ", followed for " + num(seen.seconds) + " s" +
+                          (whole ? " in " + p.get_path("recording_states").filename().string() : "") + ")"};
+  }
   s.allowed_kinds = allowed_kinds_;
   s.kinds = kind_infos_;
   s.rules = rules_;

@@ -97,8 +97,12 @@ class LlmHazardGenerator : public Stage {
   double straight_from_ = -1e300;  // first_safe: where the straighter stretch found by turns_too_much begins
   std::map<int64_t, std::pair<double, double>> people_;  // person tracks seen so far: first and last time
   std::map<int64_t, std::pair<double, double>> recording_people_;  // the same from recording_states
-  static std::map<int64_t, std::pair<double, double>> people_in_states_file(
-      const std::filesystem::path& file);
+  TrafficBeside traffic_,
+      recording_traffic_;  // vehicles travelling the ego's way beside it: so far / recording
+  // Person tracks (first and last time seen) and vehicles travelling beside the ego in a jsonl sink's file of
+  // object states.
+  static void read_states_file(const std::filesystem::path& file,
+                               std::map<int64_t, std::pair<double, double>>& people, TrafficBeside& traffic);
   bool warned_skipped_ = false;
 };
 

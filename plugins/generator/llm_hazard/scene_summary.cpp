@@ -7,6 +7,8 @@
 #include <cmath>
 #include <set>
 
+#include <hazardforge/hazard/kinematics.hpp>
+
 namespace hf::llm_hazard {
 
 namespace {
@@ -89,6 +91,48 @@ Resolved resolve_multi_lane(const std::string& setting, const std::string& text)
                  {"highway", "motorway", "freeway", "expressway", "interstate", "autobahn", "multi-lane",
                   "multilane", "lanes", "arterial", "avenue", "boulevard"},
                  {"single-lane", "one-lane", "narrow", "alley"}, "several lanes");
+}
+
+int travelling_beside(const ObjectState& o, double ego_speed_mps, double lane_width_m) {
+  static const std::set<std::string> vehicles = {"car", "truck", "bus", "motorcycle"};
+  if (!vehicles.count(o.label) || !std::isfinite(o.distance_m) || o.distance_m < 2.0 || o.distance_m > 60.0)
+    return 0;
+  // A velocity without its uncertainty is no evidence: the paper's estimator reads a parked car whose range
+  // estimate stays put as one driving along at the ego's speed.
+  if (!o.covariance) return 0;
+  const double off = std::abs(o.lateral_m);
+  if (off < 0.6 * lane_width_m || off > 1.6 * lane_width_m) return 0;
+  const std::optional<cv::Vec2d> v = hazard::ground_velocity(o, ego_speed_mps);
+  if (!v) return 0;
+  const double speed = std::hypot((*v)[0], (*v)[1]);
+  if (speed < 3.0 || speed > 60.0 || (*v)[0] < speed * std::cos(30.0 * M_PI / 180.0)) return 0;
+  return o.lateral_m > 0 ? 1 : -1;
+}
+
+void TrafficBeside::add(double t, const ObjectStates& states, double ego_speed_mps) {
+  for (const ObjectState& o : states.objects) {
+    if (o.track_id < 0) continue;
+    Run& r = runs_[o.track_id];
+    const int side = travelling_beside(o, ego_speed_mps, lane_width_);
+    if (side == 0 || (r.open && side != r.side)) {
+      r.open = false;
+      if (side == 0) continue;
+    }
+    if (!r.open) {
+      r.open = true;
+      r.start = t;
+      r.side = side;
+    }
+    r.last = t;
+    if (r.last - r.start > r.best.seconds) r.best = {o.track_id, o.label, side, r.last - r.start};
+  }
+}
+
+TrafficBeside::Seen TrafficBeside::longest() const {
+  Seen best;
+  for (const auto& [id, r] : runs_)
+    if (r.best.seconds > best.seconds) best = r.best;
+  return best;
 }
 
 std::string dataset_description(const Frame& frame) {

@@ -23,6 +23,39 @@ Resolved resolve_sidewalks(const std::string& setting, const std::string& text);
 Resolved resolve_intersection(const std::string& setting, const std::string& text);
 Resolved resolve_multi_lane(const std::string& setting, const std::string& text);
 
+// Whether a tracked object is a vehicle travelling the ego's way in a lane beside the ego's: a car, truck,
+// bus or motorcycle 2-60 m ahead, its centre 0.6-1.6 lane widths to the side, its ground velocity
+// (hazard::ground_velocity: zero when the estimator cannot tell it from standing) 3-60 m/s and within 30
+// degrees of the ego's heading. Only states with a covariance count (a filtered estimator's). The side it
+// travels on (+1 left, -1 right), or 0.
+int travelling_beside(const ObjectState& o, double ego_speed_mps, double lane_width_m);
+
+// Vehicles seen travelling the ego's way beside it (travelling_beside), per track the longest unbroken run of
+// frames: the evidence the multi-lane auto rule reads from the recording. A frame in which a track is seen
+// but not travelling beside the ego ends its run, so one noisy velocity does not make a lane.
+class TrafficBeside {
+ public:
+  explicit TrafficBeside(double lane_width_m = 3.5) : lane_width_(lane_width_m) {}
+  void add(double t, const ObjectStates& states, double ego_speed_mps);
+  struct Seen {
+    int64_t track = -1;
+    std::string label;
+    int side = 0;
+    double seconds = 0;
+  };
+  Seen longest() const;
+
+ private:
+  struct Run {
+    double start = 0, last = 0;
+    bool open = false;
+    int side = 0;
+    Seen best;
+  };
+  double lane_width_;
+  std::map<int64_t, Run> runs_;
+};
+
 // The dataset's own words for the scene: Frame.meta "scene_description", else "description", else "".
 std::string dataset_description(const Frame& frame);
 
