@@ -53,7 +53,8 @@ void SceneLightEstimator::add(const cv::Mat& bgr, const CameraModel& cam,
     const auto g = cam.pixel_to_ground({bx + v.box.width / 2.0, by});
     const auto gl = cam.pixel_to_ground({bx, by}), gr = cam.pixel_to_ground({bx + v.box.width, by});
     if (!g || !gl || !gr) continue;
-    // The footprint: its near edge through the contact point, across the line of sight; its length along it.
+    // The footprint: its near edge across the line of sight, the body's overhang nearer than the wheels'
+    // contact point (the box's bottom); its length along the line of sight.
     cv::Vec2d u = cv::Vec2d((*g)[0], (*g)[1]) - cam_xy;
     const double range = cv::norm(u);
     if (!(range > 1.0)) continue;
@@ -61,7 +62,8 @@ void SceneLightEstimator::add(const cv::Mat& bgr, const CameraModel& cam,
     const double alpha = std::atan2(u[1], u[0]);
     const double half_across = 0.5 * std::max(v.width_m, cv::norm(*gl - *gr));
     const double half_along = 0.5 * v.length_m;
-    const cv::Vec2d centre = cv::Vec2d((*g)[0], (*g)[1]) + half_along * u;
+    const cv::Vec2d centre =
+        cv::Vec2d((*g)[0], (*g)[1]) + (half_along - opt_.overhang_fraction * v.length_m) * u;
     std::vector<double> lit;
     std::vector<std::vector<double>> near(static_cast<size_t>(K));
     for (int k = 0; k < K; ++k) {
@@ -115,8 +117,13 @@ void SceneLightEstimator::add(const cv::Mat& bgr, const CameraModel& cam,
       cy += w * std::sin(phi);
     }
     s.azimuth = std::atan2(cy, cx) + heading;
-    // The shadow reaches as far as its band stays at least half as dark as at its darkest.
-    const auto& b = near[static_cast<size_t>(best)];
+    // The shadow reaches as far as its band stays at least half as dark as at its darkest, along the ray
+    // nearest the dark sector's centre (the darkest ray may graze a long flank's shadow).
+    const int along =
+        static_cast<int>(
+            std::lround(std::remainder(std::atan2(cy, cx) - alpha, 2 * CV_PI) / (2 * CV_PI / K)) + K) %
+        K;
+    const auto& b = near[static_cast<size_t>(dark[static_cast<size_t>(along)] > -1.0 ? along : best)];
     double peak = 0, last = 0;
     for (size_t j = 0; j < b.size(); ++j)
       if (b[j] >= 0) peak = std::max(peak, 1.0 - b[j] / ref);
