@@ -439,7 +439,13 @@ struct Camera {
 // A dash-camera-like viewpoint: 1.6 m above the ground, far enough for mild perspective.
 Camera view_camera(const Model& m, double azimuth_deg, cv::Size& size) {
   const double az = azimuth_deg * CV_PI / 180.0;
-  const double dist = std::max(15.0, 2.5 * m.size_lwh[0]);
+  // Vehicles seen from 8 m (1.8 lengths for trucks and buses): hazards are shown at 8-40 m, and a picture
+  // rendered from farther and warped onto a near box keeps a far view's flat perspective; YOLOv8n found the
+  // default car in 55 of 64 insertions rendered from 15 m, 63 of 64 from 8.1 m (hf_ar_renderer_detectability).
+  // A person is too thin for the perspective to matter and stays at 15 m (from 8 m: found as often, but
+  // YOLOX's boxes fitted it worse, mean IoU 0.73 against 0.82 in the nuScenes pedestrian configs).
+  const double dist =
+      m.object_class == "person" ? 15.0 : std::max(8.0, 1.8 * m.size_lwh[0]);
   Camera c;
   c.pos = Vec3d(dist * std::cos(az), dist * std::sin(az), 1.6);
   const Vec3d target(0, 0, m.size_lwh[2] / 2);
