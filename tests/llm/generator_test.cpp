@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <thread>
 
 #include "llm_hash.hpp"
@@ -285,33 +286,51 @@ TEST(LlmHazard, FirstSafeWaitsForAStraighterStretchOfTheEgoPath) {
   }
 }
 
+// A scouting run's file of object states as the jsonl sink writes it: frames 0..last at 2 Hz, each record
+// `"estimator.states": <states>` (the text may go on with more of the record's keys).
+std::filesystem::path scout_file(const test::TempDir& tmp, int last, const std::string& states) {
+  const auto file = tmp / "scout.jsonl";
+  std::ofstream f(file);
+  for (int i = 0; i <= last; ++i)
+    f << "{\"frame\":" << i << ",\"timestamp\":" << 0.5 * i << ",\"estimator.states\":" << states << "}\n";
+  return file;
+}
+
+// Six Safe frames 0.5 s apart with `add` putting objects into each frame's states; the generator's log line
+// that says how it read the scene ("... is Safe: generating a hazard (sidewalks ..., multi-lane ...)").
+std::string scene_reading(const std::string& yaml, const std::function<void(int, ObjectStates&)>& add) {
+  auto r = test::make_runner(yaml);
+  for (int i = 0; i < 6; ++i) {
+    const double t = 0.5 * i;
+    ObjectStates st = test::make_states(i, t);
+    add(i, st);
+    r.push("frames", test::make_frame(i, t, "a road"), t);
+    r.push("states", st, t);
+    r.push("risk", test::make_risk(i, true), t, "ttc");
+  }
+  try {
+    r.run();
+  } catch (const Error&) {  // no hazard may fit; the log line is what is checked
+  }
+  for (const std::string& l : r.log())
+    if (l.find("is Safe: generating a hazard (") != std::string::npos) return l;
+  return std::string("(no generation)");
+}
+
 // Sidewalks on auto with a scene text that says nothing about them: the people the recording shows decide.
 TEST(LlmHazard, PeopleTheRecordingShowsMeanSidewalks) {
   auto sidewalks_line = [](const std::string& yaml, int person_frames) {
-    auto r = test::make_runner(yaml);
-    for (int i = 0; i < 6; ++i) {
-      const double t = 0.5 * i;
-      ObjectStates st = test::make_states(i, t);
-      if (i < person_frames) {
-        ObjectState p = st.objects.front();
-        p.track_id = 9;
-        p.label = "person";
-        p.distance_m = 25.0;
-        p.lateral_m = 6.0;
-        st.objects.push_back(p);
-      }
-      r.push("frames", test::make_frame(i, t, "a road"), t);
-      r.push("states", st, t);
-      r.push("risk", test::make_risk(i, true), t, "ttc");
-    }
-    try {
-      r.run();
-    } catch (const Error&) {  // no hazard may fit; the log line is what is checked
-    }
-    for (const std::string& l : r.log())
-      if (l.find("is Safe: generating a hazard (sidewalks") != std::string::npos)
-        return l.substr(l.find("(sidewalks") + 1, l.find("; intersection") - l.find("(sidewalks") - 1);
-    return std::string("(no generation)");
+    const std::string l = scene_reading(yaml, [&](int i, ObjectStates& st) {
+      if (i >= person_frames) return;
+      ObjectState p = st.objects.front();
+      p.track_id = 9;
+      p.label = "person";
+      p.distance_m = 25.0;
+      p.lateral_m = 6.0;
+      st.objects.push_back(p);
+    });
+    const size_t from = l.find("(sidewalks");
+    return from == std::string::npos ? l : l.substr(from + 1, l.find("; intersection") - from - 1);
   };
   EXPECT_EQ(sidewalks_line("trigger: frame\ntrigger_frame: 5\n", 5),
             "sidewalks yes, auto: the recording shows people (person track 9 followed for 2 s)");
@@ -325,14 +344,9 @@ TEST(LlmHazard, PeopleTheRecordingShowsMeanSidewalks) {
   // A run that sees only a window of the recording (a campaign's attempt): the whole recording's states, as
   // its scouting run wrote them, say a person was followed for 3 s elsewhere in the clip.
   test::TempDir tmp;
-  const auto states = tmp / "scout.jsonl";
-  {
-    std::ofstream f(states);
-    for (int i = 0; i <= 6; ++i)
-      f << "{\"frame\":" << i << ",\"timestamp\":" << 0.5 * i
-        << ",\"estimator.states\":{\"objects\":[{\"label\":\"person\",\"track_id\":4},"
-           "{\"label\":\"car\",\"track_id\":5}]},\"ttc.risk\":{\"label\":\"Safe\"}}\n";
-  }
+  const auto states = scout_file(tmp, 6,
+                                 "{\"objects\":[{\"label\":\"person\",\"track_id\":4},"
+                                 "{\"label\":\"car\",\"track_id\":5}]},\"ttc.risk\":{\"label\":\"Safe\"}");
   EXPECT_EQ(
       sidewalks_line("trigger: frame\ntrigger_frame: 5\nrecording_states: " + states.string() + "\n", 0),
       "sidewalks yes, auto: the recording shows people (person track 4 followed for 3 s in scout.jsonl)");
@@ -360,35 +374,23 @@ TEST(LlmHazard, TrafficBesideTheEgoMeansSeveralLanes) {
     int frames = 6, gap_at = -1;  // frames it is seen in; a frame where it stands still
   };
   auto lanes_line = [](const Other& o, const std::string& more = "") {
-    auto r = test::make_runner("trigger: frame\ntrigger_frame: 5\n" + more);
-    for (int i = 0; i < 6; ++i) {
-      const double t = 0.5 * i;
-      ObjectStates st = test::make_states(i, t);
-      if (i < o.frames) {
-        ObjectState c = st.objects.front();
-        c.track_id = 12;
-        c.distance_m = 20.0;
-        c.lateral_m = o.lateral;
-        c.velocity_rel = cv::Vec2d((i == o.gap_at ? 0.0 : o.ground_vx) - 10.0, 0.0);
-        if (o.sigma_v >= 0) {
-          cv::Matx44d P = cv::Matx44d::eye() * 0.25;
-          P(2, 2) = P(3, 3) = o.sigma_v * o.sigma_v;
-          c.covariance = P;
-        }
-        st.objects.push_back(c);
-      }
-      r.push("frames", test::make_frame(i, t, "a road"), t);
-      r.push("states", st, t);
-      r.push("risk", test::make_risk(i, true), t, "ttc");
-    }
-    try {
-      r.run();
-    } catch (const Error&) {  // no hazard may fit; the log line is what is checked
-    }
-    for (const std::string& l : r.log())
-      if (l.find("is Safe: generating a hazard (") != std::string::npos)
-        return l.substr(l.find("multi-lane"), l.rfind(")") - l.find("multi-lane"));
-    return std::string("(no generation)");
+    const std::string l =
+        scene_reading("trigger: frame\ntrigger_frame: 5\n" + more, [&](int i, ObjectStates& st) {
+          if (i >= o.frames) return;
+          ObjectState c = st.objects.front();
+          c.track_id = 12;
+          c.distance_m = 20.0;
+          c.lateral_m = o.lateral;
+          c.velocity_rel = cv::Vec2d((i == o.gap_at ? 0.0 : o.ground_vx) - 10.0, 0.0);
+          if (o.sigma_v >= 0) {
+            cv::Matx44d P = cv::Matx44d::eye() * 0.25;
+            P(2, 2) = P(3, 3) = o.sigma_v * o.sigma_v;
+            c.covariance = P;
+          }
+          st.objects.push_back(c);
+        });
+    const size_t from = l.find("multi-lane");
+    return from == std::string::npos ? l : l.substr(from, l.rfind(")") - from);
   };
   const std::string none = "multi-lane no, auto: nothing in the scene text suggests several lanes";
   EXPECT_EQ(lanes_line({}),
@@ -420,15 +422,10 @@ TEST(LlmHazard, TrafficBesideTheEgoMeansSeveralLanes) {
   // A campaign's attempt sees a window only: the scouting run's states (jsonl sink records, 1-sigma values
   // instead of the covariance) show a car travelling beside the ego for 2 s elsewhere in the clip.
   test::TempDir tmp;
-  const auto states = tmp / "scout.jsonl";
-  {
-    std::ofstream f(states);
-    for (int i = 0; i <= 4; ++i)
-      f << "{\"frame\":" << i << ",\"timestamp\":" << 0.5 * i
-        << ",\"estimator.states\":{\"ego_speed_mps\":10,\"objects\":[{\"label\":\"car\",\"track_id\":3,"
-           "\"distance_m\":15,\"lateral_m\":-3.4,\"velocity_rel\":[-2,0.1],\"sigma\":{\"distance_m\":0.5,"
-           "\"lateral_m\":0.1,\"velocity_rel\":[0.6,0.4]}}]}}\n";
-  }
+  const auto states = scout_file(tmp, 4,
+                                 "{\"ego_speed_mps\":10,\"objects\":[{\"label\":\"car\",\"track_id\":3,"
+                                 "\"distance_m\":15,\"lateral_m\":-3.4,\"velocity_rel\":[-2,0.1],\"sigma\":{"
+                                 "\"distance_m\":0.5,\"lateral_m\":0.1,\"velocity_rel\":[0.6,0.4]}}]}");
   Other away;
   away.frames = 0;
   EXPECT_EQ(
