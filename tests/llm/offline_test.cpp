@@ -10,8 +10,10 @@ namespace {
 
 // The scene the generator would offer (built from the same synthetic scene as the stage tests).
 std::unique_ptr<test::OfflineScene> scene_context(bool sidewalks, bool multi_lane, double ego_speed,
-                                                  std::vector<std::string> kinds) {
+                                                  std::vector<std::string> kinds,
+                                                  std::vector<std::string> drawable = {}) {
   llm_hazard::SceneSettings s;
+  s.rules.asset_classes = std::move(drawable);  // empty: any class
   s.environment = "test street";
   s.road_type = "test";
   s.sidewalks = {sidewalks, "test"};
@@ -213,6 +215,36 @@ TEST(OfflinePlanner, SlowTrafficCutInSqueezesIntoTheGapAndStops) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("the ego speed 0.5 m/s is below 1.0 m/s"), std::string::npos)
+        << e.what();
+  }
+}
+
+// A vehicle's class is drawn among those the renderer can draw: with the default set (no motorcycle) no plan
+// is a motorcycle and no draw is wasted on one; with no vehicle pictures at all the refusal names each class.
+TEST(OfflinePlanner, ClassesAreDrawnAmongTheDrawableOnes) {
+  OfflinePlanner p = planner();
+  const std::vector<std::string> defaults = {"bus", "car", "person", "truck"};
+  std::set<std::string> drawn;
+  for (int64_t seed = 1; seed <= 16; ++seed)
+    for (const char* kind : {"cut_in", "sudden_stop"}) {
+      auto scene = scene_context(false, true, 10.0, {kind}, defaults);
+      try {
+        const Json j = Json::parse(p.complete(request(scene, seed)).content);
+        drawn.insert(j["object_class"].get<std::string>());
+      } catch (const Error& e) {
+        EXPECT_EQ(std::string(e.what()).find("appearance assets"), std::string::npos) << e.what();
+      }
+    }
+  EXPECT_TRUE(drawn.count("car")) << drawn.size();
+  EXPECT_FALSE(drawn.count("motorcycle"));
+  try {
+    p.complete(request(scene_context(false, true, 10.0, {"cut_in"}, {"person"}), 1));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("cut_in: no class it could be drawn as ('car': no appearance assets; "
+                                   "'motorcycle': no appearance assets; 'truck': no appearance assets)"),
+        std::string::npos)
         << e.what();
   }
 }

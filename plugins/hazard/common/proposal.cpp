@@ -1,6 +1,8 @@
 // The scene a template's proposals are planned in, and the checks and JSON they share.
 #include "hazardforge/hazard/proposal.hpp"
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstdio>
 
@@ -75,6 +77,31 @@ ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tp
                           length, o.width_m > 0 ? o.width_m : prior.width, o.in_path, speed});
   }
   return sc;
+}
+
+std::optional<std::string> draw_class(const ProposalScene& sc,
+                                      const std::vector<std::pair<std::string, int>>& weighted, RandomDraw& d,
+                                      std::string* why) {
+  std::vector<std::string> pool;  // one entry per unit of weight
+  std::string missing;
+  for (const auto& [cls, weight] : weighted) {
+    const char* lacks = !sc.limits.has(cls)              ? "no entry in the limits table"
+                        : !sc.request.class_allowed(cls) ? "no appearance assets"
+                                                         : nullptr;
+    if (lacks) {
+      missing += (missing.empty() ? "" : "; ") + ("'" + cls + "': " + lacks);
+      continue;
+    }
+    for (int k = 0; k < weight; ++k) pool.push_back(cls);
+  }
+  if (pool.empty()) {
+    if (why) *why = "no class it could be drawn as (" + missing + ")";
+    return std::nullopt;
+  }
+  // One class left: nothing to draw (and no random bits taken from the plan's other choices).
+  if (std::all_of(pool.begin(), pool.end(), [&](const std::string& c) { return c == pool.front(); }))
+    return pool.front();
+  return pool[d.index(pool.size())];
 }
 
 double round_to(double v, double step) {

@@ -243,10 +243,12 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
   if (!sc.multi_lane) return {nullptr, "the road has a single lane"};
   if (sc.ego_speed < 1.0) return {nullptr, "the ego is (nearly) standing: nothing cuts in ahead of it"};
   const bool queue = sc.ego_speed < 5.0;
-  static const char* kClasses[] = {"car", "car", "car", "motorcycle", "truck"};
-  const std::string cls = kClasses[d.index(5)];
-  if (!sc.limits.has(cls)) return {nullptr, "the limits table has no '" + cls + "'"};
-  if (!request.class_allowed(cls)) return {nullptr, "there are no appearance assets for '" + cls + "'"};
+  // Which vehicle: mostly cars, among the classes the renderer can draw.
+  std::string no_class;
+  const std::optional<std::string> drawn =
+      hazard::draw_class(sc, {{"car", 3}, {"motorcycle", 1}, {"truck", 1}}, d, &no_class);
+  if (!drawn) return {nullptr, no_class};
+  const std::string cls = *drawn;
   const hazard::KinematicLimits& lim = sc.limits.at(cls);
   const hazard::Footprint size = sc.size(cls);
   // A side has room when its adjacent lane exists and goes the ego's way.

@@ -190,9 +190,10 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
   const double aim = request.aim;
   if (!sc.sidewalks && !sc.on_shoulder) return {nullptr, "the scene has no sidewalks"};
-  const std::string cls = "person";
-  if (!sc.limits.has(cls)) return {nullptr, "the limits table has no 'person'"};
-  if (!request.class_allowed(cls)) return {nullptr, "there are no appearance assets for 'person'"};
+  std::string no_class;
+  const std::optional<std::string> drawn = hazard::draw_class(sc, {{"person", 1}}, d, &no_class);
+  if (!drawn) return {nullptr, no_class};
+  const std::string cls = *drawn;
   const hazard::KinematicLimits& lim = sc.limits.at(cls);
   const hazard::Footprint size = sc.size(cls);
   const bool left = d.coin();

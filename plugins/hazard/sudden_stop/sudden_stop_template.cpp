@@ -233,10 +233,12 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
       return {spec, {}};
     }
   }
-  static const char* kClasses[] = {"car", "car", "car", "truck", "bus"};
-  const std::string cls = kClasses[d.index(5)];
-  if (!sc.limits.has(cls)) return {nullptr, "the limits table has no '" + cls + "'"};
-  if (!request.class_allowed(cls)) return {nullptr, "there are no appearance assets for '" + cls + "'"};
+  // Which vehicle: mostly cars, among the classes the renderer can draw.
+  std::string no_class;
+  const std::optional<std::string> drawn =
+      hazard::draw_class(sc, {{"car", 3}, {"truck", 1}, {"bus", 1}}, d, &no_class);
+  if (!drawn) return {nullptr, no_class};
+  const std::string cls = *drawn;
   const hazard::Footprint size = sc.size(cls);
   const double speed = std::min(sc.ego_speed, sc.limits.at(cls).max_speed_mps);
   const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(cls).max_decel_mps2, 0.1);

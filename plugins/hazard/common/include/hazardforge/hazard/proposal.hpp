@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hazardforge/geometry.hpp"
@@ -64,6 +65,13 @@ struct ProposalScene {
 
   static ProposalScene of(const ProposalRequest& request, const TemplateBase& tpl);
 };
+
+// A class drawn for a proposal from weighted candidates ({class, weight}), among those the renderer can draw
+// (ProposalRequest::class_allowed) and the limits table knows; the draw is the same for the same random bits
+// and candidates. nullopt, with `why` naming what each candidate lacks, when none qualifies.
+std::optional<std::string> draw_class(const ProposalScene& sc,
+                                      const std::vector<std::pair<std::string, int>>& weighted, RandomDraw& d,
+                                      std::string* why);
 
 // Rounds to a multiple of `step` (the precision a proposal states its numbers with).
 double round_to(double v, double step);
