@@ -1,14 +1,17 @@
 // How often an off-the-shelf detector finds the inserted object: hazards of each class are composited into
-// nuScenes keyframes at several distances and headings, YOLO runs on the augmented frames, and an insertion counts
-// as found when a detection of its class overlaps the inserted box with IoU >= 0.5. Placements whose box already
-// overlaps a real detection of that class in the original frame are skipped, so real objects are not counted.
+// nuScenes keyframes at several distances and headings, YOLO runs on the augmented frames, and an insertion
+// counts as found when a detection of its class overlaps the inserted box with IoU >= 0.5. Placements whose
+// box already overlaps a real detection of that class in the original frame are skipped, so real objects are
+// not counted.
 //
 // The table also says which label the best-overlapping detection has: for cars, how often YOLO calls the
-// inserted car `car` rather than `truck`/`bus` (the monocular estimator uses the label's height prior, so a car
-// labelled truck is placed about twice as far away).
+// inserted car `car` rather than `truck`/`bus` (the monocular estimator uses the label's height prior, so a
+// car labelled truck is placed about twice as far away).
 //
-//   hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person] [--save DIR]
-//   (needs $HAZARDFORGE_SHARED; --save writes every augmented frame with the inserted box and the best detection)
+//   hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person] [--save DIR] [--yolox]
+//   (needs $HAZARDFORGE_SHARED; --save writes every augmented frame with the inserted box and the best
+//   detection;
+//   --yolox asks the independent detector, YOLOX-Nano at 640x384, instead of YOLOv8n)
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -42,6 +45,7 @@ bool same_class(const std::string& hazard, const std::string& label) {
 int main(int argc, char** argv) {
   fs::path assets, save;
   int n_frames = 6;
+  bool yolox = false;
   std::vector<std::string> classes = {"car", "person"};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -53,8 +57,12 @@ int main(int argc, char** argv) {
       save = argv[++i];
     } else if (a == "--class" && i + 1 < argc) {
       classes = {argv[++i]};
+    } else if (a == "--yolox") {
+      yolox = true;
     } else {
-      std::cerr << "usage: hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person] [--save DIR]\n";
+      std::cerr << "usage: hf_ar_renderer_detectability [--assets DIR] [--frames N] [--class car|person] "
+                   "[--save DIR] "
+                   "[--yolox]\n";
       return 2;
     }
   }
@@ -65,8 +73,11 @@ int main(int argc, char** argv) {
                                                                     "/data/nuscenes\nscenes: [scene-0916]");
     src.run();
     const auto frames = src.collect<Frame>("frames");
+    // The verifier's detector (YOLOv8n) or the independent one the verification reports beside it
+    // (YOLOX-Nano).
     auto yolo = testing::StageRunner::create<YoloDetector>(
-        "model: " + shared + "/models/yolov8n/yolov8n_deq_640x384.onnx\nconf_threshold: 0.3");
+        yolox ? "model: " + shared + "/models/yolox_nano/yolox_nano.onnx\ninput_width: 640\ninput_height: 384"
+              : "model: " + shared + "/models/yolov8n/yolov8n_deq_640x384.onnx\nconf_threshold: 0.3");
     double clock = 0;  // the harness wants increasing timestamps
     auto detect = [&](const Frame& f) {
       yolo.push("frames", f, clock += 1.0);
