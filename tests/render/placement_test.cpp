@@ -2,6 +2,8 @@
 // poses.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <cmath>
 #include <iostream>
 
@@ -105,7 +107,10 @@ TEST(Placement, PixelHeightScalesExactlyWithInverseDistance) {
         static_object("car", x, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
     auto res = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {});
     ASSERT_TRUE(res.hazard.visible);
-    EXPECT_NE(res.asset_file.find("car_rear"), std::string::npos) << res.asset_file;
+    // The rear view, in whichever colour the hazard drew (car_rear.png, car_white_rear.png, ...).
+    EXPECT_TRUE(res.asset_file.size() >= 8 &&
+                res.asset_file.compare(res.asset_file.size() - 8, 8, "rear.png") == 0)
+        << res.asset_file;
     auto [top, bottom] = changed_rows(img, res.frame.image);
     ASSERT_GE(top, 0);
     depth.push_back(rear_depth);
@@ -141,6 +146,37 @@ TEST(Placement, PixelHeightScalesExactlyWithInverseDistance) {
   // So h * Z is the same constant at every distance.
   for (size_t i = 1; i < depth.size(); ++i)
     EXPECT_NEAR(height[i] * depth[i] / (height[0] * depth[0]), 1.0, 0.005) << "depth " << depth[i];
+}
+
+// The default set's car comes in several colours: one hazard keeps its colour through every frame, the same
+// hazard drawn again gets the same one, and different hazards get different ones.
+TEST(Placement, EachDefaultCarHazardKeepsOneOfTheColours) {
+  const CameraModel cam = test_camera();
+  const cv::Mat img(900, 1600, CV_8UC3, cv::Scalar(90, 90, 90));
+  auto colour_of = [](const std::string& file) {
+    const std::string name = std::filesystem::path(file).filename().string();
+    for (const char* c : {"white", "grey"})
+      if (name.rfind(std::string("car_") + c + "_", 0) == 0) return std::string(c);
+    return std::string("silver");
+  };
+  std::set<std::string> seen;
+  for (int k = 0; k < 12; ++k) {
+    const double x = 12.0 + 1.7 * k;
+    auto traj = std::make_shared<const HazardTrajectory>(
+        static_object("car", x, 0.4, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+    HazardRenderer r(plain_options(), default_assets()), again(plain_options(), default_assets());
+    std::string first;
+    for (int f = 0; f < 2; ++f) {  // the same hazard in a later frame
+      const auto res = r.render(make_frame(f, 0.3 * f, img, cam, cv::Matx44d::eye()), traj, {});
+      ASSERT_TRUE(res.hazard.visible) << "hazard " << k << " frame " << f;
+      if (f == 0) first = colour_of(res.asset_file);
+      EXPECT_EQ(colour_of(res.asset_file), first) << res.asset_file;
+    }
+    EXPECT_EQ(colour_of(again.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {}).asset_file),
+              first);
+    seen.insert(first);
+  }
+  EXPECT_EQ(seen.size(), 3u);
 }
 
 TEST(Placement, ViewFollowsHeadingRelativeToTheCamera) {

@@ -222,6 +222,7 @@ class Convex : public Shape {
 struct Model {
   std::string object_class;
   std::string instance;
+  std::string file_prefix;  // the pictures' file names start with it (the class when empty)
   Vec3d size_lwh;
   std::vector<Material> materials;
   std::vector<std::shared_ptr<const Shape>> shapes;  // shared: Model is copied into a vector
@@ -278,15 +279,25 @@ std::vector<Plane> operator+(std::vector<Plane> a, const std::vector<Plane>& b) 
 
 // A saloon car from convex pieces: a body with sloping hood and trunk and rounded corners, a glasshouse with
 // raked windscreen and rear window and tumblehome sides, pillars, wrap-around lamps, bumpers, plates, arches.
-Model make_car() {
+// The car comes in the commonest colours that YOLOv8n labels `car` as often as any: rendered from 8 m, the
+// car was labelled `car` in 39 of 64 insertions metallic silver, 40 grey, 40 white, against 34 black, 33 dark
+// blue and 29 the earlier metallic red (hf_ar_renderer_detectability --class car --frames 4). Silver is the
+// default instance (files car_*.png), the others car_<colour>_*.png; the renderer picks one per hazard.
+struct Paint {
+  const char* name;  // "" = the default instance
+  Vec3d bgr;
+  double specular;
+};
+const Paint kCarPaints[] = {
+    {"", {0.55, 0.55, 0.57}, 0.5}, {"white", {0.85, 0.85, 0.86}, 0.4}, {"grey", {0.35, 0.35, 0.36}, 0.5}};
+
+Model make_car(const Paint& colour) {
   Model m;
   m.object_class = "car";
-  m.instance = "car_default";
+  m.instance = std::string("car_") + (*colour.name ? colour.name : "default");
+  m.file_prefix = std::string("car") + (*colour.name ? std::string("_") + colour.name : "");
   m.size_lwh = {4.50, 1.85, 1.52};
-  // Metallic silver, a most common car colour. Rendered from 8 m, YOLOv8n labelled the default car `car` in 39
-  // of 64 insertions silver (40 grey, 40 white, 34 black, 33 dark blue), 29 in the earlier metallic red
-  // (hf_ar_renderer_detectability --class car --frames 4).
-  const int paint = m.material({0.55, 0.55, 0.57}, 0.5);
+  const int paint = m.material(colour.bgr, colour.specular);
   const int glass = m.material({0.06, 0.06, 0.06}, 0.7);
   const int trim = m.material({0.10, 0.10, 0.11}, 0.08);
   const int tail = m.material({0.12, 0.10, 0.85}, 0.3, 0.45);
@@ -530,7 +541,10 @@ cv::Mat render(const Model& m, const Camera& cam, cv::Size size) {
 
 int run(const fs::path& out_dir, int vehicle_height, const std::string& only) {
   std::vector<Model> models;
-  for (Model m : {make_car(), make_truck(), make_bus(), make_person()})
+  std::vector<Model> all;
+  for (const Paint& p : kCarPaints) all.push_back(make_car(p));
+  for (Model m : {make_truck(), make_bus(), make_person()}) all.push_back(std::move(m));
+  for (Model& m : all)
     if (only.empty() || m.object_class == only) models.push_back(std::move(m));
   if (models.empty()) throw hf::Error("--only '" + only + "' is not one of car, truck, bus, person");
   hr::AssetIndex index;
@@ -549,7 +563,8 @@ int run(const fs::path& out_dir, int vehicle_height, const std::string& only) {
       hr::AssetSpec s;
       char az_tag[16];
       std::snprintf(az_tag, sizeof az_tag, "_az%03ld", std::lround(std::fmod(22.5 * k, 360.0)));
-      s.file = m.object_class + "_" + view + (k % 2 ? az_tag : "") + ".png";
+      s.file = (m.file_prefix.empty() ? m.object_class : m.file_prefix) + "_" + view + (k % 2 ? az_tag : "") +
+               ".png";
       s.object_class = m.object_class;
       s.view = view;
       s.azimuth_deg = az;

@@ -232,8 +232,25 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   res.hazard.box = cv::Rect2f(clipped);
 
   const double az = camera_azimuth_deg(f.camera.t_ego_cam, centre[0], centre[1], heading);
-  const LoadedAsset& asset = assets_->select(T.object_class, az, identity_, opt_.max_view_error_deg);
-  if (identity_.empty()) identity_ = asset.spec.instance;
+  const LoadedAsset* picked = &assets_->select(T.object_class, az, identity_, opt_.max_view_error_deg);
+  if (identity_.empty()) {
+    identity_ = picked->spec.instance;
+    // A picture of the default set: one of its colours, the same for the same hazard (its class, start and
+    // first point), different across hazards.
+    if (picked->spec.source == "generated") {
+      const std::vector<std::string> colours = assets_->generated_instances(T.object_class);
+      if (colours.size() > 1) {
+        char key[160];
+        std::snprintf(key, sizeof key, "%s|%.3f|%.3f|%.3f", T.object_class.c_str(), T.anchor_time,
+                      T.points[0].x, T.points[0].y);
+        uint64_t h = 1469598103934665603ull;  // FNV-1a
+        for (const char* c = key; *c; ++c) h = (h ^ static_cast<unsigned char>(*c)) * 1099511628211ull;
+        identity_ = colours[h % colours.size()];
+        picked = &assets_->select(T.object_class, az, identity_, opt_.max_view_error_deg);
+      }
+    }
+  }
+  const LoadedAsset& asset = *picked;
   res.asset_file = (asset.dir / asset.spec.file).string();
 
   Placement pl;

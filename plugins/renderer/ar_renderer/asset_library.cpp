@@ -324,6 +324,15 @@ std::vector<std::string> AssetLibrary::classes() const {
   return {s.begin(), s.end()};
 }
 
+std::vector<std::string> AssetLibrary::generated_instances(const std::string& cls) const {
+  std::vector<std::string> out;
+  for (const auto& a : specs_)
+    if (a.object_class == cls && a.source == "generated" &&
+        std::find(out.begin(), out.end(), a.instance) == out.end())
+      out.push_back(a.instance);
+  return out;
+}
+
 std::string AssetLibrary::describe_folders() const {
   std::string s;
   for (const auto& f : folders_) s += (s.empty() ? "" : ", ") + f.string();

@@ -84,6 +84,9 @@ class AssetLibrary {
   // Prepares every asset of a class now (otherwise each is prepared when first selected). Thread-safe.
   void prepare_class(const std::string& object_class) const;
   std::vector<std::string> classes() const;
+  // The instances of a class among the pictures the project generated (AssetSpec::source "generated": the
+  // default set's colours), in file order.
+  std::vector<std::string> generated_instances(const std::string& object_class) const;
   const std::vector<AssetSpec>& specs() const { return specs_; }
   std::string describe_folders() const;
 
