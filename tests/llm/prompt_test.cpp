@@ -87,7 +87,11 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
   EXPECT_NE(prompt.find("- Sidewalks: yes\n"), std::string::npos);
   EXPECT_NE(prompt.find("- Intersection: no\n"), std::string::npos);
   EXPECT_NE(prompt.find("- Ego speed: 10 m/s\n"), std::string::npos);
-  EXPECT_NE(prompt.find("- track 7: car, x 40 m, y -3.5 m, speed 0 m/s\n"), std::string::npos);
+  // The car's rear is 40 m from the states' origin (the rear axle here): its centre, where a spec's start
+  // point would be compared with it, is half its 4.5 m further on.
+  EXPECT_NE(prompt.find("- track 7: car, x 42.25 m, y -3.5 m, speed 0 m/s\n"), std::string::npos);
+  EXPECT_EQ(sum.scene["objects"][0]["x_m"], 42.25);
+  EXPECT_EQ(sum.scene["objects"][0]["distance_m"], 40.0);
   EXPECT_NE(prompt.find("Allowed hazard kinds: pedestrian_crossing, sudden_stop\n"), std::string::npos);
   EXPECT_NE(prompt.find("- Scene TTC: inf s (Unsafe below 1.5 s)"), std::string::npos);
   EXPECT_NE(prompt.find("- person: speed <= 7 m/s"), std::string::npos);
@@ -105,6 +109,12 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
   f.ego_track = track;
   const SceneSummary with_track = summarize_scene(f, st, {&r}, s, limits, sizes);
   EXPECT_EQ(with_track.context.ego_track, f.ego_track);
+  // Distances measured from the front bumper (3.4 m ahead of the rear axle) move every object that far on.
+  st.distance_origin_x = 3.4;
+  const SceneSummary from_bumper = summarize_scene(f, st, {&r}, s, limits, sizes);
+  EXPECT_NE(from_bumper.placeholders.at("objects").find("- track 7: car, x 45.65 m, y -3.5 m"),
+            std::string::npos)
+      << from_bumper.placeholders.at("objects");
 }
 
 TEST(SceneRules, AutoResolutionFromText) {

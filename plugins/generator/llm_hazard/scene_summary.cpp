@@ -8,6 +8,7 @@
 #include <set>
 
 #include <hazardforge/hazard/kinematics.hpp>
+#include <hazardforge/hazard/proposal.hpp>
 
 namespace hf::llm_hazard {
 
@@ -229,14 +230,22 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
   std::string object_lines;
   for (const ObjectState& o : states.objects) {
     std::optional<double> ttc = object_ttc(o.track_id);
-    Json j = {
-        {"track_id", o.track_id},        {"label", o.label},     {"distance_m", finite_or_null(o.distance_m)},
-        {"lateral_m", o.lateral_m},      {"width_m", o.width_m}, {"length_m", o.length_m},
-        {"speed_mps", opt(o.speed_mps)}, {"in_path", o.in_path}, {"ttc_s", opt(ttc)}};
+    // Where the templates place it: its centre, from the rear axle (the frame a spec's start point is in).
+    const double x = hazard::centre_x(o, states.distance_origin_x, sizes);
+    Json j = {{"track_id", o.track_id},
+              {"label", o.label},
+              {"distance_m", finite_or_null(o.distance_m)},
+              {"x_m", finite_or_null(x)},
+              {"lateral_m", o.lateral_m},
+              {"width_m", o.width_m},
+              {"length_m", o.length_m},
+              {"speed_mps", opt(o.speed_mps)},
+              {"in_path", o.in_path},
+              {"ttc_s", opt(ttc)}};
     if (o.velocity_rel) j["velocity_rel"] = {(*o.velocity_rel)[0], (*o.velocity_rel)[1]};
     objects.push_back(std::move(j));
-    object_lines += "- track " + std::to_string(o.track_id) + ": " + o.label + ", x " + num(o.distance_m) +
-                    " m, y " + num(o.lateral_m) + " m, speed " + fmt_opt(o.speed_mps, " m/s") +
+    object_lines += "- track " + std::to_string(o.track_id) + ": " + o.label + ", x " + num(x) + " m, y " +
+                    num(o.lateral_m) + " m, speed " + fmt_opt(o.speed_mps, " m/s") +
                     (o.in_path ? ", in the ego path" : "") +
                     (ttc && std::isfinite(*ttc) ? ", TTC " + num(*ttc) + " s" : "") + "\n";
   }

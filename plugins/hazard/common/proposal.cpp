@@ -10,6 +10,13 @@
 
 namespace hf::hazard {
 
+double centre_x(const ObjectState& o, double distance_origin_x, const ClassPriors& sizes) {
+  const double length = o.length_m > 0       ? o.length_m
+                        : sizes.has(o.label) ? sizes.at(o.label).length
+                                             : Footprint{}.length;
+  return o.distance_m + distance_origin_x + length / 2.0;
+}
+
 Footprint ProposalScene::size(const std::string& cls) const {
   if (!sizes.has(cls)) throw Error("the class sizes have no '" + cls + "'");
   const ClassSize& s = sizes.at(cls);
@@ -70,11 +77,9 @@ ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tp
     const Footprint prior = sc.sizes.has(o.label) ? sc.size(o.label) : Footprint{};
     std::optional<double> speed;
     if (const auto v = ground_velocity(o, sc.ego_speed, 0.0)) speed = (*v)[0];  // the best estimate
-    // distance_m reaches the face the camera sees (its rear, for an object ahead) from the request's origin:
-    // its centre is half its length further on, in the ego frame the templates plan in.
-    const double length = o.length_m > 0 ? o.length_m : prior.length;
-    sc.objects.push_back({o.track_id, o.label, o.distance_m + r.distance_origin_x + length / 2.0, o.lateral_m,
-                          length, o.width_m > 0 ? o.width_m : prior.width, o.in_path, speed});
+    sc.objects.push_back({o.track_id, o.label, centre_x(o, r.distance_origin_x, sc.sizes), o.lateral_m,
+                          o.length_m > 0 ? o.length_m : prior.length, o.width_m > 0 ? o.width_m : prior.width,
+                          o.in_path, speed});
   }
   return sc;
 }

@@ -20,6 +20,12 @@ struct Footprint {
   double length = 4.5, width = 1.8;
 };
 
+// Ego-frame x (from the rear axle) of a tracked object's centre. Its distance_m reaches the face the camera
+// sees from the states' origin (`distance_origin_x`: the camera, the bumper or the rear axle); the centre
+// lies half its length (measured, else its class's prior, else a car's) further on. The prompt and the
+// templates place objects by this one rule.
+double centre_x(const ObjectState& o, double distance_origin_x, const ClassPriors& sizes);
+
 // The scene a proposal is planned in: the request's scene and settings, the template's road, TTC conventions,
 // limits and class sizes.
 struct ProposalScene {
