@@ -187,6 +187,47 @@ TEST(OfflinePlanner, ShortHorizonSuddenStopIsFirstSeenSmall) {
   }
 }
 
+// When the tracked lead cannot be the one that brakes, the refusal says why, beside why an inserted lead
+// cannot either: in a crawling queue (ego 1.5 m/s, the lead 6.6 m ahead at 0.6 m/s, 3 s of clip left) the
+// lead's braking closes in too slowly, and a car first seen small far ahead cannot close in either.
+TEST(OfflinePlanner, ARefusedSuddenStopSaysWhyTheTrackedLeadCouldNotBrake) {
+  llm_hazard::SceneSettings s;
+  s.environment = "test street";
+  s.road_type = "test";
+  s.sidewalks = {false, "test"};
+  s.intersection = {false, "test"};
+  s.multi_lane = {true, "test"};
+  s.allowed_kinds = {"sudden_stop"};
+  s.ego_speed_mps = 1.5;
+  s.horizon_s = 3.0;
+  ObjectStates st = test::make_states(5, 2.5);
+  st.ego_speed_mps = 1.5;
+  ObjectState lead = st.objects.front();
+  lead.track_id = 9;
+  lead.distance_m = 10.0;  // its rear, from the rear axle: 6.6 m ahead of the bumper
+  lead.lateral_m = 0.0;
+  lead.in_path = true;
+  lead.speed_mps = 0.6;
+  lead.velocity_rel = cv::Vec2d(-0.9, 0.0);
+  st.objects = {lead};
+  test::OfflineScene scene(s, test::make_frame(5, 2.5, "test"), st, test::make_risk(5, true));
+  OfflinePlanner p = planner();
+  try {
+    p.complete(scene.request(3));
+    FAIL() << "a crawling queue got a sudden stop";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("sudden_stop: the car (track 9) 6.6 m ahead at 0.6 m/s cannot bring the TTC to"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(
+        what.find("by braking within the 3.0 s horizon (the ego at 1.5 m/s now); an inserted lead: a lead "
+                  "first seen small (from 34.3 m) cannot bring the TTC to"),
+        std::string::npos)
+        << what;
+  }
+}
+
 // In slow traffic (a queue at 3 m/s) a cut-in is a vehicle from the next lane squeezing into the gap ahead and
 // rolling on slower than the ego; a standing ego is not cut off.
 TEST(OfflinePlanner, SlowTrafficCutInSqueezesIntoTheGapAndStops) {

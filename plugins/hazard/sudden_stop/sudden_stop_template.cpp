@@ -200,6 +200,11 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   const double ttc = request.aim * sc.target;
   const double delay = round_to(d.uniform(0.5, 1.5), 0.1);
   const hazard::ProposalScene::Obj* lead = nullptr;
+  // Why the tracked lead could not be the one that brakes, told with whatever refuses an inserted lead.
+  std::string lead_problem;
+  auto refuse = [&](const std::string& why) -> HazardProposal {
+    return {nullptr, lead_problem.empty() ? why : lead_problem + "; an inserted lead: " + why};
+  };
   // The lead is the nearest object centred in the ego lane; the corridor also holds wide neighbours beside
   // it.
   for (const auto& o : sc.objects)
@@ -215,11 +220,17 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double gap = lead->x - lead->length / 2.0 - sc.ego_front;
     // It brakes after the drawn delay, or at once when only that brings the TTC down in time (a queue that is
     // slowing leaves little time).
-    double brake_after = delay;
-    if (gap > 0 && time_to_ttc(gap, sc, *lead->speed, delay, decel, ttc, sc.horizon) >= sc.horizon - 0.7)
-      brake_after = 0.0;
-    if (gap > 0 &&
-        time_to_ttc(gap, sc, *lead->speed, brake_after, decel, ttc, sc.horizon) < sc.horizon - 0.7) {
+    auto in_time = [&](double after) {
+      return gap > 0 && time_to_ttc(gap, sc, *lead->speed, after, decel, ttc, sc.horizon) < sc.horizon - 0.7;
+    };
+    const double brake_after = in_time(delay) ? delay : 0.0;
+    if (!in_time(brake_after))
+      lead_problem = "the " + lead->label + " (track " + std::to_string(lead->track_id) + ") " + fmt1(gap) +
+                     " m ahead at " + fmt1(*lead->speed) + " m/s cannot bring the TTC to " + fmt1(ttc) +
+                     " s by braking within the " + fmt1(sc.horizon) + " s horizon (the ego at " +
+                     fmt1(sc.ego_speed) + " m/s now" + (sc.ego.is_recorded() ? ", as recorded after" : "") +
+                     ")";
+    if (in_time(brake_after)) {
       Json spec = hazard::proposal_spec(kind, lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
                                         "the tracked lead brakes hard in the ego lane", sc.target);
       spec["side"] = std::abs(lead->y) <= sc.path_half(0.0) ? "center" : (lead->y > 0 ? "left" : "right");
@@ -237,12 +248,12 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   std::string no_class;
   const std::optional<std::string> drawn =
       hazard::draw_class(sc, {{"car", 3}, {"truck", 1}, {"bus", 1}}, d, &no_class);
-  if (!drawn) return {nullptr, no_class};
+  if (!drawn) return refuse(no_class);
   const std::string cls = *drawn;
   const hazard::Footprint size = sc.size(cls);
   const double speed = std::min(sc.ego_speed, sc.limits.at(cls).max_speed_mps);
   const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(cls).max_decel_mps2, 0.1);
-  if (speed < 1.0) return {nullptr, "a lead vehicle cannot brake from standstill"};
+  if (speed < 1.0) return refuse("a lead vehicle cannot brake from standstill");
   const bool short_horizon = sc.max_under_way > 0 && delay + 1.0 > sc.horizon - 0.7;
   if (const double small_from = sc.first_seen_small_from(cls); small_from > 0) {
     // Appearing in the ego lane, it must be first seen small: a slower lead far ahead (the end of a queue, a
@@ -255,14 +266,14 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double b = short_horizon ? std::min(sc.max_under_way, d.uniform(0.3, 0.8)) : 0.0;
     const double v_start = v_now + decel * b;  // its speed when it began to brake
     const double gap_now = x0 - front;
-    if (v_now < 0.5) return {nullptr, "the ego is too slow for a slower lead to brake in front of it"};
+    if (v_now < 0.5) return refuse("the ego is too slow for a slower lead to brake in front of it");
     if (v_start > sc.limits.at(cls).max_speed_mps)
-      return {nullptr, "the lead would have braked from above its limit"};
+      return refuse("the lead would have braked from above its limit");
     const double t = time_to_ttc(gap_now, sc, v_start, b > 0 ? -b : delay, decel, ttc, sc.horizon);
     if (t > sc.horizon - std::min(0.7, 0.3 * sc.horizon))
-      return {nullptr, "a lead first seen small (from " + fmt1(small_from) + " m) cannot bring the TTC to " +
-                           fmt1(ttc) + " s within the horizon"};
-    if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return {nullptr, p};
+      return refuse("a lead first seen small (from " + fmt1(small_from) + " m) cannot bring the TTC to " +
+                    fmt1(ttc) + " s within the horizon");
+    if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse(p);
     // The spec states the manoeuvre's start: b s before, the gap was larger by what the ego closed since.
     const double gap_start = gap_now + sc.ego_speed * b - (v_start * b - decel * b * b / 2.0);
     Json spec = hazard::proposal_spec(kind, cls, front + gap_start, y0, "center", v_start, 0.0,
@@ -287,8 +298,8 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double x0 = sc.ego_front + size.length / 2.0 + gap_start;
     const double y0 = d.uniform(-0.3, 0.3);
     if (time_to_ttc(gap_now, sc, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
-      return {nullptr, "the stop would come too late within the horizon"};
-    if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return {nullptr, p};
+      return refuse("the stop would come too late within the horizon");
+    if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse(p);
     Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
                                       "follows in the ego lane and is already braking hard when it appears",
                                       sc.target);
@@ -306,10 +317,10 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   const double gap = decel * t_star * t_star / 2.0 + decel * ttc * t_star;
   const double x0 = sc.ego_front + size.length / 2.0 + gap;
   const double y0 = d.uniform(-0.3, 0.3);
-  if (x0 < 4.0 || x0 > 120.0) return {nullptr, "no start distance within [4, 120] m"};
+  if (x0 < 4.0 || x0 > 120.0) return refuse("no start distance within [4, 120] m");
   if (time_to_ttc(gap, sc, speed, delay, decel, ttc, sc.horizon) > sc.horizon - 0.7)
-    return {nullptr, "the stop would come too late within the horizon"};
-  if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return {nullptr, p};
+    return refuse("the stop would come too late within the horizon");
+  if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse(p);
   Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
                                     "drives ahead in the ego lane, then brakes hard", sc.target);
   spec["deceleration_mps2"] = decel;
