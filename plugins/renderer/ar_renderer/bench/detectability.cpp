@@ -99,14 +99,20 @@ int main(int argc, char** argv) {
       const Frame& f = frames[static_cast<size_t>(fi) * (frames.size() - 1) / std::max(1, n_frames - 1)];
       const Detections original = detect(f);
       for (const std::string& cls : classes)
-        for (double dist : {8.0, 12.0, 20.0, 30.0})
+        for (double dist : {8.0, 12.0, 20.0, 30.0, 40.0})
           for (int h = 0; h < 4; ++h) {
             HazardTrajectory t;
             t.kind = "detectability";
             t.object_class = cls;
             t.size_lwh = cls == "person" ? cv::Vec3d(0.5, 0.6, 1.7) : cv::Vec3d(4.5, 1.85, 1.52);
             t.anchor_time = f.timestamp;
-            t.points = {{f.timestamp - 1, dist, 0.5, headings[h], 0, 0}, {f.timestamp + 1, dist, 0.5, headings[h], 0, 0}};
+            // `dist` is the range from the camera to the object's near face, as a detection's distance_m is:
+            // the object's centre (in the ego frame, from the rear axle) lies its half extent along the line
+            // of sight beyond that.
+            const double half_depth = t.size_lwh[0] / 2 * std::abs(std::cos(headings[h])) +
+                                      t.size_lwh[1] / 2 * std::abs(std::sin(headings[h]));
+            const double x = f.camera.t_ego_cam[0] + dist + half_depth;
+            t.points = {{f.timestamp - 1, x, 0.5, headings[h], 0, 0}, {f.timestamp + 1, x, 0.5, headings[h], 0, 0}};
             RendererOptions o;
             o.ego.mode = EgoMotionMode::kPoses;
             HazardRenderer r(o, lib);
@@ -153,7 +159,7 @@ int main(int argc, char** argv) {
       std::cerr << "frame " << f.index << " done\n";
     }
     std::printf(
-        "| class | heading | distance | insertions | found (IoU >= 0.5) | labelled as its class | mean best IoU "
+        "| class | heading | camera to near face | insertions | found (IoU >= 0.5) | labelled as its class | mean best IoU "
         "|\n|---|---|---:|---:|---:|---:|---:|\n");
     int tried = 0, found = 0, exact = 0;
     for (const auto& [k, c] : table) {
