@@ -499,11 +499,16 @@ Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray, double z) {
   const double ao = 0.65 + 0.35 * std::clamp(z / 0.9, 0.0, 1.0);
   const double light = ao * (0.22 + 0.30 * sky + 0.25 * fill + 0.35 * lambert);
   Vec3d col = mat.albedo * (light * (1 - mat.emissive) + mat.emissive);
-  // Sky reflection, stronger at grazing angles (Schlick's Fresnel term).
+  // The surroundings mirrored in paint and glass, stronger at grazing angles (Schlick's Fresnel term): a bright
+  // sky above a dark band of trees and buildings at the horizon, the darker road below. The sharp horizon line
+  // across a car's flanks and windows is what makes real paint read as paint.
   const Vec3d refl = ray - 2 * ray.dot(n) * n;
-  const double sky_refl = std::pow(std::max(0.0, refl[2]), 1.5);
+  const Vec3d env = refl[2] > 0.10  ? Vec3d(0.95, 0.90, 0.85) * (0.80 + 0.20 * refl[2])
+                    : refl[2] > 0.0 ? Vec3d(0.30, 0.33, 0.31)
+                                    : Vec3d(0.24, 0.24, 0.25);
   const double fresnel = 0.25 + 0.75 * std::pow(1.0 - std::max(0.0, -n.dot(ray)), 5.0);
-  col += Vec3d(0.95, 0.88, 0.82) * (mat.specular * 0.5 * fresnel * sky_refl);
+  const double k = std::clamp(mat.specular * fresnel, 0.0, 1.0);
+  col = col * (1.0 - k) + env * k;
   for (int k = 0; k < 3; ++k) col[k] = std::clamp(col[k], 0.0, 1.0);
   return col;
 }
