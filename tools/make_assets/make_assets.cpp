@@ -278,11 +278,11 @@ std::vector<Plane> operator+(std::vector<Plane> a, const std::vector<Plane>& b) 
 }
 
 // A saloon car from convex pieces: a body with sloping hood and trunk and rounded corners, a glasshouse with
-// raked windscreen and rear window and tumblehome sides, pillars, wrap-around lamps, bumpers, plates, arches.
-// The car comes in the commonest colours that YOLOv8n labels `car` as often as any: rendered from 8 m, the
-// car was labelled `car` in 39 of 64 insertions metallic silver, 40 grey, 40 white, against 34 black, 33 dark
-// blue and 29 the earlier metallic red (hf_ar_renderer_detectability --class car --frames 4). Silver is the
-// default instance (files car_*.png), the others car_<colour>_*.png; the renderer picks one per hazard.
+// raked windscreen and rear window and tumblehome sides, pillars, wrap-around lamps, bumpers, plates, arches,
+// riding 0.20 m above the road (a saloon's clearance; at 0.28 m the dark band under the body read as a truck's
+// chassis up close). The car comes in the commonest colours that YOLOv8n labels `car` as often as any
+// (docs/augmentation.md, measured with hf_ar_renderer_detectability). Silver is the default instance (files
+// car_*.png), the others car_<colour>_*.png; the renderer picks one per hazard.
 struct Paint {
   const char* name;  // "" = the default instance
   Vec3d bgr;
@@ -307,7 +307,7 @@ Model make_car(const Paint& colour) {
 
   const double side = 0.915;
   const std::vector<Plane> body_planes = {
-      pl({0, 0, -1}, -0.28),                                    // underside
+      pl({0, 0, -1}, -0.20),                                    // underside
       pl({0, 1, 0}, side), pl({0, -1, 0}, side),                // flanks
       pl({1, 0, 0}, 2.25), pl({-1, 0, 0}, 2.25),                // nose, tail
       pl({0, 0, 1}, 0.98),                                      // belt line
@@ -315,7 +315,7 @@ Model make_car(const Paint& colour) {
       pl({1, 1, 0}, 2.95), pl({1, -1, 0}, 2.95),                // rounded front corners
       pl({-1, 1, 0}, 2.97), pl({-1, -1, 0}, 2.97),              // rounded rear corners
       pl({0, 0.6, 0.8}, 0.6 * side + 0.8 * 0.90), pl({0, -0.6, 0.8}, 0.6 * side + 0.8 * 0.90),  // shoulders
-      pl({0, 0.6, -0.8}, 0.6 * side - 0.8 * 0.36), pl({0, -0.6, -0.8}, 0.6 * side - 0.8 * 0.36),  // sills
+      pl({0, 0.6, -0.8}, 0.6 * side - 0.8 * 0.28), pl({0, -0.6, -0.8}, 0.6 * side - 0.8 * 0.28),  // sills
       pl({0.6, 0, 0.8}, 0.6 * 2.25 + 0.8 * 0.72),              // nose top edge
       pl({-0.6, 0, 0.8}, 0.6 * 2.25 + 0.8 * 0.84),             // tail top edge
   };
@@ -337,9 +337,9 @@ Model make_car(const Paint& colour) {
   m.convex(shell + std::vector<Plane>{pl({1, 0, 0}, -0.36), pl({-1, 0, 0}, 0.46)}, paint);  // B pillars
 
   auto band = [&](double grow, std::vector<Plane> limits, int mat) { m.convex(body.grown(grow) + limits, mat); };
-  band(0.010, {pl({-1, 0, 0}, 1.95), pl({0, 0, 1}, 0.50)}, trim);                              // front bumper
-  band(0.010, {pl({1, 0, 0}, -1.95), pl({0, 0, 1}, 0.50)}, trim);                              // rear bumper
-  band(0.005, {pl({0, 0, 1}, 0.36)}, trim);                                                    // sills
+  band(0.010, {pl({-1, 0, 0}, 1.95), pl({0, 0, 1}, 0.40)}, trim);                              // front bumper
+  band(0.010, {pl({1, 0, 0}, -1.95), pl({0, 0, 1}, 0.40)}, trim);                              // rear bumper
+  band(0.005, {pl({0, 0, 1}, 0.28)}, trim);                                                    // sills
   band(0.004, {pl({1, 0, 0}, -2.05), pl({0, 0, -1}, -0.875), pl({0, 0, 1}, 0.89)}, trim);      // trunk lid gap
   for (double sy : {1.0, -1.0}) {
     band(0.014, {pl({1, 0, 0}, -2.02), pl({0, 0, -1}, -0.70), pl({0, 0, 1}, 0.86), pl({0, -sy, 0}, -0.45)}, tail);
@@ -353,7 +353,7 @@ Model make_car(const Paint& colour) {
                pl({0, -1, 0}, 0.26)}, plate);
   for (double x : {0.79, -0.42})  // door shut lines
     band(0.003, {pl({1, 0, 0}, x + 0.012), pl({-1, 0, 0}, -(x - 0.012)), pl({0, 0, -1}, -0.37)}, trim);
-  for (double x : {1.42, -1.38}) m.wheel({x, 0, 0.33}, 0.41, 0.920, arch, 0.28);  // arches
+  for (double x : {1.42, -1.38}) m.wheel({x, 0, 0.33}, 0.41, 0.920, arch, 0.20);  // arches
   add_wheels(m, {1.42, -1.38}, 0.33, 0.925, 0.22);
   return m;
 }
