@@ -130,6 +130,38 @@ TEST(EgoTrajectoryTrack, FollowsTheRecordingsEgoTrackInAutoMode) {
   }
 }
 
+// Dataset poses whose attitude comes from an IMU while their height stays fixed (nuScenes: z = 0, pitch up to
+// a few degrees): a hazard on the road where it was planned must stay on the road the current ego stands on.
+// Chaining the pitch lifted a car 25 m ahead of its anchor frame by 0.35 m (1.4 degrees); the ego's pose on
+// the map (x, y, heading) carries it instead.
+TEST(EgoTrajectoryPoses, APitchedPoseWithAFixedHeightKeepsTheHazardOnTheRoad) {
+  const CameraModel cam = test_camera();
+  const cv::Mat flat(900, 1600, CV_8UC3, cv::Scalar(100, 100, 100));
+  auto pose = [](double x, double y, double yaw, double pitch) {
+    const cv::Matx33d Rz(std::cos(yaw), -std::sin(yaw), 0, std::sin(yaw), std::cos(yaw), 0, 0, 0, 1);
+    const cv::Matx33d Ry(std::cos(pitch), 0, std::sin(pitch), 0, 1, 0, -std::sin(pitch), 0, std::cos(pitch));
+    const cv::Matx33d R = Rz * Ry;
+    return cv::Matx44d(R(0, 0), R(0, 1), R(0, 2), x, R(1, 0), R(1, 1), R(1, 2), y, R(2, 0), R(2, 1), R(2, 2),
+                       0.0, 0, 0, 0, 1);
+  };
+  EgoTrajectory ego(EgoTrajectory::Options{});
+  const double pitch = -1.4 * CV_PI / 180.0;
+  Frame a = hf::test::make_frame(0, 0.0, flat, cam);
+  a.ego.T_world_ego = pose(100.0, 50.0, 0.3, pitch);
+  ego.update(a, {});
+  Frame b = hf::test::make_frame(1, 2.5, flat, cam);
+  b.ego.T_world_ego = pose(100.0 + 15.0 * std::cos(0.3), 50.0 + 15.0 * std::sin(0.3), 0.3, pitch);
+  ego.update(b, {});
+  EXPECT_EQ(ego.last_source(), "poses");
+  // A point on the road 25 m ahead of the anchor ego is 10 m ahead of the current one, on its ground.
+  const cv::Matx44d cur_from_anchor = invert_rigid(ego.current()) * *ego.pose_at(0.0);
+  const cv::Vec4d p = cur_from_anchor * cv::Vec4d(25.0, 0.0, 0.0, 1.0);
+  EXPECT_NEAR(p[0], 10.0, 1e-9);
+  EXPECT_NEAR(p[1], 0.0, 1e-9);
+  EXPECT_NEAR(p[2], 0.0, 1e-9);
+  EXPECT_NEAR(yaw_of(ego.current()), 0.3, 1e-9);
+}
+
 TEST(FlowEgoMotion, AnchorsAHazardWithoutPoses) {
   // Ego drives 1 m per frame (10 m/s at 10 Hz) over the textured road; frames carry no poses, so the renderer
   // anchors with flow (ego_motion: auto). A parked car 30 m ahead must come 1 m closer each frame.

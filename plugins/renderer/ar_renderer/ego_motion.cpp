@@ -304,7 +304,13 @@ void EgoTrajectory::update(const Frame& f, const std::vector<cv::Rect2f>& exclud
       throw Error(frame_name(f) +
                   ": ego_motion 'poses' needs the ego pose (Frame.ego.T_world_ego), which this "
                   "frame lacks; use ego_motion: flow or constant_speed for sources without poses");
-    current_ = *f.ego.T_world_ego;
+    // The road the ego drives on is its ground plane, in the planner as here: its pose on the map (x, y,
+    // heading), without the body's pitch and roll. Datasets' attitude comes from an IMU while their height
+    // stays fixed (nuScenes: z = 0 throughout, pitch -4.6..2.8 deg in scene-0916), and chaining that pitch
+    // over the tens of metres between a hazard's anchor frame and the current one lifted it off the road
+    // (0.35 m at frame 30 of the nuScenes cut-in: drawn a third taller than its box, and called a bus).
+    const cv::Matx44d& T = *f.ego.T_world_ego;
+    current_ = planar_pose(T(0, 3), T(1, 3), yaw_of(T));
     last_source_ = "poses";
   } else if (*resolved_ == EgoMotionMode::kTrack) {
     if (!f.ego_track || f.ego_track->samples.size() < 2)
