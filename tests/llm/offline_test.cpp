@@ -8,10 +8,9 @@
 namespace hf::llm {
 namespace {
 
-// The scene the generator would offer (built from the same synthetic scene as the stage tests).
-std::unique_ptr<test::OfflineScene> scene_context(bool sidewalks, bool multi_lane, double ego_speed,
-                                                  std::vector<std::string> kinds,
-                                                  std::vector<std::string> drawable = {}) {
+// The settings of a test street.
+llm_hazard::SceneSettings street(bool sidewalks, bool multi_lane, double ego_speed,
+                                 std::vector<std::string> kinds, std::vector<std::string> drawable = {}) {
   llm_hazard::SceneSettings s;
   s.rules.asset_classes = std::move(drawable);  // empty: any class
   s.environment = "test street";
@@ -21,8 +20,16 @@ std::unique_ptr<test::OfflineScene> scene_context(bool sidewalks, bool multi_lan
   s.multi_lane = {multi_lane, "test"};
   s.allowed_kinds = std::move(kinds);
   s.ego_speed_mps = ego_speed;
-  return std::make_unique<test::OfflineScene>(s, test::make_frame(5, 2.5, "test"), test::make_states(5, 2.5),
-                                              test::make_risk(5, true));
+  return s;
+}
+
+// The scene the generator would offer (built from the same synthetic scene as the stage tests).
+std::unique_ptr<test::OfflineScene> scene_context(bool sidewalks, bool multi_lane, double ego_speed,
+                                                  std::vector<std::string> kinds,
+                                                  std::vector<std::string> drawable = {}) {
+  return std::make_unique<test::OfflineScene>(
+      street(sidewalks, multi_lane, ego_speed, std::move(kinds), std::move(drawable)),
+      test::make_frame(5, 2.5, "test"), test::make_states(5, 2.5), test::make_risk(5, true));
 }
 
 LlmRequest request(const std::unique_ptr<test::OfflineScene>& scene, int64_t seed) {
@@ -191,14 +198,7 @@ TEST(OfflinePlanner, ShortHorizonSuddenStopIsFirstSeenSmall) {
 // cannot either: in a crawling queue (ego 1.5 m/s, the lead 6.6 m ahead at 0.6 m/s, 3 s of clip left) the
 // lead's braking closes in too slowly, and a car first seen small far ahead cannot close in either.
 TEST(OfflinePlanner, ARefusedSuddenStopSaysWhyTheTrackedLeadCouldNotBrake) {
-  llm_hazard::SceneSettings s;
-  s.environment = "test street";
-  s.road_type = "test";
-  s.sidewalks = {false, "test"};
-  s.intersection = {false, "test"};
-  s.multi_lane = {true, "test"};
-  s.allowed_kinds = {"sudden_stop"};
-  s.ego_speed_mps = 1.5;
+  llm_hazard::SceneSettings s = street(false, true, 1.5, {"sudden_stop"});
   s.horizon_s = 3.0;
   ObjectStates st = test::make_states(5, 2.5);
   st.ego_speed_mps = 1.5;
