@@ -223,14 +223,16 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     auto in_time = [&](double after) {
       return gap > 0 && time_to_ttc(gap, sc, *lead->speed, after, decel, ttc, sc.horizon) < sc.horizon - 0.7;
     };
-    const double brake_after = in_time(delay) ? delay : 0.0;
-    if (!in_time(brake_after))
+    const bool after_delay = in_time(delay);
+    const double brake_after = after_delay ? delay : 0.0;
+    const bool brakes_in_time = after_delay || in_time(0.0);
+    if (!brakes_in_time)
       lead_problem = "the " + lead->label + " (track " + std::to_string(lead->track_id) + ") " + fmt1(gap) +
                      " m ahead at " + fmt1(*lead->speed) + " m/s cannot bring the TTC to " + fmt1(ttc) +
                      " s by braking within the " + fmt1(sc.horizon) + " s horizon (the ego at " +
                      fmt1(sc.ego_speed) + " m/s now" + (sc.ego.is_recorded() ? ", as recorded after" : "") +
                      ")";
-    if (in_time(brake_after)) {
+    if (brakes_in_time) {
       Json spec = hazard::proposal_spec(kind, lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
                                         "the tracked lead brakes hard in the ego lane", sc.target);
       spec["side"] = std::abs(lead->y) <= sc.path_half(0.0) ? "center" : (lead->y > 0 ? "left" : "right");
