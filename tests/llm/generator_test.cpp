@@ -238,6 +238,45 @@ TEST(LlmHazard, FirstSafeTriesALaterFrameWhenNoHazardFits) {
             log.end());
 }
 
+TEST(LlmHazard, TheAutomaticHorizonIsShortenedWhileNoHazardFits) {
+  // A reply whose walk is already under way when it appears: with the whole 6 s horizon nothing may be (the
+  // clip can show all of it), with 5 s up to 1 s may.
+  Json under_way = test::valid_reply();
+  under_way["extra"]["under_way_s"] = 0.2;
+  for (const bool shorten : {true, false}) {
+    ScriptedServer srv("/api/chat");
+    srv.then_ollama(under_way.dump());
+    srv.then_ollama(under_way.dump());
+    auto r = test::make_runner(ollama_yaml(srv.url(), std::string("max_retries: 0\ntrigger: frame\n") +
+                                                          "trigger_frame: 2\n" +
+                                                          (shorten ? "min_horizon_s: 3\n" : "")));
+    test::push_scene(r, 8, kDescription);
+    if (!shorten) {
+      const std::string e = run_error(r);
+      EXPECT_NE(e.find("extra.under_way_s 0.2 s exceeds max_under_way_s 0 s"), std::string::npos) << e;
+      EXPECT_EQ(test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl").size(), 1u);
+      continue;
+    }
+    r.run();
+    auto out = r.collect<HazardSpec>("hazard");
+    ASSERT_EQ(out.size(), 1u);
+    ASSERT_TRUE(out[0].horizon_s && out[0].max_under_way_s);
+    EXPECT_DOUBLE_EQ(*out[0].horizon_s, 5.0);
+    EXPECT_DOUBLE_EQ(*out[0].max_under_way_s, 1.0);
+    const auto calls = test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl");
+    ASSERT_EQ(calls.size(), 2u);
+    EXPECT_FALSE(calls[0]["accepted"].get<bool>());
+    EXPECT_TRUE(calls[1]["accepted"].get<bool>());
+    const auto& log = r.log();
+    EXPECT_NE(std::find_if(log.begin(), log.end(),
+                           [](const std::string& l) {
+                             return l.rfind("warning: frame 2, horizon 6 s: ", 0) == 0 &&
+                                    l.find("; trying a horizon of 5 s") != std::string::npos;
+                           }),
+              log.end());
+  }
+}
+
 // The recorded ego path turns at 0.3 rad/s until t = `turn_until`, then runs straight; 10 m/s, frames every
 // 0.5 s.
 void push_turning_scene(testing::StageRunner& r, int n, double turn_until) {

@@ -197,7 +197,15 @@ ComponentInfo LlmHazardGenerator::describe() {
           .range(0, 60)
           .describe(
               "how long hazards are planned/replayed for the TTC check (templates' duration_s); 0 = what "
-              "is left of the clip after the trigger (Frame::stream_end), at least 1 s and at most 6 s"),
+              "is left of the clip after the trigger (Frame::stream_end), at least 1 s and at most 6 s, "
+              "shortened while no hazard fits (min_horizon_s)"),
+      ParamSpec::number("min_horizon_s", 0.0)
+          .range(0, 60)
+          .describe(
+              "with the automatic horizon (horizon_s 0): when no hazard fits a frame, shorter horizons "
+              "are tried in 1 s steps down to this one, each with up to 1 + max_retries provider calls "
+              "(a plan may fit when it ends before a bend or the ego's stop; campaigns set it); 0 = never "
+              "shorten"),
       ParamSpec::number("ego_speed_mps", -1.0)
           .from_scene("ego.speed_mps")
           .range(-1, 80)
@@ -487,7 +495,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
   if (trigger_ == "first_safe" && turns_too_much(ctx, frame)) return;
   std::optional<HazardSpec> spec;
   try {
-    spec = generate(ctx, frame, states, risks);
+    spec = generate_shortening(ctx, frame, states, risks);
   } catch (const NoHazardFits& e) {
     if (trigger_ == "frame") throw;
     tried_.emplace_back(frame.index, e.what());
@@ -594,9 +602,33 @@ double LlmHazardGenerator::risk_threshold(const std::vector<const RiskAssessment
               ": no time-to-collision risk input (unit 's'); the hazard's target TTC needs one");
 }
 
+// With the automatic horizon, a frame where no hazard fits is tried again with shorter horizons (1 s steps
+// down to min_horizon_s; what the clip cannot show is then under way when the hazard appears): a plan that
+// would run on into a bend, a junction or the ego's stop may fit when it ends before. The error is the
+// longest horizon's, the one that says most about the scene; the shorter ones' are in the log.
+std::optional<HazardSpec> LlmHazardGenerator::generate_shortening(
+    StageContext& ctx, const Frame& frame, const ObjectStates& states,
+    const std::vector<const RiskAssessment*>& risks) {
+  const Params& p = ctx.params();
+  const double shortest = p.get_double("min_horizon_s");
+  std::optional<NoHazardFits> first;
+  for (double cap = kMaxHorizonS;; cap = horizon_s_ - 1.0) {
+    try {
+      return generate(ctx, frame, states, risks, cap);
+    } catch (const NoHazardFits& e) {
+      if (!first) first = e;
+      if (p.get_double("horizon_s") > 0 || shortest <= 0 || horizon_s_ - 1.0 < shortest - 1e-9) throw *first;
+      ctx.log(LogLevel::kWarning, "frame " + std::to_string(frame.index) + ", horizon " + num(horizon_s_) +
+                                      " s: " + e.what() + "; trying a horizon of " + num(horizon_s_ - 1.0) +
+                                      " s");
+    }
+  }
+}
+
 std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame,
                                                        const ObjectStates& states,
-                                                       const std::vector<const RiskAssessment*>& risks) {
+                                                       const std::vector<const RiskAssessment*>& risks,
+                                                       double horizon_cap) {
   const Params& p = ctx.params();
 
   SceneSettings s;
@@ -656,18 +688,23 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   if (s.ego_speed_mps < 0)
     throw Error("the ego speed at frame " + std::to_string(frame.index) +
                 " is unknown (neither ObjectStates nor the frame carry it); set param ego_speed_mps");
-  if (p.get_double("horizon_s") <= 0 && frame.stream_end) {
-    // What is left of the clip: a hazard planned beyond its end could never be seen.
-    const double left = clip_horizon(*frame.stream_end, frame.timestamp);
-    const double under_way = p.get_double("max_under_way_s") < 0 ? kMaxHorizonS - left : max_under_way_s_;
-    if (std::abs(left - horizon_s_) > 1e-9 || std::abs(under_way - max_under_way_s_) > 1e-9) {
-      horizon_s_ = left;
+  if (p.get_double("horizon_s") <= 0) {
+    // What is left of the clip: a hazard planned beyond its end could never be seen. Shorter when a longer
+    // one fitted no hazard (process()).
+    const double left = frame.stream_end ? clip_horizon(*frame.stream_end, frame.timestamp) : kMaxHorizonS;
+    const double horizon = std::min(left, horizon_cap);
+    const double under_way = p.get_double("max_under_way_s") < 0 ? kMaxHorizonS - horizon : max_under_way_s_;
+    if (std::abs(horizon - horizon_s_) > 1e-9 || std::abs(under_way - max_under_way_s_) > 1e-9) {
+      horizon_s_ = horizon;
       max_under_way_s_ = under_way;
       make_templates(ctx, ctx.components().component_names(kind::kHazardTemplate));
     }
-    ctx.log(LogLevel::kInfo, "horizon " + num(horizon_s_) + " s: what is left of the clip after frame " +
-                                 std::to_string(frame.index) + " (at least 1 s, at most 6 s); hazards may be under "
-                                 "way for up to " + num(max_under_way_s_) + " s when they appear");
+    ctx.log(LogLevel::kInfo,
+            "horizon " + num(horizon_s_) + " s: " +
+                (horizon < left - 1e-9 ? "shortened from the " + num(left) + " s" : std::string("what is")) +
+                " left of the clip after frame " + std::to_string(frame.index) +
+                " (at least 1 s, at most 6 s); hazards may be under way for up to " + num(max_under_way_s_) +
+                " s when they appear");
   }
   s.horizon_s = horizon_s_;
   s.sidewalk_width_m = p.get_double("sidewalk_width_m");

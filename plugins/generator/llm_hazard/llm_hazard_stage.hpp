@@ -55,7 +55,11 @@ class LlmHazardGenerator : public Stage {
  private:
   // nullopt when the run is stopping (Ctrl-C) during a model call.
   std::optional<HazardSpec> generate(StageContext& ctx, const Frame& frame, const ObjectStates& states,
-                                     const std::vector<const RiskAssessment*>& risks);
+                                     const std::vector<const RiskAssessment*>& risks, double horizon_cap);
+  // generate(), with shorter automatic horizons while none fits (param min_horizon_s).
+  std::optional<HazardSpec> generate_shortening(StageContext& ctx, const Frame& frame,
+                                                const ObjectStates& states,
+                                                const std::vector<const RiskAssessment*>& risks);
   double ego_speed(const Frame& frame, const ObjectStates& states) const;
   double risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const;
   // first_safe: whether this frame's ego path turns more than max_turn_deg while a later one turns less.
