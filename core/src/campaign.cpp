@@ -132,8 +132,9 @@ CampaignSpec load_campaign(const std::string& file) {
   double per_pair = s.scenarios_per_pair;
   number(v, "", "scenarios_per_pair", per_pair, 1, 100);
   s.scenarios_per_pair = static_cast<int>(per_pair);
-  const Json w = section("windows", {"history_s", "history_frames", "min_left_s", "max_horizon_s", "margin_s", "spacing_s",
-                                     "seeds_per_window", "min_ego_speed_mps", "lead_s"});
+  const Json w = section(
+      "windows", {"history_s", "history_frames", "min_left_s", "max_horizon_s", "margin_s", "spacing_s",
+                  "seeds_per_window", "min_ego_speed_mps", "lead_s", "traffic_wait_s", "min_horizon_s"});
   number(w, "/windows", "history_s", s.history_s, 0, 30);
   number(w, "/windows", "min_left_s", s.min_left_s, 0.1, 60);
   number(w, "/windows", "max_horizon_s", s.max_horizon_s, 0.5, 60);
@@ -141,6 +142,8 @@ CampaignSpec load_campaign(const std::string& file) {
   number(w, "/windows", "spacing_s", s.spacing_s, 0, 60);
   number(w, "/windows", "min_ego_speed_mps", s.min_ego_speed_mps, 0, 80);
   number(w, "/windows", "lead_s", s.lead_s, 0, 20);
+  number(w, "/windows", "traffic_wait_s", s.traffic_wait_s, 0, 60);
+  number(w, "/windows", "min_horizon_s", s.min_horizon_s, 0, 60);
   double history_frames = s.history_frames;
   number(w, "/windows", "history_frames", history_frames, 0, 1000);
   s.history_frames = static_cast<int>(history_frames);
@@ -447,6 +450,46 @@ bool refusal_is_only_traffic(const std::string& reason) {
   return any;
 }
 
+bool refused_for_traffic(const Json& attempt) {
+  if (!attempt.is_object() || attempt.value("outcome", "") != "no hazard") return false;
+  bool any = false;
+  for (const Json& reason : attempt.value("reasons", Json::array())) {
+    if (!reason.is_string() || reason.get<std::string>().rfind("node 'generator'", 0) != 0) continue;
+    if (!refusal_is_only_traffic(reason.get<std::string>())) return false;
+    any = true;
+  }
+  return any;
+}
+
+const CampaignWindow& next_window(const std::vector<CampaignWindow>& windows,
+                                  const std::vector<Json>& attempts, const CampaignSpec& s) {
+  if (windows.empty()) throw Error("next_window(): no candidate window");
+  std::map<int64_t, int> used;  // trigger frame -> attempts there
+  for (const Json& a : attempts)
+    if (a.contains("window") && a["window"].is_object())
+      ++used[a["window"].value("trigger_frame", int64_t{-1})];
+  auto has_seeds = [&](const CampaignWindow& w) {
+    auto it = used.find(w.trigger);
+    return it == used.end() || it->second < s.seeds_per_window;
+  };
+  if (!attempts.empty() && attempts.back().contains("window") && attempts.back()["window"].is_object()) {
+    const Json& last = attempts.back();
+    const Json& lw = last["window"];
+    if (refused_for_traffic(last)) {
+      const double later = lw.value("t_s", 0.0) + s.traffic_wait_s - 1e-9;
+      for (const CampaignWindow& w : windows)
+        if (w.t >= later && has_seeds(w)) return w;
+    } else {
+      for (const CampaignWindow& w : windows)
+        if (w.trigger == lw.value("trigger_frame", int64_t{-1}) && has_seeds(w)) return w;
+    }
+  }
+  for (const CampaignWindow& w : windows)
+    if (has_seeds(w)) return w;
+  const size_t k = attempts.size();
+  return windows[(k / static_cast<size_t>(s.seeds_per_window)) % windows.size()];
+}
+
 namespace {
 
 // ---- attempts -------------------------------------------------------------------------------------------------
@@ -542,8 +585,7 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
   }
   Planned a;
   a.index = static_cast<int>(p.attempts.size()) + 1;
-  const size_t k = static_cast<size_t>(a.index - 1);
-  a.window = windows[(k / static_cast<size_t>(s.seeds_per_window)) % windows.size()];
+  a.window = next_window(windows, p.attempts, s);
   a.seed = a.index;  // every attempt of a pair its own seed
   a.id = attempt_id(a.index, a.window, a.seed);
   a.dir = pair_dir(out, p) / a.id;
@@ -564,8 +606,8 @@ Json feedback_of(const Pair& p) {
   return fb;
 }
 
-std::vector<std::string> attempt_args(const CampaignOptions& o, const Pair& p, const Planned& a,
-                                      const fs::path& feedback) {
+std::vector<std::string> attempt_args(const CampaignOptions& o, const CampaignSpec& s, const Pair& p,
+                                      const Planned& a, const fs::path& feedback) {
   std::vector<std::string> args = {(executable_dir() / "hazardforge").string()};
   for (const auto& pp : o.plugin_paths) args.insert(args.end(), {"--plugin-path", pp});
   args.insert(args.end(), {"run", p.rec->config.string(), "-o", a.dir.string(), "-q", "--overwrite", "--frames",
@@ -574,8 +616,9 @@ std::vector<std::string> attempt_args(const CampaignOptions& o, const Pair& p, c
   for (const std::string& s : p.rec->set) args.insert(args.end(), {"--set", s});
   args.insert(args.end(), {"--set", "generator.trigger=frame", "--set",
                            "generator.trigger_frame=" + std::to_string(a.window.trigger), "--set",
-                           "generator.seed=" + std::to_string(a.seed), "--set", "generator.force_kind=" + p.kind,
-                           "--set", "generator.kinds=[" + p.kind + "]"});
+                           "generator.seed=" + std::to_string(a.seed), "--set",
+                           "generator.force_kind=" + p.kind, "--set", "generator.kinds=[" + p.kind + "]",
+                           "--set", "generator.min_horizon_s=" + fixed(s.min_horizon_s, 2)});
   if (!feedback.empty())
     args.insert(args.end(), {"--set", "generator.feedback=" + fs::absolute(feedback).string()});
   if (!p.recording_states.empty())
@@ -975,7 +1018,7 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
         write_file_atomic(fb, json_text(feedback_of(*next_pair), 2) + "\n");
       }
       fs::create_directories(next.dir.parent_path());
-      const pid_t pid = spawn_logged(attempt_args(o, *next_pair, next, fb), next.dir.string() + ".log");
+      const pid_t pid = spawn_logged(attempt_args(o, spec, *next_pair, next, fb), next.dir.string() + ".log");
       next_pair->running = true;
       running[pid] = {next_pair, next};
       started_at[pid] = std::chrono::steady_clock::now();

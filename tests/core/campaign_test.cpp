@@ -146,6 +146,51 @@ TEST(CampaignReasons, ARefusalForTrafficDoesNotSayTheSceneForbidsTheKind) {
   EXPECT_FALSE(refusal_is_only_traffic("the scene never becomes Unsafe while the hazard is visible"));
 }
 
+// A finished attempt as index.json holds it: its window, and whether the generator refused it and why.
+Json attempt_at(const CampaignWindow& w, const std::string& outcome, const std::string& reason) {
+  return {{"window", {{"trigger_frame", w.trigger}, {"t_s", w.t}}},
+          {"outcome", outcome},
+          {"reasons", Json::array({"no hazard was inserted: no planned trajectory arrived", reason})}};
+}
+
+TEST(CampaignWindows, AfterARefusalForTrafficTheNextAttemptWaitsForTheTrafficToMoveOn) {
+  CampaignSpec s;  // 2 seeds per window, traffic_wait_s 1
+  std::vector<CampaignWindow> w(5);
+  const double t[] = {2.1, 2.3, 0.8, 2.5, 3.4};  // rank order, as candidate_windows gives them
+  for (size_t i = 0; i < w.size(); ++i) {
+    w[i].trigger = static_cast<int64_t>(std::lround(t[i] * 10));
+    w[i].t = t[i];
+  }
+  const std::string gen =
+      "node 'generator': frame 21: offline: no hazard fits this scene (allowed kinds: cut_in): ";
+  const std::string traffic =
+      gen + "cut_in: start point (x 2.9 m, y 3.5 m) overlaps the detected car (track 3)";
+  const std::string scene = gen + "cut_in: the road has a single lane";
+  std::vector<Json> done;
+  EXPECT_EQ(next_window(w, done, s).trigger, 21);  // the best window first
+  // Refused for a car beside the ego: not the same moment again, nor 0.2 s later; the best one >= 1 s later.
+  done.push_back(attempt_at(w[0], "no hazard", traffic));
+  EXPECT_EQ(next_window(w, done, s).trigger, 34);
+  s.traffic_wait_s = 0.4;
+  EXPECT_EQ(next_window(w, done, s).trigger, 25);
+  s.traffic_wait_s = 1.0;
+  // Any other outcome keeps the window for its second seed, then goes on in rank order.
+  done = {attempt_at(w[0], "no hazard", scene)};
+  EXPECT_EQ(next_window(w, done, s).trigger, 21);
+  done.push_back(attempt_at(w[0], "failed", "the scene never becomes Unsafe while the hazard is visible"));
+  EXPECT_EQ(next_window(w, done, s).trigger, 23);
+  // Traffic at the last window with no later one left: the best window with seeds left.
+  done = {attempt_at(w[4], "no hazard", traffic)};
+  EXPECT_EQ(next_window(w, done, s).trigger, 21);
+  // Every window had its seeds: they repeat in rank order.
+  done.clear();
+  for (const CampaignWindow& x : w)
+    for (int k = 0; k < s.seeds_per_window; ++k) done.push_back(attempt_at(x, "failed", "not Unsafe"));
+  EXPECT_EQ(next_window(w, done, s).trigger, 21);
+  EXPECT_FALSE(refused_for_traffic(attempt_at(w[0], "failed", traffic)));  // it was drawn: not a refusal
+  EXPECT_TRUE(refused_for_traffic(attempt_at(w[0], "no hazard", traffic)));
+}
+
 TEST(CampaignCli, ABadCampaignFileIsRefusedNamingFileLineAndKey) {
   test::TempDir dir;
   const auto spec = dir / "c.yaml";

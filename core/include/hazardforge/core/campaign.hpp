@@ -40,6 +40,8 @@ struct CampaignSpec {
   double min_ego_speed_mps = 1.0;  // a standing ego meets no hazard
   double lead_s = 2.0;             // typical time from a hazard's first sight to its critical moment
   int seeds_per_window = 2;        // attempts at one trigger frame before the next window
+  double traffic_wait_s = 1.0;  // after a refusal that names only traffic, the next window is this much later
+  double min_horizon_s = 3.0;   // the generator shortens its horizon down to this while no hazard fits
   std::vector<CampaignRecording> recordings;
 };
 
@@ -79,6 +81,18 @@ std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& fra
 // object, a start overlapping a detected one): such a refusal at two trigger frames does not stop a pair,
 // another window has other traffic; a refusal for what the scene is (a single lane, no sidewalks) does.
 bool refusal_is_only_traffic(const std::string& reason);
+
+// Whether a finished attempt (an index.json entry) ended without a hazard because the generator refused, for
+// reasons that all name road users of that moment (refusal_is_only_traffic).
+bool refused_for_traffic(const Json& attempt);
+
+// The window of a pair's next attempt, from its finished attempts in order (index.json entries: "window" with
+// "trigger_frame" and "t_s", "outcome", "reasons"): seeds_per_window attempts at a window, windows in rank
+// order; after a refusal for traffic, the best-ranked window at least traffic_wait_s later with seeds left
+// (the ego has moved on, and the traffic with it). Once every window has had its seeds, they repeat in rank
+// order.
+const CampaignWindow& next_window(const std::vector<CampaignWindow>& windows,
+                                  const std::vector<Json>& attempts, const CampaignSpec& spec);
 
 // A failure reason with its numbers replaced by '#', so reasons can be counted across attempts.
 std::string reason_class(const std::string& reason);
