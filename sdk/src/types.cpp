@@ -141,6 +141,40 @@ std::optional<TrajectoryPoint> HazardTrajectory::at(double t) const {
   return p;
 }
 
+std::optional<TrajectoryPoint> HazardTrajectory::continued_at(double t) const {
+  if (points.empty() || t < points.front().t - 1e-9) return std::nullopt;
+  const TrajectoryPoint& last = points.back();
+  if (t <= last.t + 1e-9) return at(t);
+  // Curvature of the last second of travel: heading change over the distance covered.
+  double turn = 0, dist = 0;
+  for (size_t k = points.size() - 1; k > 0 && last.t - points[k - 1].t <= 1.0 + 1e-9; --k) {
+    const TrajectoryPoint& a = points[k - 1];
+    const TrajectoryPoint& b = points[k];
+    turn += std::remainder(b.heading - a.heading, 2 * CV_PI);
+    dist += std::hypot(b.x - a.x, b.y - a.y);
+  }
+  const double curvature = dist >= 0.5 ? turn / dist : 0.0;
+  const double v0 = std::max(last.speed, 0.0);
+  const double decel = std::min(last.accel, 0.0);  // braking goes on; speeding up does not
+  double dt = t - last.t;
+  if (decel < 0 && v0 > 0) dt = std::min(dt, v0 / -decel);
+  const double s = v0 * dt + 0.5 * decel * dt * dt;
+  TrajectoryPoint p = last;
+  p.t = t;
+  p.speed = std::max(v0 + decel * (t - last.t), 0.0);
+  p.accel = p.speed > 0 ? decel : 0.0;
+  const double dh = curvature * s;
+  p.heading = last.heading + dh;
+  if (std::abs(dh) > 1e-9) {
+    p.x = last.x + (std::sin(p.heading) - std::sin(last.heading)) / curvature;
+    p.y = last.y - (std::cos(p.heading) - std::cos(last.heading)) / curvature;
+  } else {
+    p.x = last.x + s * std::cos(last.heading);
+    p.y = last.y + s * std::sin(last.heading);
+  }
+  return p;
+}
+
 // ---- JSON ----------------------------------------------------------------------------------------------------------
 
 Json finite_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(); }

@@ -14,13 +14,16 @@ namespace {
 // Unsafe (TTC 1.1 s) with `critical` as the metric's critical track.
 Json run_verifier(const std::string& params, int64_t critical, std::vector<double> uncovered = {},
                   std::optional<cv::Rect2f> last_state_box = std::nullopt, int64_t last_track = 4,
-                  int64_t new_track_on_box = -1, bool plan_takes_over_7 = false) {
+                  int64_t new_track_on_box = -1, bool plan_takes_over_7 = false,
+                  std::vector<Json>* frame_records = nullptr,
+                  std::optional<double> plan_end_t = std::nullopt) {
   auto r = testing::StageRunner::create<ClosedLoopVerifier>(params);
   HazardTrajectory tr;
   tr.kind = "pedestrian_crossing";
   tr.object_class = "person";
   tr.intended_min_ttc_s = 0.1;
   if (plan_takes_over_7 || !uncovered.empty()) tr.spec.extra = {{"track_id", 7}};
+  if (plan_end_t) tr.points = {{0.0, 10, 0, 0, 1, 0}, {*plan_end_t, 10, 0, 0, 1, 0}};
   r.push("trajectory", tr, 0.0);
   const cv::Rect2f box(100, 100, 50, 100);
   for (int i = 0; i < 3; ++i) {
@@ -65,7 +68,10 @@ Json run_verifier(const std::string& params, int64_t critical, std::vector<doubl
     r.push("risk", risk, t, "ttc");
   }
   r.run();
-  return r.collect<Record>("records").back().data;
+  const auto records = r.collect<Record>("records");
+  if (frame_records)
+    for (const Record& rec : records) frame_records->push_back(rec.data);
+  return records.back().data;
 }
 
 TEST(VerifierAttribution, UnsafeCausedByTheInsertedObjectIsCounted) {
@@ -75,6 +81,24 @@ TEST(VerifierAttribution, UnsafeCausedByTheInsertedObjectIsCounted) {
   EXPECT_EQ(s["unsafe"]["hazard_critical_frames"], 1);
   EXPECT_EQ(s["unsafe"]["first_hazard_critical_frame"], 2);
   EXPECT_EQ(s["criteria"]["require_hazard_critical"], true);
+}
+
+// A plan that ends before the last frame (at 0.5 s): the renderer draws the hazard carrying on; the verifier
+// marks that frame, counts it, and takes the plan's intended minimum over the frames within the plan.
+TEST(VerifierAttribution, FramesPastThePlanAreMarkedAndLeftOutOfThePlansMinimum) {
+  std::vector<Json> frames;
+  const Json s = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 4, {},
+                              std::nullopt, 4, -1, false, &frames, 0.5);
+  ASSERT_EQ(frames.size(), 4u);  // three frames and the summary
+  EXPECT_FALSE(frames[1].contains("after_plan"));
+  EXPECT_EQ(frames[2]["after_plan"], true);
+  EXPECT_EQ(s["visible_frames_after_plan"], 1);
+  EXPECT_DOUBLE_EQ(s["ttc"]["intended_min_ttc_visible_s"].get<double>(),
+                   1.5);  // frame 1's, not frame 2's 1.0
+  const Json whole = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 4, {},
+                                  std::nullopt, 4, -1, false, nullptr, 1.0);
+  EXPECT_EQ(whole["visible_frames_after_plan"], 0);
+  EXPECT_DOUBLE_EQ(whole["ttc"]["intended_min_ttc_visible_s"].get<double>(), 1.0);
 }
 
 TEST(VerifierAttribution, UnsafeCausedBySomeoneElseFailsWhenRequired) {

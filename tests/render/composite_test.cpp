@@ -228,7 +228,7 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     EXPECT_LT(left.hazard.box.x, hb.x - 10);  // left in the image
   }
   // After the plan ends (it covers 0-1 s) the hazard stays where it stopped and the real object stays
-  // removed; a plain hazard's frames pass through.
+  // removed; a plain hazard stays where it stopped too.
   {
     cv::Mat frame = img.clone();
     cv::rectangle(frame, cv::Rect(same), cv::Scalar(255, 0, 0), cv::FILLED);
@@ -242,7 +242,10 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     EXPECT_EQ(is_blue(later.frame.image), 0);
     HazardRenderer r2(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
     r2.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), plain, {});
-    EXPECT_FALSE(r2.render(make_frame(3, 2.0, frame, cam, cv::Matx44d::eye()), plain, {}).hazard.visible);
+    const auto stays = r2.render(make_frame(3, 2.0, frame, cam, cv::Matx44d::eye()), plain, {});
+    EXPECT_TRUE(stays.hazard.visible);
+    EXPECT_NEAR(stays.hazard.box.x, hb.x, 1.0);
+    EXPECT_FALSE(stays.hazard.taken_over.has_value());
   }
   // A track the renderer never sees is not removed, and it says so once.
   {
@@ -260,6 +263,34 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   EXPECT_FALSE(kept.hazard.taken_over.has_value());
   EXPECT_GT(is_blue(kept.frame.image), 0.9 * same.area());
   EXPECT_GT(kept.hazard.occluded_fraction, 0.9);
+}
+
+// Past its plan a hazard carries on as it ended (HazardTrajectory::continued_at) and is drawn there; once the
+// ego has reached it, it is gone for good.
+TEST(Composite, PastItsPlanTheHazardCarriesOnUntilTheEgoReachesIt) {
+  const cv::Mat img = hf::test::textured_image();
+  const CameraModel cam = test_camera();
+  // A person walking to the left at 1.5 m/s, 15 m ahead, planned for 1 s.
+  HazardTrajectory walk;
+  walk.kind = "test";
+  walk.object_class = "person";
+  walk.size_lwh = {0.5, 0.6, 1.75};
+  walk.anchor_time = 1.0;  // the frame of its last planned point
+  walk.points = {{0.0, 15.0, -1.5, CV_PI / 2, 1.5, 0.0}, {1.0, 15.0, 0.0, CV_PI / 2, 1.5, 0.0}};
+  auto traj = std::make_shared<const HazardTrajectory>(walk);
+  const auto pose = [](double x) { return cv::Matx44d(1, 0, 0, x, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1); };
+  HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  const auto end = r.render(make_frame(0, 1.0, img, cam, pose(0)), traj, {});
+  ASSERT_TRUE(end.hazard.visible);
+  // Half a second on: 0.75 m further left (further left in the picture), the ego 2 m nearer.
+  const auto on = r.render(make_frame(1, 1.5, img, cam, pose(2)), traj, {});
+  ASSERT_TRUE(on.hazard.visible);
+  EXPECT_NEAR(on.hazard.lateral_m, 0.75, 1e-6);
+  EXPECT_NEAR(on.hazard.distance_m, 13.0, 1e-6);
+  EXPECT_LT(on.hazard.box.x + on.hazard.box.width / 2, end.hazard.box.x + end.hazard.box.width / 2);
+  // The ego's front (3.4 m ahead of its origin) reaches the person's line: no longer drawn, and not again.
+  EXPECT_FALSE(r.render(make_frame(2, 2.0, img, cam, pose(11.5)), traj, {}).hazard.visible);
+  EXPECT_FALSE(r.render(make_frame(3, 2.1, img, cam, pose(5.0)), traj, {}).hazard.visible);
 }
 
 TEST(Composite, ContactShadowDarkensTheRoadBesideTheObject) {

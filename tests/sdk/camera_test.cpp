@@ -57,5 +57,55 @@ TEST(Trajectory, InterpolatesAndRefusesOutside) {
   EXPECT_FALSE(t.at(1.5));
 }
 
+// Samples of an object moving along a circle of radius r (centre (0, r)) at speed v from heading 0.
+HazardTrajectory on_circle(double r, double v, double seconds, double accel = 0) {
+  HazardTrajectory t;
+  for (int k = 0; k <= static_cast<int>(seconds * 20); ++k) {
+    const double tt = k / 20.0, h = v * tt / r;
+    t.points.push_back({tt, r * std::sin(h), r * (1 - std::cos(h)), h, v, accel});
+  }
+  return t;
+}
+
+TEST(Trajectory, CarriesOnAsItEndedPastItsLastPoint) {
+  // Within the plan: the interpolation; before it: nothing.
+  const HazardTrajectory arc = on_circle(40, 8, 2);
+  EXPECT_FALSE(arc.continued_at(-0.1));
+  EXPECT_DOUBLE_EQ(arc.continued_at(1.0)->x, arc.at(1.0)->x);
+  // Past it: on along the same circle at the same speed (the chords of 0.4 m shorten the arc by 1e-5).
+  for (double tt : {2.5, 4.0}) {
+    const auto p = arc.continued_at(tt);
+    ASSERT_TRUE(p);
+    const double h = 8 * tt / 40;
+    EXPECT_NEAR(p->x, 40 * std::sin(h), 0.02) << tt;
+    EXPECT_NEAR(p->y, 40 * (1 - std::cos(h)), 0.02) << tt;
+    EXPECT_NEAR(p->heading, h, 1e-3) << tt;
+    EXPECT_DOUBLE_EQ(p->speed, 8);
+  }
+  // A straight walker walks on in a straight line.
+  const HazardTrajectory walk = on_circle(1e9, 1.4, 3);
+  const auto w = walk.continued_at(5.0);
+  EXPECT_NEAR(w->x, 7.0, 1e-6);
+  EXPECT_NEAR(w->y, 0.0, 1e-6);
+  // Braking goes on to a standstill and stays there: 6 m/s at 3 m/s^2 stops after 2 s and 6 m more.
+  HazardTrajectory brake;
+  brake.points = {{0, 0, 0, 0, 12, -3}, {2, 18, 0, 0, 6, -3}};
+  EXPECT_NEAR(brake.continued_at(3.0)->x, 18 + 6 - 1.5, 1e-9);
+  EXPECT_NEAR(brake.continued_at(3.0)->speed, 3, 1e-9);
+  for (double tt : {4.0, 9.0}) {
+    EXPECT_NEAR(brake.continued_at(tt)->x, 24, 1e-9) << tt;
+    EXPECT_DOUBLE_EQ(brake.continued_at(tt)->speed, 0) << tt;
+    EXPECT_DOUBLE_EQ(brake.continued_at(tt)->accel, 0) << tt;
+  }
+  // A plan that ends speeding up does not speed up any further; one that ended standing stays put.
+  HazardTrajectory faster;
+  faster.points = {{0, 0, 0, 0, 2, 2}, {1, 3, 0, 0, 4, 2}};
+  EXPECT_NEAR(faster.continued_at(2.0)->x, 7, 1e-9);
+  HazardTrajectory standing;
+  standing.points = {{0, 5, 1, 0.3, 0, 0}, {1, 5, 1, 0.3, 0, 0}};
+  EXPECT_NEAR(standing.continued_at(7.0)->x, 5, 1e-12);
+  EXPECT_NEAR(standing.continued_at(7.0)->heading, 0.3, 1e-12);
+}
+
 }  // namespace
 }  // namespace hf

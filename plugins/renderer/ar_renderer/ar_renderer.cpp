@@ -71,6 +71,7 @@ void HazardRenderer::start_hazard(const HazardTrajectory& t) {
   taken_unseen_ = 0;
   taken_lateral_.reset();
   lane_shift_.reset();
+  reached_ = false;
   warned_taken_missing_ = false;
   if (t.spec.extra.is_object() && t.spec.extra.contains("track_id") && t.spec.extra["track_id"].is_number())
     taken_id_ = static_cast<int64_t>(t.spec.extra["track_id"].get<double>());
@@ -136,15 +137,11 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   res.hazard.kind = T.kind;
   res.hazard.object_class = T.object_class;
   auto pt = T.at(f.timestamp);
-  const bool held = !pt && taken_id_ && f.timestamp > T.points.back().t;
-  if (held) {
-    // After its plan ends a hazard in place of a real object stays where it stopped, and the real one does
-    // not come back; once the ego has reached it (a plan that ends at contact) it is no longer drawn.
-    pt = T.points.back();
-    pt->t = f.timestamp;
-    pt->speed = 0;
-    pt->accel = 0;
-  }
+  // After its plan ends the hazard carries on as it ended (HazardTrajectory::continued_at) instead of
+  // vanishing mid-road, and a real object it replaces does not come back; once the ego has reached it (a plan
+  // that ends at contact, or a stopped object the ego runs into) it is no longer drawn.
+  const bool continued = !pt && f.timestamp > T.points.back().t;
+  if (continued) pt = T.continued_at(f.timestamp);
   if (!pt) {
     prev_center_px_.reset();
     return res;  // before the hazard starts or after it ends: the frame passes through
@@ -197,7 +194,8 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
     res.hazard.taken_over->lateral_shift_m = *lane_shift_;
   }
   const double heading = pt->heading + yaw_of(cur_from_anchor);
-  if (held && centre[0] - opt_.ego_front_m - size[0] / 2 <= 0) {
+  if (continued && (reached_ || centre[0] - opt_.ego_front_m - size[0] / 2 <= 0)) {
+    reached_ = true;
     prev_center_px_.reset();
     res.composite_seconds = seconds_since(t0);
     return res;

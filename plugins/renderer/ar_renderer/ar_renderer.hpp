@@ -97,6 +97,7 @@ class HazardRenderer {
   double prev_t_ = 0;
   bool warned_future_anchor_ = false;
   std::optional<int64_t> taken_id_;        // the hazard's extra.track_id: a real object it replaces
+  bool reached_ = false;                   // past its plan, the ego has reached the hazard: no longer drawn
   std::optional<cv::Rect2f> taken_box_;    // that object's latest box
   int taken_unseen_ = 0;                   // frames since its track last had it
   std::optional<double> taken_lateral_;    // its latest measured lateral offset (m)

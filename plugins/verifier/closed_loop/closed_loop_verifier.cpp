@@ -175,6 +175,7 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
       planned_takeover_ = static_cast<int64_t>(tr->spec.extra["track_id"].get<double>());
     intended_traj_min_ = tr->intended_min_ttc_s;
     length_ = tr->size_lwh[0];
+    if (!tr->points.empty()) plan_end_t_ = tr->points.back().t;
     kind_ = tr->kind;
     object_class_ = tr->object_class;
   }
@@ -192,6 +193,10 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
               {"box", box_json(inst->box)},
               {"intended_distance_m", maybe(inst->distance_m)},
               {"intended_ttc_s", maybe(inst->intended_ttc_s)}};
+  // Past the plan's last point the renderer draws the hazard carrying on as it ended; its intended TTC there
+  // is that continuation's, so the plan's own minimum is taken over the frames within the plan.
+  const bool after_plan = plan_end_t_ && ctx.timestamp() > *plan_end_t_ + 1e-6;
+  if (after_plan) rec["after_plan"] = true;
 
   // Re-detection: the best-overlapping detection of a compatible class.
   double best = 0;
@@ -358,7 +363,10 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
       achieved_min_ttc_ = ttc->scene_value;
       achieved_at_frame_ = frame;
     }
-    intended_visible_min_ = std::min(intended_visible_min_, inst->intended_ttc_s);
+    if (after_plan)
+      ++visible_after_plan_;
+    else
+      intended_visible_min_ = std::min(intended_visible_min_, inst->intended_ttc_s);
     if (unsafe) {
       ++unsafe_frames_;
       if (!first_unsafe_frame_) first_unsafe_frame_ = frame;
@@ -478,6 +486,7 @@ Json ClosedLoopVerifier::summary() const {
   j["object_class"] = object_class_;
   j["frames"] = frames_;
   j["visible_frames"] = visible_;
+  j["visible_frames_after_plan"] = visible_after_plan_;
   j["ttc"] = {{"metric", chosen_ttc_metric_.empty() ? Json() : Json(chosen_ttc_metric_)},
               {"intended_min_ttc_s", intended_traj_min_ ? maybe(*intended_traj_min_) : Json()},
               {"intended_min_ttc_visible_s", maybe(intended_visible_min_)},

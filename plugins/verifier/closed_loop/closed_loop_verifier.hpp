@@ -50,6 +50,8 @@ class ClosedLoopVerifier : public Stage {
   bool near_face_ = true;
   // Accumulated over the run
   int frames_ = 0, visible_ = 0, redetected_ = 0, unsafe_frames_ = 0, critical_frames_ = 0;
+  int visible_after_plan_ = 0;        // visible frames past the plan's last point (the hazard carrying on)
+  std::optional<double> plan_end_t_;  // stream time of the plan's last point
   int unsafe_critical_frames_ = 0;  // visible, Unsafe, and the inserted object is the TTC's critical track
   std::optional<int64_t> first_unsafe_critical_frame_;
   std::vector<double> ious_, scores_, dist_abs_, dist_rel_;

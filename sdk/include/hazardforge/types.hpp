@@ -289,6 +289,11 @@ struct HazardTrajectory {
   HazardSpec spec;
   // Linear interpolation; nullopt outside [front.t, back.t].
   std::optional<TrajectoryPoint> at(double t) const;
+  // The same within the plan; past its last point the object carries on as it ended, so that it does not
+  // vanish mid-road: along the curvature of its last second of travel (heading change over distance, 0 under
+  // 0.5 m), at its final speed, or braking on at its final deceleration to a standstill (never speeding up).
+  // nullopt before the first point. Whether the ego has reached it by then is the caller's question.
+  std::optional<TrajectoryPoint> continued_at(double t) const;
 };
 
 // How one object looks in one picture: the quantities that tell an inserted object from the real ones of its
