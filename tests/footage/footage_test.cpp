@@ -8,6 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "hazardforge/footage/attitude.hpp"
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
@@ -43,6 +44,75 @@ TEST(Horizon, PitchAndRollOfARenderedDriveWithinTolerance) {
   EXPECT_GT(r->confidence, 0.3);
   EXPECT_GE(r->frames_used, 10);
   EXPECT_FALSE(r->method.empty());
+}
+
+// A camera that nods and rolls while the car drives (a bumpy road at 25 fps): pitch 3 deg + 0.5 deg at 1.5
+// Hz, roll 0.4 deg at 1 Hz. The tracker, given only the clip's camera (3 deg, level), recovers each frame's
+// deviation.
+TEST(Attitude, EachFramesPitchAndRollDeviationOfANoddingCamera) {
+  const double fps = 25;
+  auto pitch_dev = [](double t) { return 0.5 * std::sin(2 * M_PI * 1.5 * t); };
+  auto roll_dev = [](double t) { return 0.4 * std::sin(2 * M_PI * 1.0 * t + 1.0); };
+  AttitudeTracker tracker(test_camera(3.0, 0.0));
+  std::vector<double> t_of;
+  for (int i = 0; i < 50; ++i) {
+    const double t = i / fps;
+    tracker.add(
+        render_with_walls(test_camera(3.0 + pitch_dev(t), roll_dev(t)), pose_at(t, 12.0, 0.0, {0, 0.3, 0})),
+        t);
+    t_of.push_back(t);
+  }
+  const auto out = tracker.result();
+  ASSERT_EQ(out.size(), 50u);
+  EXPECT_FALSE(out[0].measured);
+  int measured = 0;
+  double worst_pitch = 0, worst_roll = 0, ss_pitch = 0;
+  for (size_t k = 0; k < out.size(); ++k) {
+    measured += out[k].measured ? 1 : 0;
+    const double ep = out[k].pitch_rad / kDeg - pitch_dev(t_of[k]);
+    const double er = out[k].roll_rad / kDeg - roll_dev(t_of[k]);
+    ss_pitch += ep * ep;
+    // Within a second of the clip's ends the slow attitude sees only one side (and takes part of the swing).
+    if (t_of[k] < 0.25 || t_of[k] > 1.7) continue;
+    worst_pitch = std::max(worst_pitch, std::abs(ep));
+    worst_roll = std::max(worst_roll, std::abs(er));
+  }
+  EXPECT_GE(measured, 45);
+  EXPECT_LT(worst_pitch, 0.12) << "deg";
+  EXPECT_LT(worst_roll, 0.12) << "deg";
+  EXPECT_LT(std::sqrt(ss_pitch / out.size()), 0.1) << "deg rms over the whole clip";
+  // The frame's camera follows: its horizon row moves with the deviation.
+  const CameraModel c = with_attitude(test_camera(3.0, 0.0), out[10]);
+  EXPECT_NEAR(c.pitch() / kDeg, 3.0 + out[10].pitch_rad / kDeg, 1e-9);
+  EXPECT_NEAR(c.roll() / kDeg, out[10].roll_rad / kDeg, 1e-9);
+}
+
+// A steady camera gives no deviation, and a clip without texture near the horizon measures nothing.
+TEST(Attitude, ASteadyCameraAndAFeaturelessClipGiveNoDeviation) {
+  AttitudeTracker steady(test_camera(3.0, 0.0));
+  for (int i = 0; i < 20; ++i)
+    steady.add(render_with_walls(test_camera(3.0, 0.0), pose_at(0.04 * i, 12.0, 0.0, {0, 0.3, 0})), 0.04 * i);
+  for (const auto& s : steady.result()) {
+    EXPECT_LT(std::abs(s.pitch_rad / kDeg), 0.05);
+    EXPECT_LT(std::abs(s.roll_rad / kDeg), 0.05);
+  }
+  // Keyframes half a second apart are not compared.
+  AttitudeTracker keyframes(test_camera(3.0, 0.0));
+  for (int i = 0; i < 4; ++i)
+    keyframes.add(
+        render_with_walls(test_camera(3.0 + 0.5 * (i % 2), 0.0), pose_at(0.5 * i, 12.0, 0.0, {0, 0.3, 0})),
+        0.5 * i);
+  for (const auto& s : keyframes.result()) {
+    EXPECT_FALSE(s.measured);
+    EXPECT_DOUBLE_EQ(s.pitch_rad, 0.0);
+  }
+  AttitudeTracker blank(test_camera(3.0, 0.0));
+  const cv::Mat grey(450, 800, CV_8UC3, cv::Scalar(128, 128, 128));
+  for (int i = 0; i < 5; ++i) blank.add(grey, 0.04 * i);
+  for (const auto& s : blank.result()) {
+    EXPECT_FALSE(s.measured);
+    EXPECT_DOUBLE_EQ(s.pitch_rad, 0.0);
+  }
 }
 
 TEST(Horizon, StraightDriveGivesTheHorizonRow) {

@@ -407,6 +407,46 @@ TEST(VideoSource, AnImageFolderTellsItsPitchAndEgoMotion) {
   EXPECT_EQ(n, 16);
 }
 
+// A camera nodding by 0.6 deg at 2 Hz over a street with building fronts, 25 fps: each frame's camera follows
+// its own pitch (the clip's plus the measured deviation), and ego_motion.jsonl says it; with follow_attitude
+// off every frame has the clip's.
+TEST(VideoSource, EachFramesCameraFollowsTheFootagesNod) {
+  TempDir dir;
+  const auto folder = dir / "nod";
+  std::filesystem::create_directories(folder);
+  auto nod = [](int k) { return 0.6 * std::sin(2 * CV_PI * 2.0 * k / 25.0); };
+  for (int k = 0; k < 30; ++k) {
+    const CameraModel cam =
+        CameraModel::pinhole(640, 360, 576, 576, 320, 180, 1.5, (3.0 + nod(k)) * CV_PI / 180, 1.5);
+    char name[32];
+    std::snprintf(name, sizeof name, "%04d.png", k);
+    cv::imwrite((folder / name).string(),
+                test::road::render_with_walls(cam, test::road::pose_at(k / 25.0, 12.0, 0.0, {0, 0.3, 0})));
+  }
+  const std::string params = "{path: '" + folder.string() + "', fps: 25, fx: 576, camera_height: 1.5, ";
+  testing::StageRunner r;
+  const auto frames = run_source<VideoSource>(params + "camera_pitch_deg: 3}", &r);
+  ASSERT_EQ(frames.size(), 30u);
+  double worst = 0;
+  for (size_t k = 5; k + 5 < frames.size(); ++k)  // the slow attitude's edges aside
+    worst =
+        std::max(worst, std::abs(frames[k].camera.pitch() * 180 / CV_PI - (3.0 + nod(static_cast<int>(k)))));
+  EXPECT_LT(worst, 0.15) << "deg";
+  const Json cam = read_json(r.output_dir() / "camera.json");
+  EXPECT_EQ(
+      cam["sources"]["attitude_per_frame"].get<std::string>().rfind("the clip's pitch and roll plus", 0), 0u)
+      << cam.dump(2);
+  std::ifstream lines(r.output_dir() / "ego_motion.jsonl");
+  size_t n = 0;
+  for (std::string l; std::getline(lines, l); ++n)
+    EXPECT_NEAR(Json::parse(l)["pitch_deg"].get<double>(), frames.at(n).camera.pitch() * 180 / CV_PI, 1e-9);
+  EXPECT_EQ(n, 30u);
+  testing::StageRunner off;
+  for (const Frame& f :
+       run_source<VideoSource>(params + "camera_pitch_deg: 3, follow_attitude: false}", &off))
+    EXPECT_NEAR(f.camera.pitch() * 180 / CV_PI, 3.0, 1e-9);
+}
+
 TEST(VideoSource, StatedValuesWinAndAnUnstatedFrameRateIsSaidLoudly) {
   TempDir dir;
   const auto folder = write_drive(dir, 6);

@@ -7,14 +7,15 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <opencv2/imgproc.hpp>
 #include "hazardforge/atomic_file.hpp"
-#include "hazardforge/image_file.hpp"
+#include "hazardforge/footage/attitude.hpp"
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
+#include "hazardforge/image_file.hpp"
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/output_path.hpp"
-#include <opencv2/imgproc.hpp>
 
 namespace hf::source {
 
@@ -28,17 +29,33 @@ std::string size_str(cv::Size s) {
 
 std::vector<ParamSpec> CameraSetup::params() {
   return {
-      ParamSpec::path("calibration", "").from_scene("camera.calibration")
+      ParamSpec::path("calibration", "")
+          .from_scene("camera.calibration")
           .describe("calibration YAML (from `hazardforge calibrate`); overrides fx/fy/cx/cy/hfov_deg"),
-      ParamSpec::number("fx", 0.0).range(0, 1e6).from_scene("camera.fx").describe(
-          "focal length x in px at the native size (0 = unset)"),
-      ParamSpec::number("fy", 0.0).range(0, 1e6).from_scene("camera.fy").describe("focal length y in px (0 = fx)"),
-      ParamSpec::number("cx", 0.0).range(0, 1e6).from_scene("camera.cx").describe("principal point x in px (0 = image centre)"),
-      ParamSpec::number("cy", 0.0).range(0, 1e6).from_scene("camera.cy").describe("principal point y in px (0 = image centre)"),
-      ParamSpec::number("hfov_deg", 0.0).from_scene("camera.hfov_deg")
+      ParamSpec::number("fx", 0.0)
+          .range(0, 1e6)
+          .from_scene("camera.fx")
+          .describe("focal length x in px at the native size (0 = unset)"),
+      ParamSpec::number("fy", 0.0)
+          .range(0, 1e6)
+          .from_scene("camera.fy")
+          .describe("focal length y in px (0 = fx)"),
+      ParamSpec::number("cx", 0.0)
+          .range(0, 1e6)
+          .from_scene("camera.cx")
+          .describe("principal point x in px (0 = image centre)"),
+      ParamSpec::number("cy", 0.0)
+          .range(0, 1e6)
+          .from_scene("camera.cy")
+          .describe("principal point y in px (0 = image centre)"),
+      ParamSpec::number("hfov_deg", 0.0)
+          .from_scene("camera.hfov_deg")
           .range(0, 179)
           .describe("horizontal field of view when no calibration/fx is given (0 = assume 60 deg, warned)"),
-      ParamSpec::number("camera_height", 1.5).range(0.1, 10).from_scene("camera.height_m").describe("camera height above the ground, m"),
+      ParamSpec::number("camera_height", 1.5)
+          .range(0.1, 10)
+          .from_scene("camera.height_m")
+          .describe("camera height above the ground, m"),
       ParamSpec::number("camera_pitch_deg", 0.0)
           .range(-45, 45)
           .from_scene("camera.pitch_deg")
@@ -50,20 +67,29 @@ std::vector<ParamSpec> CameraSetup::params() {
       ParamSpec::int_list("intrinsics_size", {})
           .from_scene("camera.intrinsics_size")
           .describe("[width, height] of the images fx/fy/cx/cy refer to (empty = the native frames)"),
-      ParamSpec::number("camera_forward", 1.5).from_scene("camera.forward_m")
+      ParamSpec::number("camera_forward", 1.5)
+          .from_scene("camera.forward_m")
           .range(-10, 10)
           .describe("camera position ahead of the rear axle, m"),
       ParamSpec::boolean("self_calibrate", true)
-          .describe("estimate from the footage what is not stated: pitch and roll from the horizon, ego speed "
-                    "and yaw rate from ground-plane odometry and the picture's rotation between frames (written "
-                    "to camera.json and ego_motion.jsonl)"),
+          .describe(
+              "estimate from the footage what is not stated: pitch and roll from the horizon, ego speed "
+              "and yaw rate from ground-plane odometry and the picture's rotation between frames (written "
+              "to camera.json and ego_motion.jsonl)"),
+      ParamSpec::boolean("follow_attitude", true)
+          .describe(
+              "with self_calibrate: each frame's camera follows its own pitch and roll, the clip's attitude "
+              "plus the frame's deviation from it measured on the far scene's motion between consecutive "
+              "frames (a bump, a braking dip, the body rolling in a bend); false = one attitude for the "
+              "whole clip"),
       ParamSpec::boolean("undistort", true)
           .describe("undistort frames with the calibrated K when the calibration has distortion"),
       ParamSpec::integer("resize_width", 0)
           .range(0, 16384)
           .describe("output width (0 = keep; aspect kept if only one is set)"),
       ParamSpec::integer("resize_height", 0).range(0, 16384).describe("output height (0 = keep)"),
-      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .from_scene("ego.speed_mps")
           .range(-1, 100)
           .describe("constant ego speed, m/s (-1 = unknown)"),
   };
@@ -89,6 +115,7 @@ void CameraSetup::configure(StageContext& ctx) {
   height_stated_ = p.stated("camera_height");
   speed_stated_ = p.stated("ego_speed_mps") && p.get_double("ego_speed_mps") >= 0;
   self_calibrate_ = p.get_bool("self_calibrate");
+  follow_attitude_ = p.get_bool("follow_attitude");
   intrinsics_size_ = p.get_ints("intrinsics_size");
   if (!intrinsics_size_.empty() &&
       (intrinsics_size_.size() != 2 || intrinsics_size_[0] <= 0 || intrinsics_size_[1] <= 0))
@@ -257,6 +284,11 @@ cv::Mat read_image_file(const std::filesystem::path& file, const std::string& wh
   return raw;
 }
 
+CameraModel CameraSetup::camera_at(int64_t k) const {
+  if (k < 0 || static_cast<size_t>(k) >= attitude_.size()) return camera_;
+  return footage::with_attitude(camera_, attitude_[static_cast<size_t>(k)]);
+}
+
 EgoState CameraSetup::ego_at(int64_t k) const {
   EgoState e;
   if (k >= 0 && static_cast<size_t>(k) < ego_.size()) e = ego_[static_cast<size_t>(k)];
@@ -319,7 +351,7 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     ctx.log(LogLevel::kWarning, "no horizon could be estimated from the footage; camera pitch 0 assumed (state "
                                 "camera.pitch_deg): ground distances rest on that assumption");
   }
-  if (speed_stated_ && height_stated_) {
+  if (speed_stated_ && height_stated_ && !follow_attitude_) {
     // A stated speed is a constant-speed, straight ego (EgoState source "param"; no track: planners and the
     // exporter then use a straight line at that speed); the video's yaw rate is not mixed in. Leave
     // ego.speed_mps unstated to follow the footage's speed and turns.
@@ -333,6 +365,8 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
   if (!speed_stated_) odo.emplace(camera_);
   std::optional<footage::CameraHeightEstimator> height_est;
   if (!height_stated_) height_est.emplace(camera_);
+  std::optional<footage::AttitudeTracker> attitude;
+  if (follow_attitude_) attitude.emplace(camera_);
   std::vector<footage::EgoMotionSample> raw;
   {
     auto next_native = open_pass();
@@ -343,7 +377,31 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
       const cv::Mat img = prepare(native, what);
       if (odo) raw.push_back(odo->add(img, k, static_cast<double>(k) / fps));
       if (height_est) height_est->add(img);
+      if (attitude) attitude->add(img, static_cast<double>(k) / fps);
     }
+  }
+  if (attitude) {
+    attitude_ = attitude->result();
+    size_t measured = 0;
+    double ss_pitch = 0, ss_roll = 0;
+    for (const auto& a : attitude_) {
+      measured += a.measured ? 1 : 0;
+      ss_pitch += a.pitch_rad * a.pitch_rad;
+      ss_roll += a.roll_rad * a.roll_rad;
+    }
+    const double n = static_cast<double>(std::max<size_t>(attitude_.size(), 1));
+    provenance_["attitude_per_frame"] =
+        "the clip's pitch and roll plus each frame's deviation, from the far scene's motion between "
+        "consecutive "
+        "frames (" +
+        std::to_string(measured) + " of " + std::to_string(attitude_.size()) + " steps measured" +
+        (1.0 / fps > attitude->options().max_interval_s
+             ? std::string(": frames " + std::to_string(1.0 / fps).substr(0, 4) +
+                           " s apart are too far apart to measure a nod between them, so every frame has the "
+                           "clip's attitude")
+             : std::string()) +
+        "; deviation rms pitch " + std::to_string(std::sqrt(ss_pitch / n) * 180.0 / CV_PI).substr(0, 5) +
+        " deg, roll " + std::to_string(std::sqrt(ss_roll / n) * 180.0 / CV_PI).substr(0, 5) + " deg)";
   }
   if (height_est) {
     const double h0 = camera_.height_above_ground();
@@ -434,6 +492,12 @@ void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, c
     l["speed_mps"] = e.speed_mps ? Json(*e.speed_mps) : Json();
     l["yaw_rate_dps"] = e.yaw_rate ? Json(*e.yaw_rate * deg) : Json();
     l["source"] = e.source.empty() ? "unknown" : e.source;
+    if (static_cast<size_t>(k) < attitude_.size()) {
+      const CameraModel c = camera_at(k);
+      l["pitch_deg"] = c.pitch() * deg;  // this frame's camera (the clip's attitude + its deviation)
+      l["roll_deg"] = c.roll() * deg;
+      l["attitude_measured"] = attitude_[static_cast<size_t>(k)].measured;
+    }
     if (static_cast<size_t>(k) < smooth_motion_.size()) {
       const auto& m = smooth_motion_[static_cast<size_t>(k)];
       l["speed_sigma_mps"] = m.speed_sigma;

@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "hazardforge/calibration_file.hpp"
+#include "hazardforge/footage/attitude.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/stage.hpp"
 
@@ -34,6 +35,9 @@ class CameraSetup {
   cv::Mat prepare(const cv::Mat& native, const std::string& what) const;
 
   const CameraModel& camera() const { return camera_; }
+  // Frame k's camera: camera() with the frame's pitch and roll deviation when they were measured
+  // (follow_attitude), else camera().
+  CameraModel camera_at(int64_t k) const;
   cv::Size native_size() const { return native_; }
   cv::Size output_size() const { return {camera_.width, camera_.height}; }
   // The ego state of frame k: the stated speed, else the speed and yaw rate estimated from the video.
@@ -62,6 +66,7 @@ class CameraSetup {
   double height_ = 1.5, pitch_deg_ = 0, roll_deg_ = 0, forward_ = 1.5;
   bool pitch_stated_ = false, roll_stated_ = false, height_stated_ = false, speed_stated_ = false;
   bool self_calibrate_ = true;
+  bool follow_attitude_ = true;
   std::vector<long long> intrinsics_size_;
   bool undistort_ = true;
   int resize_w_ = 0, resize_h_ = 0;
@@ -74,6 +79,7 @@ class CameraSetup {
   Json provenance_ = Json::object();  // value name -> where it came from
   std::vector<EgoState> ego_;         // per frame, from the video (empty = not estimated)
   std::vector<footage::EgoMotionSample> raw_motion_, smooth_motion_;
+  std::vector<footage::AttitudeSample> attitude_;  // per frame (empty = not followed)
   std::shared_ptr<const EgoTrack> track_;
 };
 

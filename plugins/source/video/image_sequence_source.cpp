@@ -95,7 +95,7 @@ bool ImageSequenceSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.index = static_cast<int64_t>(pos_);
   f.timestamp = static_cast<double>(pos_) / fps_;
   f.image = setup_.prepare(raw, "image '" + file.string() + "'");
-  f.camera = setup_.camera();
+  f.camera = setup_.camera_at(static_cast<int64_t>(pos_));
   f.ego = setup_.ego_at(static_cast<int64_t>(pos_));
   f.ego_track = setup_.ego_track();
   f.stream_end = static_cast<double>(files_.size() - 1) / fps_;

@@ -186,7 +186,7 @@ bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.index = emitted_;
   f.timestamp = static_cast<double>(emitted_) / fps_;
   f.image = setup_.prepare(raw, "'" + path_ + "' frame " + std::to_string(file_frame));
-  f.camera = setup_.camera();
+  f.camera = setup_.camera_at(emitted_);
   f.ego = setup_.ego_at(emitted_);
   f.ego_track = setup_.ego_track();
   if (count_ && *count_ > 0) f.stream_end = static_cast<double>(*count_ - 1) / fps_;
