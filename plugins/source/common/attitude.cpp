@@ -84,10 +84,14 @@ std::vector<AttitudeSample> AttitudeTracker::result() const {
   std::vector<AttitudeSample> out(n);
   for (size_t k = 0; k < n; ++k) {
     // The slow attitude: a Gaussian over the summed steps (weights renormalised at the clip's ends).
+    // Only the frames within 3 sigma (the steps are in time order), so long clips cost O(frames x window).
     double w_sum = 0, p_sum = 0, r_sum = 0;
-    for (size_t j = 0; j < n; ++j) {
+    const double reach = 3.0 * std::max(opt_.slow_s, 1e-6);
+    const auto first = std::lower_bound(steps_.begin(), steps_.end(), steps_[k].t - reach,
+                                        [](const Step& a, double t) { return a.t < t; });
+    for (size_t j = static_cast<size_t>(first - steps_.begin()); j < n && steps_[j].t <= steps_[k].t + reach;
+         ++j) {
       const double d = (steps_[j].t - steps_[k].t) / std::max(opt_.slow_s, 1e-6);
-      if (std::abs(d) > 3.0) continue;
       const double w = std::exp(-0.5 * d * d);
       w_sum += w;
       p_sum += w * pitch[j];
