@@ -107,13 +107,17 @@ std::vector<AttitudeSample> AttitudeTracker::result() const {
   return out;
 }
 
-CameraModel with_attitude(const CameraModel& camera, const AttitudeSample& s) {
-  CameraModel c = CameraModel::pinhole(camera.width, camera.height, camera.fx, camera.fy, camera.cx,
-                                       camera.cy, camera.height_above_ground(), camera.pitch() + s.pitch_rad,
-                                       camera.t_ego_cam[0], camera.roll() + s.roll_rad);
+CameraModel with_pitch_roll(const CameraModel& camera, double pitch_rad, double roll_rad) {
+  CameraModel c =
+      CameraModel::pinhole(camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy,
+                           camera.height_above_ground(), pitch_rad, camera.t_ego_cam[0], roll_rad);
   c.distortion = camera.distortion;
   c.t_ego_cam = camera.t_ego_cam;
   return c;
+}
+
+CameraModel with_attitude(const CameraModel& camera, const AttitudeSample& s) {
+  return with_pitch_roll(camera, camera.pitch() + s.pitch_rad, camera.roll() + s.roll_rad);
 }
 
 }  // namespace hf::footage

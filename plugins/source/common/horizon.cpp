@@ -5,6 +5,7 @@
 #include "gray.hpp"
 
 #include "bev_tracker.hpp"
+#include "hazardforge/footage/attitude.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -548,12 +549,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
 }
 
 CameraModel HorizonEstimator::apply(const CameraModel& intrinsics, const HorizonEstimate& est) {
-  CameraModel c = CameraModel::pinhole(intrinsics.width, intrinsics.height, intrinsics.fx, intrinsics.fy,
-                                       intrinsics.cx, intrinsics.cy, intrinsics.height_above_ground(),
-                                       est.pitch_rad, intrinsics.t_ego_cam[0], est.roll_rad);
-  c.distortion = intrinsics.distortion;
-  c.t_ego_cam = intrinsics.t_ego_cam;
-  return c;
+  return with_pitch_roll(intrinsics, est.pitch_rad, est.roll_rad);
 }
 
 }  // namespace hf::footage

@@ -67,6 +67,8 @@ class AttitudeTracker {
   std::vector<Step> steps_;
 };
 
+// The camera with the given pitch and roll (rad), everything else kept.
+CameraModel with_pitch_roll(const CameraModel& camera, double pitch_rad, double roll_rad);
 // The camera with its pitch and roll moved by a frame's deviation.
 CameraModel with_attitude(const CameraModel& camera, const AttitudeSample& s);
 
