@@ -18,6 +18,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "hazardforge/footage/attitude.hpp"
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
@@ -80,6 +81,10 @@ int main(int argc, char** argv) {
   std::string debug_dir;
   app.add_option("--debug-dir", debug_dir, "write each frame (with the horizon drawn) and its bird's-eye view here");
   app.add_option("--ref-horizon", ref_horizon, "reference horizon row at cx, reported beside the estimate");
+  bool no_far_scene = false;
+  app.add_flag(
+      "--no-far-scene", no_far_scene,
+      "between video-rate frames, take the ego's turn from the road alone (not the far scene's shift)");
   CLI11_PARSE(app, argc, argv);
 
   Clip clip;
@@ -199,6 +204,7 @@ int main(int argc, char** argv) {
           {"cue_rows", {{"vanishing_point", num(est->vp_row)}, {"flow_foe", num(est->foe_row)},
                         {"road_homography", num(est->homography_row)}, {"ground_motion", num(est->ground_motion_row)}}},
           {"notes", est->notes}};
+    if (std::isfinite(est->travel_x)) hj["travel_x"] = num(est->travel_x);
     if (std::isfinite(ref_horizon)) {
       hj["reference_horizon_y"] = ref_horizon;
       hj["horizon_error_px"] = num(est->horizon_y - ref_horizon);
@@ -225,7 +231,14 @@ int main(int argc, char** argv) {
   hf::footage::GroundOdometry odo(cam);
   std::vector<hf::footage::EgoMotionSample> raw;
   t0 = Clock::now();
-  for (size_t i = 0; i < clip.frames.size(); ++i) raw.push_back(odo.add(clip.frames[i], static_cast<int64_t>(i), clip.t[i]));
+  hf::footage::AttitudeOptions far_opt;  // the heading step between video-rate frames, as the video source
+  if (est) far_opt.travel_x = est->travel_x;
+  hf::footage::AttitudeTracker far_scene(cam, far_opt);
+  for (size_t i = 0; i < clip.frames.size(); ++i) {
+    far_scene.add(clip.frames[i], clip.t[i]);
+    raw.push_back(odo.add(clip.frames[i], static_cast<int64_t>(i), clip.t[i],
+                          no_far_scene ? std::nullopt : far_scene.last_turn()));
+  }
   const double odo_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   // Camera height from the lane-line spacing (the same pass in the pipeline): speeds scale with the height.
   t0 = Clock::now();

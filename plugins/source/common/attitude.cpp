@@ -29,8 +29,9 @@ void AttitudeTracker::add(const cv::Mat& bgr, double t) {
     steps_.push_back(step);
     return;
   }
-  const double cx = cam_.cx * scale_;
-  const double hy = cam_.horizon_y(cam_.cx).value_or(cam_.cy) * scale_;
+  const double focus = std::isfinite(opt_.travel_x) ? opt_.travel_x : cam_.cx;
+  const double cx = focus * scale_;
+  const double hy = cam_.horizon_y(focus).value_or(cam_.cy) * scale_;
   const int y0 = std::clamp(static_cast<int>(hy - opt_.band_above * gray.rows), 0, gray.rows);
   const int y1 = std::clamp(static_cast<int>(hy + opt_.band_below * gray.rows), 0, gray.rows);
   std::vector<cv::Point2f> p0, p1, back;
@@ -60,17 +61,40 @@ void AttitudeTracker::add(const cv::Mat& bgr, double t) {
         const double fy = cam_.fy * scale_;
         const double dpitch = -std::atan2(M.at<double>(1, 2), fy);
         const double droll = -std::atan2(M.at<double>(1, 0), M.at<double>(0, 0));
+        const double fx = cam_.fx * scale_;
+        const double dyaw = std::atan2(M.at<double>(0, 2), fx);
         const double limit = opt_.max_step_deg * CV_PI / 180.0;
-        if (std::abs(dpitch) <= limit && std::abs(droll) <= limit) {
+        if (std::abs(dpitch) <= limit && std::abs(droll) <= limit && std::abs(dyaw) <= limit) {
           step.dpitch = dpitch;
           step.droll = droll;
+          step.dyaw = dyaw;
+          // Horizontal residuals of the inliers: the shift's standard error, plus the floor.
+          double ss = 0;
+          for (size_t i = 0; i < a.size(); ++i) {
+            if (!inl.at<uchar>(static_cast<int>(i))) continue;
+            const double rx =
+                M.at<double>(0, 0) * a[i].x + M.at<double>(0, 1) * a[i].y + M.at<double>(0, 2) - b[i].x;
+            ss += rx * rx;
+          }
+          const double se = std::sqrt(ss / std::max(1, n - 2)) / std::sqrt(static_cast<double>(n)) / fx;
+          // The camera sits ahead of the axle it turns about: its sideways step shifts near scenery further,
+          // by a share of the turn that grows as the scenery nears (a tenth for buildings 10-20 m away).
+          step.dyaw_sigma = std::sqrt(se * se + std::pow(opt_.yaw_sigma_floor_deg * CV_PI / 180.0, 2) +
+                                      std::pow(0.1 * dyaw, 2));
           step.measured = true;
           step.inliers = n;
+          step.inlier_fraction = static_cast<double>(n) / static_cast<double>(a.size());
         }
       }
     }
   }
   steps_.push_back(step);
+}
+
+std::optional<TwoViewMotion> AttitudeTracker::last_turn() const {
+  if (steps_.empty() || !steps_.back().measured) return std::nullopt;
+  const Step& s = steps_.back();
+  return TwoViewMotion{s.dyaw, s.dyaw_sigma, s.inliers, s.inlier_fraction};
 }
 
 std::vector<AttitudeSample> AttitudeTracker::result() const {

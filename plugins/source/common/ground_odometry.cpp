@@ -29,6 +29,11 @@ int GroundOdometry::bonnet_rows() const { return impl_->tracker.bonnet_rows(); }
 const cv::Mat& GroundOdometry::last_bev() const { return impl_->tracker.last_bev(); }
 
 EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double timestamp) {
+  return add(bgr, frame, timestamp, std::nullopt);
+}
+
+EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double timestamp,
+                                    const std::optional<TwoViewMotion>& turn) {
   EgoMotionSample out;
   out.frame = frame;
   out.t = timestamp;
@@ -39,8 +44,14 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   if (s.last_measured_t && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s) prior = s.last_speed;
   std::optional<double> known_yaw;
   double known_yaw_sigma = 0;
-  if (s.opt.two_view_rotation && had_prev && dt < s.opt.two_view_min_interval_s) {
-    s.rotation.reset();  // video-rate frames: the road's turn suffices (and no stale frame is compared later)
+  if (had_prev && dt < s.opt.two_view_min_interval_s) {
+    // Video-rate frames: the far scene's shift when another cue measured it, else the road's turn (and no
+    // stale frame is compared later).
+    s.rotation.reset();
+    if (turn && std::abs(turn->yaw) <= s.opt.max_yaw_rate * std::max(dt, 0.0) + 0.02) {
+      known_yaw = turn->yaw;
+      known_yaw_sigma = turn->yaw_sigma;
+    }
   } else if (s.opt.two_view_rotation) {
     if (const auto r = s.rotation.add(bgr, s.opt.max_yaw_rate * std::max(dt, 0.0) + 0.02)) {
       known_yaw = r->yaw;
@@ -52,7 +63,8 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   s.have_prev = !bgr.empty();
   s.prev_t = timestamp;
   if (!had_prev || !(dt > 1e-6)) return out;
-  // The heading change from the whole picture is a measurement of its own, also when the road gives no speed.
+  // The heading change from the whole picture (or the far scene) is a measurement of its own, also when the
+  // road gives no speed.
   if (known_yaw) {
     out.yaw_measured = true;
     out.yaw_rate = *known_yaw / dt;

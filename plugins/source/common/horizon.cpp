@@ -494,12 +494,13 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   }
   const double m = median(rows);
   const double gate = std::max(3 * mad_sigma(rows, m), opt_.inlier_gate_fraction * h);
-  std::vector<double> in_rows, cue_rows[4];
+  std::vector<double> in_rows, cue_rows[4], vp_cols;
   std::vector<int> frames;
   for (size_t i = 0; i < rows.size(); ++i) {
     if (std::abs(rows[i] - m) > gate) continue;
     in_rows.push_back(rows[i]);
     cue_rows[samples_[i].cue].push_back(rows[i]);
+    if (samples_[i].cue == Sample::kVanishingPoint) vp_cols.push_back(samples_[i].x);
     frames.push_back(samples_[i].frame);
   }
   if (in_rows.empty()) return std::nullopt;
@@ -518,6 +519,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   est.foe_points = static_cast<int>(cue_rows[Sample::kFoe].size());
   est.homographies = static_cast<int>(cue_rows[Sample::kHomography].size());
   est.vp_row = median(cue_rows[Sample::kVanishingPoint]);
+  if (vp_cols.size() >= 3) est.travel_x = median(vp_cols);
   est.foe_row = median(cue_rows[Sample::kFoe]);
   est.homography_row = median(cue_rows[Sample::kHomography]);
   est.ground_motions = static_cast<int>(cue_rows[Sample::kGroundMotion].size());

@@ -366,7 +366,11 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
   std::optional<footage::CameraHeightEstimator> height_est;
   if (!height_stated_) height_est.emplace(camera_);
   std::optional<footage::AttitudeTracker> attitude;
-  if (follow_attitude_) attitude.emplace(camera_);
+  if (follow_attitude_ || odo) {  // the far scene also gives the odometry its turn
+    footage::AttitudeOptions ao;
+    if (est) ao.travel_x = est->travel_x;  // the far scene expands about the direction of travel
+    attitude.emplace(camera_, ao);
+  }
   std::vector<footage::EgoMotionSample> raw;
   {
     auto next_native = open_pass();
@@ -375,12 +379,15 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     for (int64_t k = 0; next_native(native, what); ++k) {
       if (ctx.stop_requested()) return;
       const cv::Mat img = prepare(native, what);
-      if (odo) raw.push_back(odo->add(img, k, static_cast<double>(k) / fps));
-      if (height_est) height_est->add(img);
+      // The far scene's shift first: between video frames it is the ego's turn, more precise than the road's.
       if (attitude) attitude->add(img, static_cast<double>(k) / fps);
+      if (odo)
+        raw.push_back(
+            odo->add(img, k, static_cast<double>(k) / fps, attitude ? attitude->last_turn() : std::nullopt));
+      if (height_est) height_est->add(img);
     }
   }
-  if (attitude) {
+  if (attitude && follow_attitude_) {
     attitude_ = attitude->result();
     size_t measured = 0;
     double ss_pitch = 0, ss_roll = 0;
@@ -461,8 +468,11 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
                              " of " + std::to_string(raw.size()) + " frames measured)";
   size_t turned = 0;
   for (const auto& r : raw) turned += r.yaw_measured ? 1 : 0;
-  provenance_["ego_yaw_rate"] = "estimated from the video (the whole picture's rotation between frames on " +
-                                std::to_string(turned) + " of " + std::to_string(raw.size()) +
+  const bool video_rate = 1.0 / fps < footage::OdometryOptions{}.two_view_min_interval_s;
+  provenance_["ego_yaw_rate"] = std::string("estimated from the video (") +
+                                (video_rate ? "the far scene's sideways shift between frames"
+                                            : "the whole picture's rotation between frames") +
+                                " on " + std::to_string(turned) + " of " + std::to_string(raw.size()) +
                                 " frames, and ground-plane odometry)";
 }
 

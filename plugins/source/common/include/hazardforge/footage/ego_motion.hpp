@@ -3,10 +3,12 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "hazardforge/footage/two_view.hpp"
 #include "hazardforge/types.hpp"
 
 namespace hf::footage {
@@ -86,6 +88,12 @@ class GroundOdometry {
   // Raw (unfiltered) motion from the previous frame to this one; measured=false for the first frame or when the
   // road gives no reliable measurement.
   EgoMotionSample add(const cv::Mat& bgr, int64_t frame, double timestamp);
+  // The same, with the heading change from the previous frame measured by another cue (AttitudeTracker's far
+  // scene, left positive, with its sigma): on frames closer than two_view_min_interval_s it takes the place
+  // of the whole picture's rotation (which is not run there), narrows the road's coarse search and is
+  // averaged with the road's own turn by inverse variance, or replaces it when the two disagree.
+  EgoMotionSample add(const cv::Mat& bgr, int64_t frame, double timestamp,
+                      const std::optional<TwoViewMotion>& turn);
   // Rows at the bottom of the image taken to be the bonnet (0 until two frames were seen).
   int bonnet_rows() const;
   // The latest bird's-eye view (for inspection).

@@ -1,6 +1,7 @@
 // Camera horizon (pitch and roll of the camera over the road) estimated from a monocular front-camera clip alone.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -31,6 +32,9 @@ struct HorizonEstimate {
   // Median horizon row at cx of each cue's inlier samples (NaN when the cue gave none): a cue that disagrees
   // with the others points at a bias (road slope, curve, turning) rather than noise.
   double vp_row = 0, foe_row = 0, homography_row = 0, ground_motion_row = 0;
+  // Column where the road's direction meets the horizon: the median column of the inlier vanishing points
+  // (NaN with fewer than 3). Away from cx, the camera is mounted turned against the direction of travel.
+  double travel_x = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct HorizonOptions {
