@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "hazardforge/footage/attitude.hpp"
 #include "hazardforge/footage/camera_height.hpp"
@@ -14,6 +15,7 @@
 #include "hazardforge/footage/horizon.hpp"
 #include "hazardforge/footage/two_view.hpp"
 #include "synthetic_road.hpp"
+#include "test_support.hpp"
 
 namespace {
 
@@ -305,6 +307,67 @@ void check_height(double stated_height, double yaw_rate) {
 
 TEST(CameraHeight, LaneLinesGiveTheHeightFromTooLow) { check_height(1.2, 0.0); }
 TEST(CameraHeight, LaneLinesGiveTheHeightFromTooHighWhileTurning) { check_height(2.0, 0.05); }
+
+// Lane markings on the rendered road (dashed lines, 3 m dash in a 12 m cycle, at +-1.75 and +-5.25 m; solid
+// edge lines at +-7 m): in the middle lane and in the lane left of it, the ego lane's lines are dashed on
+// both sides (in the left lane the solid edge line 3.5 m to the left is not taken for the ego lane's).
+TEST(CameraHeight, LaneMarkingsCountTheLanesBesideTheEgo) {
+  const CameraModel cam = test_camera(3.0, 0.0);
+  HeightOptions opt;
+  opt.lane_width_m = 3.5;
+  for (const double y : {0.0, 3.5}) {
+    CameraHeightEstimator est(cam, opt);
+    for (int i = 0; i < 20; ++i) est.add(render(cam, pose_at(0.1 * i, 12.0, 0.0, Pose{0, y, 0})));
+    const auto m = est.markings();
+    ASSERT_TRUE(m.has_value());
+    EXPECT_EQ(m->frames, 20);
+    EXPECT_EQ(m->source, "video");
+    for (const hf::LaneMarkingSide* side : {&m->left, &m->right}) {
+      EXPECT_EQ(side->boundary, "dashed") << m->note;
+      EXPECT_EQ(side->colour, "white") << m->note;
+      EXPECT_GE(side->seen_share, 0.2) << m->note;
+    }
+    // A lane beyond each dashed line; the further lines, 5.25 m to the side, show only from 9.5 m on in this
+    // 58 deg view and are rarely found, so the count is at least one, not the two there are.
+    EXPECT_GE(m->left.lanes, 1) << "ego at y " << y << ": " << m->note;
+    EXPECT_GE(m->right.lanes, 1) << "ego at y " << y << ": " << m->note;
+  }
+  // Without lines nothing is said about either side.
+  CameraHeightEstimator blank(cam, opt);
+  for (int i = 0; i < 8; ++i) blank.add(cv::Mat(450, 800, CV_8UC3, cv::Scalar::all(90)));
+  const auto none = blank.markings();
+  ASSERT_TRUE(none.has_value());
+  EXPECT_EQ(none->left.lanes, -1);
+  EXPECT_EQ(none->right.boundary, "none");
+}
+
+// The Udacity clip (a highway's leftmost lane): a solid yellow line on the left, a dashed white one on the
+// right.
+TEST(CameraHeight, LaneMarkingsOfTheUdacityHighwayClip) {
+  const auto path = hf::test::shared_data("udacity-highway/test_video.mp4");
+  HF_REQUIRE_SHARED(path);
+  cv::VideoCapture cap(path.string());
+  ASSERT_TRUE(cap.isOpened());
+  std::vector<cv::Mat> frames;
+  for (cv::Mat f; cap.read(f);) frames.push_back(f.clone());
+  ASSERT_GE(frames.size(), 30u);
+  // 60 deg field of view, pitch from the horizon estimate as the video source does.
+  const CameraModel intr = CameraModel::pinhole(1280, 720, 1108.5, 1108.5, 640, 360);
+  HorizonEstimator hz(intr);
+  for (size_t i = 0; i < frames.size(); ++i) hz.add(frames[i], i / 25.0);
+  const auto h = hz.result();
+  ASSERT_TRUE(h.has_value());
+  CameraHeightEstimator est(HorizonEstimator::apply(intr, *h));
+  for (const cv::Mat& f : frames) est.add(f);
+  const auto m = est.markings();
+  ASSERT_TRUE(m.has_value());
+  EXPECT_EQ(m->left.boundary, "solid") << m->note;
+  EXPECT_EQ(m->left.colour, "yellow") << m->note;
+  EXPECT_EQ(m->left.lanes, 0) << m->note;
+  EXPECT_EQ(m->right.boundary, "dashed") << m->note;
+  EXPECT_EQ(m->right.colour, "white") << m->note;
+  EXPECT_GE(m->right.lanes, 1) << m->note;
+}
 
 TEST(CameraHeight, NoLinesGiveNoEstimate) {
   const CameraModel cam = test_camera(3.0, 0.0);

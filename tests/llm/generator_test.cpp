@@ -429,7 +429,7 @@ TEST(LlmHazard, TrafficBesideTheEgoMeansSeveralLanes) {
           st.objects.push_back(c);
         });
     const size_t from = l.find("multi-lane");
-    return from == std::string::npos ? l : l.substr(from, l.rfind(")") - from);
+    return from == std::string::npos ? l : l.substr(from, l.find("; lanes left") - from);
   };
   const std::string none = "multi-lane no, auto: nothing in the scene text suggests several lanes";
   EXPECT_EQ(lanes_line({}),

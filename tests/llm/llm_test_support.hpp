@@ -142,9 +142,12 @@ class OfflineScene {
     registry_.add<CutInTemplate>();
     registry_.add<SuddenStopTemplate>();
     if (more) more(registry_);
-    const Json params = llm_hazard::template_params(settings_.road, settings_.ttc, settings_.horizon_s,
-                                                    settings_.max_under_way_s, limits_.file(),
-                                                    share_dir() + "/class_sizes.yaml");
+    // The fixture's road is the scene's as stated (a config's scene block), so the templates get its lanes.
+    hazard::RoadModel stated = settings_.road;
+    stated.lanes_left_stated = stated.lanes_right_stated = stated.oncoming_stated = true;
+    const Json params =
+        llm_hazard::template_params(stated, settings_.ttc, settings_.horizon_s, settings_.max_under_way_s,
+                                    limits_.file(), share_dir() + "/class_sizes.yaml");
     std::vector<HazardKindInfo> all;
     for (const std::string& k : registry_.component_names(kind::kHazardTemplate)) {
       templates_[k] = registry_.create<HazardTemplate>(kind::kHazardTemplate, k, params);

@@ -184,6 +184,67 @@ TEST(SceneRules, NoCutInFromALaneWithOncomingTraffic) {
   EXPECT_EQ(check_trajectory_rules(trajectory("car", right, kCar), scene_with({}), road, sizes(), rules).size(), 1u);
 }
 
+// The lanes the footage's markings show take the place of unstated lane counts, never of stated ones: a solid
+// line leaves no lane beyond it, a dashed one a lane; yellow on the oncoming side parts opposing traffic.
+TEST(SceneRules, TheFootagesLaneMarkingsSetTheLanesNotStated) {
+  RoadMarkings m;
+  m.frames = 38;
+  m.left = {0, "solid", "yellow", 1.0};
+  m.right = {1, "dashed", "white", 0.55};
+  const hazard::RoadModel road;  // nothing stated: 1 lane each side by default
+  EXPECT_EQ(road.with_markings(nullptr).lanes_left, 1);
+  const hazard::RoadModel seen = road.with_markings(&m);
+  EXPECT_EQ(seen.lanes_left, 0);
+  EXPECT_EQ(seen.lanes_right, 1);
+  EXPECT_EQ(seen.oncoming_lanes, 0);
+  EXPECT_EQ(seen.lanes_from,
+            "the footage's lane markings (left 0 lane(s): a solid yellow line in 100 % of 38 "
+            "frames; right 1 lane(s): a dashed white line in 55 % of 38 frames)");
+  // A dashed yellow line on the oncoming side (a two-lane road where passing is allowed): that lane is
+  // oncoming.
+  m.left = {1, "dashed", "yellow", 0.6};
+  EXPECT_EQ(road.with_markings(&m).oncoming_lanes, 1);
+  EXPECT_EQ(road.with_markings(&m).same_direction_lanes(1), 0);
+  // A side the markings do not show keeps its value; a stated side is never overridden.
+  m.left = {-1, "", "", 0.1};
+  EXPECT_EQ(road.with_markings(&m).lanes_left, 1);
+  hazard::RoadModel stated;
+  stated.lanes_right = 3;
+  stated.lanes_right_stated = true;
+  EXPECT_EQ(stated.with_markings(&m).lanes_right, 3);
+}
+
+// The generator reads them from the frames: with nothing stated, a dashed line right of the ego lane makes
+// the road multi-lane and a solid one on the left leaves no lane there, so every cut-in comes from the right.
+TEST(SceneRules, CutInsComeFromTheSideTheLaneMarkingsOpen) {
+  auto markings = std::make_shared<RoadMarkings>();
+  markings->source = "video";
+  markings->frames = 6;
+  markings->left = {0, "solid", "yellow", 1.0};
+  markings->right = {1, "dashed", "white", 0.5};
+  for (int64_t seed = 0; seed < 4; ++seed) {
+    auto r = test::make_runner("force_kind: cut_in\nseed: " + std::to_string(seed) + "\n");
+    for (int i = 0; i < 6; ++i) {
+      const double t = 0.5 * i;
+      Frame f = test::make_frame(i, t, "a road");
+      f.road_markings = markings;
+      r.push("frames", f, t);
+      ObjectStates st;  // an empty road: nothing for the cut-in's path to run into
+      st.frame_index = i;
+      st.timestamp = t;
+      st.ego_speed_mps = 10.0;
+      r.push("states", st, t);
+      r.push("risk", test::make_risk(i, true), t, "ttc");
+    }
+    r.run();
+    const auto specs = r.collect<HazardSpec>("hazard");
+    ASSERT_EQ(specs.size(), 1u) << "seed " << seed;
+    EXPECT_TRUE(specs[0].side == "right" || specs[0].lateral_offset_m < 0) << "seed " << seed;
+    EXPECT_EQ(specs[0].provenance["scene"]["lanes_left"], 0);
+    EXPECT_EQ(specs[0].provenance["scene"]["lanes_right"], 1);
+  }
+}
+
 // The offline planner keeps to it: traffic keeping left, the lane on the right is oncoming (the car parked in it
 // is the synthetic scene's), and every cut-in comes from the left.
 TEST(SceneRules, TheOfflinePlannerCutsInOnlyFromALaneGoingTheEgosWay) {

@@ -227,21 +227,24 @@ ComponentInfo LlmHazardGenerator::describe() {
 
 Json template_params(const hazard::RoadModel& road, const hazard::TtcConventions& ttc, double horizon_s,
                      double max_under_way_s, const std::string& limits_file, const std::string& sizes_file) {
-  return {{"limits", limits_file},
-          {"class_sizes", sizes_file},
-          {"lane_width_m", road.lane_width},
-          {"lanes_left", road.lanes_left},
-          {"lanes_right", road.lanes_right},
-          {"kerb_offset_m", road.kerb_offset},
-          {"driving_side", road.driving_side},
-          {"oncoming_lanes", road.oncoming_lanes},
-          {"corridor_half_width", ttc.corridor.ego_half_width},
-          {"corridor_margin", ttc.corridor.margin},
-          {"corridor_path", ttc.corridor.follow_path ? "ego_path" : "straight"},
-          {"ego_front_m", ttc.ego_front},
-          {"min_closing_mps", ttc.min_closing},
-          {"duration_s", horizon_s},
-          {"max_under_way_s", max_under_way_s}};
+  // Lane counts only when stated: left unstated, the templates take them from the recording's lane markings
+  // as the generator does (hazard::RoadModel::with_markings).
+  Json j = {{"limits", limits_file},
+            {"class_sizes", sizes_file},
+            {"lane_width_m", road.lane_width},
+            {"kerb_offset_m", road.kerb_offset},
+            {"driving_side", road.driving_side},
+            {"corridor_half_width", ttc.corridor.ego_half_width},
+            {"corridor_margin", ttc.corridor.margin},
+            {"corridor_path", ttc.corridor.follow_path ? "ego_path" : "straight"},
+            {"ego_front_m", ttc.ego_front},
+            {"min_closing_mps", ttc.min_closing},
+            {"duration_s", horizon_s},
+            {"max_under_way_s", max_under_way_s}};
+  if (road.lanes_left_stated) j["lanes_left"] = road.lanes_left;
+  if (road.lanes_right_stated) j["lanes_right"] = road.lanes_right;
+  if (road.oncoming_stated) j["oncoming_lanes"] = road.oncoming_lanes;
+  return j;
 }
 
 LlmHazardGenerator::LlmHazardGenerator() = default;
@@ -656,7 +659,24 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                                ")"};
   }
   s.intersection = resolve_intersection(p.get_string("intersection"), text);
+  // The lanes each side: stated, else what the footage's lane markings show, else the defaults.
+  s.road = road_.with_markings(frame.road_markings.get());
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
+  if (p.get_string("multi_lane") == "auto" && !s.multi_lane.value &&
+      s.multi_lane.why.rfind("auto: nothing", 0) == 0 && frame.road_markings && !s.road.lanes_left_stated &&
+      !s.road.lanes_right_stated) {
+    // A dashed line beside the ego lane bounds a lane going its way (a yellow one parts opposing traffic).
+    for (const int side : {-1, 1}) {
+      const LaneMarkingSide& m = side > 0 ? frame.road_markings->left : frame.road_markings->right;
+      if (m.boundary == "dashed" && s.road.same_direction_lanes(side) > 0) {
+        s.multi_lane = {true, "auto: the footage shows a dashed " + m.colour + " lane line " +
+                                  (side > 0 ? "left" : "right") + " of the ego lane in " +
+                                  std::to_string(static_cast<int>(std::lround(100 * m.seen_share))) +
+                                  " % of " + std::to_string(frame.road_markings->frames) + " frames"};
+        break;
+      }
+    }
+  }
   if (const double seen_s = p.get_double("traffic_seen_s");
       seen_s > 0 && p.get_string("multi_lane") == "auto" && !s.multi_lane.value &&
       s.multi_lane.why.rfind("auto: nothing", 0) == 0) {
@@ -711,12 +731,13 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   s.pedestrians_without_sidewalks = p.get_bool("pedestrians_without_sidewalks");
   s.max_under_way_s = max_under_way_s_;
   s.ttc = ttc_;
-  s.road = road_;
   ctx.log(LogLevel::kInfo,
           "frame " + std::to_string(frame.index) + " is Safe: generating a hazard (sidewalks " +
               (s.sidewalks.value ? "yes" : "no") + ", " + s.sidewalks.why + "; intersection " +
               (s.intersection.value ? "yes" : "no") + ", " + s.intersection.why + "; multi-lane " +
-              (s.multi_lane.value ? "yes" : "no") + ", " + s.multi_lane.why + ")");
+              (s.multi_lane.value ? "yes" : "no") + ", " + s.multi_lane.why + "; lanes left " +
+              std::to_string(s.road.lanes_left) + ", right " + std::to_string(s.road.lanes_right) + ", " +
+              s.road.lanes_from + ")");
 
   SceneSummary scene = summarize_scene(frame, states, risks, s, limits_, sizes_);
   const FeasibilityConfig fc = feasibility_config(s, limits_, sizes_, frame.timestamp,

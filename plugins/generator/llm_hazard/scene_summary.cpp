@@ -389,6 +389,7 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
   // The recorded ego track (e.g. nuScenes), so the templates check a spec against where the ego really goes,
   // as the planner will: a spec planned against a straight ego can be infeasible on the recorded path.
   out.context.ego_track = frame.ego_track;
+  out.context.road_markings = frame.road_markings;  // the templates read the lanes the footage shows
   return out;
 }
 

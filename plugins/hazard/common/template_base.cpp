@@ -38,12 +38,36 @@ RoadModel RoadModel::from(const Params& p) {
   if (p.has("kerb_offset_m")) r.kerb_offset = p.get_double("kerb_offset_m");
   if (p.has("driving_side")) r.driving_side = p.get_string("driving_side");
   if (p.has("oncoming_lanes")) r.oncoming_lanes = static_cast<int>(p.get_int("oncoming_lanes"));
+  r.lanes_left_stated = p.has("lanes_left") && p.stated("lanes_left");
+  r.lanes_right_stated = p.has("lanes_right") && p.stated("lanes_right");
+  r.oncoming_stated = p.has("oncoming_lanes") && p.stated("oncoming_lanes");
+  if (r.lanes_left_stated || r.lanes_right_stated) r.lanes_from = "stated";
   const int side = r.oncoming_side();
   if (r.oncoming_lanes > r.lanes(side))
     throw Error("oncoming_lanes " + std::to_string(r.oncoming_lanes) + " exceeds the " +
                 std::to_string(r.lanes(side)) + " lane(s) on the " + (side > 0 ? "left" : "right") +
                 " (lanes_" + (side > 0 ? "left" : "right") + "), where oncoming traffic passes when traffic keeps " +
                 r.driving_side);
+  return r;
+}
+
+RoadModel RoadModel::with_markings(const RoadMarkings* markings) const {
+  if (!markings) return *this;
+  RoadModel r = *this;
+  std::string from;
+  for (const int side : {1, -1}) {
+    const LaneMarkingSide& m = side > 0 ? markings->left : markings->right;
+    const bool stated = side > 0 ? lanes_left_stated : lanes_right_stated;
+    if (stated || m.lanes < 0) continue;
+    (side > 0 ? r.lanes_left : r.lanes_right) = m.lanes;
+    if (side == r.oncoming_side() && !oncoming_stated) r.oncoming_lanes = m.colour == "yellow" ? m.lanes : 0;
+    from += std::string(from.empty() ? "" : "; ") + (side > 0 ? "left" : "right") + " " +
+            std::to_string(m.lanes) + " lane(s): a " + m.boundary + " " + m.colour + " line in " +
+            std::to_string(static_cast<int>(std::lround(100 * m.seen_share))) + " % of " +
+            std::to_string(markings->frames) + " frames";
+  }
+  if (r.oncoming_lanes > r.lanes(r.oncoming_side())) r.oncoming_lanes = r.lanes(r.oncoming_side());
+  if (!from.empty()) r.lanes_from = "the footage's lane markings (" + from + ")";
   return r;
 }
 
@@ -294,7 +318,7 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
                   lim,
                   cv::Vec3d(prior.length, prior.width, prior.height),
                   *scene.ego_speed_mps,
-                  road_,
+                  road_.with_markings(scene.road_markings.get()),
                   ttc_,
                   duration_s_ + under_way,
                   params_,

@@ -85,6 +85,7 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   scene.camera = frame.camera;
   scene.meta = frame.meta;
   scene.ego_track = frame.ego_track;
+  scene.road_markings = frame.road_markings;
   const ObjectStates* states = in.get<ObjectStates>("states");
   if (states) scene.objects = states->objects;
   if (frame.ego.speed_mps)

@@ -39,6 +39,20 @@ struct CameraHeightEstimator::Impl {
   std::vector<double> widths;
   std::optional<double> last;
   int seen = 0;
+  // Lane markings: per side (0 = left, 1 = right), the frames in which the ego lane's line was found, its
+  // fill per frame, the frames that saw it yellow and those that saw a further dashed line a lane width
+  // beyond.
+  struct SideVotes {
+    int found = 0, yellow = 0, further = 0;
+    std::vector<double> fills;
+  };
+  SideVotes sides[2];
+  // One lane line of one frame: lateral position (bins of the heading-corrected profile), the share of the
+  // visible view's rows it covers, and whether its paint is yellow.
+  struct Line {
+    double pos = 0, fill = 0;
+    bool yellow = false;
+  };
 
   Impl(const CameraModel& c, const HeightOptions& o) : cam(c), opt(o) {
     scale = cam.width > kWorkWidth ? static_cast<double>(kWorkWidth) / cam.width : 1.0;
@@ -68,14 +82,23 @@ struct CameraHeightEstimator::Impl {
     }
   }
 
-  // Ego-lane width (m at the stated height) in one frame, or nullopt.
-  std::optional<double> measure(const cv::Mat& bgr) const {
+  // Ego-lane width (m at the stated height) in one frame, or nullopt; the lines bounding the ego lane (and a
+  // further one beyond each) go to `left_lines` / `right_lines`, nearest first.
+  std::optional<double> measure(const cv::Mat& bgr, std::vector<Line>* left_lines = nullptr,
+                                std::vector<Line>* right_lines = nullptr) const {
     if (bgr.empty()) return std::nullopt;
-    cv::Mat gray = detail::gray8(bgr);
-    if (gray.cols != cam.width || gray.rows != cam.height) cv::resize(gray, gray, cv::Size(cam.width, cam.height));
-    if (scale < 1.0) cv::resize(gray, gray, cv::Size(), scale, scale, cv::INTER_AREA);
-    cv::Mat bev;
+    cv::Mat small = bgr;
+    if (small.cols != cam.width || small.rows != cam.height)
+      cv::resize(small, small, cv::Size(cam.width, cam.height));
+    if (scale < 1.0) cv::resize(small, small, cv::Size(), scale, scale, cv::INTER_AREA);
+    cv::Mat gray = detail::gray8(small);
+    cv::Mat bev, bev_hsv;
     cv::remap(gray, bev, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+    if (small.channels() == 3) {
+      cv::Mat bev_bgr;
+      cv::remap(small, bev_bgr, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0, 0, 0));
+      cv::cvtColor(bev_bgr, bev_hsv, cv::COLOR_BGR2HSV);
+    }
     cv::GaussianBlur(bev, bev, cv::Size(3, 3), 0.8);
     const double res = opt.resolution_m;
     const int k = std::max(2, static_cast<int>(std::lround(opt.ridge_offset_m / res)));
@@ -145,25 +168,84 @@ struct CameraHeightEstimator::Impl {
     const int win = std::max(3, static_cast<int>(std::lround(0.4 / res)));
     const double cam_col = opt.half_width_m / res - 0.5 + pad;  // lateral 0 (the camera) in profile bins
     std::optional<double> left, right;  // nearest line on each side, in bins (sub-bin)
+    std::vector<double> peaks;          // every line found (bins)
     for (int i = win; i < bins - win; ++i) {
       const double v = best_prof[static_cast<size_t>(i)];
       if (v < min_count) continue;
       bool is_max = true;
       for (int j = i - win; j <= i + win && is_max; ++j)
         if (best_prof[static_cast<size_t>(j)] > v || (best_prof[static_cast<size_t>(j)] == v && j < i)) is_max = false;
-      if (!is_max || near_support(i) < min_near) continue;
+      if (!is_max) continue;
       const double a = best_prof[static_cast<size_t>(i - 1)], c = best_prof[static_cast<size_t>(i + 1)];
       const double den = a - 2 * v + c;
       const double pos = i + (std::abs(den) > 1e-9 ? 0.5 * (a - c) / den : 0.0);
+      peaks.push_back(pos);
+      if (near_support(i) < min_near) continue;
       if (pos < cam_col) {  // smaller column = left of the camera
         if (!left || pos > *left) left = pos;
       } else {
         if (!right || pos < *right) right = pos;
       }
     }
-    if (!left || !right) return std::nullopt;
-    const double w = (*right - *left) * res * cosh;
-    if (w < opt.lane_width_m / opt.max_ratio || w > opt.lane_width_m * opt.max_ratio) return std::nullopt;
+    // A line's fill (rows of the visible view with ridge pixels on it: a solid line fills nearly all of them,
+    // a dashed one a quarter to a half) and its paint (yellow when most of its ridge pixels are).
+    auto describe = [&](double pos) {
+      Line l;
+      l.pos = pos;
+      const double r_cam = opt.far_m / res;
+      std::vector<char> hit(static_cast<size_t>(rows), 0), open(static_cast<size_t>(rows), 0);
+      int yellow = 0, painted = 0;
+      for (const cv::Point& p : ridge) {
+        const double b = p.x - (r_cam - p.y) * best_tan + pad;
+        if (std::abs(b - pos) > 2.0) continue;
+        hit[static_cast<size_t>(p.y)] = 1;
+        if (!bev_hsv.empty()) {
+          const cv::Vec3b h = bev_hsv.at<cv::Vec3b>(p.y, p.x);
+          ++painted;
+          yellow += (h[0] >= 12 && h[0] <= 38 && h[1] >= 60) ? 1 : 0;  // OpenCV hue 0-180: 24-76 deg
+        }
+      }
+      int visible = 0, covered = 0;
+      for (int r = 0; r < rows; ++r) {
+        const int c = static_cast<int>(std::lround(pos - pad + (r_cam - r) * best_tan));
+        if (c < 0 || c >= cols || !valid.at<uchar>(r, c)) continue;
+        ++visible;
+        covered += hit[static_cast<size_t>(r)] ? 1 : 0;
+      }
+      l.fill = visible > 0 ? static_cast<double>(covered) / visible : 0.0;
+      l.yellow = painted > 0 && yellow > painted / 2;
+      return l;
+    };
+    std::optional<double> w;
+    if (left && right) {
+      const double width = (*right - *left) * res * cosh;
+      if (width >= opt.lane_width_m / opt.max_ratio && width <= opt.lane_width_m * opt.max_ratio) w = width;
+    }
+    // The markings: on each side the nearest line within 0.9 assumed lane widths of the camera bounds the ego
+    // lane (a dashed line need not show in the nearest metres, where a gap may fall), and the nearest further
+    // line about a lane width (the ego lane's, else the assumed one) beyond it. Lines further than that from
+    // the camera are another lane's, not the ego lane's.
+    const double lane_bins = (w ? *w : opt.lane_width_m) / (res * cosh);
+    const double reach_bins = 0.9 * opt.lane_width_m / (res * cosh);
+    auto collect = [&](int dir, std::vector<Line>* out) {
+      if (!out) return;
+      std::optional<double> first;
+      for (double q : peaks) {
+        const double d = (q - cam_col) * dir;
+        if (d > 0 && d <= reach_bins && (!first || d < (*first - cam_col) * dir)) first = q;
+      }
+      if (!first) return;
+      out->push_back(describe(*first));
+      for (double q : peaks) {
+        const double d = (q - *first) * dir;
+        if (d > 0.7 * lane_bins && d < 1.3 * lane_bins) {
+          out->push_back(describe(q));
+          break;
+        }
+      }
+    };
+    collect(-1, left_lines);
+    collect(+1, right_lines);
     return w;
   }
 };
@@ -175,9 +257,58 @@ CameraHeightEstimator::CameraHeightEstimator(CameraHeightEstimator&&) noexcept =
 CameraHeightEstimator& CameraHeightEstimator::operator=(CameraHeightEstimator&&) noexcept = default;
 
 void CameraHeightEstimator::add(const cv::Mat& bgr) {
-  ++impl_->seen;
-  impl_->last = impl_->measure(bgr);
-  if (impl_->last) impl_->widths.push_back(*impl_->last);
+  Impl& s = *impl_;
+  ++s.seen;
+  std::vector<Impl::Line> lines[2];
+  s.last = s.measure(bgr, &lines[0], &lines[1]);
+  if (s.last) s.widths.push_back(*s.last);
+  for (int side = 0; side < 2; ++side) {
+    if (lines[side].empty()) continue;
+    Impl::SideVotes& v = s.sides[side];
+    ++v.found;
+    v.fills.push_back(lines[side][0].fill);
+    v.yellow += lines[side][0].yellow ? 1 : 0;
+    v.further +=
+        lines[side].size() > 1 && !lines[side][1].yellow && lines[side][1].fill < s.opt.max_dashed_fill ? 1
+                                                                                                        : 0;
+  }
+}
+
+std::optional<RoadMarkings> CameraHeightEstimator::markings() const {
+  const Impl& s = *impl_;
+  if (s.seen == 0) return std::nullopt;
+  RoadMarkings m;
+  m.source = "video";
+  m.frames = s.seen;
+  std::ostringstream note;
+  note.precision(2);
+  for (int side = 0; side < 2; ++side) {
+    const Impl::SideVotes& v = s.sides[side];
+    LaneMarkingSide& out = side == 0 ? m.left : m.right;
+    out.seen_share = static_cast<double>(v.found) / s.seen;
+    note << (side == 0 ? "left: " : "; right: ");
+    if (v.found < s.opt.min_frames || out.seen_share < s.opt.min_marking_share) {
+      out.boundary = v.found == 0 ? "none" : "";
+      note << "line in " << v.found << " of " << s.seen << " frames (too few to say)";
+      continue;
+    }
+    const double fill = median_of(v.fills);
+    out.colour = v.yellow * 2 > v.found ? "yellow" : "white";
+    if (fill >= s.opt.min_solid_fill) {
+      out.boundary = "solid";
+      out.lanes = 0;
+    } else if (fill <= s.opt.max_dashed_fill) {
+      out.boundary = "dashed";
+      out.lanes = 1 + (v.further >= s.opt.min_marking_share * v.found ? 1 : 0);
+    } else {
+      out.boundary = "";  // between the two: neither a clear dash pattern nor an unbroken line
+    }
+    note << (out.boundary.empty() ? "unclear" : out.boundary) << " " << out.colour << " line in " << v.found
+         << " of " << s.seen << " frames (median fill " << fill << ")";
+    if (out.boundary == "dashed") note << ", a further dashed line beyond in " << v.further;
+  }
+  m.note = note.str();
+  return m;
 }
 
 std::optional<double> CameraHeightEstimator::last_lane_width() const { return impl_->last; }

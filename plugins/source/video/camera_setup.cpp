@@ -363,8 +363,9 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
   // at the default height and its speeds are rescaled).
   std::optional<footage::GroundOdometry> odo;
   if (!speed_stated_) odo.emplace(camera_);
+  // The lane lines give the camera height (when not stated) and the lane markings beside the ego lane.
   std::optional<footage::CameraHeightEstimator> height_est;
-  if (!height_stated_) height_est.emplace(camera_);
+  height_est.emplace(camera_);
   std::optional<footage::AttitudeTracker> attitude;
   if (follow_attitude_ || odo) {  // the far scene also gives the odometry its turn
     footage::AttitudeOptions ao;
@@ -411,6 +412,12 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
         " deg, roll " + std::to_string(std::sqrt(ss_roll / n) * 180.0 / CV_PI).substr(0, 5) + " deg)";
   }
   if (height_est) {
+    if (auto m = height_est->markings()) {
+      markings_ = std::make_shared<const RoadMarkings>(*m);
+      provenance_["road_markings"] = "measured from the lane lines (" + m->note + ")";
+    }
+  }
+  if (height_est && !height_stated_) {
     const double h0 = camera_.height_above_ground();
     if (const auto he = height_est->result()) {
       camera_ = footage::with_height(camera_, he->height_m);
@@ -494,6 +501,16 @@ void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, c
               {"undistorted", !map1_.empty()},
               {"sources", provenance_}};
   cam["sources"]["fps"] = fps_source;
+  if (markings_) {
+    auto side = [](const LaneMarkingSide& m) {
+      return Json{{"line", m.boundary},
+                  {"colour", m.colour},
+                  {"lanes_beyond", m.lanes},
+                  {"seen_share", m.seen_share}};
+    };
+    cam["road_markings"] = {
+        {"left", side(markings_->left)}, {"right", side(markings_->right)}, {"frames", markings_->frames}};
+  }
   write_file_atomic(resolve_output_path(ctx.output_dir(), "camera.json", "camera.json"), json_text(cam, 2) + "\n");
   std::string lines;
   for (int64_t k = 0; k < frames; ++k) {

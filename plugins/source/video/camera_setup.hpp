@@ -44,6 +44,8 @@ class CameraSetup {
   EgoState ego_at(int64_t k) const;
   // The clip's ego track (estimated from the video, or a stated constant speed); null when unknown.
   std::shared_ptr<const EgoTrack> ego_track() const { return track_; }
+  // The lane markings beside the ego lane measured over the clip; null when not measured.
+  std::shared_ptr<const RoadMarkings> road_markings() const { return markings_; }
   // Where the intrinsics came from: "calibration", "params", "hfov", "assumed_hfov".
   const std::string& intrinsics_source() const { return intrinsics_source_; }
 
@@ -81,6 +83,7 @@ class CameraSetup {
   std::vector<footage::EgoMotionSample> raw_motion_, smooth_motion_;
   std::vector<footage::AttitudeSample> attitude_;  // per frame (empty = not followed)
   std::shared_ptr<const EgoTrack> track_;
+  std::shared_ptr<const RoadMarkings> markings_;
 };
 
 // One image of a folder source, 8-bit colour; `what` names it in the hf::Error thrown when it is truncated or

@@ -98,6 +98,7 @@ bool ImageSequenceSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.camera = setup_.camera_at(static_cast<int64_t>(pos_));
   f.ego = setup_.ego_at(static_cast<int64_t>(pos_));
   f.ego_track = setup_.ego_track();
+  f.road_markings = setup_.road_markings();
   f.stream_end = static_cast<double>(files_.size() - 1) / fps_;
   f.source_id = file.filename().string();
   f.meta = {{"file", file.string()}, {"intrinsics", setup_.intrinsics_source()}};

@@ -189,6 +189,7 @@ bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.camera = setup_.camera_at(emitted_);
   f.ego = setup_.ego_at(emitted_);
   f.ego_track = setup_.ego_track();
+  f.road_markings = setup_.road_markings();
   if (count_ && *count_ > 0) f.stream_end = static_cast<double>(*count_ - 1) / fps_;
   if (!files_.empty()) {
     f.source_id = files_[static_cast<size_t>(emitted_)].filename().string();

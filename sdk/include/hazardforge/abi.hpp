@@ -14,9 +14,10 @@
 // to be inpainted (TakenOver); ProposalRequest says where the scene's object distances are measured from
 // (distance_origin_x). 4.1: NoHazardFits, the exception a provider throws when no hazard fits the scene.
 // 4.2: deciding_value, the number a RiskAssessment's label rule compares with a threshold. 4.3:
-// HazardTrajectory::continued_at, the object's state past the end of its plan.
-#define HF_SDK_ABI_MAJOR 4
-#define HF_SDK_ABI_MINOR 3
+// HazardTrajectory::continued_at, the object's state past the end of its plan. 5.0: Frame and SceneContext
+// carry the recording's lane markings (RoadMarkings).
+#define HF_SDK_ABI_MAJOR 5
+#define HF_SDK_ABI_MINOR 0
 #define HF_SDK_VERSION "0.1.0"
 
 #define HF_STR_INNER(x) #x

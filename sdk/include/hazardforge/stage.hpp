@@ -280,6 +280,7 @@ struct SceneContext {
   CameraModel camera;
   std::vector<ObjectState> objects;
   std::shared_ptr<const EgoTrack> ego_track;  // the recording's ego motion, when known (Frame::ego_track)
+  std::shared_ptr<const RoadMarkings> road_markings;  // the recording's lane markings (Frame::road_markings)
   Json meta = Json::object();  // environment, road type, dataset description
 };
 

@@ -93,6 +93,26 @@ struct EgoTrack {
   EgoTrackSample at(double t) const;
 };
 
+// One side of the ego lane as the footage's lane markings show it.
+struct LaneMarkingSide {
+  // Lanes beyond the ego lane's line on this side that the markings show (a dashed line bounds a lane you may
+  // change into; each further dashed line one more); -1 = the side was not seen well enough to say.
+  int lanes = -1;
+  std::string boundary;   // the ego lane's line on this side: "dashed", "solid" or "none"; "" = not seen
+  std::string colour;     // its paint: "white" or "yellow" ("" = not seen); yellow parts opposing traffic
+  double seen_share = 0;  // share of the frames analysed in which that line was found
+};
+
+// The road's lane markings over a recording, measured from the footage (a video source's self-calibration):
+// how many lanes lie on each side of the ego's and of what kind its lines are. Stages read it for what the
+// scene block does not state (hazard::RoadModel::with_markings).
+struct RoadMarkings {
+  std::string source;  // "video"
+  int frames = 0;      // frames analysed
+  LaneMarkingSide left, right;
+  std::string note;  // how it was measured, for reports
+};
+
 struct AnnotatedObject {
   std::string instance_id;
   std::string category;  // dataset category, e.g. "vehicle.car"
@@ -123,6 +143,7 @@ struct Frame {
   EgoState ego;
   std::string source_id;  // file name / dataset token
   std::shared_ptr<const EgoTrack> ego_track;  // the whole recording's ego motion, when known
+  std::shared_ptr<const RoadMarkings> road_markings;  // the recording's lane markings, when measured
   std::optional<double> stream_end;           // timestamp of the stream's last frame, when the source knows it
   Json meta = Json::object();  // source-specific (scene description, sample token, ...)
   std::shared_ptr<const Annotations> annotations;  // dataset ground truth, when the source carries it

@@ -32,7 +32,7 @@ struct ProposalScene {
   ProposalScene(const ProposalRequest& r, const RoadModel& rd, const LimitsTable& l, const ClassPriors& s)
       : request(r), road(rd), limits(l), sizes(s) {}
   const ProposalRequest& request;
-  const RoadModel& road;
+  RoadModel road;  // the template's, with the recording's lane markings (RoadModel::with_markings)
   const LimitsTable& limits;
   const ClassPriors& sizes;
   Corridor corridor;  // its widths: objects' in_path flags already say where the ego's path runs

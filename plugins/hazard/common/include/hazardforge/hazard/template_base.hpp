@@ -40,6 +40,16 @@ struct RoadModel {
   bool same_direction_at(double y) const;
   static std::vector<ParamSpec> params();
   static RoadModel from(const Params& p);
+  // Which of lanes_left, lanes_right and oncoming_lanes were stated (params, scene block) rather than
+  // defaults.
+  bool lanes_left_stated = false, lanes_right_stated = false, oncoming_stated = false;
+  // What the lane counts rest on, for logs and the prompt: "stated", "default", or what the markings showed.
+  std::string lanes_from = "default";
+  // The road with what the recording's lane markings show for each side whose lane count was not stated: a
+  // solid line leaves no lane beyond it, a dashed one one lane (two when a further dashed line follows); a
+  // yellow line on the oncoming side parts opposing traffic, so the lanes beyond it are oncoming. A side the
+  // markings do not show keeps its value. The one place the markings become lanes; null = unchanged.
+  RoadModel with_markings(const RoadMarkings* markings) const;
 };
 
 // The object's state `tau` seconds after the anchor time, in road coordinates: x = arc length along the ego's

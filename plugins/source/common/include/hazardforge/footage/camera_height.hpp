@@ -1,4 +1,5 @@
-// Camera height above the road (the metric scale of a monocular clip) from the spacing of the lane lines.
+// Camera height above the road (the metric scale of a monocular clip) from the spacing of the lane lines, and
+// the lane markings those lines are.
 #pragma once
 
 #include <memory>
@@ -52,6 +53,14 @@ struct HeightOptions {
   int min_frames = 5;
   int full_confidence_frames = 15;
   double max_frame_spread = 0.15;     // per-frame widths scattering more than this (relative) give no estimate
+  // Lane markings (markings()): the ego lane's line on a side is solid when it fills at least min_solid_fill
+  // of the visible view's rows in the median frame, dashed when at most max_dashed_fill (a 3 m dash in a 12 m
+  // cycle fills a quarter, 3 m in 6 m a half); a side says nothing unless its line was found in min_frames
+  // frames and min_marking_share of the frames (a further dashed line beyond counts in that share of those
+  // frames).
+  double min_solid_fill = 0.75;
+  double max_dashed_fill = 0.6;
+  double min_marking_share = 0.2;
 };
 
 // Accumulates lane-line spacings over a clip. `camera` carries K, pitch and roll (e.g. from HorizonEstimator) and
@@ -65,6 +74,10 @@ class CameraHeightEstimator {
   std::optional<double> last_lane_width() const;
   // nullopt when fewer than min_frames frames showed both lines of the ego lane or they disagreed.
   std::optional<HeightEstimate> result() const;
+  // The lane markings the frames showed beside the ego lane: each side's line (solid or dashed, white or
+  // yellow) and the lanes beyond it (0 beyond a solid line; 1 beyond a dashed one, 2 when a further dashed
+  // line follows a lane width on). nullopt before any frame.
+  std::optional<RoadMarkings> markings() const;
   ~CameraHeightEstimator();
   CameraHeightEstimator(CameraHeightEstimator&&) noexcept;
   CameraHeightEstimator& operator=(CameraHeightEstimator&&) noexcept;
