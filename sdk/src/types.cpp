@@ -397,6 +397,12 @@ void to_json(Json& j, const Annotations& v) {
   j = {{"objects", v.objects}};
   if (v.ego_velocity_ego) j["ego_velocity_ego"] = {(*v.ego_velocity_ego)[0], (*v.ego_velocity_ego)[1], (*v.ego_velocity_ego)[2]};
 }
+void to_json(Json& j, const LaneMarkingSide& v) {
+  j = {{"line", v.boundary}, {"colour", v.colour}, {"lanes_beyond", v.lanes}, {"seen_share", v.seen_share}};
+}
+void to_json(Json& j, const RoadMarkings& v) {
+  j = {{"source", v.source}, {"frames", v.frames}, {"left", v.left}, {"right", v.right}, {"note", v.note}};
+}
 void to_json(Json& j, const Frame& v) {
   j = {{"index", v.index},
        {"timestamp", v.timestamp},

@@ -250,15 +250,7 @@ int main(int argc, char** argv) {
                                        {"confidence", num(hest->confidence)}, {"frames_used", hest->frames_used},
                                        {"note", hest->note}}
                                 : Json(nullptr);
-  if (const auto m = height_est.markings()) {
-    auto side = [](const hf::LaneMarkingSide& x) {
-      return Json{{"line", x.boundary},
-                  {"colour", x.colour},
-                  {"lanes_beyond", x.lanes},
-                  {"seen_share", num(x.seen_share)}};
-    };
-    out["road_markings"] = {{"left", side(m->left)}, {"right", side(m->right)}, {"note", m->note}};
-  }
+  if (const auto m = height_est.markings()) out["road_markings"] = *m;
   double used_height = height;
   if (!height_opt && hest) used_height = hest->height_m;
   out["odometry_height_m"] = num(used_height);

@@ -663,12 +663,13 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   s.road = road_.with_markings(frame.road_markings.get());
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
   if (p.get_string("multi_lane") == "auto" && !s.multi_lane.value &&
-      s.multi_lane.why.rfind("auto: nothing", 0) == 0 && frame.road_markings && !s.road.lanes_left_stated &&
-      !s.road.lanes_right_stated) {
-    // A dashed line beside the ego lane bounds a lane going its way (a yellow one parts opposing traffic).
+      s.multi_lane.why.rfind("auto: nothing", 0) == 0 && frame.road_markings) {
+    // A dashed line beside the ego lane bounds a lane going its way (a yellow one parts opposing traffic),
+    // where the scene states nothing about that side.
     for (const int side : {-1, 1}) {
       const LaneMarkingSide& m = side > 0 ? frame.road_markings->left : frame.road_markings->right;
-      if (m.boundary == "dashed" && s.road.same_direction_lanes(side) > 0) {
+      const bool stated = side > 0 ? s.road.lanes_left_stated : s.road.lanes_right_stated;
+      if (!stated && m.boundary == "dashed" && s.road.same_direction_lanes(side) > 0) {
         s.multi_lane = {true, "auto: the footage shows a dashed " + m.colour + " lane line " +
                                   (side > 0 ? "left" : "right") + " of the ego lane in " +
                                   std::to_string(static_cast<int>(std::lround(100 * m.seen_share))) +

@@ -193,7 +193,7 @@ struct CameraHeightEstimator::Impl {
       Line l;
       l.pos = pos;
       const double r_cam = opt.far_m / res;
-      std::vector<char> hit(static_cast<size_t>(rows), 0), open(static_cast<size_t>(rows), 0);
+      std::vector<char> hit(static_cast<size_t>(rows), 0);
       int yellow = 0, painted = 0;
       for (const cv::Point& p : ridge) {
         const double b = p.x - (r_cam - p.y) * best_tan + pad;

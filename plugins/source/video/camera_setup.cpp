@@ -364,8 +364,7 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
   std::optional<footage::GroundOdometry> odo;
   if (!speed_stated_) odo.emplace(camera_);
   // The lane lines give the camera height (when not stated) and the lane markings beside the ego lane.
-  std::optional<footage::CameraHeightEstimator> height_est;
-  height_est.emplace(camera_);
+  footage::CameraHeightEstimator height_est(camera_);
   std::optional<footage::AttitudeTracker> attitude;
   if (follow_attitude_ || odo) {  // the far scene also gives the odometry its turn
     footage::AttitudeOptions ao;
@@ -385,7 +384,7 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
       if (odo)
         raw.push_back(
             odo->add(img, k, static_cast<double>(k) / fps, attitude ? attitude->last_turn() : std::nullopt));
-      if (height_est) height_est->add(img);
+      height_est.add(img);
     }
   }
   if (attitude && follow_attitude_) {
@@ -411,15 +410,13 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
         "; deviation rms pitch " + std::to_string(std::sqrt(ss_pitch / n) * 180.0 / CV_PI).substr(0, 5) +
         " deg, roll " + std::to_string(std::sqrt(ss_roll / n) * 180.0 / CV_PI).substr(0, 5) + " deg)";
   }
-  if (height_est) {
-    if (auto m = height_est->markings()) {
-      markings_ = std::make_shared<const RoadMarkings>(*m);
-      provenance_["road_markings"] = "measured from the lane lines (" + m->note + ")";
-    }
+  if (auto m = height_est.markings()) {
+    markings_ = std::make_shared<const RoadMarkings>(*m);
+    provenance_["road_markings"] = "measured from the lane lines (" + m->note + ")";
   }
-  if (height_est && !height_stated_) {
+  if (!height_stated_) {
     const double h0 = camera_.height_above_ground();
-    if (const auto he = height_est->result()) {
+    if (const auto he = height_est.result()) {
       camera_ = footage::with_height(camera_, he->height_m);
       for (auto& r : raw) {
         r.speed_mps *= he->height_m / h0;
@@ -501,16 +498,7 @@ void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, c
               {"undistorted", !map1_.empty()},
               {"sources", provenance_}};
   cam["sources"]["fps"] = fps_source;
-  if (markings_) {
-    auto side = [](const LaneMarkingSide& m) {
-      return Json{{"line", m.boundary},
-                  {"colour", m.colour},
-                  {"lanes_beyond", m.lanes},
-                  {"seen_share", m.seen_share}};
-    };
-    cam["road_markings"] = {
-        {"left", side(markings_->left)}, {"right", side(markings_->right)}, {"frames", markings_->frames}};
-  }
+  if (markings_) cam["road_markings"] = *markings_;
   write_file_atomic(resolve_output_path(ctx.output_dir(), "camera.json", "camera.json"), json_text(cam, 2) + "\n");
   std::string lines;
   for (int64_t k = 0; k < frames; ++k) {

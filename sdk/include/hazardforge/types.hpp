@@ -398,6 +398,8 @@ void to_json(Json& j, const HazardTrajectory& v);
 void to_json(Json& j, const AppearanceStats& v);
 void to_json(Json& j, const HazardInstance& v);
 void to_json(Json& j, const Record& v);
+void to_json(Json& j, const LaneMarkingSide& v);
+void to_json(Json& j, const RoadMarkings& v);
 void to_json(Json& j, const AnnotatedObject& v);
 void to_json(Json& j, const Annotations& v);
 void to_json(Json& j, const Frame& v);  // metadata only, not pixels
