@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -271,6 +272,37 @@ TEST(YoloDetector, KittiRawLeadCarInEveryFifthFrame) {
     ++frames;
   }
   EXPECT_EQ(frames, 16);
+}
+
+// The car beside the ego in KITTI raw's first frame stands nearer than the road the 375-row image shows (its
+// contact would be at row ~378), yet YOLOv8n ends its box at row ~368: a box of an object cut by the border
+// ends a few of the network input's pixels inside it. Measured over the clip, the bottoms of such boxes lie
+// 4-9 image px (2-4.6 input px at the 0.515 letterbox scale) above the edge.
+TEST(YoloDetector, BoxesCutByTheBorderEndAFewInputPixelsInside) {
+  const fs::path dir = test::shared_data("kitti-raw-2011_09_26/2011_09_26/image_02/data");
+  HF_REQUIRE_SHARED(dir);
+  const cv::Mat f0 = cv::imread((dir / "0000000000.png").string());
+  ASSERT_FALSE(f0.empty());
+  auto flags_of = [&](double input_margin, const cv::Rect2d& truth) -> std::optional<unsigned> {
+    YoloDetector det;
+    YoloDetector::Config c;
+    c.model = v8_model();
+    c.border_margin_input_px = input_margin;
+    det.load(c);
+    for (const Detection& d : det.detect_image(f0))
+      if (d.label == "car" && iou(cv::Rect2d(d.box), truth) > 0.8) return d.truncated;
+    return std::nullopt;
+  };
+  const cv::Rect2d beside = corners(62, 180, 415, 368), lead = corners(555, 192, 700, 308);
+  const auto cut = flags_of(5.0, beside);
+  ASSERT_TRUE(cut.has_value());
+  EXPECT_TRUE(*cut & truncation::kBottom);
+  const auto image_px_only = flags_of(0.0, beside);  // the 2 image px margin alone misses it
+  ASSERT_TRUE(image_px_only.has_value());
+  EXPECT_FALSE(*image_px_only & truncation::kBottom);
+  const auto whole = flags_of(5.0, lead);  // the lead car, whole and well inside the image
+  ASSERT_TRUE(whole.has_value());
+  EXPECT_EQ(*whole, 0u);
 }
 
 TEST(YoloDetector, StageEmitsDetectionsAndTimings) {

@@ -92,7 +92,12 @@ ComponentInfo YoloDetector::describe() {
           .describe("IoU at or above which boxes of one merge group are duplicates; 1 = never merge"),
       ParamSpec::number("border_margin_px", 2.0)
           .range(0, 1000)
-          .describe("a box edge within this many px of the image border marks the box truncated there"),
+          .describe("a box edge within this many image px of the image border marks the box truncated there"),
+      ParamSpec::number("border_margin_input_px", 5.0)
+          .range(0, 1000)
+          .describe(
+              "... or within this many px of the network's input (the box is regressed on that grid: an "
+              "object cut by the border ends a few input px inside it), whichever is wider"),
       ParamSpec::integer("threads", 0)
           .range(0, 1024)
           .describe(
@@ -139,6 +144,7 @@ void YoloDetector::open(StageContext& ctx) {
   c.merge_groups = p.get_strings("merge_groups");
   c.merge_iou = static_cast<float>(p.get_double("merge_iou"));
   c.border_margin_px = p.get_double("border_margin_px");
+  c.border_margin_input_px = p.get_double("border_margin_input_px");
   c.threads = static_cast<int>(p.get_int("threads"));
   load(c);
   ctx.record_resource(cfg_.model);
@@ -318,6 +324,9 @@ std::vector<Detection> YoloDetector::postprocess(const cv::Mat& output, const Le
   for (size_t k = 0; k < ids.size(); ++k) by_class[ids[k]].push_back(static_cast<int>(k));
   const cv::Rect2d frame(0, 0, lb.image.width, lb.image.height);
   const auto& names = coco_class_names();
+  // A box edge this close to the border is the border's, not the object's (in image px).
+  const double margin =
+      std::max(cfg_.border_margin_px, cfg_.border_margin_input_px / std::max(lb.scale, 1e-6));
   std::vector<Detection> dets;
   for (const auto& [id, members] : by_class) {
     std::vector<cv::Rect2d> b;
@@ -337,7 +346,7 @@ std::vector<Detection> YoloDetector::postprocess(const cv::Mat& output, const Le
       d.class_id = id;
       d.label = names[id];
       d.score = s[k];
-      d.truncated = truncation_flags(d.box, lb.image, cfg_.border_margin_px);
+      d.truncated = truncation_flags(d.box, lb.image, margin);
       dets.push_back(std::move(d));
     }
   }

@@ -48,7 +48,8 @@ class YoloDetector : public Detector {
     // the higher-scoring one; 1 = off.
     std::vector<std::string> merge_groups = default_class_groups();
     float merge_iou = 0.6f;
-    double border_margin_px = 2.0;  // boxes this close to the image border are marked truncated
+    double border_margin_px = 2.0;        // boxes this close to the image border are marked truncated ...
+    double border_margin_input_px = 5.0;  // ... or this close in the network input's px, whichever is wider
   };
 
   // How the network input was made from the image: input = image * scale + (pad_x, pad_y).
