@@ -362,12 +362,29 @@ std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& fra
       if (!frames[k].ego_speed || *frames[k].ego_speed >= s.min_ego_speed_mps) w.moving_s += step;
     }
     if (yaw_known) w.turn_deg = turn * 180.0 / M_PI;
-    // The score: time left to watch the hazard while the ego still moves (an ego that stops soon after the
-    // trigger closes in on nothing), tracking history, a Safe margin, a straight ego path (hazards are laid
-    // out along it; a bend moves them across kerbs and out of view), and whether an object that must become
-    // critical after lead_s + a TTC of 1.5 s is first seen within the detector's reach.
-    w.score = std::min(w.moving_s, s.max_horizon_s) / s.max_horizon_s +
-              (history > 0 ? std::min(w.history_s, history) / history : 1.0);
+    // The ground the ego covers over the horizon: every hazard becomes critical by the ego closing in on it,
+    // and an ego that crawls (or stops soon after the trigger) leaves a hazard in view no time to get there.
+    double travel = 0;
+    bool travel_known = true;
+    for (size_t k = i; k < frames.size() && frames[k].t < f.t + horizon - 1e-9; ++k) {
+      const double step =
+          std::min(k + 1 < frames.size() ? frames[k + 1].t : t_end, f.t + horizon) - frames[k].t;
+      if (!frames[k].ego_speed)
+        travel_known = false;
+      else
+        travel += std::max(0.0, *frames[k].ego_speed) * step;
+    }
+    if (travel_known) w.travel_m = travel;
+    // The score: the ego's motion after the trigger (the ground it covers over the horizon, relative to the
+    // recording's best window, or without speeds the time it still moves), tracks old enough for velocities
+    // (history_frames frames; the attempt itself runs history_s before), a Safe margin, a straight ego path
+    // (hazards are laid out along it; a bend moves them across kerbs and out of view), and whether an object
+    // that must become critical after lead_s + a TTC of 1.5 s is first seen within the detector's reach. The
+    // motion term is added once every window is known.
+    w.score =
+        (s.history_frames > 0 ? std::min<double>(static_cast<double>(i), s.history_frames) / s.history_frames
+                              : 1.0) +
+        0.05 * (history > 0 ? std::min(w.history_s, history) / history : 1.0);  // breaks near-ties
     w.score += (!f.scene_ttc || *f.scene_ttc >= 3.0) ? 0.5 : 0.0;
     if (w.turn_deg) w.score += 0.5 * std::max(0.0, 1.0 - std::abs(*w.turn_deg) / 20.0);
     if (reach && f.ego_speed) {
@@ -377,6 +394,15 @@ std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& fra
     }
     out.push_back(w);
   }
+  double best_travel = 0;
+  bool all_travel = !out.empty();
+  for (const CampaignWindow& w : out) {
+    all_travel = all_travel && w.travel_m.has_value();
+    if (w.travel_m) best_travel = std::max(best_travel, *w.travel_m);
+  }
+  for (CampaignWindow& w : out)
+    w.score += all_travel && best_travel > 0 ? *w.travel_m / best_travel
+                                             : std::min(w.moving_s, s.max_horizon_s) / s.max_horizon_s;
   std::stable_sort(out.begin(), out.end(),
                    [](const CampaignWindow& a, const CampaignWindow& b) { return a.score > b.score; });
   // Spread: a window within spacing_s (at most a quarter of the clip) of a better one adds little; they go to
@@ -400,6 +426,7 @@ Json to_json(const CampaignWindow& w) {
           {"t_s", w.t},
           {"left_s", w.left_s},
           {"moving_s", w.moving_s},
+          {"travel_m", opt(w.travel_m)},
           {"history_s", w.history_s},
           {"ego_speed_mps", opt(w.ego_speed)},
           {"scene_ttc_s", opt(w.scene_ttc)},

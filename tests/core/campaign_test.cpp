@@ -83,9 +83,9 @@ TEST(CampaignWindows, SlowFrameRatesGetAtLeastHistoryFramesOfHistory) {
 
 TEST(CampaignWindows, AShortClipSpreadsItsWindowsOverAQuarterOfIt) {
   CampaignSpec s;
-  const auto w = candidate_windows(clip(38, 25.0), s);  // 1.52 s at 25 fps
+  const auto w = candidate_windows(clip(50, 25.0), s);  // 2 s at 25 fps: triggers up to 1 s
   ASSERT_GE(w.size(), 2u);
-  EXPECT_GE(std::abs(w[0].t - w[1].t), 1.52 / 4 - 1e-9);
+  EXPECT_GE(std::abs(w[0].t - w[1].t), 2.0 / 4 - 1e-9);
 }
 
 TEST(CampaignWindows, TheDetectorsReachWeighsAFastEgo) {
@@ -99,8 +99,9 @@ TEST(CampaignWindows, TheDetectorsReachWeighsAFastEgo) {
   EXPECT_GT(ws.front().score, wf.front().score + 0.5);
 }
 
-// Stop-and-go: the ego slows from 3 m/s to a standstill at 5 s. A window is scored by the time the ego still
-// moves after it, not by the clip left: the earliest windows with a full history come first.
+// Stop-and-go: the ego slows from 3 m/s to a standstill at 5 s. A window is scored by the ground the ego
+// still covers after it, not by the clip left: the earliest window whose tracks have history_frames frames
+// comes first.
 TEST(CampaignWindows, AnEgoThatStopsSoonAfterTheTriggerMeetsNoHazard) {
   CampaignSpec s;
   auto f = clip(100);
@@ -112,8 +113,35 @@ TEST(CampaignWindows, AnEgoThatStopsSoonAfterTheTriggerMeetsNoHazard) {
     EXPECT_NEAR(x.moving_s, 10.0 / 3.0 - x.t, 0.1 + 1e-9);
     EXPECT_GT(x.left_s, x.moving_s);
   }
-  EXPECT_EQ(w.front().trigger, 10);  // the first frame with a whole second of history
+  EXPECT_EQ(w.front().trigger, 5);  // the first frame with 5 frames before it
+  ASSERT_TRUE(w.front().travel_m);
+  // The integral of 3 (1 - t / 5) from 0.5 s to the stop, summed frame by frame (each frame's speed over its
+  // 0.1 s: half a step's speed change too much).
+  EXPECT_NEAR(*w.front().travel_m, 0.3 * 4.5 * 4.5, 0.15);
   EXPECT_GT(w.front().score, w.back().score);
+}
+
+// At a constant speed the ground covered ties every window with the whole horizon left; the longer history
+// (up to history_s) breaks the tie.
+TEST(CampaignWindows, AtAConstantSpeedTheLongerHistoryComesFirst) {
+  CampaignSpec s;
+  const auto w = candidate_windows(clip(200), s);
+  ASSERT_FALSE(w.empty());
+  EXPECT_NEAR(w.front().history_s, 1.0, 1e-9);
+  ASSERT_TRUE(w.front().travel_m);
+  EXPECT_NEAR(*w.front().travel_m, 8.0 * 6.0, 1e-6);
+}
+
+// Without the ego's speed the time left to watch the hazard ranks the windows.
+TEST(CampaignWindows, WithoutSpeedsTheTimeLeftRanksTheWindows) {
+  CampaignSpec s;
+  auto f = clip(50);  // 5 s, less than the horizon: later windows have less left
+  for (auto& x : f) x.ego_speed.reset();
+  const auto w = candidate_windows(f, s);
+  ASSERT_GE(w.size(), 2u);
+  EXPECT_FALSE(w.front().travel_m.has_value());
+  EXPECT_EQ(w.front().trigger, 5);  // the longest time left among the windows with 5 frames before them
+  EXPECT_GT(w.front().score, w[1].score);
 }
 
 TEST(CampaignReasons, NumbersAreLeftOutSoReasonsCount) {

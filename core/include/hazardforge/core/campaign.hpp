@@ -31,7 +31,8 @@ struct CampaignSpec {
   double cpu_s = 900;              // per (recording, kind), CPU seconds of its attempts
   int scenarios_per_pair = 1;      // verified scenarios wanted per pair
   double history_s = 1.0;          // time before the trigger each attempt runs (tracks need velocities) ...
-  int history_frames = 5;          // ... and at least this many frames (new tracks' first velocities are noisy)
+  int history_frames = 5;  // ... and at least this many frames (new tracks' first velocities are noisy);
+                           // a trigger with fewer frames before it ranks lower
   double min_left_s = 1.0;         // clip needed after the trigger
   double max_horizon_s = 6.0;      // the generator's longest horizon: frames after it are not run
   double margin_s = 0.5;           // frames run after the horizon
@@ -66,15 +67,18 @@ struct CampaignWindow {
   // Of left_s, the time the ego moves (its speed unknown or at least min_ego_speed_mps): a hazard can only
   // become critical for an ego that still moves.
   double moving_s = 0;
+  // The ground (m) the ego covers over the horizon after the trigger, when its speed is known there.
+  std::optional<double> travel_m;
   std::optional<double> ego_speed, scene_ttc;
   std::optional<double> turn_deg;  // the ego's heading change over the horizon
   std::optional<double> appear_m;  // where a hazard critical after lead_s must be first seen
   std::optional<double> reach_m;   // 90th percentile of the distances the detector tracked in this recording
 };
 
-// Safe frames with enough clip left, best first (time left while the ego moves, tracking history, Safe
-// margin, a straight ego path over the horizon, the detector's reach at the distance a hazard must appear);
-// windows within spacing_s of a better one moved to the end.
+// Safe frames with enough clip left, best first (the ground the ego covers over the horizon, or without
+// speeds the time it moves; tracks old enough for velocities; a Safe margin; a straight ego path over the
+// horizon; the detector's reach at the distance a hazard must appear); windows within spacing_s of a better
+// one moved to the end.
 std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& frames, const CampaignSpec& spec);
 
 // Whether a generator's refusal names only road users of that moment (a planned path running into a tracked
