@@ -127,6 +127,7 @@ TEST(HazardPlanner, TakesTheEgoSpeedFromTheStatesAndTrackedObjects) {
   r.push("frames", frame(0, 0.0, std::nullopt), 0.0);
   ObjectStates st;
   st.ego_speed_mps = 10.0;
+  st.distance_origin_x = 1.5;  // measured from the camera, 1.5 m ahead of the rear axle
   ObjectState o;
   o.track_id = 3;
   o.label = "car";
@@ -142,7 +143,8 @@ TEST(HazardPlanner, TakesTheEgoSpeedFromTheStatesAndTrackedObjects) {
   const auto out = r.collect<HazardTrajectory>("trajectory");
   ASSERT_EQ(out.size(), 1u);
   EXPECT_DOUBLE_EQ(out[0].ego.front().speed, 10.0);
-  // Its rear 25 m from the camera, 1.5 m ahead of the rear axle; its centre half a car (4.5 m) further.
+  // Its rear 25 m from the camera, which the states put 1.5 m ahead of the rear axle; its centre half a car
+  // (4.5 m) further.
   EXPECT_DOUBLE_EQ(out[0].points.front().x, 28.75);
   EXPECT_DOUBLE_EQ(out[0].points.front().speed, 10.0);
 }

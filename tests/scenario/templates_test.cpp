@@ -202,8 +202,8 @@ TEST(SuddenStop, RejectsADecelerationAboveTheCarLimit) {
 }
 
 TEST(SuddenStop, UsesATrackedObject) {
-  auto tpl = make_template("sudden_stop", {{"track_distance_origin", "ego_origin"}});
-  SceneContext scene = test_scene(12.0);
+  auto tpl = make_template("sudden_stop");
+  SceneContext scene = test_scene(12.0);  // distances from the rear axle (distance_origin_x 0)
   ObjectState st;
   st.track_id = 7;
   st.label = "car";
@@ -224,10 +224,11 @@ TEST(SuddenStop, UsesATrackedObject) {
   EXPECT_DOUBLE_EQ(o.trajectory.size_lwh[0], 4.6);
   EXPECT_EQ(o.notes["track_id"].get<int64_t>(), 7);
 
-  // Measured from the camera (the estimators' default), the same distance is 1.5 m further from the rear
-  // axle.
-  auto from_camera = make_template("sudden_stop");
-  EXPECT_DOUBLE_EQ(from_camera->plan(s, scene).points.front().x, 23.8);
+  // Measured from the bumper (the filtered estimator's origin, 3.4 m ahead of the rear axle), the same
+  // distance is 3.4 m further on: the states say where they measure from, the scene carries it.
+  SceneContext from_bumper = scene;
+  from_bumper.distance_origin_x = 3.4;
+  EXPECT_DOUBLE_EQ(tpl->plan(s, from_bumper).points.front().x, 25.7);
 
   s.extra = {{"track_id", 9}};
   EXPECT_EQ(tpl->check(s, scene),

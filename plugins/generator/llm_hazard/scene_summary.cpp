@@ -172,7 +172,6 @@ ProposalRequest proposal_request(const SceneSettings& s, const SceneContext& sce
   r.object_classes = s.rules.asset_classes;
   r.first_seen_max_height = s.rules.entry_max_height;
   r.may_take_over = s.rules.take_over_tracks;
-  r.distance_origin_x = s.rules.distance_origin_x;
   r.target_ttc_s = s.target_ttc_s;
   r.horizon_s = s.horizon_s;
   r.max_under_way_s = s.max_under_way_s;
@@ -376,12 +375,14 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
 
   out.context.timestamp = frame.timestamp;
   out.context.objects = states.objects;
+  out.context.distance_origin_x = states.distance_origin_x;
   const FeasibilityConfig fc = feasibility_config(s, limits, sizes, frame.timestamp,
                                                   states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate);
   out.placeholders["kinds"] = describe_kinds(s.kinds, fc, out.context);
   out.context.ego_speed_mps = s.ego_speed_mps;
   out.context.camera = frame.camera;
   out.context.objects = states.objects;
+  out.context.distance_origin_x = states.distance_origin_x;
   out.context.meta = {{"environment", s.environment},         {"road_type", s.road_type},
                       {"description", s.description},         {"sidewalks", s.sidewalks.value},
                       {"intersection", s.intersection.value}, {"multi_lane", s.multi_lane.value},

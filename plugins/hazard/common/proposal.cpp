@@ -77,7 +77,7 @@ ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tp
     const Footprint prior = sc.sizes.has(o.label) ? sc.size(o.label) : Footprint{};
     std::optional<double> speed;
     if (const auto v = ground_velocity(o, sc.ego_speed, 0.0)) speed = (*v)[0];  // the best estimate
-    sc.objects.push_back({o.track_id, o.label, centre_x(o, r.distance_origin_x, sc.sizes), o.lateral_m,
+    sc.objects.push_back({o.track_id, o.label, centre_x(o, r.scene.distance_origin_x, sc.sizes), o.lateral_m,
                           o.length_m > 0 ? o.length_m : prior.length, o.width_m > 0 ? o.width_m : prior.width,
                           o.in_path, speed});
   }

@@ -40,10 +40,6 @@ ComponentInfo SuddenStopTemplate::describe() {
   i.params.push_back(hf::ParamSpec::number("brake_delay_s", 1.0)
                          .range(0, 60)
                          .describe("cruising time before braking, unless extra.brake_delay_s is given"));
-  i.params.push_back(hf::ParamSpec::string("track_distance_origin", "camera")
-                         .one_of({"camera", "bumper", "ego_origin"})
-                         .describe("where a tracked object's distance_m is measured from (the estimator's "
-                                   "distance_origin)"));
   return i;
 }
 
@@ -93,13 +89,9 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
     }
     if (found->length_m > 0) size[0] = found->length_m;
     if (found->width_m > 0) size[1] = found->width_m;
-    // Estimators measure from the camera, the bumper or the rear axle (their distance_origin) to the face
-    // they see, the lead's rear; the plan works with its centre, from the rear axle.
-    const std::string origin = req.params.get_string("track_distance_origin");
-    const double x_anchor = found->distance_m + size[0] / 2.0 +
-                            (origin == "camera"   ? req.scene.camera.t_ego_cam[0]
-                             : origin == "bumper" ? req.ttc.ego_front
-                                                  : 0.0);
+    // Estimators measure from the camera, the bumper or the rear axle (the states' distance_origin_x) to
+    // the face they see, the lead's rear; the plan works with its centre, from the rear axle.
+    const double x_anchor = found->distance_m + size[0] / 2.0 + req.scene.distance_origin_x;
     // Measured in the anchor frame; the plan works in road coordinates along the ego's path.
     const cv::Vec2d road = req.ego.to_road(x_anchor, found->lateral_m);
     x0 = road[0];

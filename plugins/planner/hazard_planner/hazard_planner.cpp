@@ -87,7 +87,10 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   scene.ego_track = frame.ego_track;
   scene.road_markings = frame.road_markings;
   const ObjectStates* states = in.get<ObjectStates>("states");
-  if (states) scene.objects = states->objects;
+  if (states) {
+    scene.objects = states->objects;
+    scene.distance_origin_x = states->distance_origin_x;
+  }
   if (frame.ego.speed_mps)
     scene.ego_speed_mps = frame.ego.speed_mps;
   else if (states && states->ego_speed_mps)

@@ -612,7 +612,8 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   std::vector<OccluderCandidate> occ;
   if (const auto* s = in.get<ObjectStates>("states")) {
     for (const auto& o : s->objects)
-      occ.push_back({o.box, o.score, o.distance_m, o.label, o.truncated, o.misses, o.track_id, o.lateral_m});
+      occ.push_back({o.box, o.score, o.distance_m + s->distance_origin_x, o.label, o.truncated, o.misses,
+                     o.track_id, o.lateral_m});
   } else if (const auto* t = in.get<Tracks>("tracks")) {
     for (const auto& o : t->items)
       occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses, o.id, std::nullopt});

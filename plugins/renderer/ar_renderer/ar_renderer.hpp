@@ -20,7 +20,7 @@ namespace hf::render {
 struct OccluderCandidate {
   cv::Rect2f box;
   float score = 1.f;
-  std::optional<double> distance_m;  // longitudinal distance if an estimator gave one
+  std::optional<double> distance_m;  // ego x (from the rear axle) of its near face, if an estimator gave one
   std::string label;                 // detector's class (realism references), empty = unknown
   unsigned truncated = 0;            // hf::truncation flags of the box
   int misses = 0;                    // frames the track has not been seen (its box is predicted)

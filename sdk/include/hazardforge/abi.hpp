@@ -15,8 +15,9 @@
 // (distance_origin_x). 4.1: NoHazardFits, the exception a provider throws when no hazard fits the scene.
 // 4.2: deciding_value, the number a RiskAssessment's label rule compares with a threshold. 4.3:
 // HazardTrajectory::continued_at, the object's state past the end of its plan. 5.0: Frame and SceneContext
-// carry the recording's lane markings (RoadMarkings).
-#define HF_SDK_ABI_MAJOR 5
+// carry the recording's lane markings (RoadMarkings). 6.0: SceneContext says where its objects' distances are
+// measured from (distance_origin_x, moved from ProposalRequest), so the planner's templates read it too.
+#define HF_SDK_ABI_MAJOR 6
 #define HF_SDK_ABI_MINOR 0
 #define HF_SDK_VERSION "0.1.0"
 

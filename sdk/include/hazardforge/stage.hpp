@@ -279,6 +279,9 @@ struct SceneContext {
   std::optional<double> ego_speed_mps;
   CameraModel camera;
   std::vector<ObjectState> objects;
+  // Ego x (m, from the rear axle) that the objects' distance_m is measured from (ObjectStates::
+  // distance_origin_x: the camera, the bumper or the rear axle); distance_m reaches the face the camera sees.
+  double distance_origin_x = 0.0;
   std::shared_ptr<const EgoTrack> ego_track;  // the recording's ego motion, when known (Frame::ego_track)
   std::shared_ptr<const RoadMarkings> road_markings;  // the recording's lane markings (Frame::road_markings)
   Json meta = Json::object();  // environment, road type, dataset description
@@ -343,10 +346,7 @@ struct ProposalRequest {
   double first_seen_max_height = 0.0;
   // Whether a hazard may take over a tracked object (extra.track_id): only when the renderer removes the real one.
   bool may_take_over = false;
-  std::vector<int64_t> avoid_tracks;        // tracked objects not to take over (earlier attempts failed with them)
-  // Ego x (m, from the rear axle) that the scene objects' distance_m is measured from (ObjectStates::
-  // distance_origin_x: the camera, the bumper or the rear axle); distance_m reaches the face the camera sees.
-  double distance_origin_x = 0.0;
+  std::vector<int64_t> avoid_tracks;  // tracked objects not to take over (earlier attempts failed with them)
 
   bool class_allowed(const std::string& object_class) const;
 };
