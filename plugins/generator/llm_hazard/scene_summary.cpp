@@ -381,8 +381,6 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
   out.placeholders["kinds"] = describe_kinds(s.kinds, fc, out.context);
   out.context.ego_speed_mps = s.ego_speed_mps;
   out.context.camera = frame.camera;
-  out.context.objects = states.objects;
-  out.context.distance_origin_x = states.distance_origin_x;
   out.context.meta = {{"environment", s.environment},         {"road_type", s.road_type},
                       {"description", s.description},         {"sidewalks", s.sidewalks.value},
                       {"intersection", s.intersection.value}, {"multi_lane", s.multi_lane.value},
