@@ -393,6 +393,78 @@ TEST(ArRendererStage, VisibleFramesAndAppearancesOnlyWhereTheHazardIsDrawn) {
   }
 }
 
+// Occluders come from every input, once: the states' objects carry distances, and a tracked or detected
+// object that no state stands for (the estimator measures no distance to a car cut by the picture's left and
+// bottom edges) still counts.
+TEST(ArRendererOccluders, StatesFirstThenWhatNoStateStandsFor) {
+  ObjectStates s;
+  s.distance_origin_x = 1.5;
+  ObjectState a;
+  a.track_id = 4;
+  a.box = cv::Rect2f(600, 400, 100, 80);
+  a.distance_m = 20.0;
+  s.objects.push_back(a);
+  Tracks t;
+  Track same;  // the state's own track
+  same.id = 4;
+  same.box = cv::Rect2f(900, 400, 100, 80);
+  Track cut;  // no state: cut by the left and bottom edges
+  cut.id = 7;
+  cut.box = cv::Rect2f(0, 500, 400, 400);
+  cut.truncated = truncation::kLeft | truncation::kBottom;
+  t.items = {same, cut};
+  Detections d;
+  d.items.push_back(Detection{cv::Rect2f(602, 401, 100, 80), 2, "car", 0.9f});  // the state's object again
+  d.items.push_back(Detection{cv::Rect2f(2, 502, 398, 398), 2, "car", 0.9f});   // the cut track again
+  d.items.push_back(Detection{cv::Rect2f(1300, 450, 60, 120), 0, "person", 0.8f});  // only detected
+  const auto occ = merge_occluders(&s, &t, &d);
+  ASSERT_EQ(occ.size(), 3u);
+  EXPECT_EQ(occ[0].track_id, 4);
+  ASSERT_TRUE(occ[0].distance_m);
+  EXPECT_DOUBLE_EQ(*occ[0].distance_m, 21.5);  // from the rear axle: the states' origin added
+  EXPECT_EQ(occ[1].track_id, 7);
+  EXPECT_EQ(occ[1].truncated, truncation::kLeft | truncation::kBottom);
+  EXPECT_FALSE(occ[1].distance_m);
+  EXPECT_EQ(occ[2].track_id, -1);
+  EXPECT_EQ(occ[2].label, "person");
+  EXPECT_TRUE(merge_occluders(nullptr, nullptr, nullptr).empty());
+}
+
+// The stage: a car beside the ego, cut by the bottom edge and known only to the detector, hides the hazard
+// behind it although the states (which have no distance for it) leave it out.
+TEST(ArRendererStage, ADetectedObjectWithoutAStateStillHidesTheHazardBehindIt) {
+  const cv::Mat img = hf::test::textured_image();
+  const CameraModel cam = test_camera();
+  auto run = [&](bool with_detection) {
+    auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses\nshadow: false");
+    Frame f = make_frame(0, 0.0, img, cam, cv::Matx44d::eye());
+    runner.push("frames", f, 0.0);
+    ObjectStates s;
+    s.frame_index = 0;
+    runner.push("states", s, 0.0);
+    Detections d;
+    d.frame_index = 0;
+    if (with_detection) {
+      // Reaches the picture's bottom edge: it stands on the road nearer than the hazard, whatever its size.
+      Detection near{cv::Rect2f(0, 350, 800, 550), 2, "car", 0.9f};
+      near.truncated = truncation::kLeft | truncation::kBottom;
+      d.items.push_back(near);
+    }
+    runner.push("detections", d, 0.0);
+    runner.push("trajectory",
+                static_object("person", 12.0, 1.0, -1.5708, 0.0, 2.0, 0.0, cv::Vec3d(0.5, 0.6, 1.75)), 0.0);
+    runner.run();
+    const auto hazards = runner.collect<HazardInstance>("hazard");
+    EXPECT_EQ(hazards.size(), 1u);
+    return hazards.empty() ? HazardInstance{} : hazards.front();
+  };
+  const HazardInstance free = run(false), hidden = run(true);
+  ASSERT_TRUE(free.visible);
+  EXPECT_NEAR(free.occluded_fraction, 0.0, 1e-9);
+  ASSERT_LT(free.box.x + free.box.width, 800.f) << "the hazard must stand behind the detected box";
+  EXPECT_GT(hidden.occluded_fraction, 0.5);
+}
+
 TEST(Composite, PictureIsBlurredToTheFramesOwnSharpness) {
   // A defocused frame (Gaussian sigma 2.5): with match_sharpness the inserted car is no sharper than its
   // surroundings; without it, it is much sharper.

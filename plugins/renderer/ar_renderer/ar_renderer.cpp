@@ -604,24 +604,37 @@ void ArRenderer::open(StageContext& ctx) {
   emit_visible_ = ctx.params().get_bool("visible_frames");
 }
 
+std::vector<OccluderCandidate> merge_occluders(const ObjectStates* states, const Tracks* tracks,
+                                               const Detections* detections) {
+  std::vector<OccluderCandidate> occ;
+  if (states)
+    for (const auto& o : states->objects)
+      occ.push_back({o.box, o.score, o.distance_m + states->distance_origin_x, o.label, o.truncated, o.misses,
+                     o.track_id, o.lateral_m});
+  auto known = [&](const cv::Rect2f& box, int64_t id) {
+    for (const auto& o : occ)
+      if ((id >= 0 && o.track_id == id) || hf::box_iou(o.box, box) >= 0.5) return true;
+    return false;
+  };
+  if (tracks)
+    for (const auto& o : tracks->items)
+      if (!known(o.box, o.id))
+        occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses, o.id, std::nullopt});
+  if (detections)
+    for (const auto& o : detections->items)
+      if (!known(o.box, -1))
+        occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, 0, -1, std::nullopt});
+  return occ;
+}
+
 void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   const Frame& f = in.require<Frame>("frames");
   std::shared_ptr<const HazardTrajectory> traj;
   if (const Packet* p = in.packet("trajectory"); p && !p->empty()) traj = p->share<HazardTrajectory>();
-  // One source of occluders, the richest available: states carry distances, tracks and detections boxes only.
-  std::vector<OccluderCandidate> occ;
-  if (const auto* s = in.get<ObjectStates>("states")) {
-    for (const auto& o : s->objects)
-      occ.push_back({o.box, o.score, o.distance_m + s->distance_origin_x, o.label, o.truncated, o.misses,
-                     o.track_id, o.lateral_m});
-  } else if (const auto* t = in.get<Tracks>("tracks")) {
-    for (const auto& o : t->items)
-      occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, o.misses, o.id, std::nullopt});
-  } else if (const auto* d = in.get<Detections>("detections")) {
-    for (const auto& o : d->items)
-      occ.push_back({o.box, o.score, std::nullopt, o.label, o.truncated, 0, -1, std::nullopt});
-  }
-  HazardRenderer::Result r = renderer_->render(f, traj, occ);
+  HazardRenderer::Result r =
+      renderer_->render(f, traj,
+                        merge_occluders(in.get<ObjectStates>("states"), in.get<Tracks>("tracks"),
+                                        in.get<Detections>("detections")));
   for (const auto& w : renderer_->take_warnings()) ctx.log(LogLevel::kWarning, w);
   ctx.record_timing("ego_motion", r.ego_seconds);
   if (r.prepare_seconds > 0) ctx.record_timing("asset_prepare", r.prepare_seconds);

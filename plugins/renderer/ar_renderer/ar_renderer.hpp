@@ -28,6 +28,13 @@ struct OccluderCandidate {
   std::optional<double> lateral_m;   // its ego-frame lateral offset if an estimator gave one
 };
 
+// Every object the renderer's inputs know of, once: the states' objects (with their distances) first, then
+// the tracks and detections that no state stands for (same track, or a box overlapping a state's by IoU >=
+// 0.5). An estimator keeps no state for an object whose distance it cannot measure (a car beside the ego, cut
+// by the picture's left and bottom edges), but that object still hides what is behind it.
+std::vector<OccluderCandidate> merge_occluders(const ObjectStates* states, const Tracks* tracks,
+                                               const Detections* detections);
+
 // Realism measurement: the inserted object's appearance in every frame it is drawn, and the recording's own
 // road users measured the same way on the original picture (hazardforge/realism/metrics.hpp).
 struct RealismOptions {
