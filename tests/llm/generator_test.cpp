@@ -5,6 +5,7 @@
 #include <chrono>
 #include <fstream>
 #include <functional>
+#include <set>
 #include <thread>
 
 #include "llm_hash.hpp"
@@ -471,6 +472,138 @@ TEST(LlmHazard, TrafficBesideTheEgoMeansSeveralLanes) {
       lanes_line(away, "recording_states: " + states.string() + "\n"),
       "multi-lane yes, auto: the recording shows a car travelling the ego's way in the lane right of it "
       "(track 3, followed for 2 s in scout.jsonl)");
+}
+
+// Driving side not stated: a whole vehicle the filtered estimator follows coming towards the ego beside its
+// lane decides (oncoming traffic passes on the other side from the one traffic keeps to), and the lanes on
+// its side carry oncoming traffic. A parked car whose closing speed the monocular range error inflates (below
+// the ego's own speed), a car cut by the image border, one travelling the ego's way, a brief sighting or a
+// velocity within its uncertainty do not; a stated side is kept, with a warning when the traffic contradicts
+// it.
+TEST(LlmHazard, OncomingTrafficTellsTheSideTrafficKeepsTo) {
+  struct Other {
+    double lateral = 5.0, ground_vx = -10.0;  // left, 10 m/s towards the ego (which drives at 10 m/s)
+    double sigma_v = 0.5;
+    int frames = 6;
+    unsigned truncated = 0;
+  };
+  auto add = [](const Other& o) {
+    return [o](int i, ObjectStates& st) {
+      if (i >= o.frames) return;
+      ObjectState c = st.objects.front();
+      c.track_id = 12;
+      c.distance_m = 30.0 - 2.0 * i;
+      c.lateral_m = o.lateral;
+      c.truncated = o.truncated;
+      c.velocity_rel = cv::Vec2d(o.ground_vx - 10.0, 0.0);
+      cv::Matx44d P = cv::Matx44d::eye() * 0.25;
+      P(2, 2) = P(3, 3) = o.sigma_v * o.sigma_v;
+      c.covariance = P;
+      st.objects.push_back(c);
+    };
+  };
+  auto side_line = [&](const Other& o, const std::string& more = "") {
+    const std::string l = scene_reading("trigger: frame\ntrigger_frame: 5\n" + more, add(o));
+    const size_t from = l.rfind("traffic keeps");
+    return from == std::string::npos ? l : l.substr(from, l.size() - 1 - from);
+  };
+  EXPECT_EQ(side_line({}),
+            "traffic keeps right, auto: the recording shows a car coming towards the ego left of its lane "
+            "(track 12, followed for 2.5 s)");
+  Other right;
+  right.lateral = -6.0;
+  EXPECT_EQ(side_line(right),
+            "traffic keeps left, auto: the recording shows a car coming towards the ego right of its lane "
+            "(track 12, followed for 2.5 s)");
+  const std::string none =
+      "traffic keeps right, default: no oncoming traffic followed for 1 s in the recording";
+  Other misread, cut, with_ego, brief, unsure, in_lane;
+  misread.ground_vx = -6.0;  // closing at 16 m/s: 0.6 of the ego's speed could be the range error
+  cut.truncated = truncation::kLeft;
+  with_ego.ground_vx = 8.0;
+  brief.frames = 2;
+  unsure.sigma_v = 8.0;
+  in_lane.lateral = 0.5;
+  for (const Other& o : {misread, cut, with_ego, brief, unsure, in_lane}) EXPECT_EQ(side_line(o), none);
+  EXPECT_EQ(side_line({}, "traffic_seen_s: 0\n"),
+            "traffic keeps right, default: no oncoming traffic followed for 0 s in the recording");
+
+  // The lanes on the oncoming side carry oncoming traffic: the log line and the prompt's road say so.
+  const std::string line = scene_reading("trigger: frame\ntrigger_frame: 5\n", add(right));
+  EXPECT_NE(
+      line.find("right 1 lane(s) with oncoming traffic: the recording shows a car coming towards the ego"),
+      std::string::npos)
+      << line;
+
+  // Stated, the side is kept; traffic that contradicts it is reported once.
+  auto stated = test::make_runner("trigger: frame\ntrigger_frame: 5\ndriving_side: left\n");
+  for (int i = 0; i < 6; ++i) {
+    const double t = 0.5 * i;
+    ObjectStates st = test::make_states(i, t);
+    add({})(i, st);
+    stated.push("frames", test::make_frame(i, t, "a road"), t);
+    stated.push("states", st, t);
+    stated.push("risk", test::make_risk(i, true), t, "ttc");
+  }
+  try {
+    stated.run();
+  } catch (const Error&) {
+  }
+  int warned = 0;
+  bool kept = false;
+  for (const std::string& l : stated.log()) {
+    warned += l.find(
+                  "but driving_side is stated as left (oncoming traffic on the right); the stated side is "
+                  "kept") != std::string::npos;
+    kept = kept || l.find("traffic keeps left, stated)") != std::string::npos;
+  }
+  EXPECT_EQ(warned, 1);
+  EXPECT_TRUE(kept);
+}
+
+// A cut-in on a road whose lanes on one side carry oncoming traffic (seen, not stated) comes from the other
+// side, for every seed; with nothing seen, or the rule off, it comes from either.
+TEST(LlmHazard, ACutInDoesNotComeFromLanesWithOncomingTraffic) {
+  auto sides = [](bool oncoming, const std::string& more = "") {
+    std::set<std::string> out;
+    for (int seed = 1; seed <= 6; ++seed) {
+      auto r = test::make_runner(
+          "trigger: frame\ntrigger_frame: 5\nforce_kind: cut_in\nmulti_lane: 'yes'\n"
+          "lanes_left: 2\nseed: " +
+          std::to_string(seed) + "\n" + more);
+      for (int i = 0; i < 6; ++i) {
+        const double t = 0.5 * i;
+        ObjectStates st = test::make_states(i, t);
+        st.objects.clear();
+        if (oncoming) {  // two lanes over on the left, 40 m ahead, coming at 12 m/s
+          ObjectState c;
+          c.track_id = 12;
+          c.label = "car";
+          c.distance_m = 45.0 - 11.0 * t;
+          c.lateral_m = 7.5;
+          c.width_m = 1.85;
+          c.length_m = 4.5;
+          c.velocity_rel = cv::Vec2d(-22.0, 0.0);
+          cv::Matx44d P = cv::Matx44d::eye() * 0.25;
+          P(2, 2) = P(3, 3) = 0.25;
+          c.covariance = P;
+          st.objects.push_back(c);
+        }
+        r.push("frames", test::make_frame(i, t, "a road"), t);
+        r.push("states", st, t);
+        r.push("risk", test::make_risk(i, true), t, "ttc");
+      }
+      try {
+        r.run();
+      } catch (const Error&) {
+      }
+      for (const HazardSpec& h : r.collect<HazardSpec>("hazard")) out.insert(h.side);
+    }
+    return out;
+  };
+  EXPECT_EQ(sides(true), std::set<std::string>{"right"});
+  EXPECT_EQ(sides(false), (std::set<std::string>{"left", "right"}));
+  EXPECT_EQ(sides(true, "traffic_seen_s: 0\n"), (std::set<std::string>{"left", "right"}));
 }
 
 TEST(LlmHazard, FirstSafeStopsAfterMaxTriggerAttemptsAndSaysWhichFrames) {

@@ -132,7 +132,15 @@ ComponentInfo LlmHazardGenerator::describe() {
               "way when the recording shows a vehicle travelling the ego's way in the lane beside it (2-60 m "
               "ahead, 0.6-1.6 lane widths to the side, 3-60 m/s on the ground within 30 degrees of the ego's "
               "heading, beyond its estimator's uncertainty: states without a covariance never count) for at "
-              "least this long without a break (up to the trigger frame); 0 = only the scene text decides"),
+              "least this long without a break (up to the trigger frame); 0 = only the scene text decides. "
+              "Likewise for the side traffic keeps to, where driving_side is not stated: a whole vehicle "
+              "coming "
+              "towards the ego beside its lane (5-60 m ahead, 0.6-4.5 lane widths to the side, at least as "
+              "fast "
+              "as the ego and 3 m/s, within 30 degrees of the ego's opposite heading) followed this long "
+              "puts "
+              "oncoming traffic on its side (and, where oncoming_lanes is not stated, in the lanes there); "
+              "without one traffic keeps right"),
       ParamSpec::string("intersection", "auto")
           .from_scene("road.intersection")
           .one_of({"auto", "yes", "no"})
@@ -256,7 +264,8 @@ void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std
   std::string limits_file = share_file(p, "limits", "hazard_limits.yaml");
   std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
   templates_.clear();
-  const Json shared = template_params(road_, ttc_, horizon_s_, max_under_way_s_, limits_file, sizes_file);
+  const Json shared =
+      template_params(templates_road_, ttc_, horizon_s_, max_under_way_s_, limits_file, sizes_file);
   for (const std::string& k : allowed_kinds_)
     if (std::find(registered.begin(), registered.end(), k) == registered.end())
       ctx.log(LogLevel::kWarning,
@@ -288,6 +297,8 @@ ObjectState state_from_record(const Json& o) {
   };
   s.distance_m = number("distance_m", std::nan(""));
   s.lateral_m = number("lateral_m", 0.0);
+  if (o.contains("truncated") && o["truncated"].is_number_unsigned())
+    s.truncated = o["truncated"].get<unsigned>();
   const Json v = o.value("velocity_rel", Json());
   if (v.is_array() && v.size() == 2 && v[0].is_number() && v[1].is_number())
     s.velocity_rel = cv::Vec2d(v[0].get<double>(), v[1].get<double>());
@@ -310,7 +321,7 @@ ObjectState state_from_record(const Json& o) {
 
 void LlmHazardGenerator::read_states_file(const std::filesystem::path& file,
                                           std::map<int64_t, std::pair<double, double>>& people,
-                                          TrafficBeside& traffic) {
+                                          TrafficBeside& traffic, TrafficBeside& oncoming) {
   std::ifstream in(file);
   if (!in) throw Error("recording_states: cannot read " + file.string());
   std::string line;
@@ -340,7 +351,10 @@ void LlmHazardGenerator::read_states_file(const std::filesystem::path& file,
         states.objects.push_back(state_from_record(o));
       }
       const Json ego = value.value("ego_speed_mps", Json());
-      if (ego.is_number()) traffic.add(t, states, ego.get<double>());
+      if (ego.is_number()) {
+        traffic.add(t, states, ego.get<double>());
+        oncoming.add(t, states, ego.get<double>());
+      }
     }
   }
 }
@@ -372,7 +386,7 @@ void LlmHazardGenerator::open(StageContext& ctx) {
                   ")");
     allowed_kinds_ = {force};
   }
-  road_ = hazard::RoadModel::from(p);
+  road_ = templates_road_ = hazard::RoadModel::from(p);
   ttc_ = hazard::TtcConventions::from(p);
   std::string limits_file = share_file(p, "limits", "hazard_limits.yaml");
   std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
@@ -405,8 +419,9 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   rules_.clearance_m = p.get_double("clearance_m");
   recording_people_.clear();
   traffic_ = recording_traffic_ = TrafficBeside(road_.lane_width);
+  oncoming_ = recording_oncoming_ = TrafficBeside(road_.lane_width, TrafficBeside::Flow::kOncoming);
   if (const std::filesystem::path rs = p.get_path("recording_states"); !rs.empty()) {
-    read_states_file(rs, recording_people_, recording_traffic_);
+    read_states_file(rs, recording_people_, recording_traffic_, recording_oncoming_);
     ctx.record_resource(rs);
   }
   const std::filesystem::path feedback_file = p.get_path("feedback");
@@ -469,7 +484,10 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     auto [it, added] = people_.try_emplace(o.track_id, std::make_pair(frame.timestamp, frame.timestamp));
     if (!added) it->second.second = frame.timestamp;
   }
-  if (const double ego = ego_speed(frame, states); ego >= 0) traffic_.add(frame.timestamp, states, ego);
+  if (const double ego = ego_speed(frame, states); ego >= 0) {
+    traffic_.add(frame.timestamp, states, ego);
+    oncoming_.add(frame.timestamp, states, ego);
+  }
   if (trigger_ == "first_safe" && (seen < warmup_frames_ || frame.timestamp < next_try_s_ - 1e-9)) return;
   if (trigger_ == "frame" && frame.index != trigger_frame_) return;
   if (risks.empty())
@@ -659,8 +677,31 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                                ")"};
   }
   s.intersection = resolve_intersection(p.get_string("intersection"), text);
-  // The lanes each side: stated, else what the footage's lane markings show, else the defaults.
-  s.road = road_.with_markings(frame.road_markings.get());
+  // The lanes each side and the side traffic keeps to: stated, else what the footage's lane markings and
+  // traffic show, else the defaults.
+  const double traffic_seen_s = p.get_double("traffic_seen_s");
+  auto longer = [](const TrafficBeside& a, const TrafficBeside& b) {
+    const TrafficBeside::Seen x = a.longest(), y = b.longest();
+    return y.seconds > x.seconds ? y : x;
+  };
+  const ResolvedRoad resolved =
+      resolve_road(road_, frame.road_markings.get(), longer(oncoming_, recording_oncoming_),
+                   longer(traffic_, recording_traffic_), traffic_seen_s);
+  s.road = resolved.road;
+  s.driving_side_why = resolved.driving_side_why;
+  if (!resolved.conflict.empty() && !warned_side_) {
+    ctx.log(LogLevel::kWarning, resolved.conflict);
+    warned_side_ = true;
+  }
+  const hazard::RoadModel& t = resolved.for_templates;
+  if (t.driving_side != templates_road_.driving_side || t.oncoming_lanes != templates_road_.oncoming_lanes ||
+      t.oncoming_stated != templates_road_.oncoming_stated || t.lanes_left != templates_road_.lanes_left ||
+      t.lanes_right != templates_road_.lanes_right ||
+      t.lanes_left_stated != templates_road_.lanes_left_stated ||
+      t.lanes_right_stated != templates_road_.lanes_right_stated) {
+    templates_road_ = t;
+    make_templates(ctx, ctx.components().component_names(kind::kHazardTemplate));
+  }
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
   if (p.get_string("multi_lane") == "auto" && !s.multi_lane.value &&
       s.multi_lane.why.rfind("auto: nothing", 0) == 0 && frame.road_markings) {
@@ -678,9 +719,9 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
       }
     }
   }
-  if (const double seen_s = p.get_double("traffic_seen_s");
-      seen_s > 0 && p.get_string("multi_lane") == "auto" && !s.multi_lane.value &&
-      s.multi_lane.why.rfind("auto: nothing", 0) == 0) {
+  if (const double seen_s = traffic_seen_s; seen_s > 0 && p.get_string("multi_lane") == "auto" &&
+                                            !s.multi_lane.value &&
+                                            s.multi_lane.why.rfind("auto: nothing", 0) == 0) {
     const TrafficBeside::Seen here = traffic_.longest(), there = recording_traffic_.longest();
     const bool whole = there.seconds > here.seconds;
     const TrafficBeside::Seen& seen = whole ? there : here;
@@ -738,7 +779,7 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
               (s.intersection.value ? "yes" : "no") + ", " + s.intersection.why + "; multi-lane " +
               (s.multi_lane.value ? "yes" : "no") + ", " + s.multi_lane.why + "; lanes left " +
               std::to_string(s.road.lanes_left) + ", right " + std::to_string(s.road.lanes_right) + ", " +
-              s.road.lanes_from + ")");
+              s.road.lanes_from + "; traffic keeps " + s.road.driving_side + ", " + s.driving_side_why + ")");
 
   SceneSummary scene = summarize_scene(frame, states, risks, s, limits_, sizes_);
   const FeasibilityConfig fc = feasibility_config(s, limits_, sizes_, frame.timestamp,
@@ -832,7 +873,9 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                          {"calls", "llm/calls.jsonl"},
                          // The road the spec was made for, so exports lay out the same road.
                          {"scene",
-                          {{"driving_side", p.get_string("driving_side")},
+                          {{"driving_side", s.road.driving_side},
+                           {"driving_side_from", s.driving_side_why},
+                           {"oncoming_lanes", s.road.oncoming_lanes},
                            {"lane_width_m", s.road.lane_width},
                            {"lanes_left", s.road.lanes_left},
                            {"lanes_right", s.road.lanes_right},

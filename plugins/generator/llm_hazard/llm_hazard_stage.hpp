@@ -84,7 +84,9 @@ class LlmHazardGenerator : public Stage {
   std::optional<PromptTemplate> retry_prompt_;
   hazard::LimitsTable limits_;
   ClassPriors sizes_;
-  hazard::RoadModel road_;
+  hazard::RoadModel road_;            // as stated (params, scene block)
+  hazard::RoadModel templates_road_;  // the templates' (resolve_road's for_templates)
+  bool warned_side_ = false;
   hazard::TtcConventions ttc_;
   std::unique_ptr<CallLog> calls_;
 
@@ -103,10 +105,12 @@ class LlmHazardGenerator : public Stage {
   std::map<int64_t, std::pair<double, double>> recording_people_;  // the same from recording_states
   TrafficBeside traffic_,
       recording_traffic_;  // vehicles travelling the ego's way beside it: so far / recording
-  // Person tracks (first and last time seen) and vehicles travelling beside the ego in a jsonl sink's file of
-  // object states.
+  TrafficBeside oncoming_, recording_oncoming_;  // vehicles coming towards the ego beside its lane
+  // Person tracks (first and last time seen) and vehicles travelling beside the ego, either way, in a jsonl
+  // sink's file of object states.
   static void read_states_file(const std::filesystem::path& file,
-                               std::map<int64_t, std::pair<double, double>>& people, TrafficBeside& traffic);
+                               std::map<int64_t, std::pair<double, double>>& people, TrafficBeside& traffic,
+                               TrafficBeside& oncoming);
   bool warned_skipped_ = false;
 };
 

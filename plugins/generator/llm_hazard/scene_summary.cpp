@@ -110,11 +110,28 @@ int travelling_beside(const ObjectState& o, double ego_speed_mps, double lane_wi
   return o.lateral_m > 0 ? 1 : -1;
 }
 
+int travelling_towards(const ObjectState& o, double ego_speed_mps, double lane_width_m) {
+  static const std::set<std::string> vehicles = {"car", "truck", "bus", "motorcycle"};
+  if (!vehicles.count(o.label) || !std::isfinite(o.distance_m) || o.distance_m < 5.0 || o.distance_m > 60.0)
+    return 0;
+  if (!o.covariance || o.truncated != 0) return 0;
+  const double off = std::abs(o.lateral_m);
+  if (off < 0.6 * lane_width_m || off > 4.5 * lane_width_m) return 0;
+  const std::optional<cv::Vec2d> v = hazard::ground_velocity(o, ego_speed_mps);
+  if (!v) return 0;
+  const double speed = std::hypot((*v)[0], (*v)[1]);
+  if (speed < 3.0 || speed > 60.0 || -(*v)[0] < speed * std::cos(30.0 * M_PI / 180.0) ||
+      -(*v)[0] < ego_speed_mps)
+    return 0;
+  return o.lateral_m > 0 ? 1 : -1;
+}
+
 void TrafficBeside::add(double t, const ObjectStates& states, double ego_speed_mps) {
   for (const ObjectState& o : states.objects) {
     if (o.track_id < 0) continue;
     Run& r = runs_[o.track_id];
-    const int side = travelling_beside(o, ego_speed_mps, lane_width_);
+    const int side = flow_ == Flow::kOncoming ? travelling_towards(o, ego_speed_mps, lane_width_)
+                                              : travelling_beside(o, ego_speed_mps, lane_width_);
     if (side == 0 || (r.open && side != r.side)) {
       r.open = false;
       if (side == 0) continue;
@@ -134,6 +151,54 @@ TrafficBeside::Seen TrafficBeside::longest() const {
   for (const auto& [id, r] : runs_)
     if (r.best.seconds > best.seconds) best = r.best;
   return best;
+}
+
+ResolvedRoad resolve_road(const hazard::RoadModel& stated, const RoadMarkings* markings,
+                          const TrafficBeside::Seen& oncoming, const TrafficBeside::Seen& with_ego,
+                          double seen_s) {
+  ResolvedRoad out;
+  hazard::RoadModel base = stated;
+  const bool seen = seen_s > 0 && oncoming.track >= 0 && oncoming.seconds >= seen_s - 1e-9;
+  const std::string side_name = oncoming.side > 0 ? "left" : "right";
+  const std::string evidence = seen ? "a " + oncoming.label + " coming towards the ego " + side_name +
+                                          " of its lane (track " + std::to_string(oncoming.track) +
+                                          ", followed for " + num(oncoming.seconds) + " s)"
+                                    : std::string();
+  if (stated.driving_side_stated) {
+    out.driving_side_why = "stated";
+    if (seen && oncoming.side != stated.oncoming_side())
+      out.conflict = "the recording shows " + evidence + ", but driving_side is stated as " +
+                     stated.driving_side + " (oncoming traffic on the " +
+                     (stated.oncoming_side() > 0 ? "left" : "right") + "); the stated side is kept";
+  } else if (seen) {
+    base.driving_side = oncoming.side > 0 ? "right" : "left";
+    out.driving_side_why = "auto: the recording shows " + evidence;
+  } else {
+    out.driving_side_why = "default: no oncoming traffic followed for " + num(seen_s) + " s in the recording";
+  }
+  out.road = base.with_markings(markings);
+  out.for_templates = base;
+  out.for_templates.driving_side_stated = true;
+  const int side = out.road.oncoming_side();
+  const bool side_stated = side > 0 ? stated.lanes_left_stated : stated.lanes_right_stated;
+  if (seen && oncoming.side == side && !stated.oncoming_stated && !(side_stated && stated.lanes(side) == 0)) {
+    hazard::RoadModel& r = out.road;
+    int& lanes = side > 0 ? r.lanes_left : r.lanes_right;
+    lanes = std::max(lanes, 1);
+    const bool same_seen = with_ego.track >= 0 && with_ego.seconds >= seen_s - 1e-9 && with_ego.side == side;
+    r.oncoming_lanes = std::max(r.oncoming_lanes, std::max(1, lanes - (same_seen ? 1 : 0)));
+    r.oncoming_lanes = std::min(r.oncoming_lanes, lanes);
+    r.oncoming_stated = true;
+    (side > 0 ? r.lanes_left_stated : r.lanes_right_stated) = true;
+    hazard::RoadModel& t = out.for_templates;
+    (side > 0 ? t.lanes_left : t.lanes_right) = lanes;
+    (side > 0 ? t.lanes_left_stated : t.lanes_right_stated) = true;
+    t.oncoming_lanes = r.oncoming_lanes;
+    t.oncoming_stated = true;
+    r.lanes_from += "; " + side_name + " " + std::to_string(r.oncoming_lanes) +
+                    " lane(s) with oncoming traffic: the recording shows " + evidence;
+  }
+  return out;
 }
 
 std::string dataset_description(const Frame& frame) {

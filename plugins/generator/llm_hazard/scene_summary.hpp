@@ -30,12 +30,25 @@ Resolved resolve_multi_lane(const std::string& setting, const std::string& text)
 // travels on (+1 left, -1 right), or 0.
 int travelling_beside(const ObjectState& o, double ego_speed_mps, double lane_width_m);
 
-// Vehicles seen travelling the ego's way beside it (travelling_beside), per track the longest unbroken run of
-// frames: the evidence the multi-lane auto rule reads from the recording. A frame in which a track is seen
-// but not travelling beside the ego ends its run, so one noisy velocity does not make a lane.
+// Whether a tracked object is a vehicle coming towards the ego beside its lane: a car, truck, bus or
+// motorcycle 5-60 m ahead, whole in the picture (no side cut by the border), its centre 0.6-4.5 lane widths
+// to the side, its ground velocity 3-60 m/s, within 30 degrees of the ego's opposite heading, beyond its
+// estimator's uncertainty and at least the ego's own speed. The last bound is what a monocular range error
+// cannot fake: a parked vehicle whose range the class-height prior over-estimates far away and less so near
+// reads as coming closer faster than the ego drives, by up to 0.8 of the ego's speed (nuScenes scene-0916: a
+// parked truck tracked from 46 to 10 m read as coming at 3.3-4.5 m/s with the ego at 5.5 m/s). The side it
+// passes on (+1 left, -1 right), or 0.
+int travelling_towards(const ObjectState& o, double ego_speed_mps, double lane_width_m);
+
+// Vehicles seen travelling beside the ego lane, the ego's way (travelling_beside) or towards it
+// (travelling_towards), per track the longest unbroken run of frames: the evidence the multi-lane and
+// driving-side auto rules read from the recording. A frame in which a track is seen but not travelling so
+// ends its run, so one noisy velocity does not make a lane.
 class TrafficBeside {
  public:
-  explicit TrafficBeside(double lane_width_m = 3.5) : lane_width_(lane_width_m) {}
+  enum class Flow { kWithEgo, kOncoming };
+  explicit TrafficBeside(double lane_width_m = 3.5, Flow flow = Flow::kWithEgo)
+      : lane_width_(lane_width_m), flow_(flow) {}
   void add(double t, const ObjectStates& states, double ego_speed_mps);
   struct Seen {
     int64_t track = -1;
@@ -53,11 +66,30 @@ class TrafficBeside {
     Seen best;
   };
   double lane_width_;
+  Flow flow_;
   std::map<int64_t, Run> runs_;
 };
 
 // The dataset's own words for the scene: Frame.meta "scene_description", else "description", else "".
 std::string dataset_description(const Frame& frame);
+
+// The road the generator plans on: the stated facts, the footage's lane markings (RoadModel::with_markings)
+// and what its traffic shows. A vehicle coming towards the ego beside its lane
+// (TrafficBeside::Flow::kOncoming, followed for at least seen_s without a break) decides the side traffic
+// keeps to where the scene does not state it: the other side. Where oncoming_lanes is not stated either, the
+// lanes on that side carry oncoming traffic (at least one lane there), all but the one next to the ego lane
+// when a vehicle was also seen travelling the ego's way there. seen_s <= 0: only the stated facts and the
+// markings.
+struct ResolvedRoad {
+  hazard::RoadModel road;           // the prompt's, the scene rules' and the proposals' road
+  hazard::RoadModel for_templates;  // the same facts, the resolved ones marked stated: the templates apply
+                                    // the markings themselves
+  std::string driving_side_why;  // "stated", "default: ..." or "auto: the recording shows ..."
+  std::string conflict;          // a stated driving side the traffic contradicts, else empty
+};
+ResolvedRoad resolve_road(const hazard::RoadModel& stated, const RoadMarkings* markings,
+                          const TrafficBeside::Seen& oncoming, const TrafficBeside::Seen& with_ego,
+                          double seen_s);
 
 struct SceneSettings {
   std::string environment;  // param, else the dataset description, else "unknown"
@@ -78,6 +110,7 @@ struct SceneSettings {
   double max_under_way_s = 0.0;                // hazards may already be under way when they appear
   hazard::TtcConventions ttc;
   hazard::RoadModel road;
+  std::string driving_side_why;  // where road.driving_side came from (resolve_road)
 };
 
 struct SceneSummary {

@@ -8,26 +8,33 @@
 namespace hf::hazard {
 
 std::vector<ParamSpec> RoadModel::params() {
-  return {ParamSpec::number("lane_width_m", 3.5).from_scene("road.lane_width_m")
-              .range(2, 6)
-              .describe("lane width (m); the ego lane is centred on y = 0"),
-          ParamSpec::integer("lanes_left", 1).from_scene("road.lanes_left")
-              .range(0, 10)
-              .describe("lanes left of the ego lane (road edge position)"),
-          ParamSpec::integer("lanes_right", 1).from_scene("road.lanes_right")
-              .range(0, 10)
-              .describe("lanes right of the ego lane (road edge position)"),
-          ParamSpec::number("kerb_offset_m", 0.5)
-              .range(0, 5)
-              .describe("how far beyond the road edge a pedestrian waits (m)"),
-          ParamSpec::string("driving_side", "right").from_scene("road.driving_side")
-              .one_of({"right", "left"})
-              .describe("the side of the road traffic keeps to (left: e.g. Singapore, UK); oncoming lanes lie "
-                        "on the other side, and exported scenarios lay out their road by it"),
-          ParamSpec::integer("oncoming_lanes", 0).from_scene("road.oncoming_lanes")
-              .range(0, 10)
-              .describe("how many of the lanes on the side away from driving_side carry oncoming traffic (the "
-                        "outermost ones); 0 = every lane beside the ego lane goes its way")};
+  return {
+      ParamSpec::number("lane_width_m", 3.5)
+          .from_scene("road.lane_width_m")
+          .range(2, 6)
+          .describe("lane width (m); the ego lane is centred on y = 0"),
+      ParamSpec::integer("lanes_left", 1)
+          .from_scene("road.lanes_left")
+          .range(0, 10)
+          .describe("lanes left of the ego lane (road edge position)"),
+      ParamSpec::integer("lanes_right", 1)
+          .from_scene("road.lanes_right")
+          .range(0, 10)
+          .describe("lanes right of the ego lane (road edge position)"),
+      ParamSpec::number("kerb_offset_m", 0.5)
+          .range(0, 5)
+          .describe("how far beyond the road edge a pedestrian waits (m)"),
+      ParamSpec::string("driving_side", "right")
+          .from_scene("road.driving_side")
+          .one_of({"right", "left"})
+          .describe("the side of the road traffic keeps to (left: e.g. Singapore, UK); oncoming lanes lie "
+                    "on the other side, and exported scenarios lay out their road by it. Not stated, the "
+                    "generator takes it from oncoming traffic the recording shows (traffic_seen_s)"),
+      ParamSpec::integer("oncoming_lanes", 0)
+          .from_scene("road.oncoming_lanes")
+          .range(0, 10)
+          .describe("how many of the lanes on the side away from driving_side carry oncoming traffic (the "
+                    "outermost ones); 0 = every lane beside the ego lane goes its way")};
 }
 
 RoadModel RoadModel::from(const Params& p) {
@@ -41,6 +48,7 @@ RoadModel RoadModel::from(const Params& p) {
   r.lanes_left_stated = p.has("lanes_left") && p.stated("lanes_left");
   r.lanes_right_stated = p.has("lanes_right") && p.stated("lanes_right");
   r.oncoming_stated = p.has("oncoming_lanes") && p.stated("oncoming_lanes");
+  r.driving_side_stated = p.has("driving_side") && p.stated("driving_side");
   if (r.lanes_left_stated || r.lanes_right_stated) r.lanes_from = "stated";
   const int side = r.oncoming_side();
   if (r.oncoming_lanes > r.lanes(side))

@@ -40,9 +40,10 @@ struct RoadModel {
   bool same_direction_at(double y) const;
   static std::vector<ParamSpec> params();
   static RoadModel from(const Params& p);
-  // Which of lanes_left, lanes_right and oncoming_lanes were stated (params, scene block) rather than
-  // defaults.
+  // Which of lanes_left, lanes_right, oncoming_lanes and driving_side were stated (params, scene block)
+  // rather than defaults.
   bool lanes_left_stated = false, lanes_right_stated = false, oncoming_stated = false;
+  bool driving_side_stated = false;
   // What the lane counts rest on, for logs and the prompt: "stated", "default", or what the markings showed.
   std::string lanes_from = "default";
   // The road with what the recording's lane markings show for each side whose lane count was not stated: a
