@@ -456,6 +456,37 @@ std::string reason_class(const std::string& reason) {
   return out.size() > 160 ? out.substr(0, 157) + "..." : out;
 }
 
+std::string reasons_digest(const Json& reasons, size_t max_chars) {
+  std::vector<std::string> all;
+  for (const Json& r : reasons)
+    if (r.is_string() && std::find(all.begin(), all.end(), r.get<std::string>()) == all.end())
+      all.push_back(r.get<std::string>());
+  const size_t listed = reasons.is_array() ? reasons.size() : 0;
+  auto drop = [&all](auto&& pred) {
+    std::vector<std::string> kept;
+    for (const std::string& r : all)
+      if (!pred(r)) kept.push_back(r);
+    if (!kept.empty()) all = std::move(kept);
+  };
+  drop([](const std::string& r) {
+    return r.rfind("no hazard was inserted: no planned trajectory arrived", 0) == 0;
+  });
+  drop([](const std::string& r) { return r.find("; trying a horizon of ") != std::string::npos; });
+  std::string out;
+  size_t shown = 0;
+  for (const std::string& r : all) {
+    if (!out.empty() && out.size() + 2 + r.size() > max_chars) break;
+    out += (out.empty() ? "" : "; ") + r;
+    ++shown;
+  }
+  if (out.size() > max_chars) {
+    size_t cut = out.rfind(' ', max_chars);
+    out = out.substr(0, cut == std::string::npos || cut < max_chars / 2 ? max_chars : cut) + " ...";
+  }
+  if (listed > shown) out += " (" + std::to_string(listed - shown) + " more in index.json)";
+  return out;
+}
+
 // A refusal whose every reason is a road user of this moment (a planned path running into a tracked object, a
 // start overlapping a detected one) says nothing about the scene: another window has other traffic.
 bool refusal_is_only_traffic(const std::string& reason) {
@@ -811,8 +842,7 @@ std::string summary_markdown(const CampaignSpec& s, const Json& sum, const std::
   for (const Pair& p : pairs) {
     std::string last;
     if (!p.attempts.empty() && !p.attempts.back().value("passed", false))
-      for (const Json& r : p.attempts.back().value("reasons", Json::array()))
-        last += (last.empty() ? "" : "; ") + r.get<std::string>();
+      last = reasons_digest(p.attempts.back().value("reasons", Json::array()));
     md << "| " << p.rec->name << " | " << p.kind << " | "
        << (p.verified() > 0 ? "verified" : p.stopped.empty() ? "pending" : "not verified: " + p.stopped) << " | "
        << p.attempts.size() << " | " << fixed(p.cpu(), 0) << " | " << last << " |\n";

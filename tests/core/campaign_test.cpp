@@ -151,6 +151,28 @@ TEST(CampaignReasons, NumbersAreLeftOutSoReasonsCount) {
   EXPECT_EQ(reason_class("x at -3.5 m"), "x at # m");
 }
 
+// summary.md's "last reasons": the reasons that say why, each once, within the length; the count of the
+// rest points to index.json.
+TEST(CampaignReasons, TheSummaryShowsTheReasonsThatSayWhyOnce) {
+  const std::string none = "no hazard was inserted: no planned trajectory arrived (the run's log says why)";
+  const std::string refusal = "node 'generator': frame 25: offline: no hazard fits this scene: the ego stops";
+  const std::string shorter =
+      "generator: frame 25, horizon 5.2 s: offline: no hazard fits this scene: the ego stops; trying a "
+      "horizon "
+      "of 4.2 s";
+  EXPECT_EQ(reasons_digest(Json::array({none, refusal, shorter, refusal})),
+            refusal + " (3 more in index.json)");
+  EXPECT_EQ(reasons_digest(Json::array({none})), none);  // alone, it is what there is to say
+  EXPECT_EQ(reasons_digest(Json::array({shorter})), shorter);
+  EXPECT_EQ(reasons_digest(Json::array()), "");
+  const std::string a = "minimum scene TTC 2.89 s", b = "re-detected in 2 of 9 visible frames";
+  EXPECT_EQ(reasons_digest(Json::array({a, b})), a + "; " + b);
+  EXPECT_EQ(reasons_digest(Json::array({a, b}), 30), a + " (1 more in index.json)");
+  // One reason longer than the limit is cut at a word.
+  const std::string d = reasons_digest(Json::array({std::string(40, 'x') + " " + std::string(40, 'y')}), 60);
+  EXPECT_EQ(d, std::string(40, 'x') + " ...");
+}
+
 TEST(CampaignReasons, ARefusalForTrafficDoesNotSayTheSceneForbidsTheKind) {
   const std::string head =
       "node 'generator': frame 21: offline: no hazard fits this scene (allowed kinds: cut_in): ";

@@ -101,6 +101,11 @@ const CampaignWindow& next_window(const std::vector<CampaignWindow>& windows,
 // A failure reason with its numbers replaced by '#', so reasons can be counted across attempts.
 std::string reason_class(const std::string& reason);
 
+// What summary.md shows of an attempt's reasons: the ones that say why, each once, joined up to about
+// max_chars, then how many more index.json lists. "No planned trajectory arrived" and a shorter horizon's
+// retry (a generator warning ending "trying a horizon of N s") are left out when anything else is listed.
+std::string reasons_digest(const Json& reasons, size_t max_chars = 300);
+
 struct CampaignOptions {
   std::string spec;
   std::string output_dir;  // default runs/<name>
