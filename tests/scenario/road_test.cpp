@@ -115,6 +115,48 @@ TEST(RoadLanes, RightHandTrafficPutsTheEgoInTheLeftmostLaneOfItsDirection) {
   EXPECT_NEAR(l.lane(-1)->centre(), -3.5, 1e-12);  // oncoming on the right
 }
 
+// With the scene's oncoming_lanes (the templates' road model), lanes beside the ego that go its way stay on
+// its side of the centre line; only the outermost oncoming ones lie beyond it.
+TEST(RoadLanes, OnlyTheOncomingLanesLieBeyondTheCentreLine) {
+  road::LaneLayout l;
+  l.lane_width = 3.5, l.lanes_left = 2, l.lanes_right = 1, l.edge_type = "sidewalk", l.edge_width = 3;
+  l.oncoming_lanes = 1;  // right-hand traffic: of the two lanes on the left, the outer one is oncoming
+  EXPECT_EQ(l.ego_lane(), -2);
+  EXPECT_DOUBLE_EQ(l.lane_offset(), 5.25);
+  EXPECT_NEAR(l.lane(-2)->centre(), 0.0, 1e-12);
+  EXPECT_NEAR(l.lane(-1)->centre(), 3.5, 1e-12);  // the ego's way, left of it
+  EXPECT_NEAR(l.lane(1)->centre(), 7.0, 1e-12);   // oncoming
+  EXPECT_EQ(l.lane(2)->type, "sidewalk");
+  EXPECT_EQ(l.lane(-4)->type, "sidewalk");
+  EXPECT_EQ(l.lane_at(3.2).id, -1);
+  l.oncoming_lanes = 0;  // a one-way road: no lane beyond the centre line
+  EXPECT_EQ(l.ego_lane(), -3);
+  EXPECT_EQ(l.lane(1)->type, "sidewalk");
+  EXPECT_NEAR(l.lane(-1)->centre(), 7.0, 1e-12);
+  l.left_hand_traffic = true, l.lanes_left = 1, l.lanes_right = 2, l.oncoming_lanes = 2;  // mirrored
+  EXPECT_EQ(l.ego_lane(), 1);
+  EXPECT_NEAR(l.lane(-1)->centre(), -3.5, 1e-12);
+  l.oncoming_lanes = 1;
+  EXPECT_EQ(l.ego_lane(), 2);
+  EXPECT_NEAR(l.lane(1)->centre(), -3.5, 1e-12);  // the ego's way, right of it
+  EXPECT_NEAR(l.lane(-1)->centre(), -7.0, 1e-12);
+}
+
+TEST(RoadOpenDrive, AOneWayRoadValidatesAgainstTheSchema) {
+  HF_REQUIRE_SHARED(test::xodr_schema());
+  const ReferenceLine line = ReferenceLine::fit(path_of(
+      60, 0.5, [](double) { return 0.0; }, 0, 0, 0));
+  road::LaneLayout l;
+  l.lanes_left = 1, l.lanes_right = 1, l.oncoming_lanes = 0, l.edge_type = "sidewalk";
+  const std::string text = road::write_opendrive(line, l, {"one way", "2024-01-01T00:00:00"});
+  const auto dir = test::unique_temp_dir();
+  test::write_text(dir / "road.xodr", text);
+  const test::Validation v = test::validate_xml(dir / "road.xodr", test::xodr_schema());
+  EXPECT_TRUE(v.ok()) << v.output;
+  EXPECT_NE(text.find("<lane id=\"-3\" type=\"driving\""), std::string::npos) << text;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(RoadOpenDrive, ArcRoadValidatesAgainstTheSchema) {
   HF_REQUIRE_SHARED(test::xodr_schema());
   const auto path = path_of(

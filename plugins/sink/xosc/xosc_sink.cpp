@@ -45,6 +45,7 @@ road::LaneLayout scene_lanes(const HazardSpec& spec, double* kerb_offset) {
   l.lanes_right = static_cast<int>(number("lanes_right", 0, 10, l.lanes_right));
   *kerb_offset = number("kerb_offset_m", 0, 5, *kerb_offset);
   l.edge_width = number("sidewalk_width_m", 0, 15, l.edge_width);
+  l.oncoming_lanes = static_cast<int>(number("oncoming_lanes", 0, 10, l.oncoming_lanes));
   if (sc.contains("driving_side")) {
     const Json& side = sc["driving_side"];
     if (!side.is_string() || (side != "right" && side != "left"))

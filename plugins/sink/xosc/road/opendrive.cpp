@@ -13,8 +13,9 @@ std::vector<LaneLayout::Lane> LaneLayout::lanes() const {
   std::vector<Lane> out;
   const double c = lane_offset();
   // Driving lanes per side of the centre line, nearest first; then the edge lane.
-  const int left_driving = left_hand_traffic ? 1 + lanes_left : lanes_left;
-  const int right_driving = left_hand_traffic ? lanes_right : 1 + lanes_right;
+  const int beyond = same_direction_beyond();
+  const int left_driving = left_hand_traffic ? 1 + lanes_left + beyond : lanes_left - beyond;
+  const int right_driving = left_hand_traffic ? lanes_right - beyond : 1 + lanes_right + beyond;
   for (int side : {1, -1}) {
     const int n = side > 0 ? left_driving : right_driving;
     double t = c;
