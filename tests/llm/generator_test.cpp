@@ -336,10 +336,9 @@ std::filesystem::path scout_file(const test::TempDir& tmp, int last, const std::
   return file;
 }
 
-// Six Safe frames 0.5 s apart with `add` putting objects into each frame's states; the generator's log line
-// that says how it read the scene ("... is Safe: generating a hazard (sidewalks ..., multi-lane ...)").
-std::string scene_reading(const std::string& yaml, const std::function<void(int, ObjectStates&)>& add) {
-  auto r = test::make_runner(yaml);
+// Runs six Safe frames 0.5 s apart with `add` putting objects into each frame's states. No hazard may fit:
+// what the generator logged or emitted is what the tests check.
+void run_six(testing::StageRunner& r, const std::function<void(int, ObjectStates&)>& add) {
   for (int i = 0; i < 6; ++i) {
     const double t = 0.5 * i;
     ObjectStates st = test::make_states(i, t);
@@ -350,8 +349,15 @@ std::string scene_reading(const std::string& yaml, const std::function<void(int,
   }
   try {
     r.run();
-  } catch (const Error&) {  // no hazard may fit; the log line is what is checked
+  } catch (const Error&) {
   }
+}
+
+// The generator's log line that says how it read the scene ("... is Safe: generating a hazard (sidewalks ...,
+// multi-lane ...)") after run_six.
+std::string scene_reading(const std::string& yaml, const std::function<void(int, ObjectStates&)>& add) {
+  auto r = test::make_runner(yaml);
+  run_six(r, add);
   for (const std::string& l : r.log())
     if (l.find("is Safe: generating a hazard (") != std::string::npos) return l;
   return std::string("(no generation)");
@@ -537,18 +543,7 @@ TEST(LlmHazard, OncomingTrafficTellsTheSideTrafficKeepsTo) {
 
   // Stated, the side is kept; traffic that contradicts it is reported once.
   auto stated = test::make_runner("trigger: frame\ntrigger_frame: 5\ndriving_side: left\n");
-  for (int i = 0; i < 6; ++i) {
-    const double t = 0.5 * i;
-    ObjectStates st = test::make_states(i, t);
-    add({})(i, st);
-    stated.push("frames", test::make_frame(i, t, "a road"), t);
-    stated.push("states", st, t);
-    stated.push("risk", test::make_risk(i, true), t, "ttc");
-  }
-  try {
-    stated.run();
-  } catch (const Error&) {
-  }
+  run_six(stated, add({}));
   int warned = 0;
   bool kept = false;
   for (const std::string& l : stated.log()) {
@@ -571,32 +566,20 @@ TEST(LlmHazard, ACutInDoesNotComeFromLanesWithOncomingTraffic) {
           "trigger: frame\ntrigger_frame: 5\nforce_kind: cut_in\nmulti_lane: 'yes'\n"
           "lanes_left: 2\nseed: " +
           std::to_string(seed) + "\n" + more);
-      for (int i = 0; i < 6; ++i) {
-        const double t = 0.5 * i;
-        ObjectStates st = test::make_states(i, t);
+      run_six(r, [oncoming](int i, ObjectStates& st) {
         st.objects.clear();
-        if (oncoming) {  // two lanes over on the left, 40 m ahead, coming at 12 m/s
-          ObjectState c;
-          c.track_id = 12;
-          c.label = "car";
-          c.distance_m = 45.0 - 11.0 * t;
-          c.lateral_m = 7.5;
-          c.width_m = 1.85;
-          c.length_m = 4.5;
-          c.velocity_rel = cv::Vec2d(-22.0, 0.0);
-          cv::Matx44d P = cv::Matx44d::eye() * 0.25;
-          P(2, 2) = P(3, 3) = 0.25;
-          c.covariance = P;
-          st.objects.push_back(c);
-        }
-        r.push("frames", test::make_frame(i, t, "a road"), t);
-        r.push("states", st, t);
-        r.push("risk", test::make_risk(i, true), t, "ttc");
-      }
-      try {
-        r.run();
-      } catch (const Error&) {
-      }
+        if (!oncoming) return;
+        ObjectState c;  // two lanes over on the left, 45 m ahead, coming at 12 m/s
+        c.track_id = 12;
+        c.label = "car";
+        c.distance_m = 45.0 - 11.0 * i;
+        c.lateral_m = 7.5;
+        c.width_m = 1.85;
+        c.length_m = 4.5;
+        c.velocity_rel = cv::Vec2d(-22.0, 0.0);
+        c.covariance = cv::Matx44d::eye() * 0.25;
+        st.objects.push_back(c);
+      });
       for (const HazardSpec& h : r.collect<HazardSpec>("hazard")) out.insert(h.side);
     }
     return out;
