@@ -133,14 +133,11 @@ ComponentInfo LlmHazardGenerator::describe() {
               "ahead, 0.6-1.6 lane widths to the side, 3-60 m/s on the ground within 30 degrees of the ego's "
               "heading, beyond its estimator's uncertainty: states without a covariance never count) for at "
               "least this long without a break (up to the trigger frame); 0 = only the scene text decides. "
-              "Likewise for the side traffic keeps to, where driving_side is not stated: a whole vehicle "
-              "coming "
-              "towards the ego beside its lane (5-60 m ahead, 0.6-4.5 lane widths to the side, at least as "
-              "fast "
-              "as the ego and 3 m/s, within 30 degrees of the ego's opposite heading) followed this long "
-              "puts "
-              "oncoming traffic on its side (and, where oncoming_lanes is not stated, in the lanes there); "
-              "without one traffic keeps right"),
+              "Likewise for the side traffic keeps to, where driving_side is not stated: a whole "
+              "vehicle coming towards the ego beside its lane (5-60 m ahead, 0.6-4.5 lane widths to the "
+              "side, at least as fast as the ego and 3 m/s, within 30 degrees of the ego's opposite "
+              "heading) followed this long puts oncoming traffic on its side (and, where oncoming_lanes "
+              "is not stated, in the lanes there); without one traffic keeps right"),
       ParamSpec::string("intersection", "auto")
           .from_scene("road.intersection")
           .one_of({"auto", "yes", "no"})
@@ -693,13 +690,10 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
     ctx.log(LogLevel::kWarning, resolved.conflict);
     warned_side_ = true;
   }
-  const hazard::RoadModel& t = resolved.for_templates;
-  if (t.driving_side != templates_road_.driving_side || t.oncoming_lanes != templates_road_.oncoming_lanes ||
-      t.oncoming_stated != templates_road_.oncoming_stated || t.lanes_left != templates_road_.lanes_left ||
-      t.lanes_right != templates_road_.lanes_right ||
-      t.lanes_left_stated != templates_road_.lanes_left_stated ||
-      t.lanes_right_stated != templates_road_.lanes_right_stated) {
-    templates_road_ = t;
+  // The templates are made again when the road they are given changes (their params say what they get).
+  if (template_params(resolved.for_templates, ttc_, 0, 0, "", "") !=
+      template_params(templates_road_, ttc_, 0, 0, "", "")) {
+    templates_road_ = resolved.for_templates;
     make_templates(ctx, ctx.components().component_names(kind::kHazardTemplate));
   }
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);

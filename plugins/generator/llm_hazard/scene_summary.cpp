@@ -94,35 +94,39 @@ Resolved resolve_multi_lane(const std::string& setting, const std::string& text)
                  {"single-lane", "one-lane", "narrow", "alley"}, "several lanes");
 }
 
-int travelling_beside(const ObjectState& o, double ego_speed_mps, double lane_width_m) {
+namespace {
+
+// The ground velocity of a vehicle min_distance-60 m ahead whose centre lies 0.6 to max_lanes lane widths to
+// the side, moving 3-60 m/s along the ego's path (`way` +1) or against it (-1), within 30 degrees of it; else
+// nothing. A velocity without its uncertainty is no evidence: the paper's estimator reads a parked car whose
+// range estimate stays put as one driving along at the ego's speed.
+std::optional<cv::Vec2d> moving_beside(const ObjectState& o, double ego_speed_mps, double lane_width_m,
+                                       double min_distance, double max_lanes, int way) {
   static const std::set<std::string> vehicles = {"car", "truck", "bus", "motorcycle"};
-  if (!vehicles.count(o.label) || !std::isfinite(o.distance_m) || o.distance_m < 2.0 || o.distance_m > 60.0)
-    return 0;
-  // A velocity without its uncertainty is no evidence: the paper's estimator reads a parked car whose range
-  // estimate stays put as one driving along at the ego's speed.
-  if (!o.covariance) return 0;
+  if (!vehicles.count(o.label) || !std::isfinite(o.distance_m) || o.distance_m < min_distance ||
+      o.distance_m > 60.0 || !o.covariance)
+    return std::nullopt;
   const double off = std::abs(o.lateral_m);
-  if (off < 0.6 * lane_width_m || off > 1.6 * lane_width_m) return 0;
+  if (off < 0.6 * lane_width_m || off > max_lanes * lane_width_m) return std::nullopt;
   const std::optional<cv::Vec2d> v = hazard::ground_velocity(o, ego_speed_mps);
-  if (!v) return 0;
+  if (!v) return std::nullopt;
   const double speed = std::hypot((*v)[0], (*v)[1]);
-  if (speed < 3.0 || speed > 60.0 || (*v)[0] < speed * std::cos(30.0 * M_PI / 180.0)) return 0;
+  if (speed < 3.0 || speed > 60.0 || way * (*v)[0] < speed * std::cos(30.0 * M_PI / 180.0))
+    return std::nullopt;
+  return v;
+}
+
+}  // namespace
+
+int travelling_beside(const ObjectState& o, double ego_speed_mps, double lane_width_m) {
+  if (!moving_beside(o, ego_speed_mps, lane_width_m, 2.0, 1.6, 1)) return 0;
   return o.lateral_m > 0 ? 1 : -1;
 }
 
 int travelling_towards(const ObjectState& o, double ego_speed_mps, double lane_width_m) {
-  static const std::set<std::string> vehicles = {"car", "truck", "bus", "motorcycle"};
-  if (!vehicles.count(o.label) || !std::isfinite(o.distance_m) || o.distance_m < 5.0 || o.distance_m > 60.0)
-    return 0;
-  if (!o.covariance || o.truncated != 0) return 0;
-  const double off = std::abs(o.lateral_m);
-  if (off < 0.6 * lane_width_m || off > 4.5 * lane_width_m) return 0;
-  const std::optional<cv::Vec2d> v = hazard::ground_velocity(o, ego_speed_mps);
-  if (!v) return 0;
-  const double speed = std::hypot((*v)[0], (*v)[1]);
-  if (speed < 3.0 || speed > 60.0 || -(*v)[0] < speed * std::cos(30.0 * M_PI / 180.0) ||
-      -(*v)[0] < ego_speed_mps)
-    return 0;
+  if (o.truncated != 0) return 0;
+  const std::optional<cv::Vec2d> v = moving_beside(o, ego_speed_mps, lane_width_m, 5.0, 4.5, -1);
+  if (!v || -(*v)[0] < ego_speed_mps) return 0;
   return o.lateral_m > 0 ? 1 : -1;
 }
 
