@@ -300,22 +300,11 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   // path from there (`design_ego`); its samples are then taken from the anchor time on.
   EgoPath design_ego = ego;
   if (ego_plan_ != "constant_speed" && has_track) {
-    const std::string where = "scene at t=" + num(scene.timestamp, 3) + " s";
-    std::vector<EgoTrackSample> track = scene.ego_track->samples;
-    // A hazard under way since before the recording began: the ego drove straight on at its first speed
-    // before the track's first sample (the recording says nothing else about that time).
-    if (under_way > 0 && scene.timestamp - under_way < track.front().t - 1e-9) {
-      EgoTrackSample before = track.front();
-      const double dt = track.front().t - (scene.timestamp - under_way) + 0.1;
-      before.t -= dt;
-      before.x -= before.speed_mps * dt * std::cos(before.yaw);
-      before.y -= before.speed_mps * dt * std::sin(before.yaw);
-      before.yaw_rate = 0;
-      track.insert(track.begin(), before);
-    }
-    ego = EgoPath::recorded(track, scene.timestamp, where, ego_smoothing_s_);
-    design_ego = ego;
-    if (under_way > 0) design_ego = EgoPath::recorded(track, scene.timestamp - under_way, where, ego_smoothing_s_);
+    ego = EgoPath::recorded(scene.ego_track->samples, scene.timestamp,
+                            "scene at t=" + num(scene.timestamp, 3) + " s", ego_smoothing_s_);
+    // The same path seen from where the ego was then — before the recording began, back along its first
+    // heading at its first speed (the recording says nothing else about that time), as proposals assume.
+    design_ego = under_way > 0 ? ego.seen_from(-under_way) : ego;
   }
   // Arc length the ego covers from the hazard's start to the anchor time (road x of the design -> of the anchor).
   const double ego_shift = under_way > 0 ? design_ego.s_at(under_way) : 0.0;

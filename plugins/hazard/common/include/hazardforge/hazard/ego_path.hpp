@@ -33,6 +33,10 @@ class EgoPath {
   static EgoPath recorded(const std::vector<EgoTrackSample>& track, double anchor_time,
                           const std::string& where, double smoothing_s = 0.25);
 
+  // The same path with its anchor `tau` s after this one's (negative: before), in the ego frame there. Before
+  // the recorded span that is on the straight line back along the first heading.
+  EgoPath seen_from(double tau) const;
+
   bool is_recorded() const { return recorded_; }
   // The ego's state `tau` s after the anchor time (anchor frame): position, heading, speed, acceleration.
   TrajectoryPoint at(double tau) const;
