@@ -106,5 +106,58 @@ TEST(UnderWay, ACutInAlreadyChangingLanesAppearsInViewAndEndsAtTheTarget) {
   EXPECT_NEAR(o.stats.max_yaw_rate, whole.stats.max_yaw_rate, 1e-6);
 }
 
+struct Bits : RandomDraw {
+  uint64_t state;
+  explicit Bits(uint64_t seed) : state(seed) {}
+  uint64_t next() override {  // splitmix64
+    uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+  }
+};
+
+// A highway clip of 1.5 s whose ego speeds up from 22 to 27 m/s (its recorded track), the hazard appearing at
+// 0.2 s with 1.3 s of clip left: too short for a cut-in, so it is proposed already under way, for up to 4.7 s
+// before the clip's first frame. The proposal times the manoeuvre by the ego's travel along that recorded
+// motion, as the plan measures it, so the lane change ends in view after the hazard appears. (Timed by the
+// ego's speed at that moment, it started too far back and its lane change was over before the clip began.)
+TEST(UnderWay, ACutInProposedAgainstTheRecordedSpeedEndsAfterItAppears) {
+  auto tpl = make_template("cut_in", {{"duration_s", 1.3}, {"max_under_way_s", 4.7}});
+  auto track = std::make_shared<EgoTrack>();
+  track->source = "video";
+  double x = 0;
+  for (int i = 0; i <= 38; ++i) {
+    const double t = 0.04 * i, v = 22.0 + 5.0 * t / 1.52;
+    track->samples.push_back({t, x, 0.0, 0.0, v, 0.0});
+    x += v * 0.04;
+  }
+  SceneContext scene = test_scene(track->samples[5].speed_mps, track->samples[5].t);
+  scene.ego_track = track;
+  ProposalRequest req(scene);
+  req.target_ttc_s = 1.4;
+  req.horizon_s = 1.3;
+  req.max_under_way_s = 4.7;
+  req.multi_lane = true;
+  int planned = 0;
+  for (uint64_t seed = 1; seed <= 8; ++seed) {
+    Bits bits(seed);
+    const HazardProposal p = tpl->propose(req, bits);
+    if (p.spec.is_null()) continue;  // e.g. a truck, whose slow lane change does not fit 4.7 s
+    Json answer = p.spec;
+    answer["start_time_s"] = scene.timestamp;  // the generator's part
+    const HazardSpec spec = answer.get<HazardSpec>();
+    ASSERT_GT(spec.extra.value("under_way_s", 0.0), 0.0) << p.spec.dump();
+    const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
+    ASSERT_TRUE(o.reasons.empty()) << seed << ": " << o.reasons.front() << "\n" << p.spec.dump();
+    const double under_way = o.notes["under_way_s"].get<double>(),
+                 end = o.notes["cut_in_end_s"].get<double>();
+    EXPECT_GT(end, under_way) << seed;        // the lane change ends after the hazard appears ...
+    EXPECT_LT(end, under_way + 1.3) << seed;  // ... within what is left of the clip
+    ++planned;
+  }
+  EXPECT_GE(planned, 4);
+}
+
 }  // namespace
 }  // namespace hf

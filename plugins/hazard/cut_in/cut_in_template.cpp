@@ -11,6 +11,11 @@ namespace hf {
 
 using hazard::num;
 
+namespace {
+// The class's jerk limit shared between braking and the lane change: |(0.8, 0.6)| = 1.
+constexpr double kLongitudinalJerkShare = 0.8, kLateralJerkShare = 0.6;
+}  // namespace
+
 HazardKindInfo CutInTemplate::info() {
   HazardKindInfo k;
   k.kind = "cut_in";
@@ -104,7 +109,8 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
 
   const double decel = spec.deceleration_mps2.value_or(p.get_double("cut_in_decel_mps2"));
   const double target = spec.target_ttc_s.value_or(p.get_double("default_target_ttc_s"));
-  const double jerk_long = 0.8 * lim.max_jerk_mps3, jerk_lat = 0.6 * lim.max_jerk_mps3;  // |(0.8, 0.6)| = 1
+  const double jerk_long = kLongitudinalJerkShare * lim.max_jerk_mps3,
+               jerk_lat = kLateralJerkShare * lim.max_jerk_mps3;
   const double gap_end = target * (ve - v1);
   const double reaction = p.get_double("ego_reaction_s"), ego_decel = p.get_double("ego_max_decel_mps2");
   const double stopping = ve * reaction + ve * ve / (2 * ego_decel);
@@ -126,7 +132,13 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
     t_brake = -end_gap(0.0) / (v0 - ve);
   } else {
     double lo = 0, hi = std::max(1.0, req.duration);
-    for (int i = 0; i < 40 && end_gap(hi) < 0; ++i) hi *= 2;
+    for (int i = 0; i < 8 && end_gap(hi) < 0; ++i) hi *= 2;
+    if (end_gap(hi) < 0) {
+      reasons.push_back("at " + num(v0) + " m/s the vehicle never gets " + num(gap_end) +
+                        " m ahead of the ego (which reaches " + num(req.ego.at(hi).speed) +
+                        " m/s): it cannot overtake");
+      return {};
+    }
     for (int i = 0; i < 80; ++i) {
       const double mid = (lo + hi) / 2;
       (end_gap(mid) < 0 ? lo : hi) = mid;
@@ -260,49 +272,78 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
   const int sign = left ? 1 : -1;
   if (!room(sign)) return {nullptr, "there is no lane going the ego's way beside the ego lane"};
   const double y0 = sign * sc.road.lane_width;
-  // In a queue it keeps rolling slower than the ego at the end (a vehicle cannot move sideways while standing),
-  // and brakes gently so that the long, slow lane change fits.
-  const double v0 = std::min(sc.ego_speed + (queue ? d.uniform(2.0, 3.5) : d.uniform(3.0, 5.0)), lim.max_speed_mps);
-  const double v1 = queue ? sc.ego_speed * d.uniform(0.3, 0.5) : std::max(0.0, sc.ego_speed - d.uniform(2.0, 4.0));
-  const double decel = std::min(queue ? d.uniform(0.8, 1.5) : d.uniform(2.5, 4.0), lim.max_decel_mps2);
-  if (v0 <= sc.ego_speed + 1.0) return {nullptr, "a " + cls + " cannot overtake the ego here"};
-  const double ttc = request.aim * sc.target;
+  // In a queue it keeps rolling slower than the ego at the end (a vehicle cannot move sideways while
+  // standing), and brakes gently so that the long, slow lane change fits. The numbers as the spec states them
+  // (its precision), so that the plan of the spec is the one timed here. Faster than the ego all along: than
+  // the fastest it goes from the earliest start of a manoeuvre already under way to the end of the horizon.
+  double ego_fastest = sc.ego_speed;
+  for (double t = -sc.max_under_way; t <= sc.horizon; t += 0.25)
+    ego_fastest = std::max(ego_fastest, sc.ego_speed_at(t));
+  const double v0 = hazard::round_to(
+      std::min(ego_fastest + (queue ? d.uniform(2.0, 3.5) : d.uniform(3.0, 5.0)), lim.max_speed_mps), 0.05);
+  const double v1 = hazard::round_to(
+      queue ? sc.ego_speed * d.uniform(0.3, 0.5) : std::max(0.0, sc.ego_speed - d.uniform(2.0, 4.0)), 0.05);
+  const double decel =
+      hazard::round_to(std::min(queue ? d.uniform(0.8, 1.5) : d.uniform(2.5, 4.0), lim.max_decel_mps2), 0.1);
+  if (v0 <= ego_fastest + 1.0) return {nullptr, "a " + cls + " cannot overtake the ego here"};
+  // The plan ends the braking at the spec's target TTC, after which the TTC keeps falling (the vehicle is
+  // slower).
+  const double ttc = sc.target;
   const double gap_end = ttc * (sc.ego_speed - v1);
-  // Braking from v0 to v1, then the lane change must fit between the start and the end of braking.
-  const double t_slow = (v0 - v1) / decel + 0.4;
-  const double s_slow = (v0 + v1) / 2.0 * t_slow;
+  // Braking from v0 to v1 with the plan's jerk-limited profile, then the lane change must fit between the
+  // start and the end of braking.
+  const hazard::SpeedProfile slow =
+      hazard::SpeedProfile(v0).change_speed(v1, decel, kLongitudinalJerkShare * lim.max_jerk_mps3);
+  const double t_slow = slow.duration();
+  const double s_slow = slow.end_distance();
   const double lane_change = 1.15 * 1.875 * sc.road.lane_width / std::max(0.5, lim.max_lateral_speed_mps);
   const double t_brake = std::max(0.5, lane_change - t_slow + 0.5) + d.uniform(0.0, 1.0);
-  const double x0 =
-      gap_end + sc.ego_front + size.length / 2.0 + sc.ego_speed * (t_brake + t_slow) - s_slow - v0 * t_brake;
-  if (x0 < -25.0 || x0 > 3.0) return {nullptr, "no start beside or behind the ego fits (x " + fmt1(x0) + " m)"};
+  const double manoeuvre = t_brake + t_slow;
+  // Where it starts, ahead of the ego at the manoeuvre's start (`start` s from now; before now for a hazard
+  // already under way) so that its braking ends gap_end ahead: the ego's travel meanwhile is its planned
+  // motion's (a recorded track that slows or speeds up changes it), as the plan will measure it.
+  auto start_x = [&](double start) {
+    return gap_end + sc.ego_front + size.length / 2.0 + sc.ego_travel(start, start + manoeuvre) - s_slow -
+           v0 * t_brake;
+  };
+  auto fits = [](double x) { return x >= -25.0 && x <= 3.0; };
+  auto no_start = [&](double x) {
+    return HazardProposal{nullptr, "no start beside or behind the ego fits (x " + fmt1(x) + " m)"};
+  };
+  double x0 = start_x(0.0);
   // A horizon too short for the whole manoeuvre: when allowed, it is already under way when it appears and
   // the lane change ends a little into the horizon — later when it must come into view plausibly, so that it is
   // still beside the ego, at the image border, when it appears.
   double under_way = 0;
-  if (t_brake + t_slow > sc.horizon - 0.5) {
+  if (manoeuvre > sc.horizon - 0.5) {
     if (sc.max_under_way <= 0) return {nullptr, "the cut-in takes longer than the horizon"};
     double end = (request.first_seen_max_height > 0 ? d.uniform(0.55, 0.8) : d.uniform(0.3, 0.5)) * sc.horizon;
     if (request.first_seen_max_height > 0) {
       // It must come into view from the image border: the lane change ends later (the vehicle is further back
       // when it appears) until the plan starts with the vehicle at the border, still beside the ego.
-      for (; end <= sc.horizon - 0.2; end += 0.05 * sc.horizon)
-        if (enters_from_border(request, cls, x0, y0, v0, v1, decel, t_brake + t_slow - end)) break;
+      for (; end <= sc.horizon - 0.2; end += 0.05 * sc.horizon) {
+        x0 = start_x(end - manoeuvre);
+        if (fits(x0) && enters_from_border(request, cls, x0, y0, v0, v1, decel, manoeuvre - end)) break;
+      }
       if (end > sc.horizon - 0.2)
-        return {nullptr, "no start already under way comes into view from the image border"};
+        return fits(x0) ? HazardProposal{nullptr,
+                                         "no start already under way comes into view from the image border"}
+                        : no_start(x0);
     }
-    under_way = t_brake + t_slow - end;
+    under_way = manoeuvre - end;
+    x0 = start_x(-under_way);
     if (under_way > sc.max_under_way)
       return {nullptr, "the cut-in would have to be under way for " + fmt1(under_way) + " s (max_under_way_s " +
                            fmt1(sc.max_under_way) + ")"};
   }
+  if (!fits(x0)) return no_start(x0);
   if (under_way == 0)
     if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
   const std::string side = left ? "left" : "right";
   Json spec = hazard::proposal_spec(kind_info().kind, cls, x0, y0, side, v0, 0.0,
                                     "overtakes in the " + side + " lane and cuts in, braking", sc.target);
-  spec["deceleration_mps2"] = hazard::round_to(decel, 0.1);
-  spec["extra"]["final_speed_mps"] = hazard::round_to(v1, 0.05);
+  spec["deceleration_mps2"] = decel;
+  spec["extra"]["final_speed_mps"] = v1;
   spec["rationale"] = queue ? "In slow traffic a " + cls + " in the " + side + " lane, moving at " + fmt1(v0) +
                                   " m/s, squeezes into the gap ahead of the ego, slowing to " + fmt1(v1) +
                                   " m/s, about " +

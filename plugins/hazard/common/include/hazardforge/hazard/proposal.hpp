@@ -45,6 +45,11 @@ struct ProposalScene {
   EgoPath ego = EgoPath::straight(0.0);
   // The ego's speed `t` s from now along that motion.
   double ego_speed_at(double t) const { return ego.is_recorded() ? ego.at(t).speed : ego_speed; }
+  // How far the ego travels between `t0` and `t1` s from now along that motion (negative times: before now,
+  // where a hazard already under way starts).
+  double ego_travel(double t0, double t1) const {
+    return ego.is_recorded() ? ego.s_at(t1) - ego.s_at(t0) : ego_speed * (t1 - t0);
+  }
   // A tracked object with a distance: position of its centre (x along ego x from the rear axle, y left),
   // footprint (measured, else its class's prior, else a car's), whether it is in the ego path and its absolute
   // speed along the ego heading if known.
