@@ -442,6 +442,37 @@ TEST(EgoMotionSmoother, AStandstillDoesNotBecomeReversing) {
   EXPECT_NEAR(smooth_ego_motion(raw, reverse)[45].speed_mps, -0.3, 0.1);
 }
 
+// Stopped in a queue, traffic passing beside the ego shifts the far scene sideways, which reads as a small
+// yaw rate: a car does not turn on the spot, so the smoothed yaw rate goes to zero with the speed, and a stop
+// does not turn the recorded path. While the ego moves, a real turn is kept.
+TEST(EgoMotionSmoother, AStoppedCarDoesNotTurn) {
+  std::vector<EgoMotionSample> raw;
+  for (int i = 0; i < 80; ++i) {
+    EgoMotionSample s;
+    s.frame = i;
+    s.t = 0.1 * i;
+    s.speed_mps = i < 20 ? 2.0 - 0.1 * i : 0.0;  // braking to a stop at frame 20
+    s.yaw_rate = i < 20 ? 0.1 : -0.005;          // turning left, then the queue's bias (-0.3 deg/s)
+    s.speed_sigma = 0.1;
+    s.yaw_rate_sigma = 0.002;
+    s.measured = true;
+    s.yaw_measured = true;
+    raw.push_back(s);
+  }
+  const auto out = smooth_ego_motion(raw);
+  EXPECT_NEAR(out[5].yaw_rate, 0.1, 0.02);  // 1.5 m/s may turn at up to 0.3 rad/s
+  double turned = 0;                        // over the stop: the raw yaw rate integrates to -1.6 deg
+  for (size_t i = 25; i < out.size(); ++i) {
+    EXPECT_LT(out[i].speed_mps, 0.01) << i;
+    EXPECT_LE(std::abs(out[i].yaw_rate), 0.2 * out[i].speed_mps + 1e-12) << i;
+    turned += 0.1 * out[i].yaw_rate;
+  }
+  EXPECT_LT(std::abs(turned) / kDeg, 0.02);
+  SmoothOptions unlimited;
+  unlimited.max_curvature = 0;
+  EXPECT_NEAR(smooth_ego_motion(raw, unlimited)[60].yaw_rate, -0.005, 0.002);
+}
+
 TEST(EgoMotionSmoother, NoMeasurementsGivesUnmeasuredOutput) {
   std::vector<EgoMotionSample> raw(5);
   for (int i = 0; i < 5; ++i) raw[i].t = 0.1 * i;

@@ -145,6 +145,10 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
     EgoMotionSample& o = out[k];
     o.speed_mps = std::max(xs(0), opt.min_speed);
     o.yaw_rate = xs(2);
+    if (opt.max_curvature > 0) {
+      const double most = opt.max_curvature * std::abs(o.speed_mps);
+      o.yaw_rate = std::clamp(o.yaw_rate, -most, most);
+    }
     o.speed_sigma = std::sqrt(std::max(Ps(0, 0), 0.0));
     o.yaw_rate_sigma = std::sqrt(std::max(Ps(2, 2), 0.0));
     o.measured = use[k];

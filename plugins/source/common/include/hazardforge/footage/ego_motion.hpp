@@ -127,6 +127,12 @@ struct SmoothOptions {
   // would fold the ego's recorded path back on itself. The smoothed speed is held at or above this (-inf: the
   // ego may reverse).
   double min_speed = 0.0;
+  // A car turns only while it moves: its yaw rate is at most its speed over its tightest turning radius
+  // (passenger cars: about 5 m to the outer wheel). Near a standstill the far scene's sideways shift is other
+  // road users moving past (-0.1..-0.35 deg/s on the KITTI raw clip's queue after the ego has stopped), and
+  // integrated over a stop at a red light it would turn the recorded path by degrees. The smoothed yaw rate
+  // is held within speed * max_curvature; <= 0: not limited.
+  double max_curvature = 0.2;  // 1/m
 };
 
 // Filters a whole clip's raw samples (forward Kalman + RTS smoother over speed, acceleration, yaw rate), with
