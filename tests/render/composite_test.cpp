@@ -227,6 +227,30 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     EXPECT_NEAR(left.hazard.lateral_m, 0.6, 1e-9);
     EXPECT_LT(left.hazard.box.x, hb.x - 10);  // left in the image
   }
+  // The real one is followed only while the hazard moves as the real one did: once the hazard has braked,
+  // a drift of the real one's measured offset no longer moves it (the last correction is held).
+  {
+    HazardTrajectory brakes = plan;  // 2 m/s until 0.5 s, stopped from 1 s
+    brakes.points = {{0.0, 20.0, 0.0, 0.0, 2.0, 0.0},
+                     {0.5, 21.0, 0.0, 0.0, 2.0, 0.0},
+                     {1.0, 21.5, 0.0, 0.0, 0.0, -4.0},
+                     {3.0, 21.5, 0.0, 0.0, 0.0, 0.0}};
+    auto braking = std::make_shared<const HazardTrajectory>(brakes);
+    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    auto at = [&](int index, double t, double real_lateral) {
+      return r.render(make_frame(index, t, img.clone(), cam, cv::Matx44d::eye()), braking,
+                      {{same, 0.9f, std::nullopt, "car", 0, 0, 3, real_lateral}});
+    };
+    EXPECT_NEAR(at(0, 0.0, 0.6).hazard.taken_over->lateral_shift_m, 0.6, 1e-9);
+    const double moving = at(1, 0.25, 0.9).hazard.taken_over->lateral_shift_m;
+    EXPECT_NEAR(moving, 0.7 * 0.6 + 0.3 * 0.9, 1e-9);  // still together: followed (smoothed)
+    for (int k = 0; k < 10; ++k) {
+      const auto stopped = at(2 + k, 1.2 + 0.1 * k, 1.5);
+      ASSERT_TRUE(stopped.hazard.taken_over.has_value());
+      EXPECT_NEAR(stopped.hazard.taken_over->lateral_shift_m, moving, 1e-9) << k;
+      EXPECT_NEAR(stopped.hazard.lateral_m, moving, 1e-9) << k;
+    }
+  }
   // After the plan ends (it covers 0-1 s) the hazard stays where it stopped and the real object stays
   // removed; a plain hazard stays where it stopped too.
   {

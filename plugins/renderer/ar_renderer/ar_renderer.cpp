@@ -182,13 +182,19 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   BoxCorners corners = box_corners(pt->x, pt->y, pt->heading, size);
   for (auto& c : corners) c = transform(cur_from_anchor, c);
   cv::Vec3d centre = transform(cur_from_anchor, cv::Vec3d(pt->x, pt->y, 0.0));
-  // A hazard in place of a real object stays in the lane that object drives in: its sideways offset follows
-  // the real one's measured offset (smoothed), so an error in the ego's estimated yaw does not slide it out
-  // of the lane (on the KITTI raw clip the footage's yaw rate reads -2..-4 deg/s while the queue goes
-  // straight).
-  if (res.hazard.taken_over && taken_lateral_) {
+  // A hazard in place of a real object stays in the lane that object drives in: while it still moves as the
+  // real one did when it was taken over, its sideways offset follows the real one's measured offset
+  // (smoothed), so an error in the ego's estimated yaw does not slide it out of the lane (on the KITTI raw
+  // clip the footage's yaw rate read -2..-4 deg/s while the queue went straight). Once it has departed from
+  // that motion (braked), the real one no longer tells where it is: the last correction is held, so a
+  // stopped hazard does not slide sideways with the drift of a real car's measured offset (0.25 m over 2 s
+  // on the KITTI clip while the ego stood still).
+  const bool moves_as_taken = !continued && std::abs(pt->speed - T.points.front().speed) < 0.3;
+  if (res.hazard.taken_over && taken_lateral_ && (moves_as_taken || !lane_shift_)) {
     const double shift = *taken_lateral_ - centre[1];
     lane_shift_ = lane_shift_ ? 0.7 * *lane_shift_ + 0.3 * shift : shift;
+  }
+  if (res.hazard.taken_over && lane_shift_) {
     for (auto& c : corners) c[1] += *lane_shift_;
     centre[1] += *lane_shift_;
     res.hazard.taken_over->lateral_shift_m = *lane_shift_;
