@@ -457,19 +457,30 @@ TEST(EgoMotionSmoother, RejectsAnOutlierAndFillsGaps) {
 }
 
 // Queued behind a lead, traffic moving through the road region makes the odometry read a small reverse speed:
-// the ego of a front camera does not reverse, so the smoothed speed stops at zero (unless reversing is allowed).
-TEST(EgoMotionSmoother, AStandstillDoesNotBecomeReversing) {
+// the ego of a front camera does not reverse, so the smoothed speed stops at zero (unless reversing is
+// allowed). `frames` measured samples 0.1 s apart: braking from 2 m/s to a stop at frame 20, then
+// `stopped_speed`; yaw rate `turning` until then and `stopped_yaw_rate` after.
+std::vector<EgoMotionSample> braking_to_a_stop(int frames, double stopped_speed, double turning,
+                                               double stopped_yaw_rate, double yaw_sigma, bool yaw_measured) {
   std::vector<EgoMotionSample> raw;
-  for (int i = 0; i < 60; ++i) {
+  for (int i = 0; i < frames; ++i) {
     EgoMotionSample s;
     s.frame = i;
     s.t = 0.1 * i;
-    s.speed_mps = i < 20 ? 2.0 - 0.1 * i : -0.3;  // braking to a stop, then a reverse-looking read
+    s.speed_mps = i < 20 ? 2.0 - 0.1 * i : stopped_speed;
+    s.yaw_rate = i < 20 ? turning : stopped_yaw_rate;
     s.speed_sigma = 0.1;
-    s.yaw_rate_sigma = 0.01;
+    s.yaw_rate_sigma = yaw_sigma;
     s.measured = true;
+    s.yaw_measured = yaw_measured;
     raw.push_back(s);
   }
+  return raw;
+}
+
+TEST(EgoMotionSmoother, AStandstillDoesNotBecomeReversing) {
+  // Then a reverse-looking read.
+  const auto raw = braking_to_a_stop(60, -0.3, 0.0, 0.0, 0.01, false);
   const auto out = smooth_ego_motion(raw);
   for (const auto& s : out) EXPECT_GE(s.speed_mps, 0.0) << s.frame;
   EXPECT_NEAR(out[5].speed_mps, 1.5, 0.2);
@@ -483,19 +494,8 @@ TEST(EgoMotionSmoother, AStandstillDoesNotBecomeReversing) {
 // yaw rate: a car does not turn on the spot, so the smoothed yaw rate goes to zero with the speed, and a stop
 // does not turn the recorded path. While the ego moves, a real turn is kept.
 TEST(EgoMotionSmoother, AStoppedCarDoesNotTurn) {
-  std::vector<EgoMotionSample> raw;
-  for (int i = 0; i < 80; ++i) {
-    EgoMotionSample s;
-    s.frame = i;
-    s.t = 0.1 * i;
-    s.speed_mps = i < 20 ? 2.0 - 0.1 * i : 0.0;  // braking to a stop at frame 20
-    s.yaw_rate = i < 20 ? 0.1 : -0.005;          // turning left, then the queue's bias (-0.3 deg/s)
-    s.speed_sigma = 0.1;
-    s.yaw_rate_sigma = 0.002;
-    s.measured = true;
-    s.yaw_measured = true;
-    raw.push_back(s);
-  }
+  // Turning left, then the queue's bias (-0.3 deg/s).
+  const auto raw = braking_to_a_stop(80, 0.0, 0.1, -0.005, 0.002, true);
   const auto out = smooth_ego_motion(raw);
   EXPECT_NEAR(out[5].yaw_rate, 0.1, 0.02);  // 1.5 m/s may turn at up to 0.3 rad/s
   double turned = 0;                        // over the stop: the raw yaw rate integrates to -1.6 deg
