@@ -75,7 +75,7 @@ Json run_verifier(const std::string& params, int64_t critical, std::vector<doubl
 }
 
 TEST(VerifierAttribution, UnsafeCausedByTheInsertedObjectIsCounted) {
-  const Json s = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 4);
+  const Json s = run_verifier("{require_hazard_critical: true}", 4);
   EXPECT_TRUE(s["passed"].get<bool>()) << s.dump(2);
   EXPECT_EQ(s["unsafe"]["frames"], 1);
   EXPECT_EQ(s["unsafe"]["hazard_critical_frames"], 1);
@@ -87,26 +87,26 @@ TEST(VerifierAttribution, UnsafeCausedByTheInsertedObjectIsCounted) {
 // marks that frame, counts it, and takes the plan's intended minimum over the frames within the plan.
 TEST(VerifierAttribution, FramesPastThePlanAreMarkedAndLeftOutOfThePlansMinimum) {
   std::vector<Json> frames;
-  const Json s = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 4, {},
-                              std::nullopt, 4, -1, false, &frames, 0.5);
+  const Json s =
+      run_verifier("{require_hazard_critical: true}", 4, {}, std::nullopt, 4, -1, false, &frames, 0.5);
   ASSERT_EQ(frames.size(), 4u);  // three frames and the summary
   EXPECT_FALSE(frames[1].contains("after_plan"));
   EXPECT_EQ(frames[2]["after_plan"], true);
   EXPECT_EQ(s["visible_frames_after_plan"], 1);
   EXPECT_DOUBLE_EQ(s["ttc"]["intended_min_ttc_visible_s"].get<double>(),
                    1.5);  // frame 1's, not frame 2's 1.0
-  const Json whole = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 4, {},
-                                  std::nullopt, 4, -1, false, nullptr, 1.0);
+  const Json whole =
+      run_verifier("{require_hazard_critical: true}", 4, {}, std::nullopt, 4, -1, false, nullptr, 1.0);
   EXPECT_EQ(whole["visible_frames_after_plan"], 0);
   EXPECT_DOUBLE_EQ(whole["ttc"]["intended_min_ttc_visible_s"].get<double>(), 1.0);
 }
 
 TEST(VerifierAttribution, UnsafeCausedBySomeoneElseFailsWhenRequired) {
   // Another road user (track 9) is critical in the only Unsafe frame.
-  const Json lenient = run_verifier("{state_distance_origin: ego_origin}", 9);
+  const Json lenient = run_verifier("{}", 9);
   EXPECT_TRUE(lenient["passed"].get<bool>());                 // the default does not ask who caused it ...
   EXPECT_EQ(lenient["unsafe"]["hazard_critical_frames"], 0);  // ... but reports it
-  const Json strict = run_verifier("{state_distance_origin: ego_origin, require_hazard_critical: true}", 9);
+  const Json strict = run_verifier("{require_hazard_critical: true}", 9);
   EXPECT_FALSE(strict["passed"].get<bool>());
   EXPECT_EQ(
       strict["reasons"],
@@ -119,7 +119,7 @@ TEST(VerifierAttribution, UnsafeCausedBySomeoneElseFailsWhenRequired) {
 // track that was on the inserted object stays its track while it still overlaps it (min_iou_tracked), so an
 // Unsafe frame it causes is the hazard's; a different track there is not.
 TEST(VerifierAttribution, TheHazardsTrackKeepsItWhenTheBoxesPartWays) {
-  const std::string params = "{state_distance_origin: ego_origin, require_hazard_critical: true}";
+  const std::string params = "{require_hazard_critical: true}";
   const cv::Rect2f apart(130, 100, 50, 100);  // IoU 0.25 with the inserted box
   const Json same = run_verifier(params, 4, {}, apart, 4);
   EXPECT_TRUE(same["passed"].get<bool>()) << same.dump(2);
@@ -128,7 +128,7 @@ TEST(VerifierAttribution, TheHazardsTrackKeepsItWhenTheBoxesPartWays) {
   EXPECT_FALSE(other["passed"].get<bool>());
   EXPECT_EQ(other["unsafe"]["attributed_frames"], 0);
   const Json strict = run_verifier(
-      "{state_distance_origin: ego_origin, require_hazard_critical: true, "
+      "{require_hazard_critical: true, "
       "min_iou_tracked: 0.5}",
       4, {}, apart, 4);
   EXPECT_FALSE(strict["passed"].get<bool>());
@@ -143,7 +143,7 @@ TEST(VerifierAttribution, TheHazardsTrackKeepsItWhenTheBoxesPartWays) {
 // A hazard that took over a real object (track 7) passes only while the drawn one hides it: in no frame may
 // more than max_takeover_uncovered of the real one's box show the inpainted fill.
 TEST(VerifierAttribution, ATakenOverObjectMustBeHiddenByTheHazard) {
-  const std::string params = "{state_distance_origin: ego_origin, require_hazard_critical: true}";
+  const std::string params = "{require_hazard_critical: true}";
   const Json hidden = run_verifier(params, 4, {0.2, 0.1, 0.35});
   EXPECT_TRUE(hidden["passed"].get<bool>()) << hidden.dump(2);
   EXPECT_EQ(hidden["taken_over"]["track_id"], 7);

@@ -79,8 +79,7 @@ HazardTrajectory trajectory(double min_ttc) {
 }
 
 TEST(Verifier, PassesWhenReDetectedMeasuredAndUnsafe) {
-  auto r = testing::StageRunner::create<ClosedLoopVerifier>(
-      "{state_distance_origin: ego_origin, intended_distance_at: centre}");
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>("{intended_distance_at: centre}");
   const double intended[] = {3.0, 2.5, 2.0, 1.5, 1.2};
   const double achieved[] = {3.2, 2.6, 2.1, 1.4, 1.3};
   r.push("trajectory", trajectory(0.9), 0.0);
@@ -127,35 +126,27 @@ TEST(Verifier, PassesWhenReDetectedMeasuredAndUnsafe) {
 }
 
 TEST(Verifier, DistancesAreComparedFromTheRearAxleAtTheNearFace) {
-  // Defaults: the states measure from the camera (1.5 m ahead of the rear axle); the intended distance is the
-  // object's centre (20 m) minus half its 4.5 m length: 17.75 m from the rear axle, so a camera reading of 16
-  // m (17.5 m from the rear axle) is 0.25 m short.
-  auto r = testing::StageRunner::create<ClosedLoopVerifier>();
-  HazardTrajectory tr = trajectory(1.0);
-  tr.size_lwh = cv::Vec3d(4.5, 1.8, 1.5);
-  r.push("trajectory", tr, 0.0);
-  Frame f;
-  f.camera = test::test_camera();
-  r.push("frames", f, 0.0);
-  r.push("hazard", instance(0, true, 1.0), 0.0);
-  r.push("detections", detections(0, {near_box()}), 0.0);
-  r.push("states", states(0, 16.0), 0.0);
-  r.run();
-  const auto recs = r.collect<Record>("records");
-  EXPECT_EQ(recs[0].data["distance_compared_m"], Json::array({17.5, 17.75}));
-  EXPECT_DOUBLE_EQ(recs[0].data["distance_abs_error_m"].get<double>(), 0.25);
-
-  auto no_frames = testing::StageRunner::create<ClosedLoopVerifier>();
-  no_frames.push("hazard", instance(0, true, 1.0), 0.0);
-  no_frames.push("detections", detections(0, {}), 0.0);
-  no_frames.push("states", states(0, 16.0), 0.0);
-  try {
-    no_frames.run();
-    FAIL();
-  } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "node 'verifier': state_distance_origin 'camera' needs the frames input (the "
-              "camera position) at frame 0");
+  // The states say where their distances start: here the camera, 1.5 m ahead of the rear axle. The intended
+  // distance is the object's centre (20 m) minus half its 4.5 m length: 17.75 m from the rear axle, so a
+  // camera reading of 16 m (17.5 m from the rear axle) is 0.25 m short. Measured from a bumper 3.4 m ahead of
+  // the axle, the same object reads 14.35 m and is exact.
+  for (const auto& [origin, reading, error] : {std::tuple{1.5, 16.0, 0.25}, std::tuple{3.4, 14.35, 0.0}}) {
+    auto r = testing::StageRunner::create<ClosedLoopVerifier>();
+    HazardTrajectory tr = trajectory(1.0);
+    tr.size_lwh = cv::Vec3d(4.5, 1.8, 1.5);
+    r.push("trajectory", tr, 0.0);
+    r.push("hazard", instance(0, true, 1.0), 0.0);
+    r.push("detections", detections(0, {near_box()}), 0.0);
+    ObjectStates st = states(0, reading);
+    st.distance_origin_x = origin;
+    r.push("states", st, 0.0);
+    r.run();
+    const auto recs = r.collect<Record>("records");
+    const Json compared = recs[0].data["distance_compared_m"];
+    EXPECT_NEAR(compared[0].get<double>(), reading + origin, 1e-9);
+    EXPECT_DOUBLE_EQ(compared[1].get<double>(), 17.75);
+    EXPECT_NEAR(recs[0].data["distance_abs_error_m"].get<double>(), error, 1e-9) << "origin " << origin;
+    EXPECT_DOUBLE_EQ(recs.back().data["distance"]["state_origin_x_m"].get<double>(), origin);
   }
 }
 
@@ -218,8 +209,7 @@ TEST(Verifier, NeverVisibleHazardFails) {
 // its plan says TTC 14 s there (a tracking artefact closing in); frame 2 the hazard is critical and planned at
 // 1.3 s (`credited` decides whether that frame exists).
 Json attribution_run(bool credited) {
-  auto r = testing::StageRunner::create<ClosedLoopVerifier>(
-      "{require_hazard_critical: true, state_distance_origin: ego_origin}");
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>("{require_hazard_critical: true}");
   r.push("trajectory", trajectory(1.3), 0.0);
   const double planned[] = {14.0, 14.0, 1.3};
   for (int i = 0; i < (credited ? 3 : 2); ++i) {
@@ -319,8 +309,7 @@ AppearanceStats looks(const std::string& label, double halo, double sharpness) {
 
 TEST(Verifier, ReportsRealismAndAnIndependentDetectorWithoutChangingTheVerdict) {
   auto report = [](bool with_extras) {
-    auto r = testing::StageRunner::create<ClosedLoopVerifier>(
-        "{state_distance_origin: ego_origin, intended_distance_at: centre}");
+    auto r = testing::StageRunner::create<ClosedLoopVerifier>("{intended_distance_at: centre}");
     r.push("trajectory", trajectory(0.9), 0.0);
     for (int i = 0; i < 4; ++i) {
       const double t = 0.1 * i;

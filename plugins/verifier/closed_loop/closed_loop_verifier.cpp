@@ -66,17 +66,15 @@ ComponentInfo ClosedLoopVerifier::describe() {
       "objects of its class, from the renderer's hazard packets) and `independent_redetection` (the "
       "independent_detections input: share of visible frames with a detection of IoU >= min_iou of the class "
       "group, and of the exact class).";
-  i.inputs = {
-      optional(port<HazardInstance>("hazard", "where the renderer put the hazard")),
-      port<Detections>("detections", "detections on the augmented frames"),
-      optional(multi(port<RiskAssessment>("risk", "re-assessed risk metrics"))),
-      optional(port<ObjectStates>("states", "re-estimated object states")),
-      sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
-      optional(port<Frame>("frames", "the augmented frames: camera position for state_distance_origin")),
-      optional(
-          port<Detections>("independent_detections",
-                           "an independent detector's detections on the augmented frames (reported, never "
-                           "part of the verdict)"))};
+  i.inputs = {optional(port<HazardInstance>("hazard", "where the renderer put the hazard")),
+              port<Detections>("detections", "detections on the augmented frames"),
+              optional(multi(port<RiskAssessment>("risk", "re-assessed risk metrics"))),
+              optional(port<ObjectStates>("states", "re-estimated object states")),
+              sticky(port<HazardTrajectory>("trajectory", "the planned hazard")),
+              optional(port<Detections>(
+                  "independent_detections",
+                  "an independent detector's detections on the augmented frames (reported, never "
+                  "part of the verdict)"))};
   i.outputs = {port<Record>("records", "per-frame verification records and the final summary")};
   i.params = {
       ParamSpec::number("min_iou", 0.5)
@@ -107,12 +105,6 @@ ComponentInfo ClosedLoopVerifier::describe() {
       ParamSpec::number("max_ttc_error_s", -1.0)
           .range(-1, 100)
           .describe("pass: |achieved - intended minimum TTC| at most this (-1 = not checked)"),
-      ParamSpec::string("state_distance_origin", "camera")
-          .one_of({"camera", "bumper", "ego_origin"})
-          .describe("where the states' distance_m is measured from (the estimator's distance_origin)"),
-      ParamSpec::number("ego_front_m", 3.4)
-          .range(0, 20)
-          .describe("rear axle to front bumper (m), for 'bumper'"),
       ParamSpec::string("intended_distance_at", "near_face")
           .one_of({"near_face", "centre"})
           .describe(
@@ -149,22 +141,8 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
   ttc_metric_ = p.get_string("ttc_metric");
   unsafe_metrics_ = p.get_strings("unsafe_metrics");
   max_ttc_error_ = p.get_double("max_ttc_error_s");
-  state_origin_ = p.get_string("state_distance_origin");
-  ego_front_ = p.get_double("ego_front_m");
   near_face_ = p.get_string("intended_distance_at") == "near_face";
   file_ = output_param_path(ctx, "file");
-}
-
-double ClosedLoopVerifier::origin_offset(StageContext& ctx, const Inputs& in) const {
-  if (state_origin_ == "ego_origin") return 0.0;
-  if (state_origin_ == "bumper") return ego_front_;
-  const Frame* f = in.get<Frame>("frames");
-  if (!f || !f->camera.valid())
-    throw Error("node '" + ctx.node_id() +
-                "': state_distance_origin 'camera' needs the frames input (the camera "
-                "position) at frame " +
-                std::to_string(ctx.frame_index()));
-  return f->camera.t_ego_cam[0];
 }
 
 void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& out) {
@@ -349,8 +327,10 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
       scores_.push_back(hit->score);
     }
     if (match && std::isfinite(match->distance_m) && std::isfinite(inst->distance_m)) {
-      // Both in rear-axle terms; the intended one at the face a camera sees unless the centre is asked for.
-      const double estimated = match->distance_m + origin_offset(ctx, in);
+      // Both in rear-axle terms (the states say where their distances start); the intended one at the face a
+      // camera sees unless the centre is asked for.
+      const double estimated = match->distance_m + states->distance_origin_x;
+      state_origin_x_ = states->distance_origin_x;
       const double intended = inst->distance_m - (near_face_ ? length_.value_or(0.0) / 2 : 0.0);
       const double err = std::abs(estimated - intended);
       dist_abs_.push_back(err);
@@ -509,7 +489,7 @@ Json ClosedLoopVerifier::summary() const {
                       {"median_iou", maybe(median(ious_))},
                       {"mean_confidence", maybe(mean(scores_))}};
   j["distance"] = {
-      {"state_origin", state_origin_},
+      {"state_origin_x_m", state_origin_x_ ? Json(*state_origin_x_) : Json()},
       {"intended_at", near_face_ ? "near_face" : "centre"},
       {"matched_frames", dist_abs_.size()},
       {"median_abs_error_m", maybe(median(dist_abs_))},

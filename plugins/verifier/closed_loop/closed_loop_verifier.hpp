@@ -17,7 +17,7 @@ namespace hf {
 // `hazard` (HazardInstance: where the object was drawn, per frame), `detections` (re-detections on the
 // augmented frames), `risk` (RiskAssessment, multi: the re-assessed metrics), `states` (ObjectStates,
 // optional: for the distance check), `trajectory` (HazardTrajectory, sticky: the intended minimum TTC and the
-// object's length), `frames` (Frame, optional: the camera position when the states measure from the camera).
+// object's length); the states' distances are taken from where they say they start (distance_origin_x).
 // Output: `records` (Record "verification" per frame with a hazard packet, stamped with that frame; and one
 // "verification_summary" at finish, stamped with the last frame). Writes <output>/verification.json at finish
 // (atomic). A scenario counts as generated only when `passed` is true; `reasons` says why not.
@@ -25,8 +25,7 @@ namespace hf {
 // frames (never used to plan or to pass), reported as `independent_redetection`. The hazard packets'
 // appearances (HazardInstance::appearance / references) are compared in `realism`; neither changes `passed`.
 // Params: min_iou, min_redetection_rate, require_unsafe, require_hazard_critical, require_class_match,
-// ttc_metric, unsafe_metrics, max_ttc_error_s, state_distance_origin, ego_front_m, intended_distance_at,
-// file.
+// ttc_metric, unsafe_metrics, max_ttc_error_s, intended_distance_at, file.
 class ClosedLoopVerifier : public Stage {
  public:
   static ComponentInfo describe();
@@ -38,15 +37,13 @@ class ClosedLoopVerifier : public Stage {
   Json summary() const;
 
  private:
-  // Metres to add to a state's distance_m to measure it from the rear axle, like HazardInstance::distance_m.
-  double origin_offset(StageContext& ctx, const Inputs& in) const;
   // Params
   double min_iou_ = 0.5, min_rate_ = 0.5, max_ttc_error_ = -1;
   bool require_unsafe_ = true, require_class_match_ = true, require_critical_ = false;
   std::string ttc_metric_;
   std::vector<std::string> unsafe_metrics_;
-  std::string file_, state_origin_;
-  double ego_front_ = 3.4;
+  std::string file_;
+  std::optional<double> state_origin_x_;  // the matched states' distance_origin_x (m from the rear axle)
   bool near_face_ = true;
   // Accumulated over the run
   int frames_ = 0, visible_ = 0, redetected_ = 0, unsafe_frames_ = 0, critical_frames_ = 0;
