@@ -178,8 +178,9 @@ TEST(KalmanEstimator, TruncatedBoxesGiveNoRangeOfTheCutEdge) {
   const RangeCue far = KalmanEstimator::range_cue(cam, box_of(cam, 60.0, 0.0, kCarH, kCarW), 0, kCarH, c);
   EXPECT_GT(*far.ground_var / *far.pinhole_var, *both.ground_var / *both.pinhole_var);
 
-  // A lead whose lower part leaves the image: its state goes on (predicted), never from the cut box's height
-  // — for max_gap_s without any other measurement (keypoints off here), then it is no longer reported.
+  // A lead whose lower part leaves the image: its range goes on predicted, never from the cut box's height,
+  // and only its column is measured (bearing) — for max_gap_s without any range or scale measurement
+  // (keypoints off here), then it is no longer reported.
   auto x_of = [](double t) { return 12.0 - 2.0 * t; };
   auto seq = lead_sequence(30, 0.1, 5.0, x_of, 0.3);
   for (int k = 15; k < 30; ++k) {
@@ -191,13 +192,69 @@ TEST(KalmanEstimator, TruncatedBoxesGiveNoRangeOfTheCutEdge) {
   for (int k = 15; k < 30; ++k) {
     const ObjectState* s = find(out[k], 1);
     if (k > 19) {
-      EXPECT_EQ(s, nullptr) << "frame " << k << ": 0.5 s without a measurement";
+      EXPECT_EQ(s, nullptr) << "frame " << k << ": 0.5 s without a range measurement";
       continue;
     }
     ASSERT_NE(s, nullptr);
-    EXPECT_EQ(s->distance_method, "predicted");
+    EXPECT_EQ(s->distance_method, "bearing");
     EXPECT_TRUE(s->truncated & truncation::kBottom);
     EXPECT_NEAR(s->distance_m, x_of(k * 0.1) - kBumper, 1.0) << "frame " << k;
+    EXPECT_NEAR(s->lateral_m, 0.2, 0.15) << "frame " << k;
+  }
+}
+
+TEST(KalmanEstimator, APersonCrossingCloseWithTheFeetCutOffIsFollowedIntoThePath) {
+  // A camera with the KITTI raw geometry (1242x375, fy 721.5 px, 1.65 m high): the road is in the picture
+  // only from 5.9 m ahead of it. The ego at 2.5 m/s; a person standing 3.5 m to the left (x = 14 - 2.5 t from
+  // the rear axle) sets off across the road at 2 m/s just as the feet leave the picture (2.6 s). From then on
+  // the boxes measure no range, only their column: the sideways offset must follow the person into the ego's
+  // path
+  // (|y| < 1.2 m from 3.75 s, 1.2 m ahead of the bumper); the range is carried by the ego's motion.
+  const CameraModel cam = CameraModel::pinhole(1242, 375, 721.5, 721.5, 609.6, 172.9, 1.65, 0.0, kCamX);
+  auto x_of = [](double t) { return 14.0 - 2.5 * t; };
+  auto y_of = [](double t) { return t < 2.6 ? 3.5 : 3.5 - 2.0 * (t - 2.6); };
+  cv::RNG rng(11);
+  std::vector<Step> seq;
+  int first_cut = -1;
+  for (int k = 0; k <= 42; ++k) {
+    const double t = k * 0.1;
+    cv::Rect2f b = box_of(cam, x_of(t), y_of(t), 1.75, 0.5);
+    b.x += static_cast<float>(rng.gaussian(0.5));
+    Track tr = track(1, "person", b);
+    if (b.y + b.height > 375.f) {
+      tr.box.height = 375.f - b.y;
+      tr.truncated = truncation::kBottom;
+      if (first_cut < 0) first_cut = k;
+    }
+    Step st{frame_at(k, t, cam, 2.5), {}};
+    st.tracks.frame_index = k;
+    st.tracks.items = {tr};
+    seq.push_back(std::move(st));
+  }
+  ASSERT_EQ(first_cut, 26);
+  // Without keypoints (no image here) only max_gap_s keeps a state that has no range measurement; on footage
+  // the keypoint scale change refreshes it.
+  const auto on = run_kalman("keypoints: false\nmax_gap_s: 2.0", seq);
+  int in_path = 0;
+  for (int k = first_cut; k <= 42; ++k) {
+    const ObjectState* s = find(on[k], 1);
+    ASSERT_NE(s, nullptr) << "frame " << k;
+    EXPECT_EQ(s->distance_method, "bearing") << "frame " << k;
+    EXPECT_NEAR(s->lateral_m, y_of(k * 0.1), 0.3) << "frame " << k;
+    EXPECT_NEAR(s->distance_m, x_of(k * 0.1) - kBumper, 0.5) << "frame " << k;
+    if (s->in_path) ++in_path;
+  }
+  EXPECT_GE(in_path, 4);
+  // The bearing is what moves it: the same boxes held by the tracker (no measurement at all) leave the offset
+  // where the last whole box put it, outside the path.
+  auto held = seq;
+  for (int k = first_cut; k <= 42; ++k) held[k].tracks.items[0].misses = 1;
+  const auto off = run_kalman("keypoints: false\nmax_gap_s: 2.0", held);
+  for (int k = first_cut; k <= 42; ++k) {
+    const ObjectState* s = find(off[k], 1);
+    ASSERT_NE(s, nullptr) << "frame " << k;
+    EXPECT_GT(s->lateral_m, 3.0) << "frame " << k;
+    EXPECT_FALSE(s->in_path) << "frame " << k;
   }
 }
 

@@ -137,6 +137,29 @@ TrackFilter::Update TrackFilter::update_inverse_ttc(double z, double var, double
   return Update::kAccepted;
 }
 
+TrackFilter::Update TrackFilter::update_bearing(const cv::Vec2d& origin, const cv::Vec2d& dir, double var) {
+  if (!initialised_ || !(dir[0] > 1e-6) || !(var > 0)) return Update::kGated;
+  // The ray at the predicted range gives the sideways position there; the range's own uncertainty spreads it
+  // by the ray's slope. One bearing cannot tell a sideways step from a step along the ray, so only the
+  // sideways part of the state (y, vy) is updated and the range and its rate (x, vx: the ego's motion, the
+  // keypoint scale, earlier ranges) are kept as they are (a Schmidt, or "consider", update).
+  const double slope = dir[1] / dir[0];
+  const double z = origin[1] + (s_[0] - origin[0]) * slope;
+  const double r = var * noise_scale_ + P_(0, 0) * slope * slope;
+  const double S = P_(1, 1) + r;
+  const double y = z - s_[1];
+  if (y * y / S > cfg_.scale_gate_chi2) return Update::kGated;
+  cv::Matx41d K = cv::Matx41d(P_(0, 1), P_(1, 1), P_(2, 1), P_(3, 1)) * (1.0 / S);
+  K(0, 0) = 0.0;
+  K(2, 0) = 0.0;
+  for (int i = 0; i < 4; ++i) s_[i] += K(i, 0) * y;
+  const cv::Matx14d H(0.0, 1.0, 0.0, 0.0);
+  const cv::Matx44d IKH = cv::Matx44d::eye() - K * H;
+  P_ = IKH * P_ * IKH.t() + (K * K.t()) * r;
+  clamp_speed();
+  return Update::kAccepted;
+}
+
 void TrackFilter::set_class_limits(double max_speed_mps, double accel_sd) {
   cfg_.max_speed_mps = max_speed_mps;
   cfg_.accel_sd = accel_sd;

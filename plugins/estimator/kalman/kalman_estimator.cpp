@@ -560,6 +560,23 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
             s.distance_method = cue.method;
         }
         if (s.distance_method == "predicted") s.distance_method = cue.method;
+      } else if (f.initialised() && f.state()[0] - cam_x > 0.5) {
+        // No range from this box (cut off at the top or bottom: a car close ahead, a person crossing close in
+        // front seen from the waist up), but its column still says where across the view it is: the point
+        // of the box's centre at the predicted depth lies on the object's vertical, so the ray from the
+        // camera through it bounds the sideways position. Without it a crossing person's offset stays where
+        // the last whole box put it while the person walks into the ego's path.
+        const double depth = f.state()[0] - cam_x;
+        const cv::Point2d c(tr.box.x + tr.box.width / 2.0, tr.box.y + tr.box.height / 2.0);
+        const cv::Vec3d p = cam.cam_to_ego(
+            cv::Vec3d((c.x - cam.cx) * depth / cam.fx, (c.y - cam.cy) * depth / cam.fy, depth));
+        double lat_px = live.box_jitter_px;
+        if (s.truncated & (truncation::kLeft | truncation::kRight)) lat_px += tr.box.width / 2.0;
+        const double sd = lat_px * depth / cam.fx;
+        const cv::Vec2d origin(cam.t_ego_cam[0], cam.t_ego_cam[1]);
+        if (f.update_bearing(origin, cv::Vec2d(p[0], p[1]) - origin, sd * sd) ==
+            estimation::TrackFilter::Update::kAccepted)
+          s.distance_method = "bearing";
       }
       auto r = ratios.find(tr.id);
       if (f.initialised() && r != ratios.end() && r->second.valid()) {
@@ -573,7 +590,8 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     const cv::Vec4d& x = f.state();
     // An extrapolated state is reported for a short gap only, and never once it has been carried into the ego
     // (a collision no measurement saw is the model's, not the scene's).
-    const bool measured = s.distance_method != "predicted" && s.distance_method != "rejected";
+    const bool measured =
+        s.distance_method != "predicted" && s.distance_method != "rejected" && s.distance_method != "bearing";
     if (t - f.last_update() > cfg_.max_gap_s + 1e-9) continue;
     if (!measured && x[0] <= cfg_.front_overhang) continue;
 

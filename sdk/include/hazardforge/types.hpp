@@ -207,7 +207,9 @@ struct ObjectState {
   int age = 0;
   int misses = 0;
   bool in_path = false;
-  std::string distance_method;  // "pinhole", "ground", "fused", "annotation", "predicted" (no range this frame)
+  // "pinhole", "ground", "fused", "annotation"; "bearing" (no range this frame, only the sideways position
+  // from the box's column), "predicted" (nothing measured this frame), "rejected" (the measurement was gated)
+  std::string distance_method;
   int annotation_index = -1;
   unsigned truncated = 0;  // hf::truncation flags of the box (its height/bottom did not measure range)
   // Covariance of (distance_m, lateral_m, velocity_rel.x, velocity_rel.y) in m and m/s, from estimators that

@@ -56,6 +56,12 @@ class TrackFilter {
   // Scale change of the object's image: z = (ratio - 1) / dt = closing speed / depth, with depth = x - cam_x
   // and closing = -(vx - ego_vx) (ego_vx = the ego's own speed along x in absolute mode, 0 in relative).
   Update update_inverse_ttc(double z, double var, double cam_x, double ego_vx);
+  // Bearing only (a box whose range cues are cut off by the image border, a person seen from the waist up):
+  // the object lies on the ground line through `origin` along `dir` (the camera's position and the viewing
+  // ray's direction, ego frame); var = variance of the object's offset across that line (m^2) at its range.
+  // Moves the state across the ray and leaves the range to the prediction and the other cues. Gated by the
+  // 1-dof innovation (scale_gate_chi2); no range is measured, so last_update() does not move.
+  Update update_bearing(const cv::Vec2d& origin, const cv::Vec2d& dir, double var);
   // Rescales the state about the camera (positions and relative velocity by k): when the class prior behind
   // the range changes (a track relabelled car -> truck), so TTC = range / closing is unchanged.
   void rescale(double k, double cam_x, double ego_vx);
