@@ -203,6 +203,31 @@ TEST(KalmanEstimator, TruncatedBoxesGiveNoRangeOfTheCutEdge) {
   }
 }
 
+TEST(KalmanEstimator, ABoxEndingAboveTheBorderWhileTheStateReachesBelowItIsTruncated) {
+  // A lead closing at 2 m/s from 10 m; from x < 5.87 m its ground contact is below the picture, and the
+  // detector then ends its box 20 px above the border (the underbody lost in shadow), outside any border
+  // margin and without a truncation flag. Its height would read the car 1-3 m too far; the filter's own
+  // prediction says the contact is below the picture, so the box is truncated and the range goes on from the
+  // prediction.
+  auto x_of = [](double t) { return 10.0 - 2.0 * t; };
+  auto seq = lead_sequence(30, 0.1, 5.0, x_of, 0.3);
+  int first_cut = -1;
+  for (int k = 0; k < 30; ++k) {
+    cv::Rect2f& b = seq[k].tracks.items[0].box;
+    if (b.y + b.height <= 900.f) continue;  // the ground contact is in the picture: a whole box
+    b.height = 880.f - b.y;
+    if (first_cut < 0) first_cut = k;
+  }
+  ASSERT_EQ(first_cut, 21);
+  const auto out = run_kalman("keypoints: false\nmax_gap_s: 1.5", seq);
+  for (int k = first_cut; k < 30; ++k) {
+    const ObjectState* s = find(out[k], 1);
+    ASSERT_NE(s, nullptr) << "frame " << k;
+    EXPECT_TRUE(s->truncated & truncation::kBottom) << "frame " << k;
+    EXPECT_NEAR(s->distance_m, x_of(k * 0.1) - kBumper, 0.3) << "frame " << k;
+  }
+}
+
 TEST(KalmanEstimator, APersonCrossingCloseWithTheFeetCutOffIsFollowedIntoThePath) {
   // A camera with the KITTI raw geometry (1242x375, fy 721.5 px, 1.65 m high): the road is in the picture
   // only from 5.9 m ahead of it. The ego at 2.5 m/s; a person standing 3.5 m to the left (x = 14 - 2.5 t from

@@ -145,10 +145,16 @@ TrackFilter::Update TrackFilter::update_bearing(const cv::Vec2d& origin, const c
   // keypoint scale, earlier ranges) are kept as they are (a Schmidt, or "consider", update).
   const double slope = dir[1] / dir[0];
   const double z = origin[1] + (s_[0] - origin[0]) * slope;
-  const double r = var * noise_scale_ + P_(0, 0) * slope * slope;
+  const double range_part = P_(0, 0) * slope * slope;
+  const double r = var * bearing_noise_scale_ + range_part;
   const double S = P_(1, 1) + r;
   const double y = z - s_[1];
   if (y * y / S > cfg_.scale_gate_chi2) return Update::kGated;
+  // Covariance matching as for positions: a box whose column jitters more than the stated noise (a cut box's
+  // visible part changes its width) is learnt from the innovations (expectation 1 for one degree of freedom).
+  mean_bearing_nis_ = (1.0 - cfg_.noise_memory) * mean_bearing_nis_ +
+                      cfg_.noise_memory * y * y / (P_(1, 1) + var + range_part);
+  bearing_noise_scale_ = std::clamp(mean_bearing_nis_, 1.0, cfg_.max_noise_scale);
   cv::Matx41d K = cv::Matx41d(P_(0, 1), P_(1, 1), P_(2, 1), P_(3, 1)) * (1.0 / S);
   K(0, 0) = 0.0;
   K(2, 0) = 0.0;

@@ -8,6 +8,21 @@
 namespace hf {
 
 namespace {
+
+// Whether a box ending near the picture's bottom edge is cut there although the detector did not say so: the
+// track's predicted state puts the object's ground contact below the picture. The box then ends where the
+// detector lost the object's lower part (a dark underbody or shadow close in front), not at its ground
+// contact: on the KITTI raw clip a car 5 m ahead, its bumper below the picture, got a box ending 10 px above
+// the border (just outside the detector's margin) and was read 1.2 m too far. Only boxes ending within 4 % of
+// the picture's height of the edge are questioned, so a state predicted too close cannot silence the range of
+// a box that plainly ends on the road.
+bool cut_below_picture(const CameraModel& cam, const estimation::TrackFilter& f, const cv::Rect2f& box,
+                       int rows) {
+  if (box.y + box.height < rows * (1.0 - 0.04)) return false;
+  const cv::Vec4d& x = f.state();
+  const auto px = cam.project_ego(cv::Vec3d(x[0], x[1], 0.0));
+  return px && px->y > rows;
+}
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 // Heading change and translation of the ego from the previous to the current frame, in the previous frame.
@@ -495,7 +510,7 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     }
     TrackMemory& mem = found->second;
     estimation::TrackFilter& f = mem.filter;
-    const unsigned truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
+    unsigned truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
     if (f.initialised()) {
       f.predict(t, delta);
       // The voted class changed: the state's range was measured on the other class's height. Fused ranges are on
@@ -512,6 +527,9 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
       }
     }
     mem.label = tr.label;
+    if (f.initialised() && !(truncated & truncation::kBottom) &&
+        cut_below_picture(cam, f, tr.box, image_size.height))
+      truncated |= truncation::kBottom;
 
     ObjectState s;
     s.track_id = tr.id;

@@ -60,7 +60,8 @@ class TrackFilter {
   // the object lies on the ground line through `origin` along `dir` (the camera's position and the viewing
   // ray's direction, ego frame); var = variance of the object's offset across that line (m^2) at its range.
   // Moves the state across the ray and leaves the range to the prediction and the other cues. Gated by the
-  // 1-dof innovation (scale_gate_chi2); no range is measured, so last_update() does not move.
+  // 1-dof innovation (scale_gate_chi2); its noise is scaled by covariance matching on its own innovations. No
+  // range is measured, so last_update() does not move.
   Update update_bearing(const cv::Vec2d& origin, const cv::Vec2d& dir, double var);
   // Rescales the state about the camera (positions and relative velocity by k): when the class prior behind
   // the range changes (a track relabelled car -> truck), so TTC = range / closing is unchanged.
@@ -83,6 +84,8 @@ class TrackFilter {
   double last_update_ = 0.0;
   double noise_scale_ = 1.0;
   double mean_nis_ = 2.0;
+  double bearing_noise_scale_ = 1.0;  // the same for bearing-only updates (their own innovations)
+  double mean_bearing_nis_ = 1.0;
   cv::Vec4d s_{0, 0, 0, 0};
   cv::Matx44d P_ = cv::Matx44d::eye();
 };
