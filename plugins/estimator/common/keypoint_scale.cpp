@@ -106,16 +106,24 @@ std::map<int64_t, ScaleRatio> KeypointScaleTracker::update(const cv::Mat& image,
         // Points may move a little outside a jittery box, never far.
         const cv::Rect2f keep(box.x - 0.1f * box.width, box.y - 0.1f * box.height, 1.2f * box.width,
                               1.2f * box.height);
+        const double off_box_px = cfg_.max_off_box_fraction * std::max(box.width, box.height);
         std::vector<cv::Point2f> a, b;
+        int off_box = 0;
         for (size_t k = span.first; k < span.second; ++k) {
           if (!st1[k] || !st2[k]) continue;
           if (cv::norm(back[k] - p0[k]) > cfg_.max_fb_error_px) continue;
           if (!keep.contains(p1[k])) continue;
+          // guess[k] is where the box's motion carries the point.
+          if (cv::norm(p1[k] - guess[k]) > off_box_px) {
+            ++off_box;
+            continue;
+          }
           a.push_back(p0[k]);
           b.push_back(p1[k]);
         }
         ScaleRatio r = scale_from_matches(a, b, cfg_.min_pair_px, cfg_.min_points);
         r.dt = dt;
+        r.off_box = off_box;
         out[id] = r;
       }
     }

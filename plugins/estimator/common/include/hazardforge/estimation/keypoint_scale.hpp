@@ -20,6 +20,7 @@ struct ScaleRatio {
   double dt = 0.0;                                              // s between the two frames
   int points = 0;                                               // points that survived tracking
   int pairs = 0;                                                // pairs the median was taken over
+  int off_box = 0;  // tracked points dropped for not moving with their box (background, swinging limbs)
   bool valid() const { return std::isfinite(ratio) && ratio > 0 && std::isfinite(log_sigma); }
   // (ratio - 1) / dt: closing speed over depth, 1/TTC (positive = approaching).
   double inverse_ttc() const { return (ratio - 1.0) / dt; }
@@ -41,13 +42,19 @@ struct KeypointScaleConfig {
   double min_pair_px = 10.0;    // see scale_from_matches
   int min_points = 6;
   double max_fb_error_px = 1.0;  // forward-backward tracking error above which a point is dropped
+  // A point must land within this fraction of the box's larger side of where the box's own motion (its
+  // translation and per-axis scaling between the two frames) carries it: background seen through or beside
+  // the object (a parked car behind a crossing person) and swinging limbs move otherwise and would pull the
+  // median ratio towards their own depth. Detector jitter of a few per cent of the box stays well inside.
+  double max_off_box_fraction = 0.1;
   int pyramid_levels = 3;
   int window_px = 15;
 };
 
 // Keeps each box's corners from the previous frame and tracks them into the current one with pyramidal
 // Lucas-Kanade, seeded by the box's own motion (so keyframes 0.5 s apart still converge), forward-backward
-// checked. One call per frame, in time order.
+// checked, and keeps only points that move with their box (max_off_box_fraction). One call per frame, in time
+// order.
 class KeypointScaleTracker {
  public:
   explicit KeypointScaleTracker(KeypointScaleConfig c = {}) : cfg_(c) {}
