@@ -502,6 +502,38 @@ TEST(KeypointScale, PointsNotMovingWithTheBoxAreLeftOut) {
   EXPECT_LT(err_filtered, 0.5 * err_all);
 }
 
+// A detector's dropout: the box is missing for one frame. Its points are kept and tracked from the frame they
+// were found in, so the next ratio spans both steps (0.2 s); points older than max_bridge_s are forgotten,
+// while consecutive calls that far apart (2 Hz keyframes) still measure.
+TEST(KeypointScale, ABoxMissingForAFrameKeepsItsPoints) {
+  const cv::Mat object = texture(160, 120, 41), background = texture(800, 600, 42);
+  auto frame = [&](double scale, std::map<int64_t, cv::Rect2f>* boxes) {
+    cv::Rect2f box;
+    cv::Mat img = render(object, background, scale, {400.0, 300.0}, &box);
+    (*boxes)[3] = box;
+    return img;
+  };
+  estimation::KeypointScaleTracker kp;
+  std::map<int64_t, cv::Rect2f> b0, b1, b2;
+  const cv::Mat i0 = frame(1.0, &b0), i1 = frame(1.04, &b1), i2 = frame(1.04 * 1.04, &b2);
+  EXPECT_TRUE(kp.update(i0, 0.0, b0).empty());
+  EXPECT_TRUE(kp.update(i1, 0.1, {}).empty());  // missed
+  const auto r = kp.update(i2, 0.2, b2);
+  ASSERT_EQ(r.count(3), 1u);
+  ASSERT_TRUE(r.at(3).valid());
+  EXPECT_NEAR(r.at(3).dt, 0.2, 1e-9);
+  EXPECT_NEAR(r.at(3).ratio, 1.04 * 1.04, 0.005);
+
+  const double bridge = estimation::KeypointScaleConfig{}.max_bridge_s;
+  estimation::KeypointScaleTracker forgets;
+  forgets.update(i0, 0.0, b0);
+  forgets.update(i1, bridge / 2, {});
+  EXPECT_TRUE(forgets.update(i2, bridge * 1.01, b2).empty());
+  estimation::KeypointScaleTracker keyframes;
+  keyframes.update(i0, 0.0, b0);
+  EXPECT_EQ(keyframes.update(i2, bridge, b2).count(3), 1u);
+}
+
 TEST(TtcKeypoints, PureScalingGivesTheTtcAndIgnoresTheBoxEdges) {
   // Depth d(t) = 20 - 4 t m: image scale 20 / d(t); TTC = d / 4. Boxes jitter by up to 3 px, which would ruin
   // a box-height TTC, and the background inside the box moves differently.

@@ -73,14 +73,22 @@ std::map<int64_t, ScaleRatio> KeypointScaleTracker::update(const cv::Mat& image,
   const cv::Rect2f frame(0.f, 0.f, static_cast<float>(grey.cols), static_cast<float>(grey.rows));
 
   std::map<int64_t, ScaleRatio> out;
-  if (have_prev_ && t > prev_t_) {
-    // All boxes' points in one forward and one backward call.
+  // Points of every box with a memory, grouped by the frame they were found in (the previous call, or an
+  // earlier one for a box that was missing): one forward and one backward call per group.
+  std::map<const std::vector<cv::Mat>*, std::vector<int64_t>> groups;
+  for (const auto& [id, box] : boxes) {
+    auto it = memory_.find(id);
+    if (it == memory_.end() || it->second.points.empty() || !(t > it->second.t)) continue;
+    if (it->second.missed && t - it->second.t > cfg_.max_bridge_s + 1e-9) continue;
+    groups[it->second.pyramid.get()].push_back(id);
+  }
+  const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+  for (const auto& [before, ids] : groups) {
     std::vector<cv::Point2f> p0, guess;
     std::vector<std::pair<int64_t, std::pair<size_t, size_t>>> spans;
-    for (const auto& [id, box] : boxes) {
-      auto it = memory_.find(id);
-      if (it == memory_.end() || it->second.points.empty()) continue;
-      const Memory& m = it->second;
+    for (int64_t id : ids) {
+      const Memory& m = memory_.at(id);
+      const cv::Rect2f& box = boxes.at(id);
       // The box's own motion (scale about its centre plus translation) is the initial guess of each point.
       const float sx = m.box.width > 0 ? box.width / m.box.width : 1.f;
       const float sy = m.box.height > 0 ? box.height / m.box.height : 1.f;
@@ -91,49 +99,54 @@ std::map<int64_t, ScaleRatio> KeypointScaleTracker::update(const cv::Mat& image,
       }
       spans.push_back({id, {first, p0.size()}});
     }
-    if (!p0.empty()) {
-      const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
-      std::vector<cv::Point2f> p1 = guess, back = p0;
-      std::vector<uchar> st1, st2;
-      std::vector<float> err;
-      cv::calcOpticalFlowPyrLK(prev_pyramid_, pyramid, p0, p1, st1, err, win, cfg_.pyramid_levels, crit,
-                               cv::OPTFLOW_USE_INITIAL_FLOW);
-      cv::calcOpticalFlowPyrLK(pyramid, prev_pyramid_, p1, back, st2, err, win, cfg_.pyramid_levels, crit,
-                               cv::OPTFLOW_USE_INITIAL_FLOW);
-      const double dt = t - prev_t_;
-      for (const auto& [id, span] : spans) {
-        const cv::Rect2f& box = boxes.at(id);
-        // Points may move a little outside a jittery box, never far.
-        const cv::Rect2f keep(box.x - 0.1f * box.width, box.y - 0.1f * box.height, 1.2f * box.width,
-                              1.2f * box.height);
-        const double off_box_px = cfg_.max_off_box_fraction * std::max(box.width, box.height);
-        std::vector<cv::Point2f> a, b;
-        int off_box = 0;
-        for (size_t k = span.first; k < span.second; ++k) {
-          if (!st1[k] || !st2[k]) continue;
-          if (cv::norm(back[k] - p0[k]) > cfg_.max_fb_error_px) continue;
-          if (!keep.contains(p1[k])) continue;
-          // guess[k] is where the box's motion carries the point.
-          if (cv::norm(p1[k] - guess[k]) > off_box_px) {
-            ++off_box;
-            continue;
-          }
-          a.push_back(p0[k]);
-          b.push_back(p1[k]);
+    std::vector<cv::Point2f> p1 = guess, back = p0;
+    std::vector<uchar> st1, st2;
+    std::vector<float> err;
+    cv::calcOpticalFlowPyrLK(*before, pyramid, p0, p1, st1, err, win, cfg_.pyramid_levels, crit,
+                             cv::OPTFLOW_USE_INITIAL_FLOW);
+    cv::calcOpticalFlowPyrLK(pyramid, *before, p1, back, st2, err, win, cfg_.pyramid_levels, crit,
+                             cv::OPTFLOW_USE_INITIAL_FLOW);
+    for (const auto& [id, span] : spans) {
+      const cv::Rect2f& box = boxes.at(id);
+      // Points may move a little outside a jittery box, never far.
+      const cv::Rect2f keep(box.x - 0.1f * box.width, box.y - 0.1f * box.height, 1.2f * box.width,
+                            1.2f * box.height);
+      const double off_box_px = cfg_.max_off_box_fraction * std::max(box.width, box.height);
+      std::vector<cv::Point2f> a, b;
+      int off_box = 0;
+      for (size_t k = span.first; k < span.second; ++k) {
+        if (!st1[k] || !st2[k]) continue;
+        if (cv::norm(back[k] - p0[k]) > cfg_.max_fb_error_px) continue;
+        if (!keep.contains(p1[k])) continue;
+        // guess[k] is where the box's motion carries the point.
+        if (cv::norm(p1[k] - guess[k]) > off_box_px) {
+          ++off_box;
+          continue;
         }
-        ScaleRatio r = scale_from_matches(a, b, cfg_.min_pair_px, cfg_.min_points);
-        r.dt = dt;
-        r.off_box = off_box;
-        out[id] = r;
+        a.push_back(p0[k]);
+        b.push_back(p1[k]);
       }
+      ScaleRatio r = scale_from_matches(a, b, cfg_.min_pair_px, cfg_.min_points);
+      r.dt = t - memory_.at(id).t;
+      r.off_box = off_box;
+      out[id] = r;
     }
   }
 
   // Fresh corners for the next frame, inside the trimmed box.
+  const auto shared = std::make_shared<const std::vector<cv::Mat>>(std::move(pyramid));
   std::map<int64_t, Memory> next;
+  // A box missing this time keeps its points while they could still be bridged.
+  for (auto& [id, m] : memory_)
+    if (!boxes.count(id) && !m.points.empty() && t - m.t < cfg_.max_bridge_s - 1e-9) {
+      m.missed = true;
+      next[id] = std::move(m);
+    }
   for (const auto& [id, box] : boxes) {
     Memory m;
     m.box = box;
+    m.pyramid = shared;
+    m.t = t;
     if (box.width >= cfg_.min_box_px && box.height >= cfg_.min_box_px) {
       const float fx = static_cast<float>(cfg_.inner_fraction) * box.width;
       const float fy = static_cast<float>(cfg_.inner_fraction) * box.height;
@@ -146,10 +159,10 @@ std::map<int64_t, ScaleRatio> KeypointScaleTracker::update(const cv::Mat& image,
         // Corners of a large box are sought on a coarser pyramid level (at most ~96 px tall there): the search
         // costs with the box's area, and LK refines every point on the full image anyway.
         int level = 0;
-        while (level < static_cast<int>(pyramid.size()) - 1 && (roi.height >> level) > 96) ++level;
+        while (level < static_cast<int>(shared->size()) - 1 && (roi.height >> level) > 96) ++level;
         const int f = 1 << level;
         const cv::Rect r(roi.x / f, roi.y / f, roi.width / f, roi.height / f);
-        const cv::Mat& img = pyramid[static_cast<size_t>(level)];
+        const cv::Mat& img = (*shared)[static_cast<size_t>(level)];
         const cv::Rect in = r & cv::Rect(0, 0, img.cols, img.rows);
         std::vector<cv::Point2f> corners;
         if (in.width >= 4 && in.height >= 4)
@@ -161,9 +174,6 @@ std::map<int64_t, ScaleRatio> KeypointScaleTracker::update(const cv::Mat& image,
     next[id] = std::move(m);
   }
   memory_ = std::move(next);
-  prev_pyramid_ = std::move(pyramid);
-  prev_t_ = t;
-  have_prev_ = true;
   return out;
 }
 

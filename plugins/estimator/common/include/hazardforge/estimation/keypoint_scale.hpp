@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <memory>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -49,6 +50,11 @@ struct KeypointScaleConfig {
   double max_off_box_fraction = 0.1;
   int pyramid_levels = 3;
   int window_px = 15;
+  // A box missing from one or more calls (a detector's dropout) keeps its points while they are younger than
+  // this: when it is back, they are tracked from the frame they were found in, and the ratio spans the gap.
+  // 0.5 s is the span consecutive 2 Hz keyframes already ask of the tracking, so a 2 Hz recording bridges
+  // nothing and a 10 Hz one bridges up to four missed frames.
+  double max_bridge_s = 0.5;
 };
 
 // Keeps each box's corners from the previous frame and tracks them into the current one with pyramidal
@@ -59,19 +65,21 @@ class KeypointScaleTracker {
  public:
   explicit KeypointScaleTracker(KeypointScaleConfig c = {}) : cfg_(c) {}
   // `boxes`: id -> box in this image's pixels. Returns the ratio for every id also measured in the previous
-  // call (ids not in `boxes` are forgotten). `image` is BGR or grey 8-bit.
+  // call, or in an earlier one within max_bridge_s (its `dt` spans the gap; older points are forgotten).
+  // `image` is BGR or grey 8-bit.
   std::map<int64_t, ScaleRatio> update(const cv::Mat& image, double t,
                                        const std::map<int64_t, cv::Rect2f>& boxes);
 
  private:
+  using Pyramid = std::shared_ptr<const std::vector<cv::Mat>>;
   struct Memory {
     std::vector<cv::Point2f> points;
     cv::Rect2f box;
+    Pyramid pyramid;  // of the frame the points were found in
+    double t = 0.0;
+    bool missed = false;  // the box was missing from a call since
   };
   KeypointScaleConfig cfg_;
-  std::vector<cv::Mat> prev_pyramid_;
-  double prev_t_ = 0.0;
-  bool have_prev_ = false;
   std::map<int64_t, Memory> memory_;
 };
 
