@@ -288,9 +288,11 @@ TEST(KalmanEstimator, ALabelFlipNeitherResetsNorJumpsTheTtc) {
   // The box of a truck seen as "car" for 15 frames, then as "truck": the range doubles with the prior, the
   // TTC (range / closing) must not move.
   auto x_of = [](double t) { return 40.0 - 6.0 * t; };
+  // (With the size taken from the ground range the box is sized as a truck from its second frame on; the
+  // vote alone decides here.)
   auto seq = lead_sequence(30, 0.1, 10.0, x_of, 0.3, "car", kTruckH);
   for (int k = 15; k < 30; ++k) seq[k].tracks.items[0].label = "truck";
-  const auto out = run_kalman("keypoints: false\ndistance_origin: camera", seq);
+  const auto out = run_kalman("keypoints: false\ndistance_origin: camera\nsize_from_ground: false", seq);
   const ObjectState* a = find(out[14], 1);
   const ObjectState* b = find(out[15], 1);
   ASSERT_TRUE(a && b && a->velocity_rel && b->velocity_rel);
@@ -306,6 +308,73 @@ TEST(KalmanEstimator, ALabelFlipNeitherResetsNorJumpsTheTtc) {
     ASSERT_TRUE(s && s->velocity_rel);
     EXPECT_NE(s->distance_method, "rejected") << "frame " << k;
   }
+}
+
+TEST(KalmanEstimator, AVehicleOfTheWrongClassIsSizedByItsGroundRange) {
+  // Boxes of a car (1.52 m) called "bus", of a truck (3.0 m) called "car", of a bus called "bus" and of a
+  // car called "car", each approaching from 30 m to 12 m ahead of the camera in the ego's lane (ego 10 m/s,
+  // closing 6 m/s). Sized by the detector's label, the first two read 2.1x too far and half as far; with
+  // their ground-contact ranges they are sized as what they are from their second frame on, and their TTC
+  // settles on the truth.
+  auto x_of = [](double t) { return kCamX + 30.0 - 6.0 * t; };
+  struct Case {
+    std::string label;
+    double height;
+    std::string sized_as;
+  };
+  const std::vector<Case> cases = {
+      {"bus", kCarH, "car"}, {"car", kTruckH, "truck"}, {"bus", 3.2, "bus"}, {"car", kCarH, "car"}};
+  for (const Case& c : cases) {
+    const auto seq = lead_sequence(30, 0.1, 10.0, x_of, 0.3, c.label, c.height);
+    const auto on = run_kalman("keypoints: false\ndistance_origin: camera", seq);
+    const auto off = run_kalman("keypoints: false\ndistance_origin: camera\nsize_from_ground: false", seq);
+    for (size_t k = 0; k < seq.size(); ++k) {
+      const double truth = x_of(0.1 * static_cast<double>(k)) - kCamX;
+      const ObjectState* s = find(on[k], 1);
+      const ObjectState* o = find(off[k], 1);
+      ASSERT_TRUE(s && o && s->velocity_rel) << c.label << " frame " << k;
+      EXPECT_EQ(o->label, c.label);
+      if (k == 0) {
+        EXPECT_EQ(s->label, c.label) << "one box is no evidence";
+        continue;
+      }
+      EXPECT_EQ(s->label, c.sized_as) << c.label << " frame " << k;
+      EXPECT_NEAR(s->distance_m, truth, 0.05 * truth) << c.label << " frame " << k;
+      if (c.label != c.sized_as) {
+        EXPECT_GT(std::abs(std::log(o->distance_m / truth)), 0.5) << c.label << " frame " << k;
+      }
+      if (k >= 10) {
+        const double ttc = s->distance_m / -(*s->velocity_rel)[0];
+        EXPECT_NEAR(ttc, truth / 6.0, 0.2 * truth / 6.0) << c.label << " frame " << k;
+      }
+    }
+  }
+}
+
+TEST(KalmanEstimator, AFarOrCutBoxDoesNotOverruleTheDetectorsClass) {
+  // A car called "truck" 60-70 m ahead (its ground range 25-30 % uncertain at 0.5 deg of pitch), and one
+  // 8 m ahead whose box the picture's bottom edge cuts (no ground range): both keep the truck's size.
+  const CameraModel cam = front_camera();
+  std::vector<Step> seq;
+  for (int k = 0; k < 20; ++k) {
+    const double t = 0.1 * k;
+    Step s{frame_at(k, t, cam, 10.0), {}};
+    s.tracks.frame_index = k;
+    cv::Rect2f cut = box_of(cam, kCamX + 8.0 - 0.1 * t, -0.2, kCarH, kCarW);
+    cut.height = 900.0f - cut.y;
+    s.tracks.items = {track(1, "truck", box_of(cam, kCamX + 70.0 - 5.0 * t, 0.2, kCarH, kCarW)),
+                      track(2, "truck", cut)};
+    seq.push_back(std::move(s));
+  }
+  const auto out = run_kalman("keypoints: false", seq);
+  for (size_t k = 0; k < out.size(); ++k)
+    for (const int64_t id : {1, 2}) {
+      const ObjectState* s = find(out[k], id);
+      if (s) {
+        EXPECT_EQ(s->label, "truck") << "track " << id << " frame " << k;
+      }
+    }
+  ASSERT_TRUE(find(out.back(), 1));
 }
 
 // The learnt noise the estimator logs at the end of a run ("box edge jitter 0.4 px ...", "body pitch jitter

@@ -78,6 +78,9 @@ ComponentInfo KalmanEstimator::describe() {
       "between frames (KLT corners, median pairwise distance ratio) updates closing/depth = (r-1)/dt. A "
       "track "
       "relabelled (car -> truck) is rescaled by the ratio of the class heights, so its TTC does not jump. "
+      "Within a class group the size prior is the voted label's unless the heights the ground-contact range "
+      "gives the track's whole boxes rule it out (posterior below 5 % with half the prior on the vote; "
+      "size_from_ground); the state's label is the class that sizes it. "
       "Process noise: accel_sd_fraction x the class's max acceleration. Velocity, heading and scale_rate are "
       "reported after min_updates measurements (from the first, with the prior's wide covariance, by "
       "default); "
@@ -122,6 +125,12 @@ ComponentInfo KalmanEstimator::describe() {
           .describe(
               "measurements a track needs before velocity, heading and scale rate are reported (1: from "
               "the first frame, the prior's velocity with its wide covariance)"),
+      ParamSpec::boolean("size_from_ground", true)
+          .describe(
+              "within a class group (car, truck, bus) size a track by the class whose height agrees with "
+              "the height its ground-contact range gives its whole boxes, when that rules the detector's "
+              "label out (a car called bus or truck, an SUV called truck); false = always the voted "
+              "label's size"),
       ParamSpec::number("max_gap_s", 0.5)
           .range(0, 100)
           .describe("a track whose last accepted measurement is older than this (s) is not reported (held, "
@@ -161,6 +170,7 @@ void KalmanEstimator::open(StageContext& ctx) {
   cfg_.keypoint_floor = p.get_double("keypoint_floor");
   cfg_.keypoint_band_m = p.get_double("keypoint_band_m");
   cfg_.min_updates = static_cast<int>(p.get_int("min_updates"));
+  cfg_.size_from_ground = p.get_bool("size_from_ground");
   cfg_.max_gap_s = p.get_double("max_gap_s");
   cfg_.accel_sd_fraction = p.get_double("accel_sd_fraction");
   const double ego = p.get_double("ego_speed_mps");
@@ -413,6 +423,84 @@ RangeCue KalmanEstimator::aligned(const RangeCue& cue, const estimation::RangeAl
   return r;
 }
 
+void KalmanEstimator::add_height_sample(TrackMemory& mem, const CameraModel& cam, const cv::Rect2f& box,
+                                        unsigned truncated, const Config& live, double frame_offset) const {
+  if (!cfg_.size_from_ground || (truncated & (truncation::kTop | truncation::kBottom)) || box.height <= 1.0f)
+    return;
+  // The cue's pinhole half does not matter here; only its ground range (camera height and pitch).
+  const RangeCue cue = range_cue(cam, box, truncated, 1.0, live);
+  if (!cue.ground_depth || !cue.ground_var) return;
+  // Less the frame's common offset (the body's pitch), as every ground cue of the frame.
+  const double inv = 1.0 / *cue.ground_depth - frame_offset;
+  if (!(inv > 1e-3)) return;
+  const double z = 1.0 / inv;
+  const double j = live.box_jitter_px;
+  // The ground range's lasting error (pitch, road height) and its frame-to-frame one (the body's pitch as
+  // learnt from the recording: slopes and bumps that do not average out over a track's few frames), and the
+  // box height's two edges.
+  const double var = (*cue.ground_var + cue.ground_noise_var) / (*cue.ground_depth * *cue.ground_depth) +
+                     2.0 * j * j / (static_cast<double>(box.height) * box.height);
+  // A far box's ground range says little about its height (at 0.5 deg of pitch a car 40 m ahead is 25 % off).
+  if (var > kMaxHeightSampleVar) return;
+  if (mem.log_height.size() == kHeightSamples) {
+    mem.log_height.erase(mem.log_height.begin());
+    mem.log_height_var.erase(mem.log_height_var.begin());
+  }
+  mem.log_height.push_back(std::log(box.height * z / cam.fy));
+  mem.log_height_var.push_back(var);
+}
+
+std::string KalmanEstimator::size_class(const TrackMemory& mem, const std::string& voted,
+                                        std::string* why) const {
+  if (why) why->clear();
+  const std::string& current = mem.filter.initialised() ? mem.label : voted;
+  if (!cfg_.size_from_ground || mem.log_height.size() < kMinHeightSamples) return voted;
+  std::vector<std::pair<std::string, double>> cand;  // class, ln height
+  for (const auto& [name, sz] : priors_.all())
+    if (groups_.same(name, voted) && sz.height > 0) cand.emplace_back(name, std::log(sz.height));
+  if (cand.size() < 2) return voted;
+  // The median implied height; its error is mostly the track's lasting one (pitch, road height, the
+  // object's own height within its class), which does not average out over frames.
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double m = median(mem.log_height);
+  const double var = cfg_.height_rel_sd * cfg_.height_rel_sd + median(mem.log_height_var);
+  // Posterior over the group's classes: the detector's vote holds half the prior, the others share the rest.
+  std::vector<double> lp;
+  double top = -1e300;
+  for (const auto& [name, lh] : cand) {
+    const double prior = name == voted ? 0.5 : 0.5 / static_cast<double>(cand.size() - 1);
+    lp.push_back(std::log(prior) - (m - lh) * (m - lh) / (2.0 * var));
+    top = std::max(top, lp.back());
+  }
+  double sum = 0;
+  for (double& v : lp) sum += (v = std::exp(v - top));
+  auto post = [&](const std::string& name) {
+    for (size_t i = 0; i < cand.size(); ++i)
+      if (cand[i].first == name) return lp[i] / sum;
+    return 0.0;
+  };
+  // Keep an override while the evidence still allows it; follow the vote while the evidence allows that;
+  // else the class the heights point to.
+  std::string pick;
+  if (current != voted && post(current) >= kHeightRuleOut)
+    pick = current;
+  else if (post(voted) >= kHeightRuleOut)
+    return voted;
+  else
+    pick = cand[static_cast<size_t>(std::max_element(lp.begin(), lp.end()) - lp.begin())].first;
+  if (why && pick != voted) {
+    using hazard::num;
+    *why = "labelled '" + voted + "' by the detector, sized as '" + pick +
+           "': its ground-contact range puts " + "its whole boxes at a median height of " +
+           num(std::exp(m), 2) + " m (" + std::to_string(mem.log_height.size()) + " boxes; '" + voted + "' " +
+           num(priors_.at(voted).height, 2) + " m, '" + pick + "' " + num(priors_.at(pick).height, 2) + " m)";
+  }
+  return pick;
+}
+
 ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, const Frame& frame) {
   CameraModel cam = frame.camera;
   if (!cam.valid())
@@ -495,7 +583,6 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
                 "no size prior for class '" + tr.label + "'; its tracks are not estimated");
       continue;
     }
-    const ClassSize& size = priors_.at(tr.label);
     auto found = tracks_.find(tr.id);
     if (found == tracks_.end()) {
       estimation::TrackFilterConfig fc;
@@ -511,29 +598,37 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     TrackMemory& mem = found->second;
     estimation::TrackFilter& f = mem.filter;
     unsigned truncated = tr.truncated | truncation_flags(tr.box, image_size, cfg_.border_margin_px);
-    if (f.initialised()) {
-      f.predict(t, delta);
-      // The voted class changed: the state's range was measured on the other class's height. Fused ranges are on
-      // the pinhole cue's scale (the ground cue is aligned to it), so range and relative velocity scale with the
-      // ratio of the heights, and the track's cue ratio moves by the same factor; TTC stays where it was.
-      if (mem.label != tr.label && priors_.has(mem.label)) {
-        const double k = size.height / priors_.at(mem.label).height;
-        f.rescale(k, cam_x, ego_vx);
-        mem.alignment.rescale_pinhole(k);
-        if (limits_.has(tr.label)) {
-          const hazard::KinematicLimits& L = limits_.at(tr.label);
-          f.set_class_limits(L.max_speed_mps, cfg_.accel_sd_fraction * L.max_accel_mps2);
-        }
-      }
-    }
-    mem.label = tr.label;
+    if (f.initialised()) f.predict(t, delta);
     if (f.initialised() && !(truncated & truncation::kBottom) &&
         cut_below_picture(cam, f, tr.box, image_size.height))
       truncated |= truncation::kBottom;
+    if (tr.misses == 0) add_height_sample(mem, cam, tr.box, truncated, live, frame_offset);
+    std::string why;
+    const std::string sized_as = size_class(mem, tr.label, &why);
+    const ClassSize& size = priors_.at(sized_as);
+    // The class that sizes the track changed (the detector's vote, or the ground range's evidence): the
+    // state's range was measured on the other class's height. Fused ranges are on the pinhole cue's scale
+    // (the ground cue is aligned to it), so range and relative velocity scale with the ratio of the heights,
+    // and the track's cue ratio moves by the same factor; TTC stays where it was.
+    if (mem.label != sized_as) {
+      if (f.initialised() && priors_.has(mem.label)) {
+        const double k = size.height / priors_.at(mem.label).height;
+        f.rescale(k, cam_x, ego_vx);
+        mem.alignment.rescale_pinhole(k);
+      }
+      if (limits_.has(sized_as)) {
+        const hazard::KinematicLimits& L = limits_.at(sized_as);
+        f.set_class_limits(L.max_speed_mps, cfg_.accel_sd_fraction * L.max_accel_mps2);
+      }
+      if (!why.empty())
+        ctx.log(LogLevel::kInfo,
+                "frame " + std::to_string(frame.index) + ", track " + std::to_string(tr.id) + ": " + why);
+    }
+    mem.label = sized_as;
 
     ObjectState s;
     s.track_id = tr.id;
-    s.label = tr.label;
+    s.label = sized_as;
     s.score = tr.score;
     s.box = tr.box;
     s.box_height_px = tr.box.height;

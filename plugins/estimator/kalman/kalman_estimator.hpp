@@ -6,6 +6,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <vector>
 
 #include <hazardforge/class_groups.hpp>
 #include <hazardforge/estimation/keypoint_scale.hpp>
@@ -64,6 +65,7 @@ class KalmanEstimator : public Estimator {
     double keypoint_floor = 0.003;   // minimum standard error of ln(scale ratio) per frame pair
     double keypoint_band_m = 5.0;    // keypoints only for objects this close to the ego laterally (m)
     int min_updates = 1;             // accepted measurements before velocity and TTC are reported
+    bool size_from_ground = true;    // size by the class its ground range's heights allow
     double max_gap_s = 0.5;          // a track without an accepted measurement for longer is not reported
     double accel_sd_fraction = 0.5;  // process noise = this x the class's max acceleration
     std::optional<double> ego_speed_param;
@@ -101,7 +103,21 @@ class KalmanEstimator : public Estimator {
     int heights = 0;
     std::optional<double> last_residual_rows;  // the ground/pinhole residual of its last frame (rows)
     double last_residual_t = 0.0;
+    // ln of the height (m) the ground-contact range gives each whole box, and its variance (the last
+    // kHeightSamples): the evidence for which class of the label's group sizes the track.
+    std::vector<double> log_height, log_height_var;
   };
+  static constexpr size_t kHeightSamples = 15;
+  static constexpr size_t kMinHeightSamples = 2;         // whole boxes with a ground range before they count
+  static constexpr double kMaxHeightSampleVar = 0.0625;  // a box's implied ln height beyond 25 % is left out
+  static constexpr double kHeightRuleOut = 0.05;         // posterior below which a class is ruled out
+  // The class whose size prior the track's range uses: the detector's voted label, unless the heights the
+  // ground-contact range implies rule it out for another class of its group (car / truck / bus). `why` says
+  // so when the answer is not the voted label.
+  std::string size_class(const TrackMemory& mem, const std::string& voted, std::string* why) const;
+  // Adds this frame's implied height of a whole, matched box to the track's evidence.
+  void add_height_sample(TrackMemory& mem, const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
+                         const Config& live, double frame_offset) const;
   void learn_jitter(TrackMemory& mem, const Track& tr, unsigned truncated, double t);
   Config cfg_;
   ClassPriors priors_;
