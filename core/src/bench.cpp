@@ -35,6 +35,7 @@ struct Sample {
   double finish_s = 0;        // last frame done -> run returned: end-of-stream finish() (encoder flush, files)
   double cpu_ms_per_frame = 0;  // this process + waited child processes (encoders), first frame -> end
   std::map<std::string, double> stage_ms;                         // node -> median ms per frame
+  std::map<std::string, double> stage_cpu_ms;                     // node -> median CPU ms of its own thread
   std::map<std::string, std::map<std::string, double>> inner_ms;  // node -> label -> median ms
 };
 
@@ -108,6 +109,7 @@ Sample run_once(const Graph& g, Host& host, const std::filesystem::path& out, co
   if (t_last) s.finish_s = std::chrono::duration<double>(end - *t_last).count();
   for (const NodeTiming& t : r.timings) {
     s.stage_ms[t.id] = median(t.process_s) * 1e3;
+    s.stage_cpu_ms[t.id] = median(t.process_cpu_s) * 1e3;
     for (const auto& [label, v] : t.inner_s) s.inner_ms[t.id][label] = median(v) * 1e3;
   }
   return s;
@@ -202,10 +204,13 @@ int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b) {
   md << "| CPU time per frame, source + detector run, ms | " << cpu_bare << " |\n";
   double other_ms = 0;
   Json stages = Json::object();
-  md << "\n| node | stage | median ms/frame | inner steps (median ms) |\n|---|---|---:|---|\n";
+  md << "\n| node | stage | median ms/frame | median CPU ms/frame (node thread) | inner steps (median ms) |\n"
+        "|---|---|---:|---:|---|\n";
   for (const NodeSpec& n : g.nodes) {
     const double ms = med(full, [&](const Sample& s) { return s.stage_ms.count(n.id) ? s.stage_ms.at(n.id) : 0.0; });
-    stages[n.id] = {{"stage", n.component->info.name}, {"median_ms", ms}};
+    const double cpu_ms = med(
+        full, [&](const Sample& s) { return s.stage_cpu_ms.count(n.id) ? s.stage_cpu_ms.at(n.id) : 0.0; });
+    stages[n.id] = {{"stage", n.component->info.name}, {"median_ms", ms}, {"median_thread_cpu_ms", cpu_ms}};
     std::string inner;
     if (!full.empty() && full.front().inner_ms.count(n.id)) {
       for (const auto& entry : full.front().inner_ms.at(n.id)) {
@@ -221,7 +226,8 @@ int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b) {
         inner += (inner.empty() ? "" : ", ") + s.str();
       }
     }
-    md << "| " << n.id << " | " << n.component->info.name << " | " << ms << " | " << inner << " |\n";
+    md << "| " << n.id << " | " << n.component->info.name << " | " << ms << " | " << cpu_ms << " | " << inner
+       << " |\n";
     if (n.id != detector) other_ms += ms;
   }
   const double det_total_ms =

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
+#include <ctime>
 #include <deque>
 #include <iostream>
 #include <mutex>
@@ -19,6 +20,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// CPU time of the calling thread (not of the threads a stage's library starts, e.g. the detector's workers).
+double thread_cpu_seconds() {
+  timespec t{};
+  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t) != 0) return 0.0;
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
 
 struct Message {
   int64_t tick = 0;   // position in the stream
@@ -163,6 +171,7 @@ struct NodeRuntime {
   std::vector<Edge> inputs;                                        // one per connected stream
   std::map<std::string, std::vector<Channel*>> subscribers;        // output port -> channels
   std::vector<double> process_s;
+  std::vector<double> process_cpu_s;
   std::atomic<int64_t> done{0};
   bool failed = false;
 
@@ -235,8 +244,12 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
     if (!stop && !n.failed) {
       n.ctx.index = tick;
       const auto t0 = Clock::now();
+      const double c0 = thread_cpu_seconds();
       guarded(n, sh, "frame " + std::to_string(tick), [&] { produced = n.source->next(n.ctx, out); });
-      if (produced) n.process_s.push_back(seconds_since(t0));
+      if (produced) {
+        n.process_s.push_back(seconds_since(t0));
+        n.process_cpu_s.push_back(thread_cpu_seconds() - c0);
+      }
     }
     std::optional<int64_t> index;  // the recording's frame index, when the source emitted a frame
     double ts = last_ts;
@@ -249,6 +262,7 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
           }
     if (produced && index && (*index < opt.first_frame || (opt.last_frame >= 0 && *index > opt.last_frame))) {
       n.process_s.pop_back();  // outside the frame window: it never leaves the source
+      n.process_cpu_s.pop_back();
       if (*index < opt.first_frame) continue;
       produced = false;  // past the window: the stream ends here, without this frame
       out.emitted.clear();
@@ -316,8 +330,12 @@ void run_node(NodeRuntime& n, Shared& sh) {
     n.ctx.ts = ts;
     if (ready && any) {
       const auto t0 = Clock::now();
+      const double c0 = thread_cpu_seconds();
       guarded(n, sh, "frame " + std::to_string(frame), [&] { n.stage->process(n.ctx, in, out); });
-      if (!final) n.process_s.push_back(seconds_since(t0));
+      if (!final) {
+        n.process_s.push_back(seconds_since(t0));
+        n.process_cpu_s.push_back(thread_cpu_seconds() - c0);
+      }
     }
     if (final) {
       guarded(n, sh, "finish", [&] { n.stage->finish(n.ctx, out); });
@@ -437,8 +455,12 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
   result.incomplete = sh.incomplete;
   result.resources.assign(sh.resources.begin(), sh.resources.end());
   for (auto& n : nodes) {
-    NodeTiming t{n->spec->id, n->spec->component->info.name, n->spec->component->info.kind, n->process_s,
-                 n->ctx.inner};
+    NodeTiming t{n->spec->id,
+                 n->spec->component->info.name,
+                 n->spec->component->info.kind,
+                 n->process_s,
+                 n->ctx.inner,
+                 n->process_cpu_s};
     result.timings.push_back(std::move(t));
   }
   // Components are destroyed here, in reverse order; libraries stay loaded.

@@ -82,6 +82,15 @@ TEST(Scheduler, DeliversEveryFrameInOrderWithFrameTimestamps) {
       EXPECT_EQ(t.process_s.size(), 30u);
       EXPECT_EQ(t.inner_s.at("forward").size(), 30u);
     }
+  // So is the CPU time of each node's own thread, one value per timed call, never more than the call's wall
+  // time (one thread cannot use more than one core).
+  for (const auto& t : r.timings) {
+    ASSERT_EQ(t.process_cpu_s.size(), t.process_s.size()) << t.id;
+    for (size_t i = 0; i < t.process_s.size(); ++i) {
+      EXPECT_GE(t.process_cpu_s[i], 0.0) << t.id;
+      EXPECT_LE(t.process_cpu_s[i], t.process_s[i] + 1e-4) << t.id << " call " << i;
+    }
+  }
 }
 
 TEST(Scheduler, StickyInputHoldsTheLatestSparsePacket) {

@@ -36,6 +36,7 @@ struct NodeTiming {
   std::string kind;
   std::vector<double> process_s;                        // per frame (next() for the source)
   std::map<std::string, std::vector<double>> inner_s;   // record_timing() labels
+  std::vector<double> process_cpu_s;  // per frame: CPU time of the node's own thread during process()/next()
 };
 
 struct RunResult {
