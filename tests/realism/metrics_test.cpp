@@ -89,6 +89,26 @@ TEST(RealismMetrics, SharpnessFallsWithTheObjectsBlur) {
   EXPECT_LT(soft.sharpness, 0.1);
 }
 
+TEST(RealismMetrics, BlurToMatchFindsAKnownBlurFromAnyStartingPoint) {
+  const cv::Mat sharp = texture(kSize, 7, 20.0, 0.7);
+  cv::Mat grey, soft;
+  cv::cvtColor(sharp, grey, cv::COLOR_BGR2GRAY);
+  const cv::Mat mask = ellipse_mask(kSize, kCentre, kAxes);
+  const std::vector<double> sigmas = {0.5, 0.8, 1.1, 1.5, 2.0, 2.6};
+  for (double known : {0.8, 1.5, 2.0}) {
+    cv::GaussianBlur(grey, soft, cv::Size(), known);
+    const double target = laplacian_variance(soft, mask);
+    // The frame is as soft as the picture blurred by `known`: that sigma, whichever sigma the search starts
+    // at.
+    EXPECT_DOUBLE_EQ(blur_to_match(grey, mask, target), known);
+    for (double hint : {0.0, 0.5, 1.1, 2.6, 9.0})
+      EXPECT_DOUBLE_EQ(blur_to_match(grey, mask, target, hint), known);
+  }
+  // Already softer than the frame: never sharpened; softer than the largest sigma reaches: the largest.
+  EXPECT_DOUBLE_EQ(blur_to_match(grey, mask, 10 * laplacian_variance(grey, mask), 1.5), 0.0);
+  EXPECT_DOUBLE_EQ(blur_to_match(grey, mask, 1e-6, 0.5), sigmas.back());
+}
+
 TEST(RealismMetrics, NoiseEstimateRecoversAKnownSigmaAndItsRatio) {
   // A smooth ramp (the kernel cancels planar shading) with noise of sigma 4.
   cv::Mat ramp(kSize, CV_8U);

@@ -314,7 +314,8 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
     const double bg_var = realism::laplacian_variance(grey_bg, ring);
     double sigma = 0.0;
     if (std::isfinite(bg_var) && cv::countNonZero(solid) >= 64)
-      sigma = realism::blur_to_match(grey_spr, solid, o.match_sharpness * bg_var);
+      sigma = realism::blur_to_match(grey_spr, solid, o.match_sharpness * bg_var, st.last_match_sigma);
+    st.last_match_sigma = sigma;
     st.blur_sigma = st.blur_frames == 0 ? sigma : o.exposure_smoothing * st.blur_sigma + (1 - o.exposure_smoothing) * sigma;
     ++st.blur_frames;
     r.match_sigma = st.blur_sigma;

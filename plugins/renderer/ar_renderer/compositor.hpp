@@ -51,6 +51,7 @@ struct CompositorState {
   double sprite_feather = -1.0;
   cv::Mat sprite_lut, sprite;    // harmonisation LUT and premultiplied, feathered BGRA picture it produced
   double blur_sigma = 0.0;       // the recording's blur applied to the picture (smoothed), px
+  double last_match_sigma = 0.0;  // the last frame's unsmoothed estimate (where the next search starts)
   int blur_frames = 0;
   cv::Mat warped, acc, shadow;  // work buffers (grown, never shrunk)
 };

@@ -56,24 +56,38 @@ double laplacian_variance(const cv::Mat& grey, const cv::Mat& mask) {
   return sd[0] * sd[0];
 }
 
-double blur_to_match(const cv::Mat& grey, const cv::Mat& mask, double target_variance,
+double blur_to_match(const cv::Mat& grey, const cv::Mat& mask, double target_variance, double hint,
                      const std::vector<double>& sigmas) {
   const double v0 = laplacian_variance(grey, mask);
-  if (!std::isfinite(v0) || !(target_variance > 0) || v0 <= target_variance) return 0.0;
+  if (!std::isfinite(v0) || !(target_variance > 0) || v0 <= target_variance || sigmas.empty()) return 0.0;
   cv::Mat g, b;
   grey.convertTo(g, CV_32F);
-  // The first sigma that reaches the target, or the one before it when that is nearer (on a log scale).
-  double prev_s = 0.0, prev_v = v0;
-  for (double s : sigmas) {
-    cv::GaussianBlur(g, b, cv::Size(), s);
-    const double v = laplacian_variance(b, mask);
-    if (!std::isfinite(v)) return prev_s;
-    if (v <= target_variance)
-      return std::log(prev_v / target_variance) < std::log(target_variance / std::max(v, 1e-12)) ? prev_s : s;
-    prev_s = s;
-    prev_v = v;
-  }
-  return prev_s;
+  // v(k): the variance after sigmas[k] (k = -1: none); computed once each, on demand.
+  std::vector<double> known(sigmas.size(), -1.0);
+  auto v = [&](int k) {
+    if (k < 0) return v0;
+    double& x = known[static_cast<size_t>(k)];
+    if (x < 0) {
+      cv::GaussianBlur(g, b, cv::Size(), sigmas[static_cast<size_t>(k)]);
+      x = laplacian_variance(b, mask);  // finite: the mask is the one v0 was finite on
+    }
+    return x;
+  };
+  // Blur only lowers the variance, so the first sigma that reaches the target is found by walking from the
+  // hint (the previous frame's answer) instead of from the smallest: the same index as an ascending scan.
+  const int n = static_cast<int>(sigmas.size());
+  int k = 0;
+  while (k + 1 < n && sigmas[static_cast<size_t>(k)] < hint) ++k;
+  if (v(k) <= target_variance)
+    while (k > 0 && v(k - 1) <= target_variance) --k;
+  else
+    while (k < n && v(k) > target_variance) ++k;
+  if (k == n) return sigmas.back();  // none reaches it
+  // It, or the one before it when that is nearer (on a log scale).
+  const double prev_s = k > 0 ? sigmas[static_cast<size_t>(k - 1)] : 0.0;
+  return std::log(v(k - 1) / target_variance) < std::log(target_variance / std::max(v(k), 1e-12))
+             ? prev_s
+             : sigmas[static_cast<size_t>(k)];
 }
 
 namespace {

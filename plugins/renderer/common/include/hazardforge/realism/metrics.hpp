@@ -48,11 +48,13 @@ double noise_sigma(const cv::Mat& grey, const cv::Mat& mask = {});
 // pixels.
 double laplacian_variance(const cv::Mat& grey, const cv::Mat& mask = {});
 
-// Matching the recording's blur: the Gaussian sigma, from `sigmas` (ascending), whose blur brings the variance
-// of the Laplacian of `grey` over `mask` nearest `target_variance` (on a log scale; the largest sigma when none
-// reaches it) — the blur that makes an inserted picture as sharp as the frame around it. 0 when the picture is
-// already no sharper (it is never sharpened).
-double blur_to_match(const cv::Mat& grey, const cv::Mat& mask, double target_variance,
+// Matching the recording's blur: the Gaussian sigma, from `sigmas` (ascending), whose blur brings the
+// variance of the Laplacian of `grey` over `mask` nearest `target_variance` (on a log scale; the largest
+// sigma when none reaches it) — the blur that makes an inserted picture as sharp as the frame around it. 0
+// when the picture is already no sharper (it is never sharpened). `hint` (e.g. the previous frame's answer)
+// is where the search starts: since blur only lowers the variance, the answer is the same from any hint, with
+// fewer blurs near it.
+double blur_to_match(const cv::Mat& grey, const cv::Mat& mask, double target_variance, double hint = 0.0,
                      const std::vector<double>& sigmas = {0.5, 0.8, 1.1, 1.5, 2.0, 2.6});
 
 // Road point under pixel column x, row y: camera depth (m), or nullopt above the horizon.
