@@ -120,6 +120,30 @@ TEST(VideoFileWriter, FfmpegH264DecodesToTheFramesWritten) {
   }
 }
 
+TEST(VideoFileWriter, ThinColouredLinesKeepTheirColour) {
+  // 4:2:0 keeps one colour per 2x2 block: it must be the block's mean, or 1-pixel coloured lines (boxes, text)
+  // on odd columns or rows lose their colour.
+  if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg not installed";
+  TempDir dir;
+  VideoWriterOptions o;
+  o.file = dir / "lines.mp4";
+  o.fps = 5;
+  o.size = {320, 240};
+  VideoFileWriter w;
+  w.open(o, {});
+  cv::Mat f(o.size, CV_8UC3, cv::Scalar(128, 128, 128));
+  for (int x = 1; x < f.cols; x += 2) f.col(x).setTo(cv::Scalar(0, 0, 255));  // red on every odd column
+  for (int y = 1; y < 60; y += 2) f.row(y).setTo(cv::Scalar(255, 0, 0));     // blue on odd rows at the top
+  for (int i = 0; i < 3; ++i) w.write(f);
+  w.close();
+  const auto back = decode(o.file);
+  ASSERT_EQ(back.size(), 3u);
+  for (const cv::Rect r : {cv::Rect(40, 120, 200, 80), cv::Rect(40, 10, 200, 40)}) {
+    const cv::Scalar want = cv::mean(f(r)), got = cv::mean(back[2](r));
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 12.0) << "channel " << c << " of " << r;
+  }
+}
+
 TEST(VideoFileWriter, PresetAndThreadsLandInTheStream) {
   if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg not installed";
   TempDir dir;
