@@ -513,6 +513,39 @@ TEST(Composite, PictureIsBlurredToTheFramesOwnSharpness) {
   EXPECT_LT(matched, 0.6 * sharp);
 }
 
+TEST(Composite, GrainMatchesTheFramesNoiseAsTheRealismMetricMeasuresIt) {
+  // A smooth road-grey frame with sensor noise (Gaussian, per channel, then JPEG): the inserted default car,
+  // rendered clean, gets grain until its interior is as noisy as its surroundings by the metric's own
+  // estimate (hazardforge/realism noise_ratio ~ 1), and none when the frame has none.
+  for (double sigma : {0.0, 2.0, 5.0}) {
+    cv::Mat base(900, 1600, CV_8UC3), noise(900, 1600, CV_32FC3), img;
+    for (int y = 0; y < base.rows; ++y) base.row(y).setTo(cv::Scalar::all(90 + y / 20));
+    cv::RNG rng(17);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, std::max(sigma, 1e-9));
+    base.convertTo(img, CV_32FC3);
+    img += noise;
+    img.convertTo(img, CV_8UC3);
+    // Through JPEG, as recordings come: compression removes part of the noise and leaves the rest correlated.
+    std::vector<uint8_t> jpg;
+    cv::imencode(".jpg", img, jpg, {cv::IMWRITE_JPEG_QUALITY, 85});
+    img = cv::imdecode(jpg, cv::IMREAD_COLOR);
+    auto traj = std::make_shared<const HazardTrajectory>(
+        static_object("car", 12.0, 0.0, 0.3, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+    RendererOptions o;
+    o.ego.mode = EgoMotionMode::kPoses;
+    o.composite.shadow = false;
+    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+    ASSERT_TRUE(res.hazard.appearance.has_value());
+    const AppearanceStats& a = *res.hazard.appearance;
+    if (sigma > 0) {
+      EXPECT_NEAR(a.noise_ratio, 1.0, 0.3) << "frame noise sigma " << sigma << ", object " << a.noise_sigma;
+    } else {
+      EXPECT_LT(a.noise_sigma, 0.5);
+    }
+  }
+}
+
 TEST(ArRendererStage, RefusesFramesWithoutPosesInPosesMode) {
   auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses");
   runner.push("frames", make_frame(4, 0.4, hf::test::textured_image(), test_camera()), 0.4);

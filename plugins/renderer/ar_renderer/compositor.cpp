@@ -65,17 +65,15 @@ bool ring_statistics(const cv::Mat& image, const cv::Rect& around, const std::ve
   return true;
 }
 
-// Sensor noise level of a grey patch: robust deviation of the Laplacian (white noise of sigma s gives a
-// Laplacian of deviation s * sqrt(20)); texture inflates it, so the estimate is capped.
-double noise_level(const cv::Mat& bgr_patch) {
-  if (bgr_patch.rows < 8 || bgr_patch.cols < 8) return 0.0;
-  cv::Mat g, lap;
-  cv::cvtColor(bgr_patch, g, cv::COLOR_BGR2GRAY);
-  cv::Laplacian(g, lap, CV_32F, 1);
-  const cv::Mat a = cv::abs(lap);
-  std::vector<float> v(a.begin<float>(), a.end<float>());
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return std::min(1.4826 * v[v.size() / 2] / std::sqrt(20.0), 6.0);
+// Sensor noise level of a picture patch, as the realism metric measures it (hazardforge/realism noise_sigma:
+// Immerkaer's estimate over the flattest half of the patch); 0 where it cannot tell. Road texture inflates
+// it, so it is capped.
+double noise_level(const cv::Mat& patch, const cv::Mat& mask = {}) {
+  if (patch.rows < 8 || patch.cols < 8) return 0.0;
+  cv::Mat g;
+  cv::cvtColor(patch, g, patch.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+  const double s = realism::noise_sigma(g, mask);
+  return std::isfinite(s) ? std::min(s, 6.0) : 0.0;
 }
 
 // A fixed tile of unit Gaussian noise in 1/1024 units; frames read it at shifting offsets so the grain changes
@@ -89,6 +87,48 @@ const cv::Mat& noise_tile_q10() {
     return q;
   }();
   return tile;
+}
+
+// Grain of one pixel in grey levels, rounded: alpha (0..255) x sigma (1/256 grey levels) x unit noise
+// (1/1024).
+inline int grain_at(uint32_t alpha, int sigma_q8, int unit_q10) {
+  const int64_t q8 = static_cast<int64_t>(alpha) * sigma_q8 * unit_q10 / (255 * 1024);  // 1/256 grey levels
+  return static_cast<int>((q8 + 128) >> 8);
+}
+
+// The grain sigma whose rounded noise on a flat picture the realism metric reads as `target` (8-bit grey
+// levels). Rounding to whole grey levels swallows most of a small sigma (0.3 reads as ~0.1), so the level is
+// found on a table of what the metric reads for each sigma, built once from the grain itself.
+double grain_for(double target) {
+  struct Row {
+    double sigma, reads;
+  };
+  static const std::vector<Row> table = [] {
+    std::vector<Row> t;
+    const cv::Mat& tile = noise_tile_q10();
+    const double sigmas[] = {0,   0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0,
+                             1.2, 1.4, 1.7, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0};
+    double best = 0.0;
+    for (double sg : sigmas) {
+      cv::Mat g(tile.size(), CV_8U);
+      const int q8 = static_cast<int>(std::lround(sg * 256));
+      for (int y = 0; y < g.rows; ++y)
+        for (int x = 0; x < g.cols; ++x)
+          g.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(128 + grain_at(255, q8, tile.at<int16_t>(y, x)));
+      const double reads = realism::noise_sigma(g);
+      best = std::max(best, std::isfinite(reads) ? reads : 0.0);  // kept monotone
+      t.push_back({sg, best});
+    }
+    return t;
+  }();
+  if (!(target > 0)) return 0.0;
+  for (size_t i = 1; i < table.size(); ++i)
+    if (table[i].reads >= target) {
+      const Row &a = table[i - 1], &b = table[i];
+      const double f = b.reads > a.reads ? (target - a.reads) / (b.reads - a.reads) : 1.0;
+      return a.sigma + f * (b.sigma - a.sigma);
+    }
+  return table.back().sigma;
 }
 
 // Per-channel affine map in Lab moving the asset's statistics part of the way to the surroundings'.
@@ -435,7 +475,22 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   // 2e-5); grain = alpha * sigma * unit noise, from a fixed-point tile.
   const cv::Mat& tile = noise_tile_q10();
   const int ox = static_cast<int>((ex.frame * 97) % tile.cols), oy = static_cast<int>((ex.frame * 61) % tile.rows);
-  const int grain_q = o.grain ? static_cast<int>(std::lround(ex.noise_sigma * 256.0 / 255.0)) : 0;
+  // Grain tops the picture's own noise up to the surroundings' (a harvested cut-out carries its camera's,
+  // which blurring lowered): measured as drawn, on a central patch of the opaque picture.
+  double grain = 0.0;
+  if (o.grain && ex.noise_sigma > 0) {
+    const int side = std::min({128, spr.width / 2, spr.height / 2});
+    double own = 0.0;
+    if (side >= 8) {
+      const cv::Rect c(spr.x + (spr.width - side) / 2, spr.y + (spr.height - side) / 2, side, side);
+      cv::Mat a;
+      cv::extractChannel(pre(c), a, 3);
+      own = noise_level(pre(c), a == 255);
+    }
+    grain = grain_for(std::sqrt(std::max(0.0, ex.noise_sigma * ex.noise_sigma - own * own)));
+  }
+  r.grain_sigma = grain;
+  const int grain_q8 = static_cast<int>(std::lround(grain * 256.0));
   for (int y = 0; y < roi.height; ++y) {
     auto* d = dst.ptr<cv::Vec3b>(y);
     const auto* s = pre.ptr<cv::Vec4b>(y);
@@ -445,7 +500,7 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       const uint32_t al = s[x][3];
       const uint32_t sv = sh ? sh[x] : 0u;
       if ((al | sv) == 0) continue;
-      const int n = grain_q ? (static_cast<int>(al) * grain_q * nz[nx]) >> 18 : 0;
+      const int n = grain_q8 ? grain_at(al, grain_q8, nz[nx]) : 0;
       if (al == 255) {
         for (int k = 0; k < 3; ++k) d[x][k] = cv::saturate_cast<uint8_t>(s[x][k] + n);
         continue;

@@ -64,6 +64,7 @@ struct CompositeResult {
   cv::Mat alpha;               // final alpha over `roi` (CV_8U), for tests and debugging
   int level = 0;               // pyramid level of the asset used
   double match_sigma = 0;      // Gaussian blur applied to match the recording's sharpness, px
+  double grain_sigma = 0;      // sensor noise added to the picture (8-bit grey levels)
   double occluded_fraction() const {
     return coverage_before > 1e-9 ? 1.0 - coverage_after / coverage_before : 0.0;
   }
