@@ -10,6 +10,7 @@
 #include "hazardforge/core/campaign.hpp"
 #include "hazardforge/core/commands.hpp"
 #include "hazardforge/core/host.hpp"
+#include "hazardforge/process_memory.hpp"
 #include "hazardforge/redact.hpp"
 
 namespace {
@@ -25,6 +26,7 @@ extern "C" void on_sigint(int) {
 
 int main(int argc, char** argv) {
   using namespace hf::core;
+  hf::keep_freed_memory_for_reuse();
   std::vector<std::string> args(argv, argv + argc);
   CLI::App app{"HazardForge: turn real driving recordings into safety-critical test scenarios"};
   app.require_subcommand(1);
