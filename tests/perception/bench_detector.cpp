@@ -18,6 +18,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "hazardforge/params.hpp"
+#include "hazardforge/process_memory.hpp"
 #include "yolo_detector.hpp"
 
 namespace {
@@ -39,6 +40,7 @@ const std::vector<ModelCase> kCases = {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hf::keep_freed_memory_for_reuse();  // the host's allocator policy
   benchmark::Initialize(&argc, argv);
   const std::string shared = hf::shared_root();
   std::string image_path = shared + "/data/udacity-highway/test_images/test1.jpg";

@@ -31,7 +31,7 @@
 #include "centroid_tracker.hpp"
 #include "drac_metric.hpp"
 #include "hazardforge/params.hpp"
-#include "hazardforge/process_memory.hpp"
+#include "hazardforge/testing/benchmark_main.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "jsonl_sink.hpp"
 #include "kalman_estimator.hpp"
@@ -387,12 +387,4 @@ BENCHMARK(BM_AnnotatedVideoSink)
     ->MinTime(4.0)
     ->UseRealTime();
 
-// The host's allocator policy, so that the numbers are the host's.
-int main(int argc, char** argv) {
-  hf::keep_freed_memory_for_reuse();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+HF_BENCHMARK_MAIN();

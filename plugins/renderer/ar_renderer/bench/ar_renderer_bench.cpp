@@ -12,7 +12,7 @@
 
 #include "ar_renderer.hpp"
 #include "ego_motion.hpp"
-#include "hazardforge/process_memory.hpp"
+#include "hazardforge/testing/benchmark_main.hpp"
 
 namespace {
 
@@ -146,12 +146,4 @@ BENCHMARK(BM_FlowEgoMotion)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-// The host's allocator policy, so that the numbers are the host's.
-int main(int argc, char** argv) {
-  hf::keep_freed_memory_for_reuse();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+HF_BENCHMARK_MAIN();
