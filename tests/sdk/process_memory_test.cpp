@@ -12,7 +12,7 @@
 namespace hf {
 namespace {
 
-long minor_faults() {
+[[maybe_unused]] long minor_faults() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return u.ru_minflt;
@@ -20,7 +20,7 @@ long minor_faults() {
 
 // Page faults of `rounds` cycles of what a stage does on a frame: 16 work buffers of 2 MiB (a 1600x900
 // picture's planes and masks) allocated, written and all freed at the end; -1 when malloc fails.
-long faults_of_cycles(int rounds) {
+[[maybe_unused]] long faults_of_cycles(int rounds) {
   const size_t bytes = 2u << 20;
   const long before = minor_faults();
   for (int i = 0; i < rounds; ++i) {
