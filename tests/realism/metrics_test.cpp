@@ -5,6 +5,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "hazardforge/error.hpp"
 #include "hazardforge/realism/compare.hpp"
 #include "hazardforge/realism/metrics.hpp"
 
@@ -87,6 +88,39 @@ TEST(RealismMetrics, SharpnessFallsWithTheObjectsBlur) {
   const AppearanceStats soft = measure_all(paste(bg, blurred, mask), mask);
   EXPECT_NEAR(same.sharpness, 1.0, 0.3);  // same texture statistics inside and out
   EXPECT_LT(soft.sharpness, 0.1);
+}
+
+// The Laplacian is taken at the masked pixels only: the same variance as cv::Laplacian (3x3, reflected border)
+// over the whole picture followed by cv::meanStdDev under the mask, for 8-bit, float and 16-bit pictures,
+// masks that touch every border, a full (empty) mask and pictures one pixel wide or high.
+TEST(RealismMetrics, LaplacianVarianceUnderAMaskIsTheWholePicturesLaplacianMasked) {
+  cv::RNG rng(17);
+  for (const cv::Size size : {cv::Size(97, 61), cv::Size(1, 40), cv::Size(40, 1)}) {
+    cv::Mat g8(size, CV_8U);
+    rng.fill(g8, cv::RNG::UNIFORM, 0, 256);
+    cv::Mat mask(size, CV_8U);
+    rng.fill(mask, cv::RNG::UNIFORM, 0, 3);  // about a third of the pixels left out, runs of both
+    mask = mask > 0;
+    cv::Mat g16, g32;
+    g8.convertTo(g16, CV_16U, 97);
+    g8.convertTo(g32, CV_32F, 0.37, -5.0);
+    for (const cv::Mat& g : {g8, g16, g32})
+      for (const cv::Mat& m : {mask, cv::Mat()}) {
+        cv::Mat g64, lap;
+        g.convertTo(g64, CV_64F);
+        cv::Laplacian(g64, lap, CV_64F, 1);
+        cv::Scalar mean, sd;
+        cv::meanStdDev(lap, mean, sd, m);
+        const double want = sd[0] * sd[0];
+        EXPECT_NEAR(laplacian_variance(g, m), want, 1e-5 * want)
+            << size << " depth " << g.depth() << (m.empty() ? " whole picture" : " masked");
+      }
+  }
+  // Fewer than 16 masked pixels: no estimate.
+  cv::Mat g(20, 20, CV_8U, cv::Scalar(9)), few(20, 20, CV_8U, cv::Scalar(0));
+  few(cv::Rect(0, 0, 3, 5)).setTo(255);
+  EXPECT_TRUE(std::isnan(laplacian_variance(g, few)));
+  EXPECT_THROW(laplacian_variance(g, cv::Mat(10, 10, CV_8U, cv::Scalar(255))), hf::Error);
 }
 
 TEST(RealismMetrics, BlurToMatchFindsAKnownBlurFromAnyStartingPoint) {

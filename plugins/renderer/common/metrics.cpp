@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -46,14 +48,68 @@ std::optional<double> ground_depth(const CameraModel& camera, double x, double y
   return z;
 }
 
+namespace {
+
+// Reflect-101 index (the border cv::Laplacian uses): -1 -> 1, n -> n - 2.
+int reflect101(int i, int n) {
+  if (n == 1) return 0;
+  if (i < 0) return -i;
+  if (i >= n) return 2 * n - 2 - i;
+  return i;
+}
+
+// Variance of the 4-neighbour Laplacian (cv::Laplacian with ksize 1) at the masked pixels only: the ring
+// around an object or the interior of a sprite is a small part of the rectangle around it, so the Laplacian
+// is not computed for the whole rectangle. Sums in double, as cv::meanStdDev keeps them.
+template <typename T>
+double masked_laplacian_variance(const cv::Mat& g, const cv::Mat& mask) {
+  double s = 0, ss = 0;
+  size_t n = 0;
+  for (int y = 0; y < g.rows; ++y) {
+    const uint8_t* m = mask.empty() ? nullptr : mask.ptr<uint8_t>(y);
+    const T* up = g.ptr<T>(reflect101(y - 1, g.rows));
+    const T* row = g.ptr<T>(y);
+    const T* down = g.ptr<T>(reflect101(y + 1, g.rows));
+    for (int x = 0; x < g.cols; ++x) {
+      if (m && !m[x]) {
+        // Skip unmasked runs eight pixels at a time.
+        uint64_t eight = 0;
+        while (x + 8 < g.cols && (std::memcpy(&eight, m + x + 1, 8), eight == 0)) x += 8;
+        continue;
+      }
+      const int xl = x > 0 ? x - 1 : reflect101(-1, g.cols),
+                xr = x + 1 < g.cols ? x + 1 : reflect101(g.cols, g.cols);
+      // In float, as the CV_32F Laplacian holds it.
+      const float l = static_cast<float>(up[x]) + static_cast<float>(down[x]) + static_cast<float>(row[xl]) +
+                      static_cast<float>(row[xr]) - 4.0f * static_cast<float>(row[x]);
+      s += l;
+      ss += static_cast<double>(l) * l;
+      ++n;
+    }
+  }
+  if (n == 0) return 0.0;
+  const double mean = s / static_cast<double>(n);
+  return std::max(0.0, ss / static_cast<double>(n) - mean * mean);
+}
+
+}  // namespace
+
 double laplacian_variance(const cv::Mat& grey, const cv::Mat& mask) {
   if (grey.empty() || grey.channels() != 1) throw Error("laplacian_variance: expected a grey picture");
-  cv::Mat lap;
-  cv::Laplacian(grey, lap, CV_32F, 1);
+  if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != grey.size()))
+    throw Error("laplacian_variance: the mask must be 8-bit and the picture's size");
   if (!mask.empty() && cv::countNonZero(mask) < 16) return kNaN;
-  cv::Scalar m, sd;
-  cv::meanStdDev(lap, m, sd, mask);
-  return sd[0] * sd[0];
+  switch (grey.depth()) {
+    case CV_8U:
+      return masked_laplacian_variance<uint8_t>(grey, mask);
+    case CV_32F:
+      return masked_laplacian_variance<float>(grey, mask);
+    default: {
+      cv::Mat f;
+      grey.convertTo(f, CV_32F);
+      return masked_laplacian_variance<float>(f, mask);
+    }
+  }
 }
 
 double blur_to_match(const cv::Mat& grey, const cv::Mat& mask, double target_variance, double hint,
