@@ -126,8 +126,23 @@ PlanarMotion FlowEgoMotion::estimate(const cv::Mat& prev, const cv::Mat& cur, co
 }
 
 PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur, const CameraModel& cam,
-                                     const std::vector<cv::Rect2f>& exclude,
-                                     std::vector<cv::Point2f>* carry) const {
+                                     const std::vector<cv::Rect2f>& exclude, FlowCarry* carry) const {
+  if (!carry || !carry->homography) return track(prev, cur, cam, exclude, carry, std::nullopt);
+  // With the last motion as the starting guess the two finest pyramid levels are enough; when the motion
+  // changed too much for that (a sharp turn ending, a bump), the features are tracked again from zero motion
+  // through the whole pyramid.
+  const std::optional<cv::Matx33d> guess = carry->homography;
+  const std::vector<cv::Point2f> points = carry->points;
+  PlanarMotion pm = track(prev, cur, cam, exclude, carry, guess);
+  if (pm.ok) return pm;
+  carry->points = points;
+  carry->homography.reset();
+  return track(prev, cur, cam, exclude, carry, std::nullopt);
+}
+
+PlanarMotion FlowEgoMotion::track(const FlowFrame& prev, const FlowFrame& cur, const CameraModel& cam,
+                                  const std::vector<cv::Rect2f>& exclude, FlowCarry* carry,
+                                  const std::optional<cv::Matx33d>& guess) const {
   PlanarMotion pm;
   if (prev.empty() || cur.empty()) {
     pm.why = "no road between flow_min_range_m and flow_max_range_m below the horizon";
@@ -148,7 +163,7 @@ PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur
   }
   std::vector<cv::Point2f> p0;
   if (carry)
-    for (const cv::Point2f& q : *carry) {
+    for (const cv::Point2f& q : carry->points) {
       const cv::Point qi(cvRound(q.x), cvRound(q.y));
       if (qi.inside(cv::Rect(0, 0, mask.cols, mask.rows)) && mask.at<uint8_t>(qi)) p0.push_back(q);
     }
@@ -171,15 +186,37 @@ PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur
   std::vector<float> err;
   const cv::Size win(opt_.win_px, opt_.win_px);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
-  cv::calcOpticalFlowPyrLK(prev.pyramid, cur.pyramid, p0, p1, st, err, win, kLkLevels, term);
-  // Forward-backward check: a track that does not come back to where it started is unreliable.
-  const bool fb = opt_.fb_max_px > 0;
-  if (fb) cv::calcOpticalFlowPyrLK(cur.pyramid, prev.pyramid, p1, pb, st_b, err, win, kLkLevels, term);
-  std::vector<cv::Point2d> a, b;
-  std::vector<cv::Point2f> b_band;
   auto full = [](const FlowFrame& f, const cv::Point2f& q) {  // band pixel centre -> full-resolution pixel
     return cv::Point2d((q.x + 0.5) / f.sx - 0.5, (q.y + 0.5) / f.sy - 0.5 + f.row0);
   };
+  // Start LK where the last motion would take each feature (the road's homography changes little from frame
+  // to frame): only the change of motion is left to track, which the two finest pyramid levels cover.
+  int lk_flags = 0;
+  if (guess) {
+    p1.reserve(p0.size());
+    for (const cv::Point2f& q : p0) {
+      const cv::Point2d g = full(prev, q);
+      const cv::Vec3d h = *guess * cv::Vec3d(g.x, g.y, 1.0);
+      if (h[2] <= 1e-9) {
+        p1.push_back(q);
+        continue;
+      }
+      p1.emplace_back(static_cast<float>((h[0] / h[2] + 0.5) * cur.sx - 0.5),
+                      static_cast<float>((h[1] / h[2] - cur.row0 + 0.5) * cur.sy - 0.5));
+    }
+    lk_flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+  }
+  cv::calcOpticalFlowPyrLK(prev.pyramid, cur.pyramid, p0, p1, st, err, win, guess ? 1 : kLkLevels, term,
+                           lk_flags);
+  // Forward-backward check: a track that does not come back to where it started is unreliable.
+  const bool fb = opt_.fb_max_px > 0;
+  if (fb) {
+    pb = p0;  // the way back starts at the feature's own position
+    cv::calcOpticalFlowPyrLK(cur.pyramid, prev.pyramid, p1, pb, st_b, err, win, kLkLevels, term,
+                             cv::OPTFLOW_USE_INITIAL_FLOW);
+  }
+  std::vector<cv::Point2d> a, b;
+  std::vector<cv::Point2f> b_band;
   for (size_t i = 0; i < p0.size(); ++i) {
     if (!st[i]) continue;
     if (fb && (!st_b[i] || cv::norm(pb[i] - p0[i]) > opt_.fb_max_px * prev.sx)) continue;
@@ -268,9 +305,11 @@ PlanarMotion FlowEgoMotion::estimate(const FlowFrame& prev, const FlowFrame& cur
   for (size_t i = 0; i < P.size(); ++i) kept += (use[i] = res[i] <= cut) ? 1 : 0;
   if (kept >= opt_.min_inliers) fit(P, Q, use, th, t);
   pm.inliers = kept >= opt_.min_inliers ? kept : static_cast<int>(P.size());
-  if (carry)
+  if (carry) {
     for (size_t i = 0; i < P.size(); ++i)
-      if (use[i] || kept < opt_.min_inliers) carry->push_back(b_band[src[i]]);
+      if (use[i] || kept < opt_.min_inliers) carry->points.push_back(b_band[src[i]]);
+    carry->homography = cv::Matx33d(H);
+  }
   pm.dx = t[0];
   pm.dy = t[1];
   pm.dyaw = th;

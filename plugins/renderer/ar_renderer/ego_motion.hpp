@@ -51,6 +51,18 @@ struct FlowFrame {
   bool empty() const { return pyramid.empty(); }
 };
 
+// What one frame's flow hands to the next: the features to track on (band pixels of the frame just
+// processed) and the road-plane homography just found (full-resolution pixels, previous -> current), which
+// predicts where the features will be in the next frame — LK starts from there instead of from zero motion.
+struct FlowCarry {
+  std::vector<cv::Point2f> points;
+  std::optional<cv::Matx33d> homography;
+  void clear() {
+    points.clear();
+    homography.reset();
+  }
+};
+
 // Road-plane ego motion from sparse LK flow: features below the horizon and outside detected objects are
 // tracked between the two frames, a RANSAC homography keeps those on the road plane, and the plane's known
 // geometry (camera height and mounting) turns the inliers into metric ground points whose rigid 2D motion is
@@ -61,17 +73,22 @@ class FlowEgoMotion {
   // Grey road band and its pyramid (empty when the camera sees no road in range).
   FlowFrame prepare(const cv::Mat& bgr_or_gray, const CameraModel& cam) const;
   // Motion between two prepared frames. `exclude` boxes (full-resolution pixels) are left out. With `carry`,
-  // features are reused across frames (KLT): on input the points to track in `prev` (band pixels), on output
-  // the inliers' positions in `cur`; new features are detected only when fewer than half remain.
+  // features are reused across frames (KLT): on input the points to track in `prev` (band pixels) and the
+  // last motion's homography (LK's starting guess), on output the inliers' positions in `cur` and this
+  // motion's homography; new features are detected only when fewer than half remain.
   PlanarMotion estimate(const FlowFrame& prev, const FlowFrame& cur, const CameraModel& cam,
-                        const std::vector<cv::Rect2f>& exclude,
-                        std::vector<cv::Point2f>* carry = nullptr) const;
+                        const std::vector<cv::Rect2f>& exclude, FlowCarry* carry = nullptr) const;
   // Same, from two full images.
   PlanarMotion estimate(const cv::Mat& prev, const cv::Mat& cur, const CameraModel& cam,
                         const std::vector<cv::Rect2f>& exclude) const;
   const FlowOptions& options() const { return opt_; }
 
  private:
+  // One tracking attempt: LK from `guess` (the last homography) over the two finest pyramid levels, or from
+  // zero motion over all levels.
+  PlanarMotion track(const FlowFrame& prev, const FlowFrame& cur, const CameraModel& cam,
+                     const std::vector<cv::Rect2f>& exclude, FlowCarry* carry,
+                     const std::optional<cv::Matx33d>& guess) const;
   FlowOptions opt_;
 };
 
@@ -123,7 +140,7 @@ class EgoTrajectory {
   std::optional<double> yaw_rate_;
   std::optional<EgoMotionMode> resolved_;
   FlowFrame prev_flow_;
-  std::vector<cv::Point2f> carry_;
+  FlowCarry carry_;
   double prev_t_ = 0.0;
   std::optional<double> prev_speed_, prev_yaw_rate_;
   bool have_prev_ = false;

@@ -123,7 +123,7 @@ void BM_FlowEgoMotion(benchmark::State& state) {
     frames.push_back(f);
   }
   FlowEgoMotion flow;
-  std::vector<cv::Point2f> carry;
+  FlowCarry carry;
   FlowFrame prev = flow.prepare(frames[0], cam);
   size_t k = 1;
   int failed = 0;
