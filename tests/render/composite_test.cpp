@@ -513,6 +513,52 @@ TEST(Composite, PictureIsBlurredToTheFramesOwnSharpness) {
   EXPECT_LT(matched, 0.6 * sharp);
 }
 
+// The motion blur, in place, equals the mean of the picture's 2^k copies shifted by every sum of the passes'
+// shifts (1, 2, 4 px along the motion, rounded), zero where a copy comes from outside — in every direction,
+// so the rows and columns are visited in an order that never reads a pixel already averaged.
+TEST(Composite, MotionBlurIsTheMeanOfShiftedCopiesInEveryDirection) {
+  cv::Mat pic(40, 50, CV_8UC4);
+  cv::RNG rng(5);
+  rng.fill(pic, cv::RNG::UNIFORM, 0, 256);
+  for (const cv::Point2d blur :
+       {cv::Point2d(8, 0), cv::Point2d(-8, 0), cv::Point2d(0, 8), cv::Point2d(0, -8), cv::Point2d(6, 6),
+        cv::Point2d(-5.7, 5.7), cv::Point2d(3, -7.4), cv::Point2d(-2, -3)}) {
+    cv::Mat out = pic.clone();
+    std::vector<uint8_t> row;
+    const int k = motion_blur(out, blur, row);
+    EXPECT_EQ(k, static_cast<int>(std::lround(std::log2(cv::norm(blur))))) << blur;
+    std::vector<cv::Point> step;
+    for (int i = 0; i < k; ++i) {
+      const cv::Point2d d = blur / cv::norm(blur) * std::ldexp(1.0, i);
+      step.emplace_back(static_cast<int>(std::lround(d.x)), static_cast<int>(std::lround(d.y)));
+    }
+    cv::Mat ref(pic.size(), CV_64FC4, cv::Scalar::all(0));
+    for (int subset = 0; subset < (1 << k); ++subset) {
+      cv::Point s(0, 0);
+      for (int i = 0; i < k; ++i)
+        if (subset & (1 << i)) s += step[static_cast<size_t>(i)];
+      for (int y = 0; y < pic.rows; ++y)
+        for (int x = 0; x < pic.cols; ++x) {
+          const cv::Point from(x - s.x, y - s.y);
+          if (from.inside(cv::Rect(0, 0, pic.cols, pic.rows)))
+            ref.at<cv::Vec4d>(y, x) += cv::Vec4d(pic.at<cv::Vec4b>(from));
+        }
+    }
+    ref /= static_cast<double>(1 << k);
+    cv::Mat got, diff;
+    out.convertTo(got, CV_64FC4);
+    cv::absdiff(got, ref, diff);
+    double worst = 0;
+    cv::minMaxLoc(diff.reshape(1), nullptr, &worst);
+    EXPECT_LE(worst, k) << "blur " << blur << ": each pass rounds up by at most half a grey level";
+  }
+  // Below 1.5 px nothing happens.
+  cv::Mat out = pic.clone();
+  std::vector<uint8_t> row;
+  EXPECT_EQ(motion_blur(out, {1.2, 0.5}, row), 0);
+  EXPECT_EQ(cv::norm(out, pic, cv::NORM_INF), 0.0);
+}
+
 TEST(Composite, GrainMatchesTheFramesNoiseAsTheRealismMetricMeasuresIt) {
   // A smooth road-grey frame with sensor noise (Gaussian, per channel, then JPEG): the inserted default car,
   // rendered clean, gets grain until its interior is as noisy as its surroundings by the metric's own

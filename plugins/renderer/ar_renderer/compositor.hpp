@@ -53,7 +53,8 @@ struct CompositorState {
   double blur_sigma = 0.0;       // the recording's blur applied to the picture (smoothed), px
   double last_match_sigma = 0.0;  // the last frame's unsmoothed estimate (where the next search starts)
   int blur_frames = 0;
-  cv::Mat warped, acc, shadow;  // work buffers (grown, never shrunk)
+  cv::Mat warped, shadow;    // work buffers (grown, never shrunk)
+  std::vector<uint8_t> row;  // one row, for the motion blur
 };
 
 struct CompositeResult {
@@ -80,5 +81,11 @@ cv::Matx33d asset_homography(const LoadedAsset& asset, const std::array<cv::Poin
 
 // Draws the object into `image` (BGR 8-bit, modified in place).
 CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, CompositorState& state);
+
+// Motion blur of a premultiplied picture (any 8-bit type), in place: a box along `blur` (the image motion
+// over the exposure, px) of length 2^k, the power of two nearest its length, built by k halving-averages with
+// a copy shifted by 1, 2, 4 ... px along it (rounded up; what is shifted in from outside the picture is
+// transparent). `row` is a work buffer. Returns k (0 below 1.5 px).
+int motion_blur(cv::Mat& bgra, cv::Point2d blur, std::vector<uint8_t>& row);
 
 }  // namespace hf::render
