@@ -210,11 +210,7 @@ PlanarMotion FlowEgoMotion::track(const FlowFrame& prev, const FlowFrame& cur, c
                            lk_flags);
   // Forward-backward check: a track that does not come back to where it started is unreliable.
   const bool fb = opt_.fb_max_px > 0;
-  if (fb) {
-    pb = p0;  // the way back starts at the feature's own position
-    cv::calcOpticalFlowPyrLK(cur.pyramid, prev.pyramid, p1, pb, st_b, err, win, kLkLevels, term,
-                             cv::OPTFLOW_USE_INITIAL_FLOW);
-  }
+  if (fb) cv::calcOpticalFlowPyrLK(cur.pyramid, prev.pyramid, p1, pb, st_b, err, win, kLkLevels, term);
   std::vector<cv::Point2d> a, b;
   std::vector<cv::Point2f> b_band;
   for (size_t i = 0; i < p0.size(); ++i) {
