@@ -169,6 +169,35 @@ TEST(RealismMetrics, NoiseEstimateRecoversAKnownSigmaAndItsRatio) {
   EXPECT_NEAR(grained.noise_sigma, grey_sigma, 0.15 * grey_sigma);
 }
 
+TEST(RealismMetrics, NoiseOverPooledPatchesIsTheFlattestHalfOfAllTheirPixels) {
+  // Four strips of a noisy ramp read together give the whole picture's sigma; a textured strip among them is
+  // left out with the less flat half of the pooled pixels, so it raises the estimate far less than it would
+  // alone.
+  cv::Mat ramp(kSize, CV_8U);
+  for (int y = 0; y < ramp.rows; ++y)
+    for (int x = 0; x < ramp.cols; ++x) ramp.at<uint8_t>(y, x) = static_cast<uint8_t>(60 + x / 3 + y / 4);
+  cv::Mat bgr, grey;
+  cv::cvtColor(ramp, bgr, cv::COLOR_GRAY2BGR);
+  cv::cvtColor(add_noise(bgr, 4.0, 7), grey, cv::COLOR_BGR2GRAY);
+  const double whole = noise_sigma(grey);
+  const int w = 12;
+  std::vector<cv::Mat> strips = {
+      grey(cv::Rect(0, 0, grey.cols, w)), grey(cv::Rect(0, grey.rows - w, grey.cols, w)),
+      grey(cv::Rect(0, w, w, grey.rows - 2 * w)), grey(cv::Rect(grey.cols - w, w, w, grey.rows - 2 * w))};
+  EXPECT_NEAR(noise_sigma(strips), whole, 0.1 * whole);
+  cv::Mat textured = strips[0].clone();
+  cv::Mat tex(textured.size(), CV_8U);
+  cv::RNG rng(9);
+  rng.fill(tex, cv::RNG::UNIFORM, 0, 60);
+  textured += tex;
+  const double alone = noise_sigma(textured);
+  strips[0] = textured;
+  EXPECT_GT(alone, 2 * whole);
+  EXPECT_LT(noise_sigma(strips), 0.5 * (whole + alone));
+  EXPECT_TRUE(std::isnan(noise_sigma(std::vector<cv::Mat>{})));
+  EXPECT_THROW(noise_sigma(std::vector<cv::Mat>{bgr}), hf::Error);
+}
+
 TEST(RealismMetrics, LabStatisticsFollowAKnownColourShift) {
   const cv::Mat bg = texture(kSize, 7, 10.0);
   const cv::Mat mask = ellipse_mask(kSize, kCentre, kAxes);

@@ -592,6 +592,31 @@ TEST(Composite, GrainMatchesTheFramesNoiseAsTheRealismMetricMeasuresIt) {
   }
 }
 
+TEST(Composite, GrainMatchesTheFramesNoiseWhenTheObjectReachesPastThePicturesBottom) {
+  // A car 5 m ahead whose bottom lies below the picture: the noise is read beside it, not under it, so it
+  // still gets grain from its first frame on (read under it, there was no road to read and it stayed clean).
+  cv::Mat base(900, 1600, CV_8UC3), noise(900, 1600, CV_32FC3), img;
+  for (int y = 0; y < base.rows; ++y) base.row(y).setTo(cv::Scalar::all(90 + y / 20));
+  cv::RNG rng(23);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 3.0);
+  base.convertTo(img, CV_32FC3);
+  img += noise;
+  img.convertTo(img, CV_8UC3);
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", 5.0, 0.0, 0.3, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  RendererOptions o;
+  o.ego.mode = EgoMotionMode::kPoses;
+  o.composite.shadow = false;
+  HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  for (int f = 0; f < 3; ++f) {
+    const auto res = r.render(make_frame(f, 0.1 * f, img, test_camera(), cv::Matx44d::eye()), traj, {});
+    ASSERT_TRUE(res.hazard.visible);
+    ASSERT_GE(res.hazard.box.y + res.hazard.box.height, img.rows - 1.f) << "the car must reach the bottom";
+    ASSERT_TRUE(res.hazard.appearance.has_value());
+    EXPECT_NEAR(res.hazard.appearance->noise_ratio, 1.0, 0.3) << "frame " << f;
+  }
+}
+
 TEST(ArRendererStage, RefusesFramesWithoutPosesInPosesMode) {
   auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses");
   runner.push("frames", make_frame(4, 0.4, hf::test::textured_image(), test_camera()), 0.4);

@@ -89,6 +89,32 @@ double noise_level(const cv::Mat& patch, const cv::Mat& mask = {}) {
   return std::isfinite(s) ? std::min(s, 6.0) : 0.0;
 }
 
+// The sensor noise beside an object whose box spans (x0, y0)-(x1, y1), as the realism metric reads it in its
+// ring: Immerkaer's estimate over the four strips (up to 16 px wide) that frame the box, pooled; 0 when fewer
+// than 256 of their pixels are in the picture. Strips, not the framed rectangle: the cost stays with the
+// ring.
+double ring_noise(const cv::Mat& image, double x0, double y0, double x1, double y1) {
+  const int w = std::clamp(static_cast<int>(0.15 * (y1 - y0)), 6, 16);
+  const int ix0 = static_cast<int>(std::floor(x0)), iy0 = static_cast<int>(std::floor(y0));
+  const int ix1 = static_cast<int>(std::ceil(x1)), iy1 = static_cast<int>(std::ceil(y1));
+  const cv::Rect img(0, 0, image.cols, image.rows);
+  std::vector<cv::Mat> strips;
+  int n = 0;
+  for (const cv::Rect& r :
+       {cv::Rect(ix0 - w, iy0 - w, ix1 - ix0 + 2 * w, w), cv::Rect(ix0 - w, iy1, ix1 - ix0 + 2 * w, w),
+        cv::Rect(ix0 - w, iy0, w, iy1 - iy0), cv::Rect(ix1, iy0, w, iy1 - iy0)}) {
+    const cv::Rect c = r & img;
+    if (c.width < 8 || c.height < 8) continue;
+    cv::Mat g;
+    cv::cvtColor(image(c), g, cv::COLOR_BGR2GRAY);
+    strips.push_back(g);
+    n += c.area();
+  }
+  if (n < 256) return 0.0;
+  const double s = realism::noise_sigma(strips);
+  return std::isfinite(s) ? std::min(s, 6.0) : 0.0;
+}
+
 // A fixed tile of unit Gaussian noise in 1/1024 units; frames read it at shifting offsets so the grain changes
 // every frame.
 const cv::Mat& noise_tile_q10() {
@@ -287,20 +313,26 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   cv::Scalar mean, sd;
   std::vector<cv::Point2d> hull_d(hull.begin(), hull.end());
   if (ring_statistics(image, around, hull_d, mean, sd)) {
-    // Noise from a full-resolution strip just below the object (road, rarely textured at that scale).
-    const int sh = std::clamp(static_cast<int>(0.1 * obj_h), 8, 32);
-    const cv::Rect strip = cv::Rect(static_cast<int>(bx0), static_cast<int>(by1) + 2, std::max(8, static_cast<int>(bx1 - bx0)), sh) & img_rect;
-    const double noise = o.grain && strip.area() >= 64 ? noise_level(image(strip)) : 0.0;
     if (!ex.valid) {
       ex.mean = mean;
       ex.stddev = sd;
-      ex.noise_sigma = noise;
       ex.valid = true;
     } else {
       const double k = o.exposure_smoothing;
       ex.mean = ex.mean * k + mean * (1 - k);
       ex.stddev = ex.stddev * k + sd * (1 - k);
-      ex.noise_sigma = ex.noise_sigma * k + noise * (1 - k);
+    }
+  }
+  if (o.grain && (ex.noise_frames == 0 || ex.frame % 4 == 0)) {
+    // Noise beside the object, read as the realism metric reads it (in a ring around the object); frames
+    // where too little of the ring is in the picture do not count. A camera's noise level changes slowly:
+    // after the first reading, every fourth frame.
+    const double noise = ring_noise(image, bx0, by0, bx1, by1);
+    if (noise > 0) {
+      ex.noise_sigma = ex.noise_frames == 0
+                           ? noise
+                           : ex.noise_sigma * o.exposure_smoothing + noise * (1 - o.exposure_smoothing);
+      ++ex.noise_frames;
     }
   }
   ++ex.frame;

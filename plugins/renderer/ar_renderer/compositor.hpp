@@ -44,7 +44,8 @@ struct Placement {
 struct CompositorState {
   cv::Scalar mean, stddev;
   bool valid = false;
-  double noise_sigma = 0.0;  // sensor noise around the object (8-bit grey levels)
+  double noise_sigma = 0.0;  // sensor noise around the object (8-bit grey levels), smoothed
+  int noise_frames = 0;      // frames it was measured on
   int64_t frame = 0;         // moves the grain pattern every frame
   const LoadedAsset* sprite_asset = nullptr;
   int sprite_level = -1;

@@ -166,11 +166,11 @@ NoiseMaps noise_maps(const cv::Mat& grey) {
   return m;
 }
 
-double noise_from_maps(const NoiseMaps& maps, const cv::Mat& mask) {
+// Appends the (flatness, |response|) pairs of the masked pixels; the outermost pixel's kernel reaches past
+// the picture, so it is left out.
+void collect_noise_pixels(const NoiseMaps& maps, const cv::Mat& mask,
+                          std::vector<std::pair<float, float>>& px) {
   const cv::Mat& resp = maps.resp;
-  std::vector<std::pair<float, float>> px;  // (flatness, |response|)
-  px.reserve(static_cast<size_t>(mask.empty() ? resp.total() : cv::countNonZero(mask)));
-  // The outermost pixel's kernel reaches past the picture; leave it out.
   for (int y = 1; y < resp.rows - 1; ++y) {
     const float* r = resp.ptr<float>(y);
     const float* m = maps.mag.ptr<float>(y);
@@ -178,6 +178,9 @@ double noise_from_maps(const NoiseMaps& maps, const cv::Mat& mask) {
     for (int x = 1; x < resp.cols - 1; ++x)
       if (!k8 || k8[x] >= 128) px.emplace_back(m[x], std::abs(r[x]));
   }
+}
+
+double noise_from_pixels(std::vector<std::pair<float, float>>& px) {
   if (px.size() < 32) return kNaN;
   const size_t half = px.size() / 2;
   std::nth_element(px.begin(), px.begin() + static_cast<long>(half), px.end(),
@@ -187,12 +190,28 @@ double noise_from_maps(const NoiseMaps& maps, const cv::Mat& mask) {
   return std::sqrt(CV_PI / 2) / 6.0 * sum / static_cast<double>(half);
 }
 
+double noise_from_maps(const NoiseMaps& maps, const cv::Mat& mask) {
+  std::vector<std::pair<float, float>> px;  // (flatness, |response|)
+  px.reserve(static_cast<size_t>(mask.empty() ? maps.resp.total() : cv::countNonZero(mask)));
+  collect_noise_pixels(maps, mask, px);
+  return noise_from_pixels(px);
+}
+
 }  // namespace
 
 double noise_sigma(const cv::Mat& grey, const cv::Mat& mask) {
   if (grey.empty() || grey.channels() != 1) throw Error("noise_sigma: expected a grey picture");
   if (grey.rows < 5 || grey.cols < 5) return kNaN;
   return noise_from_maps(noise_maps(grey), mask);
+}
+
+double noise_sigma(const std::vector<cv::Mat>& grey_patches) {
+  std::vector<std::pair<float, float>> px;
+  for (const cv::Mat& g : grey_patches) {
+    if (g.empty() || g.channels() != 1) throw Error("noise_sigma: expected grey patches");
+    if (g.rows >= 5 && g.cols >= 5) collect_noise_pixels(noise_maps(g), {}, px);
+  }
+  return noise_from_pixels(px);
 }
 
 AppearanceStats measure(const cv::Mat& bgr, const cv::Mat& mask, cv::Point offset, const cv::Rect2f& box,

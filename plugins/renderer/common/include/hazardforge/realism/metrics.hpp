@@ -43,6 +43,9 @@ cv::Mat object_mask(const cv::Mat& bgr, const cv::Rect2f& box, cv::Rect* crop, d
 // on the flattest half of the masked pixels, flatness judged on a blurred copy so it does not select the noise
 // itself. NaN when fewer than 16 pixels are left.
 double noise_sigma(const cv::Mat& grey, const cv::Mat& mask = {});
+// The same over several grey patches taken together (their pixels pooled before the flattest half is chosen):
+// a ring around an object read as a few strips, without filtering the area it encloses.
+double noise_sigma(const std::vector<cv::Mat>& grey_patches);
 
 // Variance of the 3x3 Laplacian of a grey picture (any depth) over a mask (CV_8U, empty = all); NaN below 16
 // pixels.
