@@ -27,10 +27,30 @@ using cv::Vec3d;
 namespace fs = std::filesystem;
 namespace hr = hf::render;
 
+// The fine detail a surface carries at the scale of a few picture pixels: what makes a real car or person
+// look sharp next to a flat-shaded model (docs/augmentation.md, realism: sharpness).
+enum class Pattern {
+  none,
+  paint,   // road grime towards the sills
+  plate,   // a registration: a row of dark characters centred on `centre` (y, z), `size` = character height
+  lamp,    // horizontal ribs and a brighter reflector in a lamp cluster
+  tread,   // tyre grooves around the circumference, the sidewall's moulding
+  spokes,  // five spokes of a wheel centred on (x = `centre`[0], z = `centre`[2])
+  fabric,  // folds and seams of clothing; a zip down the front
+  denim,   // a trouser leg's creases and outer seam
+  hair,    // strands
+  face,    // eyes, brows and mouth on a head centred on `centre`
+  seat,    // a seat's quilting, seen through the glass
+};
+
 struct Material {
-  Vec3d albedo;           // BGR, 0..1
-  double specular = 0.0;  // strength of the sky reflection
-  double emissive = 0.0;  // lamps: part of the colour that ignores shading
+  Vec3d albedo;            // BGR, 0..1
+  double specular = 0.0;   // strength of the sky reflection
+  double emissive = 0.0;   // lamps: part of the colour that ignores shading
+  double transmits = 0.0;  // glass: share of the cabin behind it that shows through
+  Pattern pattern = Pattern::none;
+  Vec3d centre;       // the pattern's anchor in the object frame
+  double size = 0.0;  // the pattern's scale in metres
 };
 
 struct Hit {
@@ -38,6 +58,46 @@ struct Hit {
   Vec3d n;
   int material = -1;
 };
+
+// Deterministic value noise for the surface detail: the same picture on every run and machine.
+uint32_t mix32(uint32_t h) {
+  h ^= h >> 16;
+  h *= 0x7feb352dU;
+  h ^= h >> 15;
+  h *= 0x846ca68bU;
+  h ^= h >> 16;
+  return h;
+}
+double cell(int x, int y, int z = 0) {
+  const uint32_t h =
+      mix32(static_cast<uint32_t>(x) * 73856093U ^
+            mix32(static_cast<uint32_t>(y) * 19349663U ^ mix32(static_cast<uint32_t>(z) * 83492791U)));
+  return h / 4294967295.0;
+}
+double smooth(double t) {
+  return t * t * (3 - 2 * t);
+}
+// Trilinear value noise in 0..1 with a period of one unit.
+double noise3(const Vec3d& p) {
+  const double fx = std::floor(p[0]), fy = std::floor(p[1]), fz = std::floor(p[2]);
+  const int x = static_cast<int>(fx), y = static_cast<int>(fy), z = static_cast<int>(fz);
+  const double u = smooth(p[0] - fx), v = smooth(p[1] - fy), w = smooth(p[2] - fz);
+  auto lerp = [](double a, double b, double t) { return a + (b - a) * t; };
+  return lerp(
+      lerp(lerp(cell(x, y, z), cell(x + 1, y, z), u), lerp(cell(x, y + 1, z), cell(x + 1, y + 1, z), u), v),
+      lerp(lerp(cell(x, y, z + 1), cell(x + 1, y, z + 1), u),
+           lerp(cell(x, y + 1, z + 1), cell(x + 1, y + 1, z + 1), u), v),
+      w);
+}
+// Three octaves of it, 0..1 with mean 0.5.
+double fbm3(const Vec3d& p) {
+  return (4 * noise3(p) + 2 * noise3(p * 2.03 + Vec3d(17.1, 3.3, 9.7)) +
+          noise3(p * 4.11 + Vec3d(5.2, 41.0, 1.7))) /
+         7.0;
+}
+double frac(double x) {
+  return x - std::floor(x);
+}
 
 // A primitive intersected by rays in the object frame.
 class Shape {
@@ -226,11 +286,20 @@ struct Model {
   std::string file_prefix;  // the pictures' file names start with it (the class when empty)
   Vec3d size_lwh;
   std::vector<Material> materials;
-  std::vector<std::shared_ptr<const Shape>> shapes;  // shared: Model is copied into a vector
+  std::vector<std::shared_ptr<const Shape>> shapes;    // shared: Model is copied into a vector
+  std::vector<std::shared_ptr<const Shape>> interior;  // seen only through glass that transmits
   int target_height_px = 240;
 
-  int material(Vec3d bgr, double spec = 0.0, double emissive = 0.0) {
-    materials.push_back({bgr, spec, emissive});
+  int material(Vec3d bgr, double spec = 0.0, double emissive = 0.0, Pattern pattern = Pattern::none,
+               Vec3d centre = {}, double size = 0.0) {
+    Material mt;
+    mt.albedo = bgr;
+    mt.specular = spec;
+    mt.emissive = emissive;
+    mt.pattern = pattern;
+    mt.centre = centre;
+    mt.size = size;
+    materials.push_back(mt);
     return static_cast<int>(materials.size()) - 1;
   }
   void box(Vec3d lo, Vec3d hi, int m) { shapes.push_back(std::make_shared<Box>(lo, hi, m)); }
@@ -247,14 +316,15 @@ struct Model {
 
 // Four wheels with lighter hubs; the tyres touch the ground and stay inside the box's width.
 void add_wheels(Model& m, const std::vector<double>& xs, double r, double half_w, double tyre_w) {
-  const int tyre = m.material({0.07, 0.07, 0.08}, 0.05);
-  const int hub = m.material({0.55, 0.55, 0.57}, 0.2);
-  for (double x : xs)
+  const int tyre = m.material({0.07, 0.07, 0.08}, 0.05, 0.0, Pattern::tread, {}, r);
+  for (double x : xs) {
+    const int hub = m.material({0.55, 0.55, 0.57}, 0.2, 0.0, Pattern::spokes, {x, 0, r}, r * 0.58);
     for (double s : {-1.0, 1.0}) {
       const double yc = s * (half_w - tyre_w / 2);
       m.wheel({x, yc, r}, r, tyre_w / 2, tyre);
       m.wheel({x, yc + s * 0.005, r}, r * 0.58, tyre_w / 2, hub);
     }
+  }
 }
 
 // Lamps and plates on the front (s = +1) or rear (s = -1) face at x = s * x_face.
@@ -300,13 +370,17 @@ Model make_car(const Paint& colour) {
   m.instance = std::string("car_") + (*colour.name ? colour.name : "default");
   m.file_prefix = std::string("car") + (*colour.name ? std::string("_") + colour.name : "");
   m.size_lwh = {4.50, 1.85, 1.52};
-  const int paint = m.material(colour.bgr, colour.specular);
+  const int paint = m.material(colour.bgr, colour.specular, 0.0, Pattern::paint);
   const int glass = m.material({0.06, 0.06, 0.06}, 0.7);
+  m.materials[static_cast<size_t>(glass)].transmits = 0.8;
   const int trim = m.material({0.10, 0.10, 0.11}, 0.08);
-  const int tail = m.material({0.12, 0.10, 0.85}, 0.3, 0.45);
-  const int head = m.material({0.82, 0.92, 0.95}, 0.4, 0.45);
-  const int plate = m.material({0.92, 0.92, 0.92}, 0.05);
+  const int tail = m.material({0.12, 0.10, 0.85}, 0.3, 0.45, Pattern::lamp);
+  const int head = m.material({0.82, 0.92, 0.95}, 0.4, 0.45, Pattern::lamp);
+  const int plate = m.material({0.92, 0.92, 0.92}, 0.05, 0.0, Pattern::plate, {-2.2, 0, 0.60}, 0.075);
+  const int front_plate = m.material({0.92, 0.92, 0.92}, 0.05, 0.0, Pattern::plate, {2.2, 0, 0.385}, 0.07);
   const int arch = m.material({0.03, 0.03, 0.03}, 0.0);
+  const int seat = m.material({0.16, 0.16, 0.17}, 0.05, 0.0, Pattern::seat);
+  const int dash = m.material({0.09, 0.09, 0.10}, 0.1);
 
   const double side = 0.915;
   const std::vector<Plane> body_planes = {
@@ -370,11 +444,27 @@ Model make_car(const Paint& colour) {
   band(0.022,
        {pl({-1, 0, 0}, -2.20), pl({0, 0, -1}, -0.33), pl({0, 0, 1}, 0.44), pl({0, 1, 0}, 0.26),
         pl({0, -1, 0}, 0.26)},
-       plate);
+       front_plate);
   for (double x : {0.79, -0.42})  // door shut lines
     band(0.003, {pl({1, 0, 0}, x + 0.012), pl({-1, 0, 0}, -(x - 0.012)), pl({0, 0, -1}, -0.37)}, trim);
   for (double x : {1.42, -1.38}) m.wheel({x, 0, 0.33}, 0.41, 0.920, arch, 0.20);  // arches
   add_wheels(m, {1.42, -1.38}, 0.33, 0.925, 0.22);
+  // The cabin seen through the glass: front and rear seat backs with head rests, the dashboard.
+  auto inside_box = [&](Vec3d lo, Vec3d hi, int mat) {
+    m.interior.push_back(std::make_shared<Box>(lo, hi, mat));
+  };
+  auto inside_capsule = [&](Vec3d a, Vec3d b, double r, int mat) {
+    m.interior.push_back(std::make_shared<Capsule>(a, b, r, mat));
+  };
+  for (double y : {-0.40, 0.40}) {
+    inside_box({-0.25, y - 0.26, 0.45}, {-0.12, y + 0.26, 1.12}, seat);
+    inside_capsule({-0.20, y - 0.08, 1.24}, {-0.20, y + 0.08, 1.24}, 0.085, seat);
+  }
+  inside_box({-1.20, -0.72, 0.45}, {-1.05, 0.72, 1.05}, seat);
+  for (double y : {-0.45, 0.0, 0.45})
+    inside_capsule({-1.14, y - 0.07, 1.14}, {-1.14, y + 0.07, 1.14}, 0.075, seat);
+  inside_box({0.75, -0.80, 0.80}, {1.20, 0.80, 1.02}, dash);
+  inside_box({-1.50, -0.86, 0.40}, {1.20, 0.86, 0.46}, dash);  // the floor and parcel shelf level
   return m;
 }
 
@@ -433,10 +523,11 @@ Model make_person() {
   m.instance = "person_default";
   m.size_lwh = {0.50, 0.60, 1.70};
   m.target_height_px = 320;
-  const int skin = m.material({0.50, 0.60, 0.78}, 0.05);
-  const int hair = m.material({0.07, 0.08, 0.11}, 0.1);
-  const int jacket = m.material({0.20, 0.22, 0.52}, 0.08);  // dark red jacket
-  const int jeans = m.material({0.42, 0.27, 0.17}, 0.05);
+  const Vec3d head_centre(0.005, 0, 1.585);
+  const int skin = m.material({0.50, 0.60, 0.78}, 0.05, 0.0, Pattern::face, head_centre, 0.105);
+  const int hair = m.material({0.07, 0.08, 0.11}, 0.1, 0.0, Pattern::hair, head_centre, 0.105);
+  const int jacket = m.material({0.20, 0.22, 0.52}, 0.08, 0.0, Pattern::fabric);  // dark red jacket
+  const int jeans = m.material({0.42, 0.27, 0.17}, 0.05, 0.0, Pattern::denim);
   const int shoes = m.material({0.09, 0.09, 0.10}, 0.1);
   for (double s : {1.0, -1.0}) {
     const double stride = 0.15 * s;  // left leg forward, right leg back
@@ -457,7 +548,7 @@ Model make_person() {
   m.capsule({0, 0.085, 1.00}, {0, 0.085, 1.30}, 0.125, jacket);
   m.capsule({0, -0.15, 1.36}, {0, 0.15, 1.36}, 0.075, jacket);     // shoulders
   m.capsule({0, 0, 1.40}, {0, 0, 1.50}, 0.05, skin);               // neck
-  m.capsule({0.005, 0, 1.585}, {0.005, 0, 1.585}, 0.105, skin);    // head
+  m.capsule(head_centre, head_centre, 0.105, skin);                // head
   m.capsule({-0.012, 0, 1.595}, {-0.012, 0, 1.595}, 0.105, hair);  // hair, set back from the face
   return m;
 }
@@ -506,9 +597,114 @@ Camera view_camera(const Model& m, double azimuth_deg, cv::Size& size) {
   return c;
 }
 
+// The surroundings that paint and glass mirror: a sky with clouds, a skyline of buildings (rows of windows)
+// and trees along the horizon, the road below. Reflections of it are the sharpest detail on a real car.
+Vec3d environment(const Vec3d& r) {
+  const double el = std::asin(std::clamp(r[2], -1.0, 1.0));
+  const double az = std::atan2(r[1], r[0]) + CV_PI;  // 0..2 pi
+  if (el < 0) return Vec3d(0.24, 0.24, 0.25) * (0.85 + 0.3 * fbm3(Vec3d(az * 20, el * 40, 0.5)));
+  const int seg = static_cast<int>(std::floor(az / 0.13));
+  const bool tree = cell(seg, 3, 2) < 0.4;
+  const double top = tree ? 0.05 + 0.08 * cell(seg, 5) + 0.05 * (fbm3(Vec3d(az * 30, 0.5, 2.5)) - 0.5)
+                          : 0.04 + 0.16 * cell(seg, 7);
+  if (el < top) {
+    if (tree) return Vec3d(0.20, 0.27, 0.24) * (0.6 + 0.8 * fbm3(Vec3d(az * 60, el * 60, 7.5)));
+    const double wall = 0.30 + 0.30 * cell(seg, 11);
+    const bool window = frac(az / 0.021) > 0.3 && frac(az / 0.021) < 0.8 && frac(el / 0.025) > 0.35 &&
+                        frac(el / 0.025) < 0.85 && el < top - 0.01;
+    return Vec3d(wall, wall, wall * 1.04) * (window ? 0.45 : 1.0);
+  }
+  const double clouds = fbm3(Vec3d(az * 3, el * 9, 3.5));
+  return Vec3d(0.95, 0.90, 0.85) * (0.80 + 0.20 * std::sin(el)) * (0.85 + 0.3 * clouds);
+}
+
+// The pattern's effect on the albedo at point p (object frame) with normal n: a factor per channel, or a
+// replacement colour where the pattern draws something of its own (characters, seams).
+Vec3d detail(const Material& mat, const Vec3d& p, const Vec3d& n, Vec3d albedo) {
+  switch (mat.pattern) {
+    case Pattern::none:
+      return albedo;
+    case Pattern::paint: {
+      const double grime = std::clamp((0.45 - p[2]) / 0.3, 0.0, 1.0);
+      const double dirt = fbm3(p * 30.0);
+      return albedo * (1.0 - 0.25 * grime * (0.6 + 0.8 * dirt));
+    }
+    case Pattern::plate: {
+      // Seven characters from a 3x5 grid of strokes, picked per character; 0.75 of the height tall.
+      const double ch = mat.size, cw = 0.6 * ch, gap = 0.25 * ch;
+      const double u = (p[1] - mat.centre[1]) * (mat.centre[0] < 0 ? -1 : 1) + 3.5 * (cw + gap);
+      const double v = (mat.centre[2] + ch / 2) - p[2];
+      if (v < 0 || v > ch || u < 0) return albedo;
+      const int k = static_cast<int>(std::floor(u / (cw + gap)));
+      const double cu = u - k * (cw + gap);
+      if (k >= 7 || cu > cw) return albedo;
+      const int gx = std::min(2, static_cast<int>(cu / cw * 3)),
+                gy = std::min(4, static_cast<int>(v / ch * 5));
+      const bool stroke =
+          (gx != 1 && cell(k, gy, gx) < 0.75) || (gx == 1 && gy % 2 == 0 && cell(k, gy, 9) < 0.7);
+      return stroke ? Vec3d(0.06, 0.06, 0.07) : albedo;
+    }
+    case Pattern::lamp: {
+      // Ribs across the lens and a brighter reflector in its inner part.
+      const double rib = frac(p[2] / 0.028) < 0.5 ? 1.0 : 0.72;
+      const double inner = std::abs(p[1]) > 0.62 ? 1.25 : 1.0;
+      return albedo * rib * inner;
+    }
+    case Pattern::tread:
+      // Grooves around the circumference on the running face; the sidewall's moulding as faint texture.
+      if (std::abs(n[1]) > 0.5) return albedo * (0.85 + 0.3 * fbm3(p * 60.0));
+      return albedo * (frac(p[1] / 0.035) < 0.3 ? 0.45 : 1.0);
+    case Pattern::spokes: {
+      const double dx = p[0] - mat.centre[0], dz = p[2] - mat.centre[2];
+      const double rad = std::hypot(dx, dz) / mat.size;
+      if (rad < 0.22) return albedo * 1.1;  // centre cap
+      if (rad > 0.86) return albedo * 0.8;  // rim
+      const double ang = std::atan2(dz, dx) / (2 * CV_PI) * 5.0;
+      return frac(ang) < 0.55 ? Vec3d(0.05, 0.05, 0.05) : albedo;  // gaps between five spokes show the brake
+    }
+    case Pattern::fabric: {
+      const double folds = fbm3(Vec3d(p[0] * 18, p[1] * 18, p[2] * 9));
+      Vec3d c = albedo * (0.75 + 0.5 * folds);
+      if (n[0] > 0.3 && std::abs(p[1]) < 0.008 && p[2] > 1.0 && p[2] < 1.40)
+        c = Vec3d(0.08, 0.08, 0.09);               // zip
+      if (std::abs(p[2] - 1.02) < 0.01) c *= 0.6;  // hem
+      return c;
+    }
+    case Pattern::denim: {
+      Vec3d c = albedo * (0.8 + 0.4 * fbm3(Vec3d(p[0] * 25, p[1] * 25, p[2] * 6)));
+      if (std::abs(std::abs(p[1]) - 0.19) < 0.012 && std::abs(n[1]) > 0.6) c *= 1.3;  // outer seam
+      if (std::abs(p[2] - 0.49) < 0.03) c *= 0.8;                                     // knee creases
+      return c;
+    }
+    case Pattern::hair: {
+      const Vec3d d = p - mat.centre;
+      const double strands = frac(std::atan2(d[1], -d[0]) * 14.0 + 3.0 * d[2]);
+      return albedo * (strands < 0.5 ? 0.7 : 1.4);
+    }
+    case Pattern::face: {
+      const Vec3d d = p - mat.centre;
+      if (cv::norm(d) > 1.3 * mat.size || d[0] < 0.03) return albedo;  // hands, the back of the head
+      const double s = mat.size;
+      for (double side : {-1.0, 1.0}) {
+        if (std::hypot(d[1] - side * 0.35 * s, d[2] - 0.12 * s) < 0.11 * s)
+          return Vec3d(0.10, 0.10, 0.12);  // eyes
+        if (std::abs(d[2] - 0.30 * s) < 0.05 * s && std::abs(d[1] - side * 0.35 * s) < 0.2 * s)
+          return albedo * 0.35;  // brows
+      }
+      if (std::abs(d[2] + 0.42 * s) < 0.05 * s && std::abs(d[1]) < 0.25 * s) return albedo * 0.55;  // mouth
+      if (std::abs(d[1]) < 0.06 * s && d[2] < 0.05 * s && d[2] > -0.25 * s)
+        return albedo * 1.12;  // nose ridge
+      return albedo;
+    }
+    case Pattern::seat:
+      return albedo * (frac(p[2] / 0.09) < 0.15 ? 0.6 : 1.0);
+  }
+  return albedo;
+}
+
 // Sky light from above, a fill light from the viewer's side and a key light from the front-left, so every
-// visible face is readable; glass and paint reflect the sky.
-Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray, double z) {
+// visible face is readable; glass and paint reflect the surroundings.
+Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray, const Vec3d& p, const Vec3d& transmitted) {
   const Material& mat = m.materials[static_cast<size_t>(h.material)];
   Vec3d n = h.n;
   if (n.dot(ray) > 0) n = -n;
@@ -517,43 +713,60 @@ Vec3d shade(const Model& m, const Hit& h, const Vec3d& ray, double z) {
   const double fill = std::max(0.0, -n.dot(ray));
   const double lambert = std::max(0.0, n.dot(key));
   // Ambient occlusion by height: surfaces near the ground see less sky.
-  const double ao = 0.65 + 0.35 * std::clamp(z / 0.9, 0.0, 1.0);
+  const double ao = 0.65 + 0.35 * std::clamp(p[2] / 0.9, 0.0, 1.0);
   const double light = ao * (0.22 + 0.30 * sky + 0.25 * fill + 0.35 * lambert);
-  Vec3d col = mat.albedo * (light * (1 - mat.emissive) + mat.emissive);
-  // The surroundings mirrored in paint and glass, stronger at grazing angles (Schlick's Fresnel term): a
-  // bright sky above a dark band of trees and buildings at the horizon, the darker road below. The sharp
-  // horizon line across a car's flanks and windows is what makes real paint read as paint.
+  Vec3d col = detail(mat, p, n, mat.albedo) * (light * (1 - mat.emissive) + mat.emissive);
+  // Glass lets the cabin behind it show through.
+  if (mat.transmits > 0) col = col * (1 - mat.transmits) + transmitted * mat.transmits;
+  // The surroundings mirrored in paint and glass, stronger at grazing angles (Schlick's Fresnel term). The
+  // skyline across a car's flanks and windows is what makes real paint read as paint.
   const Vec3d refl = ray - 2 * ray.dot(n) * n;
-  const Vec3d env = refl[2] > 0.10  ? Vec3d(0.95, 0.90, 0.85) * (0.80 + 0.20 * refl[2])
-                    : refl[2] > 0.0 ? Vec3d(0.30, 0.33, 0.31)
-                                    : Vec3d(0.24, 0.24, 0.25);
   const double fresnel = 0.25 + 0.75 * std::pow(1.0 - std::max(0.0, -n.dot(ray)), 5.0);
   const double k = std::clamp(mat.specular * fresnel, 0.0, 1.0);
-  col = col * (1.0 - k) + env * k;
-  for (int k = 0; k < 3; ++k) col[k] = std::clamp(col[k], 0.0, 1.0);
+  if (k > 0) col = col * (1.0 - k) + environment(refl) * k;
+  for (int c = 0; c < 3; ++c) col[c] = std::clamp(col[c], 0.0, 1.0);
   return col;
+}
+
+// The colour a ray through glass at point p meets inside the cabin: its seats and dashboard in the cabin's
+// shade, or the dark far side.
+Vec3d cabin(const Model& m, const Vec3d& p, const Vec3d& d) {
+  Hit hit;
+  for (const auto& s : m.interior) s->intersect(p, d, hit);
+  if (hit.material < 0) return Vec3d(0.03, 0.03, 0.03);
+  const Vec3d q = p + hit.t * d;
+  const Material& mat = m.materials[static_cast<size_t>(hit.material)];
+  Vec3d n = hit.n;
+  if (n.dot(d) > 0) n = -n;
+  const double light = 0.15 + 0.35 * std::max(0.0, n[2]) + 0.25 * std::max(0.0, -n.dot(d));
+  return detail(mat, q, n, mat.albedo) * light;
 }
 
 cv::Mat render(const Model& m, const Camera& cam, cv::Size size) {
   constexpr int kSuper = 3;  // supersampling per axis, for anti-aliased edges and alpha
   cv::Mat acc(size, CV_64FC4, cv::Scalar::all(0));
-  for (int y = 0; y < size.height; ++y)
-    for (int x = 0; x < size.width; ++x) {
-      cv::Vec4d sum(0, 0, 0, 0);
-      for (int sy = 0; sy < kSuper; ++sy)
-        for (int sx = 0; sx < kSuper; ++sx) {
-          const double u = (x + (sx + 0.5) / kSuper - cam.cx) / cam.f;
-          const double v = (y + (sy + 0.5) / kSuper - cam.cy) / cam.f;
-          Vec3d d = cam.z + u * cam.x + v * cam.y;
-          d /= cv::norm(d);
-          Hit hit;
-          for (const auto& s : m.shapes) s->intersect(cam.pos, d, hit);
-          if (hit.material < 0) continue;
-          const Vec3d c = shade(m, hit, d, cam.pos[2] + hit.t * d[2]);
-          sum += cv::Vec4d(c[0], c[1], c[2], 1.0);
-        }
-      acc.at<cv::Vec4d>(y, x) = sum / double(kSuper * kSuper);
-    }
+  // Rows in parallel: every pixel is its own, so the picture does not depend on the number of threads.
+  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y)
+      for (int x = 0; x < size.width; ++x) {
+        cv::Vec4d sum(0, 0, 0, 0);
+        for (int sy = 0; sy < kSuper; ++sy)
+          for (int sx = 0; sx < kSuper; ++sx) {
+            const double u = (x + (sx + 0.5) / kSuper - cam.cx) / cam.f;
+            const double v = (y + (sy + 0.5) / kSuper - cam.cy) / cam.f;
+            Vec3d d = cam.z + u * cam.x + v * cam.y;
+            d /= cv::norm(d);
+            Hit hit;
+            for (const auto& s : m.shapes) s->intersect(cam.pos, d, hit);
+            if (hit.material < 0) continue;
+            const Vec3d p = cam.pos + hit.t * d;
+            const bool glass = m.materials[static_cast<size_t>(hit.material)].transmits > 0;
+            const Vec3d c = shade(m, hit, d, p, glass ? cabin(m, p + 1e-4 * d, d) : Vec3d());
+            sum += cv::Vec4d(c[0], c[1], c[2], 1.0);
+          }
+        acc.at<cv::Vec4d>(y, x) = sum / double(kSuper * kSuper);
+      }
+  });
   cv::Mat out(size, CV_8UC4);
   for (int y = 0; y < size.height; ++y)
     for (int x = 0; x < size.width; ++x) {
