@@ -559,29 +559,43 @@ TEST(Composite, MotionBlurIsTheMeanOfShiftedCopiesInEveryDirection) {
   EXPECT_EQ(cv::norm(out, pic, cv::NORM_INF), 0.0);
 }
 
+// A smooth road-grey 1600x900 frame with Gaussian sensor noise of `sigma` per channel.
+cv::Mat noisy_road_frame(double sigma, uint64_t seed) {
+  cv::Mat base(900, 1600, CV_8UC3), noise(900, 1600, CV_32FC3), img;
+  for (int y = 0; y < base.rows; ++y) base.row(y).setTo(cv::Scalar::all(90 + y / 20));
+  cv::RNG rng(seed);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, std::max(sigma, 1e-9));
+  base.convertTo(img, CV_32FC3);
+  img += noise;
+  img.convertTo(img, CV_8UC3);
+  return img;
+}
+
+// A renderer with grain and without shadows, over the default pictures; the default car standing x m ahead.
+HazardRenderer grain_renderer() {
+  RendererOptions o;
+  o.ego.mode = EgoMotionMode::kPoses;
+  o.composite.shadow = false;
+  return HazardRenderer(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+}
+std::shared_ptr<const HazardTrajectory> car_standing_at(double x) {
+  return std::make_shared<const HazardTrajectory>(
+      static_object("car", x, 0.0, 0.3, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+}
+
 TEST(Composite, GrainMatchesTheFramesNoiseAsTheRealismMetricMeasuresIt) {
   // A smooth road-grey frame with sensor noise (Gaussian, per channel, then JPEG): the inserted default car,
   // rendered clean, gets grain until its interior is as noisy as its surroundings by the metric's own
   // estimate (hazardforge/realism noise_ratio ~ 1), and none when the frame has none.
   for (double sigma : {0.0, 2.0, 5.0}) {
-    cv::Mat base(900, 1600, CV_8UC3), noise(900, 1600, CV_32FC3), img;
-    for (int y = 0; y < base.rows; ++y) base.row(y).setTo(cv::Scalar::all(90 + y / 20));
-    cv::RNG rng(17);
-    rng.fill(noise, cv::RNG::NORMAL, 0.0, std::max(sigma, 1e-9));
-    base.convertTo(img, CV_32FC3);
-    img += noise;
-    img.convertTo(img, CV_8UC3);
+    cv::Mat img = noisy_road_frame(sigma, 17);
     // Through JPEG, as recordings come: compression removes part of the noise and leaves the rest correlated.
     std::vector<uint8_t> jpg;
     cv::imencode(".jpg", img, jpg, {cv::IMWRITE_JPEG_QUALITY, 85});
     img = cv::imdecode(jpg, cv::IMREAD_COLOR);
-    auto traj = std::make_shared<const HazardTrajectory>(
-        static_object("car", 12.0, 0.0, 0.3, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
-    RendererOptions o;
-    o.ego.mode = EgoMotionMode::kPoses;
-    o.composite.shadow = false;
-    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
-    const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+    HazardRenderer r = grain_renderer();
+    const auto res =
+        r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), car_standing_at(12.0), {});
     ASSERT_TRUE(res.hazard.appearance.has_value());
     const AppearanceStats& a = *res.hazard.appearance;
     if (sigma > 0) {
@@ -595,19 +609,9 @@ TEST(Composite, GrainMatchesTheFramesNoiseAsTheRealismMetricMeasuresIt) {
 TEST(Composite, GrainMatchesTheFramesNoiseWhenTheObjectReachesPastThePicturesBottom) {
   // A car 5 m ahead whose bottom lies below the picture: the noise is read beside it, not under it, so it
   // still gets grain from its first frame on (read under it, there was no road to read and it stayed clean).
-  cv::Mat base(900, 1600, CV_8UC3), noise(900, 1600, CV_32FC3), img;
-  for (int y = 0; y < base.rows; ++y) base.row(y).setTo(cv::Scalar::all(90 + y / 20));
-  cv::RNG rng(23);
-  rng.fill(noise, cv::RNG::NORMAL, 0.0, 3.0);
-  base.convertTo(img, CV_32FC3);
-  img += noise;
-  img.convertTo(img, CV_8UC3);
-  auto traj = std::make_shared<const HazardTrajectory>(
-      static_object("car", 5.0, 0.0, 0.3, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
-  RendererOptions o;
-  o.ego.mode = EgoMotionMode::kPoses;
-  o.composite.shadow = false;
-  HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  const cv::Mat img = noisy_road_frame(3.0, 23);
+  const auto traj = car_standing_at(5.0);
+  HazardRenderer r = grain_renderer();
   for (int f = 0; f < 3; ++f) {
     const auto res = r.render(make_frame(f, 0.1 * f, img, test_camera(), cv::Matx44d::eye()), traj, {});
     ASSERT_TRUE(res.hazard.visible);

@@ -292,14 +292,7 @@ struct Model {
 
   int material(Vec3d bgr, double spec = 0.0, double emissive = 0.0, Pattern pattern = Pattern::none,
                Vec3d centre = {}, double size = 0.0) {
-    Material mt;
-    mt.albedo = bgr;
-    mt.specular = spec;
-    mt.emissive = emissive;
-    mt.pattern = pattern;
-    mt.centre = centre;
-    mt.size = size;
-    materials.push_back(mt);
+    materials.push_back({bgr, spec, emissive, 0.0, pattern, centre, size});
     return static_cast<int>(materials.size()) - 1;
   }
   void box(Vec3d lo, Vec3d hi, int m) { shapes.push_back(std::make_shared<Box>(lo, hi, m)); }
