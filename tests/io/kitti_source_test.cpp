@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 
 #include "io_test_util.hpp"
 #include "kitti_files.hpp"
@@ -98,6 +99,12 @@ TEST(KittiSource, TrackingLabelsWithoutImages) {
   EXPECT_EQ(seen["Car"], "car");
   EXPECT_EQ(seen["Cyclist"], "bicycle");
   EXPECT_EQ(seen["Pedestrian"], "person");
+  // Occlusion states 0 / 1 / 2 / 3 (fully visible, partly, largely occluded, unknown) as hidden shares; the
+  // sequence's labels hold 395 / 125 / 185 / 6 of them (awk over label_02/0000.txt, DontCare left out).
+  std::map<double, int> hidden;
+  for (const Frame& f : frames)
+    for (const auto& o : f.annotations->objects) ++hidden[o.occlusion];
+  EXPECT_EQ(hidden, (std::map<double, int>{{0.0, 395}, {0.4, 125}, {0.8, 185}, {1.0, 6}}));
 }
 
 TEST(KittiSource, EgoSpeedParamShiftsAbsoluteVelocitiesOnly) {

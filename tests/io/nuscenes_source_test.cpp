@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 
 #include <nlohmann/json.hpp>
 
@@ -149,6 +150,21 @@ TEST(NuScenesSource, AnnotationInEgoFrameByHand) {
   EXPECT_DOUBLE_EQ(o->size_lwh[1], 1.689);
   EXPECT_DOUBLE_EQ(o->size_lwh[2], 1.61);
   EXPECT_EQ(o->num_points, 236 + 4);
+  // The hidden share is the middle of the visibility bin its token names ("1".."4": 0-40 .. 80-100 %
+  // visible).
+  const std::map<std::string, double> hidden = {{"1", 0.8}, {"2", 0.5}, {"3", 0.3}, {"4", 0.1}};
+  ASSERT_TRUE(hidden.count(a["visibility_token"].get<std::string>()));
+  EXPECT_DOUBLE_EQ(o->occlusion, hidden.at(a["visibility_token"].get<std::string>()));
+  std::map<double, int> shares;
+  for (const auto& x : f.annotations->objects) ++shares[x.occlusion];
+  int tokens = 0;
+  for (const Json& r : anns)
+    if (r["sample_token"] == f.meta["sample_token"]) {
+      ++tokens;
+      --shares[hidden.at(r["visibility_token"].get<std::string>())];
+    }
+  EXPECT_EQ(tokens, 67);
+  for (const auto& [share, left] : shares) EXPECT_EQ(left, 0) << "hidden share " << share;
   // Heading: the box's x axis rotated into the ego frame.
   const cv::Vec3d hx = rotate(pose["rotation"], rotate(a["rotation"], {1, 0, 0}, false), true);
   EXPECT_NEAR(o->yaw_ego, std::atan2(hx[1], hx[0]), 1e-9);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "ground_truth_detector.hpp"
+#include "hazardforge/geometry.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 
 namespace hf {
@@ -86,11 +87,11 @@ TEST(GroundTruthDetector, BehindTheCameraIsDroppedAndStraddlingIsClippedAtTheNea
   EXPECT_NEAR(b.x + b.width, 595.556, 1e-3);
   EXPECT_NEAR(b.y + b.height, 720.0, 1e-3);
   // Without clipping at the near plane the corners behind the camera would flip to the other side of the
-  // image: the unclipped rectangle straight from project_box must still end at 595.556 on the right.
-  auto raw = GroundTruthDetector::project_box(frame_with({}).camera, car({1.5, 1.0, 0.75}, {4.5, 1.8, 1.5}));
+  // image: the unclipped rectangle straight from annotation_image_box must still end at 595.556 on the right.
+  auto raw = annotation_image_box(frame_with({}).camera, car({1.5, 1.0, 0.75}, {4.5, 1.8, 1.5}));
   ASSERT_TRUE(raw.has_value());
   EXPECT_NEAR(raw->x + raw->width, 595.556, 1e-3);
-  EXPECT_FALSE(GroundTruthDetector::project_box(frame_with({}).camera, car({-5, 0, 0.75})).has_value());
+  EXPECT_FALSE(annotation_image_box(frame_with({}).camera, car({-5, 0, 0.75})).has_value());
 }
 
 TEST(GroundTruthDetector, OutsideTheFieldOfViewIsDropped) {

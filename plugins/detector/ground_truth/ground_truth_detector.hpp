@@ -34,12 +34,9 @@ class GroundTruthDetector : public Detector {
     bool prefer_dataset_boxes = true;
     bool require_annotations = true;
   };
-  static constexpr double kNearPlane = 0.1;  // m in front of the camera
 
   void configure(const Config& c) { cfg_ = c; }
   Detections detect_frame(const Frame& frame) const;
-  // Image bounding rectangle of a 3D box, not clipped to the image; nullopt when wholly behind the camera.
-  static std::optional<cv::Rect2d> project_box(const CameraModel& cam, const AnnotatedObject& obj);
 
  private:
   Config cfg_;

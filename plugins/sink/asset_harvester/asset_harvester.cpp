@@ -112,7 +112,9 @@ ComponentInfo AssetHarvester::describe() {
       ParamSpec::integer("min_width_px", 24).range(4, std::nullopt).describe("smallest projected box width"),
       ParamSpec::integer("border_margin_px", 4).range(0, 200).describe("the box must stay this far from the border"),
       ParamSpec::number("max_distance_m", 40.0).range(1.0, 500.0).describe("farthest object harvested"),
-      ParamSpec::number("max_occlusion", 0.2).range(0.0, 1.0).describe("largest dataset occlusion/truncation hint"),
+      ParamSpec::number("max_occlusion", 0.2)
+          .range(0.0, 1.0)
+          .describe("largest hidden share the dataset gives the object (nuScenes: its visibility bin)"),
       ParamSpec::number("max_overlap", 0.05)
           .range(0.0, 1.0)
           .describe("largest share of the box covered by nearer annotated objects"),

@@ -211,7 +211,9 @@ void KittiSource::open(StageContext& ctx) {
               camera_.R_ego_cam * cv::Vec3d(std::cos(l.rotation_y), 0, -std::sin(l.rotation_y));
           o.yaw_ego = std::atan2(dir[1], dir[0]);
           o.box2d = l.box2d;
-          o.occlusion = l.occluded;
+          // KITTI's occlusion state (0 fully visible, 1 partly, 2 largely occluded, 3 unknown) as a hidden
+          // share.
+          o.occlusion = l.occluded <= 0 ? 0.0 : l.occluded == 1 ? 0.4 : l.occluded == 2 ? 0.8 : 1.0;
           const auto& tp = track_pos[l.track_id];
           auto prev = tp.lower_bound(n);  // == n
           auto next = std::next(prev);

@@ -22,6 +22,20 @@ using nuscenes::Tables;
 
 namespace {
 
+// Share of an annotated object hidden in the cameras: the middle of its visibility bin. nuScenes' visibility
+// table has four fixed tokens, "1".."4" for 0-40, 40-60, 60-80 and 80-100 % visible (its schema); the table
+// itself is not needed. 0 (nothing said) when the row has no known token.
+double hidden_share(const Json& annotation) {
+  const auto it = annotation.find("visibility_token");
+  if (it == annotation.end() || !it->is_string()) return 0.0;
+  const std::string& v = it->get_ref<const std::string&>();
+  if (v == "1") return 0.8;
+  if (v == "2") return 0.5;
+  if (v == "3") return 0.3;
+  if (v == "4") return 0.1;
+  return 0.0;
+}
+
 const Json kDefaultLabelMap = {
     {"vehicle.car", "car"},
     {"vehicle.truck", "truck"},
@@ -75,7 +89,8 @@ ComponentInfo NuScenesSource::describe() {
   i.doc =
       "Reads scene, sample, sample_data, ego_pose, calibrated_sensor, sensor (and, for annotations, "
       "sample_annotation, instance, category) of <dataroot>/<version>; log/attribute/visibility/map are not "
-      "needed. Emits the keyframes of `channel`. Ego velocity: central difference of neighbouring keyframe "
+      "needed (an annotation's visibility token becomes its hidden share, AnnotatedObject::occlusion). Emits "
+      "the keyframes of `channel`. Ego velocity: central difference of neighbouring keyframe "
       "poses. "
       "Object velocity: the devkit's box_velocity (neighbouring annotations of the instance, at most "
       "max_velocity_dt apart, twice that for a centred difference). Annotations are expressed in the ego "
@@ -302,6 +317,7 @@ void NuScenesSource::open(StageContext& ctx) {
           o.yaw_ego = yaw_of(R_ew * T.sample_annotation.rotation(a, "rotation"));
           o.num_points = static_cast<int>(T.sample_annotation.i64(a, "num_lidar_pts") +
                                           T.sample_annotation.i64(a, "num_radar_pts"));
+          o.occlusion = hidden_share(a);
           // The devkit's box_velocity: neighbouring annotations of the instance, centred when both exist.
           const std::string prev = T.sample_annotation.str(a, "prev"),
                             next = T.sample_annotation.str(a, "next");

@@ -1,8 +1,9 @@
-// Shared geometry for risk metrics and renderers: per-class size priors, box truncation, the share folder
-// (and, through corridor.hpp, the in-path corridor).
+// Shared geometry for risk metrics and renderers: per-class size priors, box truncation, annotated boxes in
+// the image, the share folder (and, through corridor.hpp, the in-path corridor).
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,13 @@ namespace truncation {
 inline constexpr unsigned kLeft = 1, kTop = 2, kRight = 4, kBottom = 8;
 }
 unsigned truncation_flags(const cv::Rect2f& box, const cv::Size& image, double margin_px = 2.0);
+
+// The image rectangle of an annotated 3D box (AnnotatedObject: centre, size, heading in the ego frame): the
+// bounding rectangle of its corners' pixels (with the camera's distortion), edges that cross the plane
+// `near_m` in front of the camera cut there, not clipped to the image; nullopt when the whole box is behind
+// that plane. The ground-truth detector's boxes and the renderer's annotated realism references.
+std::optional<cv::Rect2d> annotation_image_box(const CameraModel& cam, const AnnotatedObject& obj,
+                                               double near_m = 0.1);
 
 // The folder holding the project's shared files (prompts, priors, schemas, assets): $HAZARDFORGE_SHARE,
 // else the install's share/hazardforge, else the source tree's share/ (set at build time).

@@ -123,7 +123,10 @@ struct AnnotatedObject {
   std::optional<cv::Vec3d> velocity_ego;  // absolute velocity expressed in ego axes (m/s), if derivable
   int num_points = -1;                    // lidar+radar points in the box (nuScenes), -1 unknown
   std::optional<cv::Rect2d> box2d;        // image box if the dataset gives one (KITTI)
-  double occlusion = 0.0;                 // dataset occlusion/truncation hint, 0 = fully visible
+  // Share of the object the dataset says is hidden, 0 = fully visible .. 1 (nuScenes: the middle of its
+  // visibility bin, e.g. 0.1 for 80-100 % visible; KITTI: 0 / 0.4 / 0.8 for fully / partly / largely
+  // occluded, 1 for unknown); 0 when the dataset does not say.
+  double occlusion = 0.0;
 };
 
 struct Annotations {
