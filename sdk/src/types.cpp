@@ -381,6 +381,7 @@ void to_json(Json& j, const AppearanceStats& v) {
        {"height_m", finite_or_null(v.height_m)},
        {"width_m", finite_or_null(v.width_m)},
        {"aspect", finite_or_null(v.aspect)}};
+  if (!v.source.empty()) j["source"] = v.source;
 }
 void to_json(Json& j, const Record& v) { j = {{"kind", v.kind}, {"data", v.data}}; }
 void to_json(Json& j, const AnnotatedObject& v) {

@@ -412,15 +412,76 @@ void HazardRenderer::measure_realism(const Frame& f, const std::vector<OccluderC
     });
     if (pick.size() > static_cast<size_t>(opt_.realism.references))
       pick.resize(static_cast<size_t>(opt_.realism.references));
+    std::vector<cv::Rect2f> measured;
     for (const OccluderCandidate* o : pick) {
+      measured.push_back(o->box);
       cv::Rect crop;
       const cv::Mat mask = realism::object_mask(f.image, o->box, &crop);
       if (mask.empty()) continue;
       AppearanceStats s = realism::measure(f.image, mask, crop.tl(), o->box, o->label, &f.camera);
+      s.source = "detection";
       if (std::isfinite(s.edge_contrast)) res.hazard.references.push_back(std::move(s));
     }
+    if (opt_.realism.annotations && f.annotations)
+      for (AppearanceStats& s : annotated_references(f, group, measured))
+        res.hazard.references.push_back(std::move(s));
   }
   res.realism_seconds += seconds_since(t0);
+}
+
+std::vector<AppearanceStats> HazardRenderer::annotated_references(
+    const Frame& f, const std::string& group, const std::vector<cv::Rect2f>& measured) const {
+  const ClassGroups& groups = realism::reference_groups();
+  const auto& objs = f.annotations->objects;
+  const cv::Rect2d image(0, 0, f.image.cols, f.image.rows);
+  struct Seen {
+    size_t index;
+    cv::Rect2f box;
+    double depth;
+  };
+  std::vector<Seen> seen;  // every annotated object in front of the camera (the group's and its occluders)
+  for (size_t k = 0; k < objs.size(); ++k) {
+    const auto box = annotation_image_box(f.camera, objs[k]);
+    if (!box) continue;
+    const cv::Rect2d in = *box & image;
+    if (in.area() <= 0) continue;
+    seen.push_back({k, cv::Rect2f(in), f.camera.ego_to_cam(objs[k].center_ego)[2]});
+  }
+  std::vector<const Seen*> pick;
+  for (const Seen& s : seen) {
+    const AnnotatedObject& o = objs[s.index];
+    if (o.label.empty() || !groups.same(o.label, group)) continue;
+    if (o.occlusion > opt_.realism.max_occlusion || o.num_points == 0) continue;  // no lidar/radar return
+    if (s.box.height < opt_.realism.min_height_px || truncation_flags(s.box, f.image.size()) != 0) continue;
+    bool known = false;
+    for (const cv::Rect2f& m : measured) known = known || box_iou(m, s.box) >= 0.5;
+    if (known) continue;
+    // Hidden in this picture: nearer annotated boxes over it (the dataset's hint spans all its cameras).
+    double covered = 0;
+    for (const Seen& n : seen)
+      if (&n != &s && n.depth < s.depth) covered += (n.box & s.box).area();
+    if (covered > opt_.realism.max_occlusion * s.box.area()) continue;
+    pick.push_back(&s);
+  }
+  std::sort(pick.begin(), pick.end(),
+            [](const Seen* a, const Seen* b) { return a->box.height > b->box.height; });
+  if (pick.size() > static_cast<size_t>(opt_.realism.references))
+    pick.resize(static_cast<size_t>(opt_.realism.references));
+  std::vector<AppearanceStats> out;
+  for (const Seen* s : pick) {
+    cv::Rect crop;
+    const cv::Mat mask = realism::object_mask(f.image, s->box, &crop);
+    if (mask.empty()) continue;
+    // A projected 3D box is wider than the object's outline where its corners stick out (an oblique car):
+    // the silhouette's own extent inside it is the box that size and aspect are read from, as a detector's.
+    const cv::Rect outline = cv::boundingRect(mask) + crop.tl();
+    const cv::Rect2f box = cv::Rect2f(outline) & s->box;
+    AppearanceStats m = realism::measure(f.image, mask, crop.tl(), box.area() > 0 ? box : s->box,
+                                         objs[s->index].label, &f.camera);
+    m.source = "annotation";
+    if (std::isfinite(m.edge_contrast)) out.push_back(std::move(m));
+  }
+  return out;
 }
 
 // ---- stage
@@ -530,6 +591,15 @@ ComponentInfo ArRenderer::describe() {
       ParamSpec::number("realism_min_score", 0.5)
           .range(0.0, 1.0)
           .describe("weakest detection measured as a real reference"),
+      ParamSpec::boolean("realism_annotations", true)
+          .describe(
+              "also measure the dataset's annotated road users (3D boxes projected into the picture, when the "
+              "source attaches them), up to realism_references per group and frame besides the detections'"),
+      ParamSpec::number("realism_max_occlusion", 0.2)
+          .range(0.0, 1.0)
+          .describe(
+              "largest hidden share of an annotated reference: the dataset's hint, and the nearer annotated "
+              "boxes over it in the picture"),
   };
   for (auto& p : Corridor::params()) i.params.push_back(p);
   return i;
@@ -566,6 +636,8 @@ RendererOptions renderer_options(const Params& p) {
   o.realism.references = static_cast<int>(p.get_int("realism_references"));
   o.realism.reference_every = static_cast<int>(p.get_int("realism_reference_every"));
   o.realism.min_score = p.get_double("realism_min_score");
+  o.realism.annotations = p.get_bool("realism_annotations");
+  o.realism.max_occlusion = p.get_double("realism_max_occlusion");
   o.scene_light = p.get_bool("scene_light");
   if (o.scene_light) o.vehicle_sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
   return o;

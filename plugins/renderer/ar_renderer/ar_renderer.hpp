@@ -43,6 +43,13 @@ struct RealismOptions {
   int reference_every = 3;       // ... on every n-th frame (grabCut is the cost)
   double min_score = 0.5;        // weakest detection measured
   double min_height_px = 24.0;   // smallest box measured
+  // Also the dataset's annotated road users (Frame::annotations: 3D boxes projected into the picture), up to
+  // `references` per group and frame besides the detections' (an object both give is measured once): objects
+  // the detector misses or mislabels count too, and they are never a false detection.
+  bool annotations = true;
+  // An annotated object is measured only when at most this share of it is hidden: by the dataset's own hint
+  // (AnnotatedObject::occlusion) and by the boxes of nearer annotated objects over its box in this picture.
+  double max_occlusion = 0.2;
 };
 
 struct RendererOptions {
@@ -90,6 +97,10 @@ class HazardRenderer {
  private:
   void start_hazard(const HazardTrajectory& t);
   void measure_realism(const Frame& original, const std::vector<OccluderCandidate>& objects, Result& res) const;
+  // The frame's annotated objects of a class group measured as references, tallest first, except those
+  // overlapping a box in `measured` (IoU >= 0.5: already measured from the detections).
+  std::vector<AppearanceStats> annotated_references(const Frame& original, const std::string& group,
+                                                    const std::vector<cv::Rect2f>& measured) const;
   // The taken-over real object in this frame (its track, else the box that best continues its last one), removed
   // from `image` by inpainting; nullopt when it is not in view.
   std::optional<TakenOver> remove_taken_over(cv::Mat& image, const std::vector<OccluderCandidate>& objects);

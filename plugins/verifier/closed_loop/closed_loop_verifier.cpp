@@ -371,9 +371,15 @@ Json ClosedLoopVerifier::spurious_json() const {
 Json ClosedLoopVerifier::realism_json() const {
   std::vector<std::string> used;
   const auto real = realism::references_for(object_class_, references_, 5, &used);
+  Json sources = Json::object();
+  for (const AppearanceStats& r : real) {
+    const std::string s = r.source.empty() ? "unknown" : r.source;
+    sources[s] = sources.value(s, 0) + 1;
+  }
   return {{"inserted_frames", appearance_.size()},
           {"reference_labels", used},
           {"reference_samples", real.size()},
+          {"reference_sources", sources},
           {"rule", "inserted median within the real objects' 10-90 % range (min-max below 5 samples)"},
           {"metrics", realism::compare(appearance_, real)}};
 }

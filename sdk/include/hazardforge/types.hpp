@@ -325,7 +325,10 @@ struct HazardTrajectory {
 // How one object looks in one picture: the quantities that tell an inserted object from the real ones of its
 // class (computed by the realism kit, plugins/renderer/common, hazardforge/realism/*.hpp). NaN = not measured.
 struct AppearanceStats {
-  std::string label;  // class of the object (inserted: the hazard's; real: the detector's or estimator's)
+  std::string label;  // class of the object (inserted: the hazard's; real: the detector's or the dataset's)
+  // Where a real object's box came from: "detection" (the recording's detections or tracks) or "annotation"
+  // (the dataset's 3D box projected into the picture); empty for the inserted object.
+  std::string source;
   cv::Rect2f box;     // its box in the picture
   // Mean |L* inside - L* outside| across the silhouette (bands 2 px wide on either side), L* 0..100.
   double edge_contrast = kNaN;
