@@ -78,15 +78,19 @@ bool ring_statistics(const cv::Mat& image, const cv::Rect& around, const std::ve
   return true;
 }
 
+// A noise estimate as a level to match: 0 where the estimator cannot tell (NaN), and capped, since road texture
+// inflates it.
+double usable_noise(double sigma) {
+  return std::isfinite(sigma) ? std::min(sigma, 6.0) : 0.0;
+}
+
 // Sensor noise level of a picture patch, as the realism metric measures it (hazardforge/realism noise_sigma:
-// Immerkaer's estimate over the flattest half of the patch); 0 where it cannot tell. Road texture inflates
-// it, so it is capped.
+// Immerkaer's estimate over the flattest half of the patch).
 double noise_level(const cv::Mat& patch, const cv::Mat& mask = {}) {
   if (patch.rows < 8 || patch.cols < 8) return 0.0;
   cv::Mat g;
   cv::cvtColor(patch, g, patch.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-  const double s = realism::noise_sigma(g, mask);
-  return std::isfinite(s) ? std::min(s, 6.0) : 0.0;
+  return usable_noise(realism::noise_sigma(g, mask));
 }
 
 // The sensor noise beside an object whose box spans (x0, y0)-(x1, y1), as the realism metric reads it in its
@@ -111,8 +115,7 @@ double ring_noise(const cv::Mat& image, double x0, double y0, double x1, double 
     n += c.area();
   }
   if (n < 256) return 0.0;
-  const double s = realism::noise_sigma(strips);
-  return std::isfinite(s) ? std::min(s, 6.0) : 0.0;
+  return usable_noise(realism::noise_sigma(strips));
 }
 
 // A fixed tile of unit Gaussian noise in 1/1024 units; frames read it at shifting offsets so the grain changes
