@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -95,9 +96,16 @@ TEST(RealismMetrics, SharpnessFallsWithTheObjectsBlur) {
 // masks that touch every border, a full (empty) mask and pictures one pixel wide or high.
 TEST(RealismMetrics, LaplacianVarianceUnderAMaskIsTheWholePicturesLaplacianMasked) {
   cv::RNG rng(17);
-  for (const cv::Size size : {cv::Size(97, 61), cv::Size(1, 40), cv::Size(40, 1)}) {
+  // 2101 x 5: rows longer than the 8-bit path's 2000-pixel chunks; its last case is a 0/255 checkerboard,
+  // whose every Laplacian is +-1020 (the largest square sums a chunk can hold).
+  const std::vector<cv::Size> sizes = {{97, 61}, {1, 40}, {40, 1}, {2101, 5}, {2101, 5}};
+  for (size_t k = 0; k < sizes.size(); ++k) {
+    const cv::Size size = sizes[k];
     cv::Mat g8(size, CV_8U);
     rng.fill(g8, cv::RNG::UNIFORM, 0, 256);
+    if (k + 1 == sizes.size())
+      for (int y = 0; y < size.height; ++y)
+        for (int x = 0; x < size.width; ++x) g8.at<uint8_t>(y, x) = (x + y) % 2 ? 255 : 0;
     cv::Mat mask(size, CV_8U);
     rng.fill(mask, cv::RNG::UNIFORM, 0, 3);  // about a third of the pixels left out, runs of both
     mask = mask > 0;

@@ -92,6 +92,48 @@ double masked_laplacian_variance(const cv::Mat& g, const cv::Mat& mask) {
   return std::max(0.0, ss / static_cast<double>(n) - mean * mean);
 }
 
+// The same for 8-bit pictures, in integers: the Laplacian of bytes is an integer in [-1020, 1020] and a row's
+// sums of it and of its square fit in 32 bits up to 2000 pixels, so each row's interior is one branch-free
+// loop the compiler vectorises (the scalar loop above took 2.6 ns per masked pixel on a sprite's interior).
+// The sums are exact, so the result is the float path's.
+double masked_laplacian_variance_u8(const cv::Mat& g, const cv::Mat& mask) {
+  int64_t s = 0, ss = 0, n = 0;
+  const int cols = g.cols;
+  auto one = [&](const uint8_t* up, const uint8_t* row, const uint8_t* down, const uint8_t* m, int x) {
+    if (m && !m[x]) return;
+    const int xl = reflect101(x - 1, cols), xr = reflect101(x + 1, cols);
+    const int l = up[x] + down[x] + row[xl] + row[xr] - 4 * row[x];
+    s += l;
+    ss += static_cast<int64_t>(l) * l;
+    ++n;
+  };
+  for (int y = 0; y < g.rows; ++y) {
+    const uint8_t* m = mask.empty() ? nullptr : mask.ptr<uint8_t>(y);
+    const uint8_t* up = g.ptr<uint8_t>(reflect101(y - 1, g.rows));
+    const uint8_t* row = g.ptr<uint8_t>(y);
+    const uint8_t* down = g.ptr<uint8_t>(reflect101(y + 1, g.rows));
+    one(up, row, down, m, 0);
+    if (cols > 1) one(up, row, down, m, cols - 1);
+    for (int x0 = 1; x0 < cols - 1; x0 += 2000) {
+      const int x1 = std::min(cols - 1, x0 + 2000);
+      int32_t rs = 0, rss = 0, rn = 0;
+      for (int x = x0; x < x1; ++x) {
+        const int32_t on = m ? (m[x] != 0) : 1;
+        const int32_t l = (up[x] + down[x] + row[x - 1] + row[x + 1] - 4 * row[x]) * on;
+        rs += l;
+        rss += l * l;
+        rn += on;
+      }
+      s += rs;
+      ss += rss;
+      n += rn;
+    }
+  }
+  if (n == 0) return 0.0;
+  const double mean = static_cast<double>(s) / static_cast<double>(n);
+  return std::max(0.0, static_cast<double>(ss) / static_cast<double>(n) - mean * mean);
+}
+
 }  // namespace
 
 double laplacian_variance(const cv::Mat& grey, const cv::Mat& mask) {
@@ -101,7 +143,7 @@ double laplacian_variance(const cv::Mat& grey, const cv::Mat& mask) {
   if (!mask.empty() && cv::countNonZero(mask) < 16) return kNaN;
   switch (grey.depth()) {
     case CV_8U:
-      return masked_laplacian_variance<uint8_t>(grey, mask);
+      return masked_laplacian_variance_u8(grey, mask);
     case CV_32F:
       return masked_laplacian_variance<float>(grey, mask);
     default: {
