@@ -54,8 +54,12 @@ struct CompositorState {
   double blur_sigma = 0.0;       // the recording's blur applied to the picture (smoothed), px
   double last_match_sigma = 0.0;  // the last frame's unsmoothed estimate (where the next search starts)
   int blur_frames = 0;
-  cv::Mat warped, shadow;    // work buffers (grown, never shrunk)
+  double own_noise = -1.0;       // the drawn picture's own noise (grey levels; -1: not measured yet)
+  cv::Mat warped, shadow, ring;  // work buffers (grown, never shrunk)
   std::vector<uint8_t> row;  // one row, for the motion blur
+  cv::Mat grain_tile;        // the grain at full alpha (1/64 grey levels) for the sigma below
+  int grain_tile_q8 = 0;     // that sigma, 1/256 grey levels (0: not built)
+  std::vector<int16_t> grain_row;  // one row of it, for the blend
 };
 
 struct CompositeResult {
@@ -88,5 +92,11 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
 // a copy shifted by 1, 2, 4 ... px along it (rounded up; what is shifted in from outside the picture is
 // transparent). `row` is a work buffer. Returns k (0 below 1.5 px).
 int motion_blur(cv::Mat& bgra, cv::Point2d blur, std::vector<uint8_t>& row);
+
+// One row of the final blend, in place on the BGR row `d` of `n` pixels: background x (1 - alpha)(1 - shadow)
+// + the premultiplied BGRA colour `s` + grain x alpha, where `shadow` (0..255, or null for none) darkens the
+// road and `grain` is the noise at full alpha in 1/64 grey levels. Integer arithmetic: two rounded divisions
+// by 255, the grain as alpha x g / 256 rounded; saturated to 0..255.
+void blend_row(uint8_t* d, const uint8_t* s, const uint8_t* shadow, const int16_t* grain, int n);
 
 }  // namespace hf::render
