@@ -97,9 +97,7 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   measure_realism(f, occluders, res);
 
   auto t0 = std::chrono::steady_clock::now();
-  std::vector<cv::Rect2f> exclude;
-  for (const auto& o : occluders) exclude.push_back(o.box);
-  ego_.update(f, exclude);
+  ego_.update(f);
   res.ego_seconds = seconds_since(t0);
   if (opt_.scene_light && opt_.composite.shadow &&
       static_cast<int>(light_.samples().size()) < opt_.scene_light_max_samples) {
@@ -495,19 +493,19 @@ ComponentInfo ArRenderer::describe() {
   i.doc =
       "Places the hazard's 3D box (HazardTrajectory, anchor frame = ego frame at anchor_time) in each frame "
       "from "
-      "the ego motion (dataset poses, road-plane optical flow, or a constant speed), projects it with the "
+      "the ego motion (dataset poses, the recording's ego track, ground-plane odometry on the frames, or a "
+      "constant speed), projects it with the "
       "frame's "
       "camera, picks the asset whose view matches the object's heading relative to the camera, warps it with "
       "a "
       "homography onto the projected box faces and blends it with harmonised colour, feathered edges, motion "
       "blur, a contact shadow and occlusion by nearer detected objects. Outputs are stamped with the frame's "
       "time; frames outside the trajectory pass through unchanged.";
-  i.inputs = {
-      port<Frame>("frames", "original frames"),
-      sticky(port<HazardTrajectory>("trajectory", "the planned hazard; the latest one is used")),
-      optional(port<Tracks>("tracks", "tracked objects (occluders, kept out of the flow)")),
-      optional(port<ObjectStates>("states", "objects with distances (occluders, kept out of the flow)")),
-      optional(port<Detections>("detections", "detected objects (occluders, kept out of the flow)"))};
+  i.inputs = {port<Frame>("frames", "original frames"),
+              sticky(port<HazardTrajectory>("trajectory", "the planned hazard; the latest one is used")),
+              optional(port<Tracks>("tracks", "tracked objects (occluders)")),
+              optional(port<ObjectStates>("states", "objects with distances (occluders)")),
+              optional(port<Detections>("detections", "detected objects (occluders)"))};
   i.outputs = {
       port<Frame>("frames", "augmented frames: same index, time, camera, ego and meta; new image"),
       port<HazardInstance>("hazard", "where the hazard is in each frame (box, distance, intended TTC)"),
@@ -524,27 +522,16 @@ ComponentInfo ArRenderer::describe() {
           .one_of({"auto", "poses", "track", "flow", "constant_speed"})
           .describe(
               "how the hazard is kept fixed in the world: auto = poses when frames carry them, else the "
-              "recording's ego track (Frame.ego_track: what the video source estimated), else the renderer's "
-              "own flow"),
+              "recording's ego track (Frame.ego_track: what the video source estimated), else flow = the "
+              "footage kit's ground-plane odometry (the video source's) run on the frames"),
       ParamSpec::number("ego_speed_mps", -1.0)
           .from_scene("ego.speed_mps")
           .range(-1.0, 80.0)
-          .describe(
-              "ego speed for constant_speed and when flow is degenerate (frame speed first); -1 = unknown"),
+          .describe("ego speed for constant_speed and on frames the odometry cannot measure (frame speed "
+                    "first); -1 = unknown"),
       ParamSpec::number("motion_smoothing", 0.5)
           .range(0.0, 0.95)
-          .describe("smoothing of flow ego velocities"),
-      ParamSpec::number("flow_scale", 0.5).range(0.25, 1.0).describe("image scale for feature tracking"),
-      ParamSpec::integer("flow_max_features", 250)
-          .range(50, 5000)
-          .describe("road features tracked per frame"),
-      ParamSpec::integer("flow_min_inliers", 25)
-          .range(6, 1000)
-          .describe("fewer road-plane inliers = degenerate"),
-      ParamSpec::number("flow_min_range_m", 3.0)
-          .range(0.5, 50.0)
-          .describe("nearest road point used by the flow"),
-      ParamSpec::number("flow_max_range_m", 35.0).range(2.0, 200.0).describe("farthest road point used"),
+          .describe("exponential smoothing of the odometry's ego velocities (ego_motion flow)"),
       ParamSpec::number("max_view_error_deg", 30.0)
           .range(0.0, 180.0)
           .describe("an asset of the kept instance / assets_dir is used when its view is this close"),
@@ -593,7 +580,8 @@ ComponentInfo ArRenderer::describe() {
           .describe("weakest detection measured as a real reference"),
       ParamSpec::boolean("realism_annotations", true)
           .describe(
-              "also measure the dataset's annotated road users (3D boxes projected into the picture, when the "
+              "also measure the dataset's annotated road users (3D boxes projected into the picture, when "
+              "the "
               "source attaches them), up to realism_references per group and frame besides the detections'"),
       ParamSpec::number("realism_max_occlusion", 0.2)
           .range(0.0, 1.0)
@@ -619,14 +607,6 @@ RendererOptions renderer_options(const Params& p) {
   o.ego.mode = parse_ego_motion_mode(p.get_string("ego_motion"));
   o.ego.speed_mps = p.get_double("ego_speed_mps");
   o.ego.smoothing = p.get_double("motion_smoothing");
-  o.ego.flow.scale = p.get_double("flow_scale");
-  o.ego.flow.max_corners = static_cast<int>(p.get_int("flow_max_features"));
-  o.ego.flow.min_inliers = static_cast<int>(p.get_int("flow_min_inliers"));
-  o.ego.flow.min_range_m = p.get_double("flow_min_range_m");
-  o.ego.flow.max_range_m = p.get_double("flow_max_range_m");
-  if (o.ego.flow.max_range_m <= o.ego.flow.min_range_m)
-    throw Error("flow_max_range_m (" + std::to_string(o.ego.flow.max_range_m) +
-                ") must exceed flow_min_range_m (" + std::to_string(o.ego.flow.min_range_m) + ")");
   o.max_view_error_deg = p.get_double("max_view_error_deg");
   o.occlusion = p.get_bool("occlusion");
   o.occluder_min_score = p.get_double("occluder_min_score");
