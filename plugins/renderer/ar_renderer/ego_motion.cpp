@@ -49,7 +49,7 @@ EgoMotionMode parse_ego_motion_mode(const std::string& s) {
   if (s == "flow") return EgoMotionMode::kFlow;
   if (s == "constant_speed") return EgoMotionMode::kConstantSpeed;
   if (s == "track") return EgoMotionMode::kTrack;
-  throw Error("ego_motion '" + s + "' is not one of auto, poses, flow, constant_speed");
+  throw Error("ego_motion '" + s + "' is not one of auto, poses, track, flow, constant_speed");
 }
 
 // ---- EgoTrajectory
