@@ -219,8 +219,19 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
       return {nullptr, "the walk would have to be under way for " + fmt1(under_way) + " s (max_under_way_s " +
                            fmt1(sc.max_under_way) + ")"};
   }
-  const double x0 = sc.ego_front + size.length / 2.0 + sc.ego_speed * (enter + ttc);
-  const double x_seen = x0 - sc.ego_speed * under_way;  // where it is when the hazard appears
+  // Placed where the ego's front is when the person has been in its path for `ttc`: along the ego's planned
+  // motion (a recorded queue slows, a constant-speed ego does not), from the walk's start, `under_way` s
+  // before the hazard appears.
+  const double arrive = enter + ttc - under_way;  // s after the hazard appears
+  const double x0 = sc.ego_front + size.length / 2.0 + sc.ego_travel(-under_way, arrive);
+  const double x_seen = x0 - sc.ego_travel(-under_way, 0.0);  // where it is when the hazard appears
+  // Where it steps into the path, seen from where the ego is then: the critical moment must be in the picture
+  // (a slowing ego reaches a TTC below the threshold only with the person close to its bumper).
+  const double x_enter = x0 - sc.ego_travel(-under_way, enter - under_way);
+  if (!sc.visible(x_enter, sign * sc.path_half(size.width)))
+    return {nullptr, "the person would step into the ego path " +
+                         fmt1(x_enter - sc.ego_front - size.length / 2.0) + " m ahead of the ego (at " +
+                         fmt1(sc.ego_speed_at(enter - under_way)) + " m/s then), below the camera's view"};
   if (x0 > 120.0) return {nullptr, "the crossing would be more than 120 m ahead"};
   if (!sc.visible(x_seen, y0))
     return {nullptr, "the kerb point (" + fmt1(x_seen) + ", " + fmt1(y0) + ") m is outside the camera view"};
@@ -235,9 +246,11 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
                    : "Edge case (no sidewalks; people on the road allowed explicitly): a person who left a "
                      "broken-down vehicle on the " +
                          from + " shoulder steps into the road ";
-  spec["rationale"] = where + fmt1(x0) + " m ahead and crossing at " + fmt1(speed) +
-                      " m/s is realistic; with the ego at " + fmt1(sc.ego_speed) +
-                      " m/s they are in its path about " + fmt1(enter) + " s later, TTC near " + fmt1(ttc) + " s.";
+  spec["rationale"] =
+      where + fmt1(x0) + " m ahead and crossing at " + fmt1(speed) + " m/s is realistic; with the ego at " +
+      fmt1(sc.ego_speed) + " m/s now" +
+      (sc.ego.is_recorded() ? " (" + fmt1(sc.ego_speed_at(arrive)) + " m/s as recorded then)" : "") +
+      " they are in its path about " + fmt1(enter) + " s later, TTC near " + fmt1(ttc) + " s.";
   if (under_way > 0) {
     spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
     spec["rationale"] = spec["rationale"].get<std::string>() + " The hazard appears " + fmt1(under_way) +
