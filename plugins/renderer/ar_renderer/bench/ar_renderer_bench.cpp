@@ -73,19 +73,28 @@ void run_frames(benchmark::State& state, const std::shared_ptr<const HazardTraje
   f.image = background();
   f.camera = camera();
   int64_t k = 0;
-  double composite = 0, realism_s = 0;
-  for (auto _ : state) {
+  auto frame = [&] {
     f.index = k;
     f.timestamp = 0.04 * static_cast<double>(k);
     f.ego.T_world_ego = planar_pose(10.0 * f.timestamp, 0.0, 0.0);
-    auto res = r.render(f, traj, {});
+    ++k;
+    return r.render(f, traj, {});
+  };
+  // The first frame prepares the appearance (the sprite's picture at that size, the scene's light): drawn
+  // once before the timed loop, so that a case the library runs for few iterations times frames, not that
+  // set-up.
+  benchmark::DoNotOptimize(frame().frame.image.data);
+  double composite = 0, realism_s = 0;
+  int64_t timed = 0;
+  for (auto _ : state) {
+    auto res = frame();
     composite += res.composite_seconds;
     realism_s += res.realism_seconds;
     benchmark::DoNotOptimize(res.frame.image.data);
-    ++k;
+    ++timed;
   }
-  state.counters["composite_ms"] = benchmark::Counter(1e3 * composite / static_cast<double>(k));
-  state.counters["realism_ms"] = benchmark::Counter(1e3 * realism_s / static_cast<double>(k));
+  state.counters["composite_ms"] = benchmark::Counter(1e3 * composite / static_cast<double>(timed));
+  state.counters["realism_ms"] = benchmark::Counter(1e3 * realism_s / static_cast<double>(timed));
 }
 
 void BM_PassThrough(benchmark::State& state) { run_frames(state, nullptr); }
