@@ -23,9 +23,9 @@ Footprint ProposalScene::size(const std::string& cls) const {
   return {s.length, s.width};
 }
 
-bool ProposalScene::visible(double x, double y) const {
+bool ProposalScene::visible(double x, double y, double z) const {
   if (!camera) return true;
-  auto px = camera->project_ego(cv::Vec3d(x, y, 0.0));
+  auto px = camera->project_ego(cv::Vec3d(x, y, z));
   return px && px->x >= 0 && px->y >= 0 && px->x < camera->width && px->y < camera->height;
 }
 

@@ -225,13 +225,16 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
   const double arrive = enter + ttc - under_way;  // s after the hazard appears
   const double x0 = sc.ego_front + size.length / 2.0 + sc.ego_travel(-under_way, arrive);
   const double x_seen = x0 - sc.ego_travel(-under_way, 0.0);  // where it is when the hazard appears
-  // Where it steps into the path, seen from where the ego is then: the critical moment must be in the picture
-  // (a slowing ego reaches a TTC below the threshold only with the person close to its bumper).
+  // Where it steps into the path, seen from where the ego is then: the critical moment must be in the
+  // picture, at least the person's upper half (a slowing ego reaches a TTC below the threshold only with the
+  // person close to its bumper; a box cut at the bottom still gives the detector and the estimator's bearing
+  // a hold).
   const double x_enter = x0 - sc.ego_travel(-under_way, enter - under_way);
-  if (!sc.visible(x_enter, sign * sc.path_half(size.width)))
+  if (!sc.visible(x_enter, sign * sc.path_half(size.width), sc.sizes.at(cls).height / 2.0))
     return {nullptr, "the person would step into the ego path " +
                          fmt1(x_enter - sc.ego_front - size.length / 2.0) + " m ahead of the ego (at " +
-                         fmt1(sc.ego_speed_at(enter - under_way)) + " m/s then), below the camera's view"};
+                         fmt1(sc.ego_speed_at(enter - under_way)) +
+                         " m/s then), where not even its upper half is in the picture"};
   if (x0 > 120.0) return {nullptr, "the crossing would be more than 120 m ahead"};
   if (!sc.visible(x_seen, y0))
     return {nullptr, "the kerb point (" + fmt1(x_seen) + ", " + fmt1(y0) + ") m is outside the camera view"};

@@ -66,8 +66,8 @@ struct ProposalScene {
   Footprint size(const std::string& cls) const;
   double edge(int side) const { return road.edge(side); }
   double path_half(double width) const { return corridor.half_width_for(width); }
-  // The start point projects into the image (always true without a camera).
-  bool visible(double x, double y) const;
+  // The point (x, y) at height z above the road projects into the image (always true without a camera).
+  bool visible(double x, double y, double z = 0.0) const;
   // "" or why an object of footprint `me` at (x, y) would start next to a tracked object (except `except`).
   std::string overlap_problem(double x, double y, const Footprint& me, int64_t except = -1) const;
   // The nearest x ahead on the ego lane's centre from which an object of this class, first seen there, looks
