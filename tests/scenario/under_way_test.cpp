@@ -172,19 +172,29 @@ std::shared_ptr<EgoTrack> slowing_track(const std::function<double(double)>& v) 
   return track;
 }
 
+// A scene at 0.5 s of that recorded drive, and a crossing with sidewalks asked for it over a 6 s horizon.
+SceneContext slowing_scene(const std::function<double(double)>& v) {
+  auto track = slowing_track(v);
+  SceneContext scene = test_scene(track->samples[5].speed_mps, track->samples[5].t);
+  scene.ego_track = track;
+  return scene;
+}
+ProposalRequest crossing_request(const SceneContext& scene) {
+  ProposalRequest req(scene);
+  req.target_ttc_s = 1.4;
+  req.horizon_s = 6.0;
+  req.sidewalks = true;
+  return req;
+}
+
 // An urban street where the recorded ego slows from 8 to 3.5 m/s over the 6 s horizon (approaching a queue).
 // A person crossing is placed where the ego really is when the person enters its path: placed by the ego's
 // speed at the trigger, the crossing lay beyond where the slowing ego arrives within the horizon, and most
 // draws were refused with "target_ttc_s is not reached within the plan".
 TEST(UnderWay, ACrossingProposedAgainstASlowingEgoIsReachedAtTheTarget) {
   auto tpl = make_template("pedestrian_crossing", {{"duration_s", 6.0}});
-  auto track = slowing_track([](double t) { return std::max(3.5, 8.0 - 0.8 * t); });
-  SceneContext scene = test_scene(track->samples[5].speed_mps, track->samples[5].t);
-  scene.ego_track = track;
-  ProposalRequest req(scene);
-  req.target_ttc_s = 1.4;
-  req.horizon_s = 6.0;
-  req.sidewalks = true;
+  const SceneContext scene = slowing_scene([](double t) { return std::max(3.5, 8.0 - 0.8 * t); });
+  const ProposalRequest req = crossing_request(scene);
   for (uint64_t seed = 1; seed <= 8; ++seed) {
     Bits bits(seed);
     const HazardProposal p = tpl->propose(req, bits);
@@ -207,14 +217,9 @@ TEST(UnderWay, ACrossingProposedAgainstASlowingEgoIsReachedAtTheTarget) {
 // that the re-assessment could never see become critical, and each says why.
 TEST(UnderWay, NoCrossingIsProposedWhoseCriticalMomentIsBelowThePicture) {
   auto tpl = make_template("pedestrian_crossing", {{"duration_s", 6.0}});
-  auto track = slowing_track([](double t) { return std::max(0.3, 0.7 - 0.1 * t); });
-  SceneContext scene = test_scene(track->samples[5].speed_mps, track->samples[5].t);
+  SceneContext scene = slowing_scene([](double t) { return std::max(0.3, 0.7 - 0.1 * t); });
   scene.camera = CameraModel::pinhole(1242, 375, 721.5, 721.5, 609.6, 172.9, 1.65);
-  scene.ego_track = track;
-  ProposalRequest req(scene);
-  req.target_ttc_s = 1.4;
-  req.horizon_s = 6.0;
-  req.sidewalks = true;
+  const ProposalRequest req = crossing_request(scene);
   for (uint64_t seed = 1; seed <= 8; ++seed) {
     Bits bits(seed);
     const HazardProposal p = tpl->propose(req, bits);
