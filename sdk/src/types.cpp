@@ -356,7 +356,10 @@ void to_json(Json& j, const HazardInstance& v) {
        {"distance_m", finite_or_null(v.distance_m)},
        {"lateral_m", v.lateral_m},
        {"intended_ttc_s", finite_or_null(v.intended_ttc_s)},
-       {"occluded_fraction", v.occluded_fraction}};
+       {"occluded_fraction", v.occluded_fraction},
+       {"in_picture_fraction", v.in_picture_fraction},
+       {"visible_share", v.visible_share()}};
+  if (v.drawn_box.area() > 0) j["drawn_box"] = rect(v.drawn_box);
   if (v.appearance) j["appearance"] = *v.appearance;
   if (!v.references.empty()) j["references"] = v.references;
   if (v.taken_over)

@@ -175,6 +175,45 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   EXPECT_NEAR(behind.hazard.occluded_fraction, 0.0, 1e-9);
 }
 
+// A car half out of the picture: the share of its silhouette inside it is reported (measured against the same
+// car drawn by a camera whose picture is 800 px wider on the left, which sees all of it), and the box of what
+// is drawn ends at the border, inside the projected box.
+TEST(Composite, TheShareOfTheSilhouetteInsideThePictureIsReported) {
+  const auto lib = std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir()));
+  // 12.5 m ahead of the camera the picture's left edge is 800 / 1266 * 12.5 = 7.9 m to the left.
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", 14.0, 7.9, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  HazardRenderer cut_r(options(), lib);
+  const auto cut = cut_r.render(
+      make_frame(0, 0.0, hf::test::textured_image(), test_camera(), cv::Matx44d::eye()), traj, {});
+  const CameraModel wide_cam = CameraModel::pinhole(2400, 900, 1266, 1266, 1600, 450, 1.5, 0.0, 1.5);
+  HazardRenderer wide_r(options(), lib);
+  const auto wide = wide_r.render(
+      make_frame(0, 0.0, hf::test::textured_image({2400, 900}), wide_cam, cv::Matx44d::eye()), traj, {});
+  ASSERT_TRUE(cut.hazard.visible);
+  ASSERT_TRUE(wide.hazard.visible);
+  // In the wide picture, columns from 800 on are the narrow picture's.
+  const cv::Mat& a = wide.composite.alpha;
+  const int split = std::clamp(800 - wide.composite.roi.x, 0, a.cols);
+  const double whole = cv::sum(a)[0], inside = cv::sum(a.colRange(split, a.cols))[0];
+  ASSERT_GT(whole, 0);
+  const double share = inside / whole;
+  ASSERT_GT(share, 0.2);  // the case is a partial one
+  ASSERT_LT(share, 0.8);
+  EXPECT_NEAR(cut.hazard.in_picture_fraction, share, 0.05);
+  EXPECT_NEAR(wide.hazard.in_picture_fraction, 1.0, 0.03);
+  EXPECT_NEAR(cut.hazard.visible_share(), cut.hazard.in_picture_fraction, 1e-12);  // nothing hides it
+  // What is drawn: from the border, within the projected box (give or take the feathered edge's few pixels).
+  const cv::Rect2f d = cut.hazard.drawn_box, b = cut.hazard.box;
+  ASSERT_GT(d.area(), 0);
+  const float edge = 0.03f * b.height;
+  EXPECT_EQ(d.x, 0.f);
+  EXPECT_GE(d.y, b.y - edge);
+  EXPECT_LE(d.x + d.width, b.x + b.width + edge);
+  EXPECT_LE(d.y + d.height, b.y + b.height + edge);
+  EXPECT_GT(d.area(), 0.5 * b.area());
+}
+
 // A hazard that takes over a real object (spec extra.track_id): the real one leaves the picture — covered by
 // the hazard drawn in its place, the rest of its box filled from the surroundings — it occludes nothing, and
 // the share of its box left to the fill is reported.

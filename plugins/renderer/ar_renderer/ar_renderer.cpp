@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include <opencv2/imgproc.hpp>
 #include <opencv2/photo.hpp>
 
 #include "box_geometry.hpp"
@@ -320,7 +321,14 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
     to.uncovered_fraction = box.area() > 0 ? 1.0 - hidden / box.area() : 0.0;
   }
   res.hazard.occluded_fraction = std::clamp(res.composite.occluded_fraction(), 0.0, 1.0);
+  res.hazard.in_picture_fraction = res.composite.in_picture_fraction();
   res.hazard.visible = res.composite.drawn && res.hazard.occluded_fraction < 0.999;
+  if (res.hazard.visible) {
+    // The box a detector would draw: around what is seen of the silhouette. The projected 3D box is wider
+    // (a walking person's footprint, a car's length seen obliquely) and keeps what nearer objects hide.
+    const cv::Rect seen = cv::boundingRect(res.composite.alpha >= 128);
+    if (seen.area() > 0) res.hazard.drawn_box = cv::Rect2f(seen + res.composite.roi.tl());
+  }
   res.composite_seconds = seconds_since(t0);
   if (opt_.realism.enabled && res.hazard.visible) {
     const auto tr = std::chrono::steady_clock::now();

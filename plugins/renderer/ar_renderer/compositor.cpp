@@ -365,16 +365,26 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   // Where the picture lands; refuse a homography that folds part of it behind the camera.
   const cv::Mat& lvl_alpha = a.alpha[static_cast<size_t>(r.level)];
   double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  std::array<cv::Point2d, 4> quad;
+  size_t qi = 0;
   for (const cv::Point2d q : {cv::Point2d(0, 0), cv::Point2d(lvl_alpha.cols, 0),
                               cv::Point2d(lvl_alpha.cols, lvl_alpha.rows), cv::Point2d(0, lvl_alpha.rows)}) {
     double w = 0;
     const cv::Point2d m = apply(H, q, &w);
     if (w <= 1e-9) return r;
+    quad[qi++] = m;
     x0 = std::min(x0, m.x);
     y0 = std::min(y0, m.y);
     x1 = std::max(x1, m.x);
     y1 = std::max(y1, m.y);
   }
+  // The whole silhouette's coverage, borders or not: the picture's alpha sum times the area its rectangle
+  // lands on over its own area (exact for an affine map; the object's perspective across itself is slight).
+  double quad_area = 0;
+  for (size_t i = 0; i < 4; ++i)
+    quad_area += quad[i].x * quad[(i + 1) % 4].y - quad[(i + 1) % 4].x * quad[i].y;
+  r.coverage_full = cv::sum(lvl_alpha)[0] / 255.0 * std::abs(quad_area) / 2.0 /
+                    std::max(1.0, static_cast<double>(lvl_alpha.total()));
   double bx0 = 1e18, by0 = 1e18, bx1 = -1e18, by1 = -1e18;
   for (const auto& q : p.corners_px) {
     bx0 = std::min(bx0, q.x);

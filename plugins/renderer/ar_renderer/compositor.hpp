@@ -2,6 +2,7 @@
 // feathered edges, motion blur, occlusion by nearer objects and a soft contact shadow — on the ROI only.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -67,12 +68,17 @@ struct CompositeResult {
   cv::Rect roi;                // the part of the image that was modified
   double coverage_before = 0;  // sum of alpha before occlusion
   double coverage_after = 0;   // after occlusion
+  double coverage_full = 0;    // the whole silhouette's alpha sum, had the picture no borders
   cv::Mat alpha;               // final alpha over `roi` (CV_8U), for tests and debugging
   int level = 0;               // pyramid level of the asset used
   double match_sigma = 0;      // Gaussian blur applied to match the recording's sharpness, px
   double grain_sigma = 0;      // sensor noise added to the picture (8-bit grey levels)
   double occluded_fraction() const {
     return coverage_before > 1e-9 ? 1.0 - coverage_after / coverage_before : 0.0;
+  }
+  // Share of the silhouette inside the picture (the rest is cut off by its borders).
+  double in_picture_fraction() const {
+    return coverage_full > 1e-9 ? std::clamp(coverage_before / coverage_full, 0.0, 1.0) : 1.0;
   }
 };
 

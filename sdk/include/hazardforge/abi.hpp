@@ -17,9 +17,10 @@
 // HazardTrajectory::continued_at, the object's state past the end of its plan. 5.0: Frame and SceneContext
 // carry the recording's lane markings (RoadMarkings). 6.0: SceneContext says where its objects' distances are
 // measured from (distance_origin_x, moved from ProposalRequest), so the planner's templates read it too.
-// 6.1: annotation_image_box, the image rectangle of an annotated 3D box. 7.0: AppearanceStats says where a real
-// reference's box came from (source: detection or annotation).
-#define HF_SDK_ABI_MAJOR 7
+// 6.1: annotation_image_box, the image rectangle of an annotated 3D box. 7.0: AppearanceStats says where a
+// real reference's box came from (source: detection or annotation). 8.0: HazardInstance (v4) says what a
+// camera sees of the hazard: its drawn silhouette's box and the share of it inside the picture.
+#define HF_SDK_ABI_MAJOR 8
 #define HF_SDK_ABI_MINOR 0
 #define HF_SDK_VERSION "0.1.0"
 

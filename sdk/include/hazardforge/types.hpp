@@ -364,16 +364,22 @@ struct TakenOver {
 // Where the renderer put the hazard in one frame (the intent that verification checks against).
 struct HazardInstance {
   static constexpr const char* kTypeName = "HazardInstance";
-  static constexpr int kTypeVersion = 3;
+  static constexpr int kTypeVersion = 4;
   int64_t frame_index = 0;
   bool visible = false;
   std::string kind;
   std::string object_class;
-  cv::Rect2f box;               // projected 2D box of the inserted object
+  cv::Rect2f box;  // projected 3D box of the inserted object, clipped to the picture
+  // What a detector can see of it: the bounds of the drawn silhouette (alpha >= 1/2) left by nearer objects,
+  // empty when nothing of it shows (or the renderer does not say).
+  cv::Rect2f drawn_box;
   double distance_m = kInf;     // longitudinal distance in the current ego frame
   double lateral_m = 0.0;
   double intended_ttc_s = kInf;
-  double occluded_fraction = 0.0;
+  double occluded_fraction = 0.0;    // share of its silhouette in the picture that nearer objects hide
+  double in_picture_fraction = 1.0;  // share of its whole silhouette inside the picture (1 - truncation)
+  // Share of the whole silhouette a camera sees: in the picture and not hidden.
+  double visible_share() const { return in_picture_fraction * (1.0 - occluded_fraction); }
   // Realism: the inserted object as drawn in this frame, and real road users measured the same way on the
   // original picture of this frame (the recording's own objects, for comparison).
   std::optional<AppearanceStats> appearance;
