@@ -347,13 +347,79 @@ TEST(Verifier, ReportsRealismAndAnIndependentDetectorWithoutChangingTheVerdict) 
   EXPECT_EQ(rz["metrics"]["outside"], Json::array({"halo"}));
 
   const Json& ind = s["independent_redetection"];
-  EXPECT_EQ(ind["visible_frames"], 4);
+  EXPECT_EQ(ind["counted_frames"], 4);
   EXPECT_EQ(ind["redetected_frames"], 2);  // a bicycle is not a person
   EXPECT_EQ(ind["right_class_frames"], 2);
   EXPECT_DOUBLE_EQ(ind["rate"].get<double>(), 0.5);
   EXPECT_EQ(ind["labels"]["person"], 2);
   EXPECT_EQ(ind["labels"]["bicycle"], 1);
   EXPECT_EQ(ind["labels"]["(none)"], 1);
+}
+
+// Re-detection is judged where a detector can be expected to see the object: frames with less than
+// min_visible_share of its silhouette in view (cut by the picture's border or hidden by a nearer object) are
+// reported but not counted, and the detection is compared with the box of what is drawn, not the projected
+// 3D box around it.
+TEST(Verifier, ReDetectionIsCountedWhereEnoughOfTheObjectIsInView) {
+  auto r = testing::StageRunner::create<ClosedLoopVerifier>("{intended_distance_at: centre}");
+  r.push("trajectory", trajectory(0.9), 0.0);
+  for (int i = 0; i < 6; ++i) {
+    const double t = 0.1 * i;
+    HazardInstance h = instance(i, true, 1.2);
+    if (i < 3) h.occluded_fraction = 0.9;  // 0.1 of it seen: behind a parked car, never found
+    if (i == 3) h.in_picture_fraction = 0.55, h.occluded_fraction = 0.1;  // 0.495 seen: not counted
+    // The projected box is 40 px wider than the silhouette drawn in it: IoU 50 x 100 / 90 x 100 = 0.56 with
+    // a detection on the silhouette, 1.0 with the silhouette's own box.
+    h.box = cv::Rect2f(80, 100, 90, 100);
+    h.drawn_box = cv::Rect2f(105, 100, 50, 100);
+    r.push("hazard", h, t);
+    r.push("detections", detections(i, i < 4 ? std::vector<Detection>{} : std::vector<Detection>{near_box()}),
+           t);
+    r.push("risk", risk(i, 1.2), t, "ttc");
+    r.push("states", states(i, 20.0), t);
+  }
+  r.run();
+  const auto recs = r.collect<Record>("records");
+  EXPECT_EQ(recs[0].data["counted"], false);
+  EXPECT_NEAR(recs[0].data["visible_share"].get<double>(), 0.1, 1e-9);
+  EXPECT_EQ(recs[3].data["counted"], false);
+  EXPECT_EQ(recs[4].data["counted"], true);
+  EXPECT_DOUBLE_EQ(recs[4].data["best_iou"].get<double>(), 1.0);  // against the drawn silhouette's box
+  const Json s = recs.back().data;
+  EXPECT_EQ(s["passed"], true) << s["reasons"];
+  EXPECT_EQ(s["visible_frames"], 6);
+  EXPECT_EQ(s["redetection"]["counted_frames"], 2);
+  EXPECT_EQ(s["redetection"]["partly_visible_frames"], 4);
+  EXPECT_DOUBLE_EQ(s["redetection"]["rate"].get<double>(), 1.0);
+  EXPECT_EQ(s["unsafe"]["frames"], 6);  // Unsafe counts in every visible frame, partly visible or not
+}
+
+TEST(Verifier, AnObjectNeverHalfInViewFailsAndSaysSo) {
+  auto run = [](double min_share) {
+    auto r = testing::StageRunner::create<ClosedLoopVerifier>(
+        "{min_visible_share: " + std::to_string(min_share) + "}");
+    r.push("trajectory", trajectory(0.9), 0.0);
+    for (int i = 0; i < 3; ++i) {
+      HazardInstance h = instance(i, true, 1.2);
+      h.in_picture_fraction = 0.4;  // its lower part below the picture in every frame
+      r.push("hazard", h, 0.1 * i);
+      r.push("detections", detections(i, {near_box()}), 0.1 * i);
+      r.push("risk", risk(i, 1.2), 0.1 * i, "ttc");
+    }
+    r.run();
+    return r.collect<Record>("records").back().data;
+  };
+  const Json s = run(0.5);
+  EXPECT_EQ(s["passed"], false);
+  EXPECT_EQ(
+      s["reasons"],
+      Json::array({"the inserted object is never at least 0.5 in view (min_visible_share): at most 0.4 of "
+                   "it is seen in its 3 visible frames, too little to expect a detection"}));
+  EXPECT_EQ(s["redetection"]["rate"], Json());
+  // Asked to count every visible frame, the same run is judged on its detections.
+  const Json all = run(0.0);
+  EXPECT_EQ(all["passed"], true) << all["reasons"];
+  EXPECT_EQ(all["redetection"]["counted_frames"], 3);
 }
 
 }  // namespace

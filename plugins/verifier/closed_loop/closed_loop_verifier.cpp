@@ -53,19 +53,18 @@ ComponentInfo ClosedLoopVerifier::describe() {
   i.kind = kind::kVerifier;
   i.summary = "closed-loop check: is the inserted hazard re-detected, measured and judged Unsafe?";
   i.doc =
-      "Per frame with a hazard packet: best IoU of a detection with the inserted box (same class group when "
-      "require_class_match), its confidence, the matched object's estimated distance against the intended "
-      "one, "
-      "the scene TTC of the TTC metric and every metric's label. At finish: minimum achieved scene TTC "
-      "against "
-      "the intended one, whether any frame was Unsafe while the hazard was visible, the re-detection rate "
-      "over "
-      "visible frames, distance errors; passed = every criterion holds. Reported beside the verdict, never "
-      "part "
-      "of it: `realism` (the inserted object's appearance in its visible frames against the recording's real "
+      "Per frame with a hazard packet: best IoU of a detection with the inserted object's box (the box of "
+      "its "
+      "drawn silhouette where nearer objects leave it seen, as a detector would draw it; same class group "
+      "when require_class_match), its confidence, the matched object's estimated distance against the "
+      "intended one, the scene TTC of the TTC metric and every metric's label. At finish: minimum achieved "
+      "scene TTC against the intended one, whether any frame was Unsafe while the hazard was visible, the "
+      "re-detection rate over the visible frames with at least min_visible_share of the object in view, "
+      "distance errors; passed = every criterion holds. Reported beside the verdict, never part of it: "
+      "`realism` (the inserted object's appearance in its visible frames against the recording's real "
       "objects of its class, from the renderer's hazard packets) and `independent_redetection` (the "
-      "independent_detections input: share of visible frames with a detection of IoU >= min_iou of the class "
-      "group, and of the exact class).";
+      "independent_detections input: share of the same counted frames with a detection of IoU >= min_iou "
+      "of the class group, and of the exact class).";
   i.inputs = {optional(port<HazardInstance>("hazard", "where the renderer put the hazard")),
               port<Detections>("detections", "detections on the augmented frames"),
               optional(multi(port<RiskAssessment>("risk", "re-assessed risk metrics"))),
@@ -82,7 +81,15 @@ ComponentInfo ClosedLoopVerifier::describe() {
           .describe("IoU with the inserted box that counts as re-detected"),
       ParamSpec::number("min_redetection_rate", 0.5)
           .range(0, 1)
-          .describe("pass: share of visible frames in which the object is re-detected"),
+          .describe("pass: share of the counted visible frames (min_visible_share) in which the object is "
+                    "re-detected"),
+      ParamSpec::number("min_visible_share", 0.5)
+          .range(0, 1)
+          .describe(
+              "re-detection (by both detectors) is counted over the visible frames in which at least this "
+              "share of the object's silhouette is inside the picture and not hidden by nearer objects; "
+              "frames with less say nothing either way (KITTI's hardest level still counts objects up to "
+              "50 % truncated) and are reported as partly visible"),
       ParamSpec::boolean("require_unsafe", true)
           .describe("pass: some frame is Unsafe while the hazard is visible"),
       ParamSpec::boolean("require_hazard_critical", false)
@@ -132,6 +139,7 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
   const Params& p = ctx.params();
   min_iou_ = p.get_double("min_iou");
   min_rate_ = p.get_double("min_redetection_rate");
+  min_visible_share_ = p.get_double("min_visible_share");
   require_unsafe_ = p.get_bool("require_unsafe");
   require_critical_ = p.get_bool("require_hazard_critical");
   planned_tolerance_ = p.get_double("planned_ttc_tolerance_s");
@@ -166,9 +174,15 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   if (object_class_.empty()) object_class_ = inst->object_class;
   const int64_t frame = ctx.frame_index();
 
+  // What a detector can see of the object: its drawn silhouette's box (the projected box where the renderer
+  // does not say), and whether enough of it is in view for a detection to be expected.
+  const cv::Rect2f target = inst->drawn_box.area() > 0 ? inst->drawn_box : inst->box;
+  const bool counted = inst->visible && inst->visible_share() >= min_visible_share_;
   Json rec = {{"frame", frame},
               {"visible", inst->visible},
-              {"box", box_json(inst->box)},
+              {"visible_share", inst->visible_share()},
+              {"counted", counted},
+              {"box", box_json(target)},
               {"intended_distance_m", maybe(inst->distance_m)},
               {"intended_ttc_s", maybe(inst->intended_ttc_s)}};
   // Past the plan's last point the renderer draws the hazard carrying on as it ended; its intended TTC there
@@ -181,10 +195,10 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   const Detection* hit = nullptr;
   for (const Detection& d : dets.items) {
     if (require_class_match_ && !same_class(d.label, inst->object_class)) continue;
-    const double v = box_iou(d.box, inst->box);
+    const double v = box_iou(d.box, target);
     if (v > best) best = v, hit = &d;
   }
-  const bool redetected = inst->visible && best >= min_iou_;
+  const bool redetected = counted && best >= min_iou_;
   rec["best_iou"] = best;
   rec["detection"] =
       hit ? Json{{"label", hit->label}, {"score", hit->score}, {"box", box_json(hit->box)}} : Json();
@@ -195,7 +209,7 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   if (states) {
     double best_state = 0;
     for (const ObjectState& s : states->objects) {
-      const double v = box_iou(s.box, inst->box);
+      const double v = box_iou(s.box, target);
       if (v >= min_iou_ && v > best_state) best_state = v, match = &s;
     }
   }
@@ -209,7 +223,7 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
   if (match) hazard_tracks.insert(match->track_id);
   if (states)
     for (const ObjectState& s : states->objects)
-      if (hazard_tracks_seen_.count(s.track_id) && box_iou(s.box, inst->box) >= min_iou_tracked_)
+      if (hazard_tracks_seen_.count(s.track_id) && box_iou(s.box, target) >= min_iou_tracked_)
         hazard_tracks.insert(s.track_id);
   if (match) hazard_tracks_seen_.insert(match->track_id);
   if (!hazard_tracks.empty() && (!match || hazard_tracks.size() > 1))
@@ -240,12 +254,12 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
     appearance_.push_back(*inst->appearance);
     rec["realism"] = *inst->appearance;
   }
-  if (const Detections* ind = in.get<Detections>("independent_detections"); ind && inst->visible) {
+  if (const Detections* ind = in.get<Detections>("independent_detections"); ind && counted) {
     if (independent_detector_.empty()) independent_detector_ = ind->detector;
     double best_any = 0;
     const Detection* top = nullptr;
     for (const Detection& d : ind->items) {
-      const double v = box_iou(d.box, inst->box);
+      const double v = box_iou(d.box, target);
       if (v > best_any) best_any = v, top = &d;
     }
     const bool found = top && best_any >= min_iou_ && same_class(top->label, inst->object_class);
@@ -321,11 +335,17 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
 
   if (inst->visible) {
     ++visible_;
+    best_share_ = std::max(best_share_, inst->visible_share());
+  }
+  if (counted) {
+    ++counted_;
     ious_.push_back(best);
     if (redetected) {
       ++redetected_;
       scores_.push_back(hit->score);
     }
+  }
+  if (inst->visible) {
     if (match && std::isfinite(match->distance_m) && std::isfinite(inst->distance_m)) {
       // Both in rear-axle terms (the states say where their distances start); the intended one at the face a
       // camera sees unless the centre is asked for.
@@ -389,7 +409,7 @@ Json ClosedLoopVerifier::independent_json() const {
   Json labels = Json::object();
   for (const auto& [l, n] : independent_labels_) labels[l] = n;
   return {{"detector", independent_detector_},
-          {"visible_frames", independent_frames_},
+          {"counted_frames", independent_frames_},
           {"redetected_frames", independent_found_},
           {"rate", static_cast<double>(independent_found_) / independent_frames_},
           {"right_class_frames", independent_exact_},
@@ -413,7 +433,8 @@ Json ClosedLoopVerifier::takeover_json() const {
 
 Json ClosedLoopVerifier::summary() const {
   std::vector<std::string> reasons;
-  const double rate = visible_ > 0 ? static_cast<double>(redetected_) / visible_ : 0.0;
+  const double rate = counted_ > 0 ? static_cast<double>(redetected_) / counted_ : 0.0;
+  const int partly = visible_ - counted_;
   const double intended =
       std::isfinite(intended_visible_min_) ? intended_visible_min_ : intended_traj_min_.value_or(kInf);
   if (visible_ == 0 && !trajectory_seen_ && kind_.empty()) {
@@ -422,10 +443,18 @@ Json ClosedLoopVerifier::summary() const {
         "produced none; the run's log says why)");
   } else if (visible_ == 0) {
     reasons.push_back("the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
+  } else if (counted_ == 0) {
+    reasons.push_back("the inserted object is never at least " + num(min_visible_share_) +
+                      " in view (min_visible_share): at most " + num(best_share_) + " of it is seen in its " +
+                      std::to_string(visible_) + " visible frames, too little to expect a detection");
   } else if (rate < min_rate_) {
     reasons.push_back("re-detection rate " + num(rate) + " is below min_redetection_rate " + num(min_rate_) +
-                      " (" + std::to_string(redetected_) + " of " + std::to_string(visible_) +
-                      " visible frames with IoU >= " + num(min_iou_) + ")");
+                      " (" + std::to_string(redetected_) + " of " + std::to_string(counted_) +
+                      " visible frames with IoU >= " + num(min_iou_) +
+                      (partly > 0 ? "; " + std::to_string(partly) + " more with less than " +
+                                        num(min_visible_share_) + " of it in view are not counted"
+                                  : std::string()) +
+                      ")");
   }
   if (require_unsafe_ && !first_unsafe_frame_ && visible_ > 0) {
     std::string why = !saw_risk_                   ? "no risk assessment arrived"
@@ -489,8 +518,11 @@ Json ClosedLoopVerifier::summary() const {
                   first_unsafe_critical_frame_ ? Json(*first_unsafe_critical_frame_) : Json()},
                  {"metrics", unsafe_by_}};
   j["redetection"] = {{"min_iou", min_iou_},
+                      {"min_visible_share", min_visible_share_},
+                      {"counted_frames", counted_},
+                      {"partly_visible_frames", partly},
                       {"redetected_frames", redetected_},
-                      {"rate", visible_ > 0 ? Json(rate) : Json()},
+                      {"rate", counted_ > 0 ? Json(rate) : Json()},
                       {"mean_iou", maybe(mean(ious_))},
                       {"median_iou", maybe(median(ious_))},
                       {"mean_confidence", maybe(mean(scores_))}};
@@ -505,6 +537,7 @@ Json ClosedLoopVerifier::summary() const {
   j["hazard_critical_frames"] = critical_frames_;
   j["criteria"] = {{"min_iou", min_iou_},
                    {"min_redetection_rate", min_rate_},
+                   {"min_visible_share", min_visible_share_},
                    {"require_unsafe", require_unsafe_},
                    {"require_hazard_critical", require_critical_},
                    {"planned_ttc_tolerance_s", planned_tolerance_},

@@ -24,8 +24,8 @@ namespace hf {
 // `independent_detections` (Detections, optional): an independent detector's detections on the augmented
 // frames (never used to plan or to pass), reported as `independent_redetection`. The hazard packets'
 // appearances (HazardInstance::appearance / references) are compared in `realism`; neither changes `passed`.
-// Params: min_iou, min_redetection_rate, require_unsafe, require_hazard_critical, require_class_match,
-// ttc_metric, unsafe_metrics, max_ttc_error_s, intended_distance_at, file.
+// Params: min_iou, min_redetection_rate, min_visible_share, require_unsafe, require_hazard_critical,
+// require_class_match, ttc_metric, unsafe_metrics, max_ttc_error_s, intended_distance_at, file.
 class ClosedLoopVerifier : public Stage {
  public:
   static ComponentInfo describe();
@@ -38,7 +38,7 @@ class ClosedLoopVerifier : public Stage {
 
  private:
   // Params
-  double min_iou_ = 0.5, min_rate_ = 0.5, max_ttc_error_ = -1;
+  double min_iou_ = 0.5, min_rate_ = 0.5, max_ttc_error_ = -1, min_visible_share_ = 0.5;
   bool require_unsafe_ = true, require_class_match_ = true, require_critical_ = false;
   std::string ttc_metric_;
   std::vector<std::string> unsafe_metrics_;
@@ -48,6 +48,8 @@ class ClosedLoopVerifier : public Stage {
   // Accumulated over the run
   int frames_ = 0, visible_ = 0, redetected_ = 0, unsafe_frames_ = 0, critical_frames_ = 0;
   int visible_after_plan_ = 0;        // visible frames past the plan's last point (the hazard carrying on)
+  int counted_ = 0;                   // visible frames with at least min_visible_share of it seen
+  double best_share_ = 0;             // the largest share of it seen in any visible frame
   std::optional<double> plan_end_t_;  // stream time of the plan's last point
   int unsafe_critical_frames_ = 0;  // visible, Unsafe, and the inserted object is the TTC's critical track
   std::optional<int64_t> first_unsafe_critical_frame_;
