@@ -11,6 +11,7 @@
 
 #include "command.hpp"
 #include "hazardforge/types.hpp"
+#include "temp_dir.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -62,8 +63,8 @@ TEST(Cli, ValidateReportsEveryErrorAndFails) {
 TEST(Cli, RunWritesPlayableVideoJsonlAndManifest) {
   HF_REQUIRE_SHARED(hf::test::shared_data("udacity-highway/test_video.mp4"));
   std::filesystem::current_path(hf::test::source_dir());
-  const auto out = std::filesystem::temp_directory_path() / "hf_cli_run";
-  std::filesystem::remove_all(out);
+  const hf::test::TempDir tmp;
+  const auto out = tmp / "run";
   Cmd c = run("run configs/examples/video_to_jsonl.yaml -o " + out.string());
   ASSERT_EQ(c.code, 0) << c.out;
   std::ifstream mf(out / "manifest.json");
@@ -113,8 +114,8 @@ namespace {
 TEST(Cli, CtrlCKeepsWhatWasWrittenAndMarksTheManifest) {
   HF_REQUIRE_SHARED(hf::test::shared_data("udacity-highway/test_video.mp4"));
   std::filesystem::current_path(hf::test::source_dir());
-  const auto out = std::filesystem::temp_directory_path() / "hf_cli_interrupt";
-  std::filesystem::remove_all(out);
+  const hf::test::TempDir tmp;
+  const auto out = tmp / "run";
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {

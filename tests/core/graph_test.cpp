@@ -56,8 +56,7 @@ INSTANTIATE_TEST_SUITE_P(Invalid, GraphFiles, ::testing::ValuesIn(invalid_graph_
                          [](const auto& info) { return info.param; });
 
 std::filesystem::path write_temp(const std::string& name, const std::string& text) {
-  auto dir = std::filesystem::temp_directory_path() / "hf_graph_test";
-  std::filesystem::create_directories(dir);
+  static const hf::test::TempDir dir;  // this process's, for the test's lifetime
   auto p = dir / name;
   std::ofstream(p) << text;
   return p;

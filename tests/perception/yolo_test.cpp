@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "hazardforge/testing/stage_runner.hpp"
+#include "temp_dir.hpp"
 #include "test_support.hpp"
 #include "yolo_detector.hpp"
 
@@ -103,7 +104,8 @@ TEST(YoloDetector, MissingModelNamesThePath) {
 }
 
 TEST(YoloDetector, InvalidModelReportsPathAndOpenCvMessage) {
-  const fs::path bad = fs::temp_directory_path() / "hf_yolo_test_not_a_model.onnx";
+  const hf::test::TempDir tmp;
+  const fs::path bad = tmp / "not_a_model.onnx";
   std::ofstream(bad) << "this is not an ONNX protobuf";
   YoloDetector d;
   YoloDetector::Config c;
@@ -116,7 +118,6 @@ TEST(YoloDetector, InvalidModelReportsPathAndOpenCvMessage) {
     EXPECT_EQ(msg.rfind("yolo: model '" + bad.string() + "' cannot be loaded by OpenCV 4.", 0), 0u) << msg;
     EXPECT_NE(msg.find("OpenCV(4."), std::string::npos) << msg;  // OpenCV's own message follows
   }
-  fs::remove(bad);
 }
 
 TEST(YoloDetector, WrongInputSizeOrLayoutIsRefused) {

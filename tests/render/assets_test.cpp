@@ -15,6 +15,7 @@
 #include "asset_library.hpp"
 #include "box_geometry.hpp"
 #include "hazardforge/geometry.hpp"
+#include "temp_dir.hpp"
 
 namespace hf::render {
 namespace {
@@ -98,8 +99,8 @@ TEST(DefaultAssets, CommittedPicturesAreTheGeneratorsOutput) {
 }
 
 TEST(AssetIndex, MalformedEntriesNameTheFileLineAndField) {
-  const fs::path dir = fs::temp_directory_path() / "hf_bad_assets";
-  fs::create_directories(dir);
+  const hf::test::TempDir tmp;
+  const fs::path& dir = tmp.path();
   std::ofstream(dir / "assets.yaml") << "format: hazardforge-assets\nversion: 1\nassets:\n  - file: x.png\n"
                                         "    class: car\n    view: sideways\n";
   try {

@@ -13,6 +13,7 @@
 #include "box_geometry.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "render_fixtures.hpp"
+#include "temp_dir.hpp"
 
 namespace hf::render {
 namespace {
@@ -94,8 +95,8 @@ Scene make_scene(int64_t index, double a_x) {
 }
 
 TEST(AssetHarvester, KeepsOnlyWellVisibleObjectsAndCutsThemOut) {
-  const fs::path out = fs::temp_directory_path() / "hf_harvest_test";
-  fs::remove_all(out);
+  const hf::test::TempDir tmp;
+  const fs::path out = tmp / "assets";
   auto runner = hf::testing::StageRunner::create<AssetHarvester>("out_dir: " + out.string());
   const Scene s0 = make_scene(0, 14.0), s1 = make_scene(1, 20.0);
   runner.push("frames", s0.frame, s0.frame.timestamp);
@@ -140,8 +141,8 @@ TEST(AssetHarvester, KeepsOnlyWellVisibleObjectsAndCutsThemOut) {
 }
 
 TEST(AssetHarvester, HarvestedAssetsCompositeWithCorrectAlpha) {
-  const fs::path out = fs::temp_directory_path() / "hf_harvest_render";
-  fs::remove_all(out);
+  const hf::test::TempDir tmp;
+  const fs::path out = tmp / "assets";
   auto runner = hf::testing::StageRunner::create<AssetHarvester>("out_dir: " + out.string());
   const Scene s0 = make_scene(0, 14.0);
   runner.push("frames", s0.frame, 0.0);
@@ -185,8 +186,8 @@ TEST(AssetHarvester, RefusesACutWhoseMaskDisagreesWithTheAnnotationsBox) {
             cv::Scalar(40, 40, 210));
   Frame f = hf::test::make_frame(0, 0.0, img, cam);
   f.annotations = ann;
-  const fs::path out = fs::temp_directory_path() / ("hf_harvest_disagree_" + std::to_string(::getpid()));
-  fs::remove_all(out);
+  const hf::test::TempDir tmp;
+  const fs::path out = tmp / "assets";
   auto runner = hf::testing::StageRunner::create<AssetHarvester>("out_dir: " + out.string());
   runner.push("frames", f, 0.0);
   runner.run();
@@ -194,12 +195,11 @@ TEST(AssetHarvester, RefusesACutWhoseMaskDisagreesWithTheAnnotationsBox) {
   ASSERT_EQ(h.rejections().count("mask disagrees with the projected box"), 1u);
   EXPECT_EQ(h.rejections().at("mask disagrees with the projected box"), 1);
   EXPECT_TRUE(load_asset_index(out).assets.empty());
-  fs::remove_all(out);
 }
 
 TEST(AssetHarvester, StreamWithoutAnnotationsIsAnError) {
-  auto runner = hf::testing::StageRunner::create<AssetHarvester>(
-      "out_dir: " + (fs::temp_directory_path() / "hf_harvest_none").string());
+  const hf::test::TempDir tmp;
+  auto runner = hf::testing::StageRunner::create<AssetHarvester>("out_dir: " + (tmp / "assets").string());
   runner.push("frames", hf::test::make_frame(0, 0.0, hf::test::textured_image(), test_camera()), 0.0);
   try {
     runner.run();

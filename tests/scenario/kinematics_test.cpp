@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "hazardforge/hazard/kinematics.hpp"
+#include "temp_dir.hpp"
 
 namespace hf::hazard {
 namespace {
@@ -99,7 +100,8 @@ TEST(LimitsTable, ShippedTableHasEveryClassTheTemplatesUse) {
 }
 
 TEST(LimitsTable, BadFieldIsReportedWithFileAndLine) {
-  const auto path = std::filesystem::temp_directory_path() / "hf_bad_limits.yaml";
+  const hf::test::TempDir tmp;
+  const auto path = tmp / "bad_limits.yaml";
   std::ofstream(path) << "car:\n  max_speed_mps: 60\n  max_accel_mps2: fast\n";
   try {
     LimitsTable::load(path.string());
@@ -108,7 +110,6 @@ TEST(LimitsTable, BadFieldIsReportedWithFileAndLine) {
     EXPECT_EQ(std::string(e.what()),
               path.string() + ":3:19: error: class 'car': 'max_accel_mps2' must be a positive number");
   }
-  std::filesystem::remove(path);
 }
 
 TEST(Num, CompactNumbersForMessages) {

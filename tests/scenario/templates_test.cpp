@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "scenario_support.hpp"
+#include "temp_dir.hpp"
 
 namespace hf {
 namespace {
@@ -153,7 +154,8 @@ TEST(PedestrianCrossing, RejectsAStartOnTheRoadAndAMissingSide) {
 // ------------------------------------------------------------------------------------------------
 
 std::filesystem::path limits_with_car_jerk(double jerk) {
-  const auto path = std::filesystem::temp_directory_path() / "hf_scenario_limits.yaml";
+  static const hf::test::TempDir tmp;  // this process's, for the test's lifetime
+  const auto path = tmp / ("limits_jerk_" + std::to_string(jerk) + ".yaml");
   std::ofstream(path) << "car: {max_speed_mps: 60, max_accel_mps2: 5, max_decel_mps2: 10, max_jerk_mps3: "
                       << jerk
                       << ", max_lateral_accel_mps2: 4, max_lateral_speed_mps: 2, max_yaw_rate_dps: 45}\n";
