@@ -12,6 +12,7 @@
 #include "box_geometry.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "render_fixtures.hpp"
+#include "temp_dir.hpp"
 
 namespace hf::render {
 namespace {
@@ -35,11 +36,14 @@ RendererOptions options(bool shadow = false) {
 
 // A harvested-style asset folder: a real-looking picture (textured cuboid with a soft silhouette) with the
 // box geometry a harvester writes, so the renderer sees exactly what `asset_harvester` produces.
-fs::path make_harvested_folder(const fs::path& dir) {
+// `lateral_m` places the car the picture was taken of to the side, so it shows a side too (`view` names it);
+// the silhouette then fills the whole projected box.
+fs::path make_harvested_folder(const fs::path& dir, double lateral_m = 0.0,
+                               const std::string& view = "rear") {
   fs::create_directories(dir);
   const CameraModel cam = test_camera();
   // A car 10 m ahead seen from behind: project its box like the harvester does.
-  const BoxCorners c = box_corners(13.0, 0.0, 0.0, {4.5, 1.85, 1.52});
+  const BoxCorners c = box_corners(13.0, lateral_m, 0.0, {4.5, 1.85, 1.52});
   const auto pb = project_box(cam, c, 0.5);
   const cv::Rect pic(static_cast<int>(pb->bounds.x) - 1, static_cast<int>(pb->bounds.y) - 1,
                      static_cast<int>(pb->bounds.width) + 3, static_cast<int>(pb->bounds.height) + 3);
@@ -47,9 +51,14 @@ fs::path make_harvested_folder(const fs::path& dir) {
   colour.forEach<cv::Vec3b>(
       [](cv::Vec3b& p, const int*) { p = cv::Vec3b(p[0] / 3, p[1] / 3, p[2]); });  // reddish
   cv::Mat alpha(pic.size(), CV_8U, cv::Scalar(0));
-  std::vector<cv::Point> poly;
-  for (int k : {2, 3, 7, 6}) poly.emplace_back(cvRound(pb->px[k].x - pic.x), cvRound(pb->px[k].y - pic.y));
-  cv::fillConvexPoly(alpha, poly, cv::Scalar(255));
+  std::vector<cv::Point> poly, hull;
+  if (lateral_m == 0.0) {
+    for (int k : {2, 3, 7, 6}) poly.emplace_back(cvRound(pb->px[k].x - pic.x), cvRound(pb->px[k].y - pic.y));
+  } else {
+    for (int k = 0; k < 8; ++k) poly.emplace_back(cvRound(pb->px[k].x - pic.x), cvRound(pb->px[k].y - pic.y));
+  }
+  cv::convexHull(poly, hull);
+  cv::fillConvexPoly(alpha, hull, cv::Scalar(255));
   cv::GaussianBlur(alpha, alpha, cv::Size(), 0.7);
   std::vector<cv::Mat> ch;
   cv::split(colour, ch);
@@ -58,10 +67,10 @@ fs::path make_harvested_folder(const fs::path& dir) {
   cv::merge(ch, bgra);
   AssetIndex idx;
   AssetSpec s;
-  s.file = "car_rear_test.png";
+  s.file = "car_" + view + "_test.png";
   s.object_class = "car";
-  s.view = "rear";
-  s.azimuth_deg = camera_azimuth_deg(cam.t_ego_cam, 13.0, 0.0, 0.0);
+  s.view = view;
+  s.azimuth_deg = camera_azimuth_deg(cam.t_ego_cam, 13.0, lateral_m, 0.0);
   s.size_lwh = {4.5, 1.85, 1.52};
   s.image_size = pic.size();
   s.anchor_px = *cam.project_ego({13.0, 0, 0}) - cv::Point2d(pic.tl());
@@ -119,7 +128,8 @@ TEST(Composite, DefaultAssetsRespectAlpha) {
 }
 
 TEST(Composite, HarvestedAssetsRespectAlphaAndOverrideDefaults) {
-  const fs::path dir = make_harvested_folder(fs::temp_directory_path() / "hf_render_harvested");
+  const hf::test::TempDir tmp;
+  const fs::path dir = make_harvested_folder(tmp / "assets");
   const cv::Mat img = hf::test::textured_image();
   auto lib = std::make_shared<const AssetLibrary>(AssetLibrary::load(dir, default_dir()));
   HazardRenderer r(options(), lib);
@@ -212,6 +222,52 @@ TEST(Composite, TheShareOfTheSilhouetteInsideThePictureIsReported) {
   EXPECT_LE(d.x + d.width, b.x + b.width + edge);
   EXPECT_LE(d.y + d.height, b.y + b.height + edge);
   EXPECT_GT(d.area(), 0.5 * b.area());
+}
+
+// A picture of a car seen a little from its left (rear and side), drawn straight ahead where the frame sees
+// only the rear: the rear is mapped onto the rear face, and the side, which would land beside the box as a
+// ghost, is not drawn (clip_to_box). Without the clip it is, so the check can fail; the whole silhouette's
+// coverage counts only what is kept, so the car in the middle of the picture is wholly in it.
+TEST(Composite, APictureShowingMoreFacesThanTheFrameIsKeptToTheObjectsBox) {
+  const hf::test::TempDir tmp;
+  const fs::path dir = make_harvested_folder(tmp / "assets", 5.0, "rear_left");
+  const auto lib = std::make_shared<const AssetLibrary>(AssetLibrary::load(dir));
+  auto traj = std::make_shared<const HazardTrajectory>(
+      static_object("car", 14.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+  const cv::Mat img = hf::test::textured_image();
+  auto beyond_box = [](const HazardRenderer::Result& res) {
+    // Alpha sum more than the margin (and the edge's 2 px) outside the projected box, over the alpha sum.
+    const cv::Rect2f b = res.hazard.box;
+    const float m = static_cast<float>(kClipMargin * b.height) + 4.f;
+    const cv::Rect2f grown(b.x - m, b.y - m, b.width + 2 * m, b.height + 2 * m);
+    double out = 0, all = 0;
+    const cv::Mat& a = res.composite.alpha;
+    for (int y = 0; y < a.rows; ++y)
+      for (int x = 0; x < a.cols; ++x) {
+        const double v = a.at<uint8_t>(y, x);
+        all += v;
+        if (!grown.contains(cv::Point2f(static_cast<float>(x + res.composite.roi.x) + 0.5f,
+                                        static_cast<float>(y + res.composite.roi.y) + 0.5f)))
+          out += v;
+      }
+    return all > 0 ? out / all : 1.0;
+  };
+  RendererOptions o = options();
+  HazardRenderer clipped_r(o, lib);
+  const auto clipped = clipped_r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+  o.composite.clip_to_box = false;
+  HazardRenderer free_r(o, lib);
+  const auto free = free_r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+  ASSERT_TRUE(clipped.hazard.visible);
+  ASSERT_TRUE(free.hazard.visible);
+  ASSERT_EQ(fs::path(clipped.asset_file).filename(), "car_rear_left_test.png");
+  EXPECT_GT(beyond_box(free), 0.15) << "the side lands beside the box without the clip";
+  EXPECT_LT(beyond_box(clipped), 0.002);
+  // The rear is still drawn: the kept silhouette fills most of the box.
+  const cv::Rect2f d = clipped.hazard.drawn_box, b = clipped.hazard.box;
+  EXPECT_GT((d & b).area(), 0.85 * b.area());
+  EXPECT_NEAR(clipped.hazard.in_picture_fraction, 1.0, 0.03);
+  EXPECT_NEAR(free.hazard.in_picture_fraction, 1.0, 0.03);
 }
 
 // A hazard that takes over a real object (spec extra.track_id): the real one leaves the picture — covered by

@@ -561,6 +561,10 @@ ComponentInfo ArRenderer::describe() {
           .range(0.0, 10.0)
           .describe("blur the picture until its interior is no sharper than this times the frame around it "
                     "(variance of the Laplacian): the recording's own blur; 0 = off"),
+      ParamSpec::boolean("clip_to_box", true)
+          .describe("draw only on the object's projected box, grown by 4 % of its height + 2 px: a picture "
+                    "showing faces the frame does not (a car seen a little from its side, placed straight "
+                    "ahead) leaves no ghost of them beside the box"),
       ParamSpec::number("exposure_s", 0.01)
           .range(0.0, 0.1)
           .describe("camera exposure time: motion blur = image-plane speed x exposure; 0 = none"),
@@ -612,6 +616,7 @@ RendererOptions renderer_options(const Params& p) {
   o.composite.grain = p.get_bool("grain");
   o.composite.exposure_s = p.get_double("exposure_s");
   o.composite.match_sharpness = p.get_double("match_sharpness");
+  o.composite.clip_to_box = p.get_bool("clip_to_box");
   o.ego.mode = parse_ego_motion_mode(p.get_string("ego_motion"));
   o.ego.speed_mps = p.get_double("ego_speed_mps");
   o.ego.smoothing = p.get_double("motion_smoothing");

@@ -393,6 +393,49 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
     by1 = std::max(by1, q.y);
   }
   const double obj_h = by1 - by0;
+
+  // The outline drawing is kept to (clip_to_box): the projected box's hull pushed out by the margin from its
+  // centre. Skipped when the picture lands inside it anyway. The whole silhouette's coverage then counts only
+  // the picture's alpha inside the outline mapped back onto the picture.
+  std::vector<cv::Point2d> clip_poly;
+  if (o.clip_to_box) {
+    std::vector<cv::Point2f> pts, hull;
+    for (const auto& q : p.corners_px) pts.emplace_back(q);
+    cv::convexHull(pts, hull);
+    cv::Point2d mid(0, 0);
+    for (const auto& q : hull) mid += cv::Point2d(q);
+    mid *= 1.0 / static_cast<double>(hull.size());
+    const double grow = kClipMargin * obj_h + 2.0;
+    std::vector<cv::Point2f> grown;
+    for (const auto& q : hull) {
+      const cv::Point2d d = cv::Point2d(q) - mid;
+      grown.emplace_back(cv::Point2d(q) + d * (grow / std::max(cv::norm(d), 1e-9)));
+    }
+    bool inside = true;
+    for (const auto& q : quad) inside = inside && cv::pointPolygonTest(grown, cv::Point2f(q), false) >= 0;
+    if (!inside) {
+      const cv::Matx33d Hi = H.inv();
+      std::vector<cv::Point> back;
+      for (const auto& q : grown) {
+        double w = 0;
+        const cv::Point2d b = apply(Hi, cv::Point2d(q), &w);
+        if (w <= 1e-9) {
+          back.clear();
+          break;
+        }
+        back.emplace_back(static_cast<int>(std::lround(b.x * 16)), static_cast<int>(std::lround(b.y * 16)));
+      }
+      for (const auto& q : grown) clip_poly.emplace_back(q);
+      if (!back.empty()) {
+        cv::Mat keep(lvl_alpha.size(), CV_8U, cv::Scalar(0));
+        cv::fillConvexPoly(keep, back, cv::Scalar(255), cv::LINE_AA, 4);
+        cv::Mat kept;
+        cv::multiply(lvl_alpha, keep, kept, 1.0 / 255, CV_32F);
+        r.coverage_full = cv::sum(kept)[0] / 255.0 * std::abs(quad_area) / 2.0 /
+                          std::max(1.0, static_cast<double>(lvl_alpha.total()));
+      }
+    }
+  }
   const cv::Point2d blur = p.velocity_px_s * o.exposure_s;
   const double blur_len = std::min(cv::norm(blur), 0.5 * std::max(obj_h, 8.0));
   const int shadow_k = odd(std::max(3.0, 0.08 * obj_h));
@@ -508,6 +551,23 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   cv::Mat pre_spr = pre(spr);
   cv::warpPerspective(st.sprite, pre_spr, cv::Mat(T * H), spr.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
                       cv::Scalar::all(0));
+  if (!clip_poly.empty()) {
+    cv::Mat keep = area(st.clip, spr.size(), CV_8U);
+    keep.setTo(0);
+    std::vector<cv::Point> poly;
+    for (const auto& q : clip_poly)
+      poly.emplace_back(static_cast<int>(std::lround((q.x - roi.x - spr.x) * 16)),
+                        static_cast<int>(std::lround((q.y - roi.y - spr.y) * 16)));
+    cv::fillConvexPoly(keep, poly, cv::Scalar(255), cv::LINE_AA, 4);
+    for (int y = 0; y < spr.height; ++y) {
+      uint8_t* d = pre_spr.ptr<uint8_t>(y);
+      const uint8_t* k = keep.ptr<uint8_t>(y);
+      for (int x = 0; x < spr.width; ++x) {
+        if (k[x] == 255) continue;
+        for (int c = 0; c < 4; ++c) d[4 * x + c] = static_cast<uint8_t>(mul_div255(d[4 * x + c], k[x]));
+      }
+    }
+  }
   // Match the recording's blur (defocus, motion, compression): the picture's interior is made no sharper than
   // the frame around it — the variance of its Laplacian brought to `match_sharpness` times the background
   // ring's, by the least Gaussian blur (hazardforge/realism), smoothed over frames. Premultiplied, so the

@@ -26,7 +26,14 @@ struct CompositeOptions {
   // Blur the picture until its interior is no sharper than this times the frame around it (variance of the
   // Laplacian); 0 = off.
   double match_sharpness = 1.0;
+  // Draw only on the object's projected box (grown by kClipMargin of its height): parts of a picture that
+  // show faces the frame does not see would otherwise land beside the box.
+  bool clip_to_box = true;
 };
+
+// How far beyond its projected box a silhouette may reach with `clip_to_box`: this share of the box's height,
+// plus 2 px (a box leaves out mirrors; a feathered edge needs room).
+constexpr double kClipMargin = 0.04;
 
 // Where and how one object is drawn in this frame.
 struct Placement {
@@ -56,7 +63,7 @@ struct CompositorState {
   double last_match_sigma = 0.0;  // the last frame's unsmoothed estimate (where the next search starts)
   int blur_frames = 0;
   double own_noise = -1.0;       // the drawn picture's own noise (grey levels; -1: not measured yet)
-  cv::Mat warped, shadow, ring;  // work buffers (grown, never shrunk)
+  cv::Mat warped, shadow, ring, clip;  // work buffers (grown, never shrunk)
   std::vector<uint8_t> row;  // one row, for the motion blur
   cv::Mat grain_tile;        // the grain at full alpha (1/64 grey levels) for the sigma below
   int grain_tile_q8 = 0;     // that sigma, 1/256 grey levels (0: not built)

@@ -63,11 +63,12 @@ std::shared_ptr<const HazardTrajectory> weaving(const std::string& cls, double d
 }
 
 void run_frames(benchmark::State& state, const std::shared_ptr<const HazardTrajectory>& traj,
-                bool realism = false) {
+                bool realism = false, bool clip_to_box = true) {
   cv::setNumThreads(1);
   RendererOptions o;
   o.ego.mode = EgoMotionMode::kPoses;
   o.realism.enabled = realism;  // drawing alone; BM_CarRealism adds the appearance measurement
+  o.composite.clip_to_box = clip_to_box;
   HazardRenderer r(o, assets());
   Frame f;
   f.image = background();
@@ -102,6 +103,12 @@ BENCHMARK(BM_PassThrough)->Unit(benchmark::kMillisecond);
 
 void BM_Car(benchmark::State& state) { run_frames(state, weaving("car", static_cast<double>(state.range(0)))); }
 BENCHMARK(BM_Car)->Arg(8)->Arg(15)->Arg(30)->Arg(60)->Unit(benchmark::kMillisecond);
+
+// The same without keeping the silhouette to the projected box: what that step costs.
+void BM_CarUnclipped(benchmark::State& state) {
+  run_frames(state, weaving("car", static_cast<double>(state.range(0))), false, false);
+}
+BENCHMARK(BM_CarUnclipped)->Arg(8)->Arg(15)->Unit(benchmark::kMillisecond);
 
 // The same with the realism measurement of the drawn car (hazardforge/realism) on: its cost on top of drawing.
 void BM_CarRealism(benchmark::State& state) {
