@@ -54,11 +54,10 @@ ComponentInfo ClosedLoopVerifier::describe() {
   i.summary = "closed-loop check: is the inserted hazard re-detected, measured and judged Unsafe?";
   i.doc =
       "Per frame with a hazard packet: best IoU of a detection with the inserted object's box (the box of "
-      "its "
-      "drawn silhouette where nearer objects leave it seen, as a detector would draw it; same class group "
-      "when require_class_match), its confidence, the matched object's estimated distance against the "
-      "intended one, the scene TTC of the TTC metric and every metric's label. At finish: minimum achieved "
-      "scene TTC against the intended one, whether any frame was Unsafe while the hazard was visible, the "
+      "its drawn silhouette where nearer objects leave it seen, as a detector would draw it; same class "
+      "group when require_class_match), its confidence, the matched object's estimated distance against "
+      "the intended one, the scene TTC of the TTC metric and every metric's label. At finish: minimum "
+      "achieved scene TTC against the intended one, whether any frame was Unsafe while the hazard was visible, the "
       "re-detection rate over the visible frames with at least min_visible_share of the object in view, "
       "distance errors; passed = every criterion holds. Reported beside the verdict, never part of it: "
       "`realism` (the inserted object's appearance in its visible frames against the recording's real "
@@ -333,10 +332,6 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
                            num(planned_tolerance_) + " s";
   }
 
-  if (inst->visible) {
-    ++visible_;
-    best_share_ = std::max(best_share_, inst->visible_share());
-  }
   if (counted) {
     ++counted_;
     ious_.push_back(best);
@@ -346,6 +341,8 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
     }
   }
   if (inst->visible) {
+    ++visible_;
+    best_share_ = std::max(best_share_, inst->visible_share());
     if (match && std::isfinite(match->distance_m) && std::isfinite(inst->distance_m)) {
       // Both in rear-axle terms (the states say where their distances start); the intended one at the face a
       // camera sees unless the centre is asked for.
