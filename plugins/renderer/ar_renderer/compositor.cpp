@@ -393,15 +393,18 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
     by1 = std::max(by1, q.y);
   }
   const double obj_h = by1 - by0;
+  // The projected box's outline: the surroundings' statistics leave it out, and drawing is kept to it.
+  std::vector<cv::Point2f> hull;
+  {
+    std::vector<cv::Point2f> pts(p.corners_px.begin(), p.corners_px.end());
+    cv::convexHull(pts, hull);
+  }
 
   // The outline drawing is kept to (clip_to_box): the projected box's hull pushed out by the margin from its
   // centre. Skipped when the picture lands inside it anyway. The whole silhouette's coverage then counts only
   // the picture's alpha inside the outline mapped back onto the picture.
   std::vector<cv::Point2d> clip_poly;
   if (o.clip_to_box) {
-    std::vector<cv::Point2f> pts, hull;
-    for (const auto& q : p.corners_px) pts.emplace_back(q);
-    cv::convexHull(pts, hull);
     cv::Point2d mid(0, 0);
     for (const auto& q : hull) mid += cv::Point2d(q);
     mid *= 1.0 / static_cast<double>(hull.size());
@@ -427,11 +430,10 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       }
       for (const auto& q : grown) clip_poly.emplace_back(q);
       if (!back.empty()) {
-        cv::Mat keep(lvl_alpha.size(), CV_8U, cv::Scalar(0));
-        cv::fillConvexPoly(keep, back, cv::Scalar(255), cv::LINE_AA, 4);
-        cv::Mat kept;
-        cv::multiply(lvl_alpha, keep, kept, 1.0 / 255, CV_32F);
-        r.coverage_full = cv::sum(kept)[0] / 255.0 * std::abs(quad_area) / 2.0 /
+        st.clip_back.create(lvl_alpha.size(), CV_8U);  // reallocated only when the pyramid level changes
+        st.clip_back.setTo(0);
+        cv::fillConvexPoly(st.clip_back, back, cv::Scalar(255), cv::LINE_AA, 4);
+        r.coverage_full = st.clip_back.dot(lvl_alpha) / (255.0 * 255.0) * std::abs(quad_area) / 2.0 /
                           std::max(1.0, static_cast<double>(lvl_alpha.total()));
       }
     }
@@ -460,11 +462,6 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   r.roi = roi;
 
   // Surroundings' colour statistics, smoothed over time so exposure does not flicker.
-  std::vector<cv::Point2d> hull_pts(p.corners_px.begin(), p.corners_px.end());
-  std::vector<cv::Point2f> hull_f;
-  for (const auto& q : hull_pts) hull_f.emplace_back(q);
-  std::vector<cv::Point2f> hull;
-  cv::convexHull(hull_f, hull);
   const int m = static_cast<int>(std::max(4.0, 0.15 * obj_h));
   const cv::Rect around = cv::Rect(static_cast<int>(bx0) - m, static_cast<int>(by0) - m,
                                    static_cast<int>(bx1 - bx0) + 2 * m, static_cast<int>(by1 - by0) + 2 * m) &

@@ -64,6 +64,7 @@ struct CompositorState {
   int blur_frames = 0;
   double own_noise = -1.0;       // the drawn picture's own noise (grey levels; -1: not measured yet)
   cv::Mat warped, shadow, ring, clip;  // work buffers (grown, never shrunk)
+  cv::Mat clip_back;                   // the kept outline on the picture's pyramid level
   std::vector<uint8_t> row;  // one row, for the motion blur
   cv::Mat grain_tile;        // the grain at full alpha (1/64 grey levels) for the sigma below
   int grain_tile_q8 = 0;     // that sigma, 1/256 grey levels (0: not built)
