@@ -311,7 +311,7 @@ TEST(ImageSequenceSource, SortedMatchingFilesExactContent) {
   std::filesystem::remove(dir / "img_005.png");
   EXPECT_EQ(
       error_of([&] { run_source<ImageSequenceSource>("{path: '" + dir.path().string() + "', fx: 100}"); }),
-      "image '" + (dir / "img_006.png").string() + "' (frame 5) cannot be read");
+      "image '" + (dir / "img_006.png").string() + "' (frame 5) cannot be decoded");
 }
 
 TEST(ImageSequenceSource, KittiRawFolder) {

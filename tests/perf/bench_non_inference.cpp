@@ -30,6 +30,7 @@
 #include "annotated_video_sink.hpp"
 #include "centroid_tracker.hpp"
 #include "drac_metric.hpp"
+#include "hazardforge/image_file.hpp"
 #include "hazardforge/params.hpp"
 #include "hazardforge/testing/benchmark_main.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
@@ -103,6 +104,33 @@ const std::vector<cv::Mat>& video_frames() {
     return v;
   }();
   return frames;
+}
+
+// The sources' frame read (hf::read_color_image) beside OpenCV's imread of the same 1600x900 nuScenes JPEGs,
+// cycled over the first 40 (the page cache is warm after the first pass): what decoding costs a source node.
+void BM_ReadFrame(benchmark::State& state) {
+  static const std::vector<fs::path> files = [] {
+    std::vector<fs::path> v;
+    std::error_code ec;
+    for (const auto& e :
+         fs::directory_iterator(fs::path(hf::shared_root()) / "data/nuscenes/samples/CAM_FRONT", ec))
+      if (e.path().extension() == ".jpg") v.push_back(e.path());
+    std::sort(v.begin(), v.end());
+    if (v.size() > 40) v.resize(40);
+    return v;
+  }();
+  if (files.empty()) {
+    state.SkipWithError("no nuScenes CAM_FRONT frames under the shared data");
+    return;
+  }
+  const bool sdk = state.range(0) != 0;
+  state.SetLabel(sdk ? "hf::read_color_image" : "cv::imread");
+  size_t i = 0;
+  for (auto _ : state) {
+    const fs::path& f = files[i++ % files.size()];
+    cv::Mat m = sdk ? hf::read_color_image(f, "frame") : cv::imread(f.string(), cv::IMREAD_COLOR);
+    benchmark::DoNotOptimize(m.data);
+  }
 }
 
 hf::Frame frame(int64_t k) {
@@ -377,6 +405,7 @@ BENCHMARK_TEMPLATE(BM_Metric, hf::TtcKeypointsMetric)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(BM_Metric, hf::TimeHeadwayMetric)->Name("risk/thw")->Arg(10)->Arg(50);
 BENCHMARK_TEMPLATE(BM_Metric, hf::DracMetric)->Name("risk/drac")->Arg(10)->Arg(50);
+BENCHMARK(BM_ReadFrame)->Name("source/read_frame")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_JsonlRecords)->Name("sink/jsonl_records")->Arg(10)->Arg(50);
 BENCHMARK(BM_AnnotatedOverlay)->Name("sink/annotated_overlay")->Arg(10)->Arg(50)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_AnnotatedVideoSink)

@@ -22,6 +22,7 @@
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
+#include "hazardforge/image_file.hpp"
 
 namespace fs = std::filesystem;
 using hf::Json;
@@ -50,6 +51,16 @@ double median(std::vector<double> v) {
 }
 
 Json num(double v) { return std::isfinite(v) ? Json(std::round(v * 1e4) / 1e4) : Json(nullptr); }
+
+// The frame, or an empty Mat after printing why it cannot be used.
+cv::Mat read_image(const fs::path& file, const std::string& what) {
+  try {
+    return hf::read_color_image(file, what);
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "\n";
+    return {};
+  }
+}
 
 }  // namespace
 
@@ -113,11 +124,8 @@ int main(int argc, char** argv) {
       if (ss >> r) ref = r;
       fs::path p(path);
       if (p.is_relative()) p = base / p;
-      cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
-      if (img.empty()) {
-        std::cerr << "cannot read image " << p << " (listed in " << list << ")\n";
-        return 2;
-      }
+      const cv::Mat img = read_image(p, "image '" + p.string() + "' (listed in " + list + ")");
+      if (img.empty()) return 2;
       if (!push(img, t, ref)) break;
     }
   } else if (!images.empty()) {
@@ -131,8 +139,11 @@ int main(int argc, char** argv) {
       std::cerr << "--images needs --fps\n";
       return 2;
     }
-    for (size_t i = 0; i < files.size(); ++i)
-      if (!push(cv::imread(files[i].string(), cv::IMREAD_COLOR), i / fps, std::nullopt)) break;
+    for (size_t i = 0; i < files.size(); ++i) {
+      const cv::Mat img = read_image(files[i], "image '" + files[i].string() + "'");
+      if (img.empty()) return 2;
+      if (!push(img, i / fps, std::nullopt)) break;
+    }
   } else if (!video.empty()) {
     cv::VideoCapture cap(video);
     if (!cap.isOpened()) {

@@ -251,12 +251,8 @@ bool KittiSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.index = static_cast<int64_t>(pos_);
   f.timestamp = (it.kitti_frame - first) / fps_;
   if (!it.image.empty()) {
-    require_complete_image(
+    f.image = read_color_image(
         it.image, "KITTI image '" + it.image.string() + "' (frame " + std::to_string(it.kitti_frame) + ")");
-    f.image = cv::imread(it.image.string(), cv::IMREAD_COLOR);
-    if (f.image.empty())
-      throw Error("KITTI image '" + it.image.string() + "' (frame " + std::to_string(it.kitti_frame) +
-                  ") cannot be read");
     if (f.image.cols != camera_.width || f.image.rows != camera_.height)
       throw Error("KITTI image '" + it.image.string() + "' is " + std::to_string(f.image.cols) + "x" +
                   std::to_string(f.image.rows) + " but the sequence started at " +

@@ -9,7 +9,6 @@
 #include <sstream>
 #include <unordered_map>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "nuscenes_tables.hpp"
@@ -369,12 +368,8 @@ bool NuScenesSource::next(StageContext& /*ctx*/, Outputs& out) {
   const fs::path file = dataroot_ / k.filename;
   cv::Mat img;
   if (fs::exists(file)) {
-    require_complete_image(file,
-                           "nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) + ")");
-    img = cv::imread(file.string(), cv::IMREAD_COLOR);
-    if (img.empty())
-      throw Error("nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) +
-                  ") cannot be decoded");
+    img =
+        read_color_image(file, "nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) + ")");
   } else if (images_required_) {
     throw Error("nuScenes image '" + file.string() + "' (frame " + std::to_string(pos_) + ") does not exist");
   } else {

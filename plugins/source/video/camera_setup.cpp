@@ -5,7 +5,6 @@
 #include <cmath>
 
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include <opencv2/imgproc.hpp>
 #include "hazardforge/atomic_file.hpp"
@@ -13,7 +12,6 @@
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
-#include "hazardforge/image_file.hpp"
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/output_path.hpp"
 
@@ -275,13 +273,6 @@ cv::Mat CameraSetup::prepare(const cv::Mat& native, const std::string& what) con
   }
   // Sources hand out frames that nobody else writes to; a clone detaches decoder-owned buffers.
   return img.data == native.data ? img.clone() : img;
-}
-
-cv::Mat read_image_file(const std::filesystem::path& file, const std::string& what) {
-  require_complete_image(file, what);
-  cv::Mat raw = cv::imread(file.string(), cv::IMREAD_COLOR);
-  if (raw.empty()) throw Error(what + " cannot be read");
-  return raw;
 }
 
 CameraModel CameraSetup::camera_at(int64_t k) const {

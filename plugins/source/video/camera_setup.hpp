@@ -86,10 +86,6 @@ class CameraSetup {
   std::shared_ptr<const RoadMarkings> markings_;
 };
 
-// One image of a folder source, 8-bit colour; `what` names it in the hf::Error thrown when it is truncated or
-// cannot be decoded.
-cv::Mat read_image_file(const std::filesystem::path& file, const std::string& what);
-
 // Horizontal field of view assumed when nothing else describes the camera.
 inline constexpr double kAssumedHfovDeg = 60.0;
 

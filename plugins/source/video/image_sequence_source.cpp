@@ -7,8 +7,6 @@
 
 #include <algorithm>
 
-#include <opencv2/imgcodecs.hpp>
-
 namespace hf::source {
 
 namespace fs = std::filesystem;
@@ -84,7 +82,7 @@ void ImageSequenceSource::open(StageContext& ctx) {
 }
 
 cv::Mat ImageSequenceSource::read(size_t k) const {
-  return read_image_file(files_[k], "image '" + files_[k].string() + "' (frame " + std::to_string(k) + ")");
+  return read_color_image(files_[k], "image '" + files_[k].string() + "' (frame " + std::to_string(k) + ")");
 }
 
 bool ImageSequenceSource::next(StageContext& /*ctx*/, Outputs& out) {

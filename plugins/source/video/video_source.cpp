@@ -9,8 +9,6 @@
 
 #include <algorithm>
 
-#include <opencv2/imgcodecs.hpp>
-
 namespace hf::source {
 
 namespace fs = std::filesystem;
@@ -152,7 +150,7 @@ void VideoSource::open(StageContext& ctx) {
 }
 
 cv::Mat VideoSource::read_image(size_t k) const {
-  return read_image_file(files_[k], "image '" + files_[k].string() + "' (frame " + std::to_string(k) + ")");
+  return read_color_image(files_[k], "image '" + files_[k].string() + "' (frame " + std::to_string(k) + ")");
 }
 
 bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
