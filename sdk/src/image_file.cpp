@@ -6,7 +6,6 @@
 #include <csetjmp>
 #include <cstdio>
 #include <fstream>
-#include <iterator>
 #include <string_view>
 #include <vector>
 
@@ -124,10 +123,13 @@ void require_complete_image(const std::filesystem::path& file, const std::string
 }
 
 cv::Mat read_color_image(const std::filesystem::path& file, const std::string& what) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error(what + " cannot be read");
-  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error(what + " cannot be read");
+  // One read of the whole file (a character iterator would take ~0.85 ms for a 1600x900 JPEG).
+  std::ifstream in(file, std::ios::binary | std::ios::ate);
+  const std::streamoff size = in ? static_cast<std::streamoff>(in.tellg()) : -1;
+  if (size < 0) throw Error(what + " cannot be read");
+  std::vector<unsigned char> bytes(static_cast<size_t>(size));
+  in.seekg(0);
+  if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) throw Error(what + " cannot be read");
   const std::string_view all(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   check_end_marker(all.substr(0, 8), all.substr(all.size() - std::min(all.size(), kTail)), what);
   cv::Mat img;
