@@ -1,11 +1,14 @@
 // Horizon, ground-plane odometry and the ego-motion smoother on rendered road sequences of known geometry.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <random>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -14,6 +17,7 @@
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
 #include "hazardforge/footage/two_view.hpp"
+#include "hazardforge/footage/two_view_calibration.hpp"
 #include "synthetic_road.hpp"
 #include "test_support.hpp"
 
@@ -521,3 +525,148 @@ TEST(EgoMotionSmoother, NoMeasurementsGivesUnmeasuredOutput) {
 }
 
 }  // namespace
+
+// Two views of a scene of known geometry as matched points: random points 4-60 m ahead, seen by a camera of focal
+// length f (1280x720, principal point at the centre, pitched down by 3 degrees) before and after the car turned
+// left by `yaw_deg` and moved `forward_m` along the chord of its arc; 0.3 px of noise, and 15 % of the pairs
+// replaced by random ones.
+struct PointPair {
+  std::vector<cv::Point2f> a, b;
+  cv::Point2d epipole;  // the later view's image of the earlier camera centre
+};
+PointPair synthetic_views(double f, double yaw_deg, double forward_m, unsigned seed, double pitch_deg = 3.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(-25, 25), uy(-8, 1.5), uz(4, 60), upx(0, 1280), upy(0, 720), u01(0, 1);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  const cv::Matx33d K(f, 0, 640, 0, f, 360, 0, 0, 1);
+  // World: x right, y down, z ahead (level). A left turn shows what was ahead to the right.
+  const double yaw = yaw_deg * kDeg, p = pitch_deg * kDeg;
+  const cv::Matx33d Ryaw(std::cos(yaw), 0, std::sin(yaw), 0, 1, 0, -std::sin(yaw), 0, std::cos(yaw));
+  const cv::Matx33d Rp(1, 0, 0, 0, std::cos(p), -std::sin(p), 0, std::sin(p), std::cos(p));
+  const cv::Vec3d Cb(-std::sin(yaw / 2) * forward_m, 0, std::cos(yaw / 2) * forward_m);
+  const cv::Matx33d Rb = Rp * Ryaw;
+  PointPair out;
+  const cv::Vec3d e = K * (Rb * (-Cb));
+  out.epipole = {e[0] / e[2], e[1] / e[2]};
+  while (out.a.size() < 600) {
+    const cv::Vec3d X(ux(rng), uy(rng), uz(rng));
+    const cv::Vec3d Xa = Rp * X, Xb = Rb * (X - Cb);
+    if (Xa[2] < 2 || Xb[2] < 2) continue;
+    const cv::Vec3d pa = K * Xa, pb = K * Xb;
+    const cv::Point2f a(static_cast<float>(pa[0] / pa[2] + noise(rng)), static_cast<float>(pa[1] / pa[2] + noise(rng)));
+    const cv::Point2f b(static_cast<float>(pb[0] / pb[2] + noise(rng)), static_cast<float>(pb[1] / pb[2] + noise(rng)));
+    if (a.x < 0 || a.x >= 1280 || a.y < 0 || a.y >= 720 || b.x < 0 || b.x >= 1280 || b.y < 0 || b.y >= 720) continue;
+    const bool outlier = u01(rng) < 0.15;
+    out.a.push_back(a);
+    out.b.push_back(outlier ? cv::Point2f(static_cast<float>(upx(rng)), static_cast<float>(upy(rng))) : b);
+  }
+  return out;
+}
+
+// Pairs of a drive turning by 5-8 degrees fix the focal length, whatever the lens (no pull towards a default);
+// each pair alone is noisy, their median is not. The epipoles are the direction of travel.
+TEST(TwoViewCalibration, TurningPairsFixTheFocalLength) {
+  for (const double f : {500.0, 896.0, 1500.0}) {
+    TwoViewCalibration est({1280, 720});
+    std::vector<double> rows;
+    double true_row = 0;
+    for (int i = 0; i < 25; ++i) {
+      const PointPair v = synthetic_views(f, i % 2 ? 5.0 : -8.0, 3.0, static_cast<unsigned>(f) + i);
+      const auto r = TwoViewCalibration::measure_pair(v.a, v.b, {1280, 720}, est.options());
+      ASSERT_TRUE(r.has_value()) << "f " << f << " pair " << i;
+      est.add_pair(*r, i);
+      true_row = v.epipole.y;
+    }
+    const auto e = est.result();
+    ASSERT_TRUE(e.has_value()) << "f " << f << ": " << est.why_not();
+    EXPECT_NEAR(e->fx, f, 0.06 * f) << e->note;
+    EXPECT_GE(e->pairs, 20) << e->note;
+    EXPECT_LT(e->sigma, 0.05 * f);
+    ASSERT_GE(est.epipoles().size(), 18u) << "f " << f;
+    for (const auto& ep : est.epipoles()) rows.push_back(ep.point.y);
+    const auto mid = rows.begin() + static_cast<std::ptrdiff_t>(rows.size() / 2);
+    std::nth_element(rows.begin(), mid, rows.end());
+    EXPECT_NEAR(*mid, true_row, 3.0) << "f " << f;  // the horizon row at 3 degrees of pitch
+  }
+}
+
+// Driving straight does not fix it: pure translation makes every E(f) an essential matrix, so no pair counts,
+// though each gives the point ahead. Standing still gives neither.
+TEST(TwoViewCalibration, AStraightDriveDoesNotFixTheFocalLength) {
+  TwoViewCalibration est({1280, 720});
+  std::vector<double> rows;
+  double true_row = 0;
+  for (int i = 0; i < 25; ++i) {
+    const PointPair v = synthetic_views(896.0, 0.0, 3.0, 40u + i);
+    const auto r = TwoViewCalibration::measure_pair(v.a, v.b, {1280, 720}, est.options());
+    ASSERT_TRUE(r.has_value());
+    EXPECT_FALSE(r->accepted) << "f " << r->f << " rotation " << r->rotation_deg << " sharpness " << r->sharpness;
+    ASSERT_TRUE(r->epipole.has_value());
+    rows.push_back(r->epipole->y);
+    true_row = v.epipole.y;
+    est.add_pair(*r, i);
+  }
+  std::nth_element(rows.begin(), rows.begin() + 12, rows.end());
+  EXPECT_NEAR(rows[12], true_row, 3.0);
+  EXPECT_FALSE(est.result().has_value());
+  EXPECT_NE(est.why_not().find("straight drive"), std::string::npos) << est.why_not();
+  const PointPair v = synthetic_views(896.0, 0.0, 3.0, 7);
+  const auto still = TwoViewCalibration::measure_pair(v.a, v.a, {1280, 720}, est.options());
+  EXPECT_TRUE(!still || (!still->accepted && !still->epipole));
+}
+
+// A level camera turning on a plane is the degenerate case: whatever its pairs say, no estimate, and the reason.
+TEST(TwoViewCalibration, ALevelCameraDoesNotFixTheFocalLength) {
+  TwoViewCalibration est({1280, 720});
+  for (int i = 0; i < 25; ++i) {
+    const PointPair v = synthetic_views(896.0, i % 2 ? 5.0 : -8.0, 3.0, 70u + i, 0.0);
+    if (const auto r = TwoViewCalibration::measure_pair(v.a, v.b, {1280, 720}, est.options())) est.add_pair(*r, i);
+  }
+  EXPECT_FALSE(est.result().has_value());
+  EXPECT_TRUE(est.why_not().find("level") != std::string::npos ||
+              est.why_not().find("scatter") != std::string::npos ||
+              est.why_not().find("straight drive") != std::string::npos)
+      << est.why_not();
+}
+
+// The real nuScenes keyframes (2 Hz, a drive through two bends; calibrated fx 1266.4 px at 1600x900, principal
+// point 16 px right of and 41 px below the centre): the focal length from the bends, and a straight run that the
+// estimator must not take for one.
+TEST(TwoViewCalibration, NuScenesKeyframes) {
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(hf::test::shared_data("nuscenes/samples/CAM_FRONT")))
+    files.push_back(e.path());
+  std::sort(files.begin(), files.end());  // the names carry the timestamps
+  ASSERT_EQ(files.size(), 41u);
+  TwoViewCalibration views({1600, 900});
+  TwoViewCalibration straight({1600, 900});
+  for (size_t i = 0; i < files.size(); ++i) {
+    const cv::Mat img = cv::imread(files[i].string());
+    views.add(img, static_cast<int>(i));
+    if (i >= 21 && i <= 31) straight.add(img, static_cast<int>(i));  // about 0.3 deg per keyframe
+  }
+  const auto f = views.result();
+  ASSERT_TRUE(f.has_value()) << views.why_not();
+  EXPECT_NEAR(f->fx, 1266.4, 0.05 * 1266.4) << f->note;
+  EXPECT_GE(f->pairs, 10);
+  EXPECT_FALSE(straight.result().has_value());
+  // The epipoles' median row against the horizon row the calibration implies at x = 800 (484.4 px).
+  std::vector<double> rows;
+  for (const auto& e : views.epipoles()) rows.push_back(e.point.y);
+  ASSERT_GE(rows.size(), 30u);
+  std::nth_element(rows.begin(), rows.begin() + static_cast<std::ptrdiff_t>(rows.size() / 2), rows.end());
+  EXPECT_NEAR(rows[rows.size() / 2], 484.4, 8.0);
+}
+
+// The epipoles as a horizon cue: with them the estimator's horizon is the true one also from views alone.
+TEST(Horizon, EpipolesAreAHorizonCue) {
+  const CameraModel cam = CameraModel::pinhole(800, 450, 560, 560, 400, 225, 1.5, 2.0 * kDeg, 1.5, 0.0);
+  HorizonEstimator h(cam);
+  for (int i = 0; i < 12; ++i) h.add_epipole({380.0 + 3.0 * i, *cam.horizon_y(380.0 + 3.0 * i) + (i % 2 ? 1.5 : -1.5)}, i);
+  const auto est = h.result();
+  ASSERT_TRUE(est.has_value());
+  EXPECT_EQ(est->epipoles, 12);
+  EXPECT_NE(est->method.find("epipole"), std::string::npos);
+  EXPECT_NEAR(est->horizon_y, *cam.horizon_y(cam.cx), 1.6);
+  EXPECT_NEAR(est->pitch_rad, 2.0 * kDeg, 0.2 * kDeg);
+}

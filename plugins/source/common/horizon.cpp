@@ -402,6 +402,10 @@ void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double d
   samples_.push_back(s);
 }
 
+void HorizonEstimator::add_epipole(const cv::Point2d& e, int frame) {
+  samples_.push_back(Sample{Sample::kEpipole, e.x, e.y, 0, 0, frame});
+}
+
 std::optional<HorizonEstimate> HorizonEstimator::result() const {
   if (samples_.empty()) return std::nullopt;
   HorizonEstimate est;
@@ -494,7 +498,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   }
   const double m = median(rows);
   const double gate = std::max(3 * mad_sigma(rows, m), opt_.inlier_gate_fraction * h);
-  std::vector<double> in_rows, cue_rows[4], vp_cols;
+  std::vector<double> in_rows, cue_rows[5], vp_cols;
   std::vector<int> frames;
   for (size_t i = 0; i < rows.size(); ++i) {
     if (std::abs(rows[i] - m) > gate) continue;
@@ -524,8 +528,10 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   est.homography_row = median(cue_rows[Sample::kHomography]);
   est.ground_motions = static_cast<int>(cue_rows[Sample::kGroundMotion].size());
   est.ground_motion_row = median(cue_rows[Sample::kGroundMotion]);
-  const char* names[4] = {"vanishing_point", "flow_foe", "road_homography", "ground_motion"};
-  for (int c = 0; c < 4; ++c) {
+  est.epipoles = static_cast<int>(cue_rows[Sample::kEpipole].size());
+  est.epipole_row = median(cue_rows[Sample::kEpipole]);
+  const char* names[5] = {"vanishing_point", "flow_foe", "road_homography", "ground_motion", "epipole"};
+  for (int c = 0; c < 5; ++c) {
     if (cue_rows[c].empty()) continue;
     if (!est.method.empty()) est.method += "+";
     est.method += names[c];
@@ -538,7 +544,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   if (est.frames_used < opt_.full_confidence_frames) {
     est.notes.push_back("only " + std::to_string(est.frames_used) + " frames gave horizon evidence");
   }
-  for (int c = 0; c < 4; ++c) {
+  for (int c = 0; c < 5; ++c) {
     if (cue_rows[c].size() < 3) continue;
     const double d = median(cue_rows[c]) - centre;
     if (std::abs(d) > 0.5 * gate) {

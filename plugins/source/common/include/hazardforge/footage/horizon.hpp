@@ -22,16 +22,16 @@ struct HorizonEstimate {
   // (c) exp(-0.5 (s / (0.01 * image height))^2), s = standard deviation of the inlier rows.
   double confidence = 0;
   int frames_used = 0;      // frames that contributed at least one accepted cue
-  // cues that contributed, joined by '+': vanishing_point, flow_foe, road_homography, ground_motion
+  // cues that contributed, joined by '+': vanishing_point, flow_foe, road_homography, ground_motion, epipole
   std::string method;
   std::vector<std::string> notes;  // human-readable caveats (few cues, roll unobservable, ...)
   // Per-cue diagnostics: accepted per-frame samples of each cue and the median horizon row they gave.
-  int vanishing_points = 0, foe_points = 0, homographies = 0, ground_motions = 0;
+  int vanishing_points = 0, foe_points = 0, homographies = 0, ground_motions = 0, epipoles = 0;
   double roll_sigma_rad = 0;  // spread of the roll evidence (0 when roll was not observable)
   double horizon_sigma_px = 0;  // standard deviation of the inlier rows
   // Median horizon row at cx of each cue's inlier samples (NaN when the cue gave none): a cue that disagrees
   // with the others points at a bias (road slope, curve, turning) rather than noise.
-  double vp_row = 0, foe_row = 0, homography_row = 0, ground_motion_row = 0;
+  double vp_row = 0, foe_row = 0, homography_row = 0, ground_motion_row = 0, epipole_row = 0;
   // Column where the road's direction meets the horizon: the median column of the inlier vanishing points
   // (NaN with fewer than 3). Away from cx, the camera is mounted turned against the direction of travel.
   double travel_x = std::numeric_limits<double>::quiet_NaN();
@@ -82,6 +82,9 @@ class HorizonEstimator {
  public:
   explicit HorizonEstimator(const CameraModel& intrinsics, HorizonOptions opt = {});
   void add(const cv::Mat& bgr, double timestamp);  // frames in order, any subset of the clip
+  // A point of the horizon found elsewhere: the epipole of two views of forward travel (TwoViewCalibration),
+  // px at the intrinsics' size; `frame` names the later view.
+  void add_epipole(const cv::Point2d& e, int frame);
   std::optional<HorizonEstimate> result() const;     // nullopt when there was no usable evidence
 
   // The intrinsics with the estimated pitch and roll applied (height and forward offset kept).
@@ -89,8 +92,8 @@ class HorizonEstimator {
 
  private:
   struct Sample {
-    enum Cue { kVanishingPoint, kFoe, kHomography, kGroundMotion } cue;
-    double x = 0, y = 0;       // a point on the horizon (full-resolution px) for VP / FOE
+    enum Cue { kVanishingPoint, kFoe, kHomography, kGroundMotion, kEpipole } cue;
+    double x = 0, y = 0;       // a point on the horizon (full-resolution px) for VP / FOE / epipole
     double row_at_cx = 0;      // horizon row at cx for the plane cues (homography, ground motion)
     double roll = 0;           // plane cues only
     int frame = 0;
