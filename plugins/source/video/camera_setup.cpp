@@ -12,6 +12,7 @@
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
+#include "hazardforge/footage/two_view_calibration.hpp"
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/output_path.hpp"
 
@@ -49,7 +50,8 @@ std::vector<ParamSpec> CameraSetup::params() {
       ParamSpec::number("hfov_deg", 0.0)
           .from_scene("camera.hfov_deg")
           .range(0, 179)
-          .describe("horizontal field of view when no calibration/fx is given (0 = assume 60 deg, warned)"),
+          .describe("horizontal field of view when no calibration/fx is given (0 = estimated from the footage's "
+                    "turns, else 60 deg assumed, warned)"),
       ParamSpec::number("camera_height", 1.5)
           .range(0.1, 10)
           .from_scene("camera.height_m")
@@ -204,10 +206,10 @@ void CameraSetup::init(cv::Size native, const std::string& what, StageContext& c
     if (hfov <= 0) {
       hfov = kAssumedHfovDeg;
       intrinsics_source_ = "assumed_hfov";
-      ctx.log(LogLevel::kWarning,
-              "no calibration, fx or hfov_deg given for " + what + ": assuming a " +
-                  std::to_string(static_cast<int>(kAssumedHfovDeg)) +
-                  " deg horizontal field of view; metric distances rest on that assumption");
+      ctx.log(LogLevel::kInfo, "no calibration, fx or hfov_deg given for " + what +
+                                   ": the focal length is estimated from the footage's turns, else a " +
+                                   std::to_string(static_cast<int>(kAssumedHfovDeg)) +
+                                   " deg horizontal field of view is assumed");
     }
     fx = fy = (w / 2.0) / std::tan(hfov * CV_PI / 360.0);
     cx = w / 2.0;
@@ -290,16 +292,76 @@ EgoState CameraSetup::ego_at(int64_t k) const {
   return e;
 }
 
+std::vector<footage::TwoViewCalibration::Epipole> CameraSetup::two_view_pass(const FramePass& open_pass,
+                                                                            int64_t frames, double fps,
+                                                                            StageContext& ctx) {
+  // Views about 0.5 s apart, each paired with the two before it (0.5 and 1 s): far enough for a turning car to
+  // turn by a few degrees, near enough to match. The whole clip at that spacing up to kMaxViews views; a longer
+  // clip in segments of three views spread over it.
+  constexpr int64_t kMaxViews = 240, kSegment = 3;
+  const int64_t step = std::max<int64_t>(1, std::llround(0.5 * fps));
+  const bool segmented = frames > 0 && frames / step > kMaxViews;
+  const int64_t seg_stride = segmented ? frames / (kMaxViews / kSegment) : 0;
+  footage::TwoViewCalibration views({camera_.width, camera_.height});
+  {
+    auto next_native = open_pass();
+    cv::Mat native;
+    std::string what;
+    int64_t pushed = 0;
+    for (int64_t k = 0; next_native(native, what); ++k) {
+      if (ctx.stop_requested()) return {};
+      const int64_t r = segmented ? k % seg_stride : k;
+      if (r % step != 0 || (segmented && r / step >= kSegment)) continue;
+      if (!segmented && pushed >= kMaxViews) break;
+      views.add(prepare(native, what), static_cast<int>(k), segmented && r == 0);
+      ++pushed;
+    }
+  }
+  if (intrinsics_source_ != "assumed_hfov") return views.epipoles();
+  const std::string assumed = std::to_string(static_cast<int>(kAssumedHfovDeg)) + " deg";
+  if (const auto f = views.result()) {
+    const double deg = 180.0 / CV_PI;
+    const double hfov = 2 * std::atan(camera_.width / (2 * f->fx)) * deg;
+    camera_.fx = camera_.fy = f->fx;
+    intrinsics_source_ = "estimated";
+    provenance_["intrinsics"] = "focal length estimated from the video (" + f->note + "; " +
+                                std::to_string(hfov).substr(0, 5) + " deg horizontal field of view, sigma " +
+                                std::to_string(f->sigma).substr(0, 5) +
+                                " px); principal point assumed at the image centre, square pixels";
+    ctx.log(LogLevel::kInfo, "focal length " + std::to_string(f->fx).substr(0, 7) + " px (" +
+                                 std::to_string(hfov).substr(0, 5) + " deg horizontal field of view) estimated "
+                                 "from the footage's turns: " + f->note);
+  } else {
+    provenance_["intrinsics"] = "assumed " + assumed + " horizontal field of view (nothing stated; " +
+                                views.why_not() + ")";
+    ctx.log(LogLevel::kWarning, "the footage does not fix the focal length (" + views.why_not() +
+                                    "): assuming a " + assumed +
+                                    " horizontal field of view; metric distances and speeds scale with it "
+                                    "(state camera.hfov_deg or a calibration)");
+  }
+  return views.epipoles();
+}
+
 void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t frames, double fps,
                                         StageContext& ctx) {
   if (!self_calibrate_ || frames == 0) {
     if (!speed_stated_) provenance_["ego_speed"] = "unknown (not stated; self_calibrate off)";
+    if (intrinsics_source_ == "assumed_hfov")
+      ctx.log(LogLevel::kWarning, "no calibration, fx or hfov_deg given and self_calibrate is off: assuming a " +
+                                      std::to_string(static_cast<int>(kAssumedHfovDeg)) +
+                                      " deg horizontal field of view; metric distances rest on that assumption");
     return;
   }
+  // Pass 0, views about a second apart: the focal length when nothing describes the lens, and the direction of
+  // travel (a horizon cue).
+  std::vector<footage::TwoViewCalibration::Epipole> epipoles;
+  if (intrinsics_source_ == "assumed_hfov" || !pitch_stated_ || !roll_stated_)
+    epipoles = two_view_pass(open_pass, frames, fps, ctx);
   // Pass 1, horizon: every frame of short clips; pairs of consecutive frames spread over long ones (about 300
   // frames in all keeps long clips cheap).
   const int64_t stride = frames > 300 ? (frames + 149) / 150 : 1;
   footage::HorizonEstimator horizon(camera_);
+  for (const auto& e : epipoles) horizon.add_epipole(e.point, e.frame);
   {
     auto next_native = open_pass();
     cv::Mat native;

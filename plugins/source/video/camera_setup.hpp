@@ -13,6 +13,7 @@
 #include "hazardforge/calibration_file.hpp"
 #include "hazardforge/footage/attitude.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
+#include "hazardforge/footage/two_view_calibration.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::source {
@@ -46,7 +47,8 @@ class CameraSetup {
   std::shared_ptr<const EgoTrack> ego_track() const { return track_; }
   // The lane markings beside the ego lane measured over the clip; null when not measured.
   std::shared_ptr<const RoadMarkings> road_markings() const { return markings_; }
-  // Where the intrinsics came from: "calibration", "params", "hfov", "assumed_hfov".
+  // Where the intrinsics came from: "calibration", "params", "hfov", "estimated" (the focal length from the
+  // footage's turns), "assumed_hfov".
   const std::string& intrinsics_source() const { return intrinsics_source_; }
 
   // Reads the clip from its first frame (native frames in order, false at the end), twice, and
@@ -62,6 +64,12 @@ class CameraSetup {
   void write_reports(StageContext& ctx, int64_t frames, double fps, const std::string& fps_source) const;
 
  private:
+  // Pass 0, views about 0.5 s apart: when nothing describes the lens, the focal length from the views that turn
+  // (else the assumed field of view stays, with a warning saying why); the epipoles of forward travel, for the
+  // horizon.
+  std::vector<footage::TwoViewCalibration::Epipole> two_view_pass(const FramePass& open_pass, int64_t frames,
+                                                                  double fps, StageContext& ctx);
+
   std::optional<CalibrationFile> calib_;
   std::filesystem::path calib_path_;
   double fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0, hfov_deg_ = 0;
