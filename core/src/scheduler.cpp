@@ -247,8 +247,8 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
       const double c0 = thread_cpu_seconds();
       guarded(n, sh, "frame " + std::to_string(tick), [&] { produced = n.source->next(n.ctx, out); });
       if (produced) {
+        n.process_cpu_s.push_back(thread_cpu_seconds() - c0);  // read first: the CPU interval lies in the wall one
         n.process_s.push_back(seconds_since(t0));
-        n.process_cpu_s.push_back(thread_cpu_seconds() - c0);
       }
     }
     std::optional<int64_t> index;  // the recording's frame index, when the source emitted a frame
@@ -333,8 +333,8 @@ void run_node(NodeRuntime& n, Shared& sh) {
       const double c0 = thread_cpu_seconds();
       guarded(n, sh, "frame " + std::to_string(frame), [&] { n.stage->process(n.ctx, in, out); });
       if (!final) {
+        n.process_cpu_s.push_back(thread_cpu_seconds() - c0);  // read first: the CPU interval lies in the wall one
         n.process_s.push_back(seconds_since(t0));
-        n.process_cpu_s.push_back(thread_cpu_seconds() - c0);
       }
     }
     if (final) {

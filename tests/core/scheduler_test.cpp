@@ -82,15 +82,40 @@ TEST(Scheduler, DeliversEveryFrameInOrderWithFrameTimestamps) {
       EXPECT_EQ(t.process_s.size(), 30u);
       EXPECT_EQ(t.inner_s.at("forward").size(), 30u);
     }
-  // So is the CPU time of each node's own thread, one value per timed call, never more than the call's wall
-  // time (one thread cannot use more than one core).
+  // So is the CPU time of each node's own thread, one value per timed call. (It is not compared call by call
+  // with the wall time: on a virtual machine the thread CPU clock and the steady clock are different clock
+  // sources, and a call of a few microseconds has been seen with 0.1 ms more CPU than wall time.)
   for (const auto& t : r.timings) {
     ASSERT_EQ(t.process_cpu_s.size(), t.process_s.size()) << t.id;
-    for (size_t i = 0; i < t.process_s.size(); ++i) {
-      EXPECT_GE(t.process_cpu_s[i], 0.0) << t.id;
-      EXPECT_LE(t.process_cpu_s[i], t.process_s[i] + 1e-4) << t.id << " call " << i;
-    }
+    for (size_t i = 0; i < t.process_s.size(); ++i) EXPECT_GE(t.process_cpu_s[i], 0.0) << t.id;
   }
+}
+
+TEST(Scheduler, TheCpuTimeIsTheNodesOwnThreadsNotTheProcesss) {
+  // The detector's work runs on a helper thread while the node's thread waits for it: the call's wall time is
+  // that work, the node thread's CPU time is almost none of it. A process-wide CPU clock would count the
+  // helper's work (and the other nodes' threads) and fail this.
+  hf::test::reset_seen();
+  ComponentRegistry reg;
+  hf::test::register_test_stages(reg);
+  std::string cfg = chain(-1);
+  cfg.replace(cfg.find("params: {throw_at: -1}"), 22, "params: {throw_at: -1, helper_work: 3000000}");
+  RunResult r = run_graph(graph_of(reg, cfg), reg, quiet_options("own_thread"));
+  ASSERT_TRUE(r.ok()) << r.errors.at(0);
+  bool seen = false;
+  for (const auto& t : r.timings)
+    if (t.id == "detector") {
+      seen = true;
+      ASSERT_EQ(t.process_cpu_s.size(), 30u);
+      double wall = 0, cpu = 0;
+      for (size_t i = 0; i < t.process_s.size(); ++i) {
+        wall += t.process_s[i];
+        cpu += t.process_cpu_s[i];
+      }
+      EXPECT_GT(wall, 0.0);
+      EXPECT_LT(cpu, 0.25 * wall) << "node thread CPU " << cpu << " s of " << wall << " s wall";
+    }
+  EXPECT_TRUE(seen);
 }
 
 TEST(Scheduler, StickyInputHoldsTheLatestSparsePacket) {

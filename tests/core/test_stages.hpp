@@ -39,7 +39,8 @@ class TestSource : public SourceStage {
   double fps_ = 10;
 };
 
-// One box per frame; emits nothing on frames divisible by `skip_every` (sparse stream); throws at `throw_at`.
+// One box per frame; emits nothing on frames divisible by `skip_every` (sparse stream); throws at `throw_at`;
+// `helper_work` iterations of arithmetic run on a helper thread that each call starts and waits for.
 class TestDetector : public Detector {
  public:
   static ComponentInfo describe() {
@@ -47,6 +48,7 @@ class TestDetector : public Detector {
     i.params = {ParamSpec::number("conf_threshold", 0.25).range(0, 1).describe("confidence"),
                 ParamSpec::integer("throw_at", -1),
                 ParamSpec::integer("sleep_ms", 0).range(0, 1000),
+                ParamSpec::integer("helper_work", 0).range(0, 1000000000),
                 ParamSpec::string("mode", "fast").one_of({"fast", "accurate"}),
                 ParamSpec::integer("lanes", 1).range(0, 5).from_scene("road.lanes_left"),
                 ParamSpec::path("weights", ""),
@@ -56,10 +58,18 @@ class TestDetector : public Detector {
   void open(StageContext& ctx) override {
     throw_at_ = ctx.params().get_int("throw_at");
     sleep_ms_ = ctx.params().get_int("sleep_ms");
+    helper_work_ = ctx.params().get_int("helper_work");
   }
   Detections detect(StageContext& ctx, const Frame& f) override {
     if (f.index == throw_at_) throw Error("synthetic failure");
     if (sleep_ms_ > 0) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms_));
+    if (helper_work_ > 0) {  // CPU work done by a helper thread while this one waits for it
+      std::thread helper([n = helper_work_] {
+        volatile uint64_t x = 1;
+        for (int64_t k = 0; k < n; ++k) x = x * 6364136223846793005ull + 1442695040888963407ull;
+      });
+      helper.join();
+    }
     ctx.record_timing("forward", 0.001);
     Detections d;
     d.frame_index = f.index;
@@ -68,7 +78,7 @@ class TestDetector : public Detector {
   }
 
  private:
-  int64_t throw_at_ = -1, sleep_ms_ = 0;
+  int64_t throw_at_ = -1, sleep_ms_ = 0, helper_work_ = 0;
 };
 
 // Detections -> Detections, emitting only every `every`-th frame (a sparse stream), for cycles and stickiness.
