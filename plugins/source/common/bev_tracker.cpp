@@ -113,7 +113,29 @@ Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Poi
 
 BevTracker::BevTracker(const CameraModel& camera, const OdometryOptions& opt) : cam_(camera), opt_(opt) {
   scale_ = cam_.width > kWorkWidth ? static_cast<double>(kWorkWidth) / cam_.width : 1.0;
+  reduced_height_ = cam_.height;
+  if (scale_ < 1.0) reduced_height_ = cv::saturate_cast<int>(cam_.height * scale_);  // as cv::resize sizes it
   build_maps();
+  // The crop: from a few rows above the farthest road row the view samples, and at least the bottom band the
+  // bonnet analysis reads. Its top is moved up to a row whose reduced position is whole, where one exists
+  // within 64 rows, so the reduced crop has exactly the pixels of the reduced frame.
+  double top = reduced_height_ - opt_.bonnet_max_fraction * reduced_height_ - 2.0;
+  for (int r = 0; r < map_y_.rows; ++r)
+    for (int c = 0; c < map_y_.cols; ++c)
+      if (valid_.at<uchar>(r, c)) top = std::min(top, static_cast<double>(map_y_.at<float>(r, c)) - 3.0);
+  int src_top = std::max(0, static_cast<int>(std::floor(top / scale_)));
+  for (int k = 0; k <= std::min(src_top, 64); ++k) {
+    const double off = (src_top - k) * scale_;
+    if (std::abs(off - std::round(off)) < 1e-9) {
+      src_top -= k;
+      break;
+    }
+  }
+  if (src_top > 0) {
+    crop_top_ = src_top;
+    crop_off_ = src_top * scale_;
+    build_maps();
+  }
 }
 
 void BevTracker::build_maps() {
@@ -136,7 +158,7 @@ void BevTracker::build_maps() {
       if (px && px->x >= 1 && px->x < cam_.width - 2 && px->y >= 1 && px->y < bottom &&
           std::atan2(hcam, std::hypot(fwd, lat)) > min_depression) {
         mx = static_cast<float>(px->x * scale_);
-        my = static_cast<float>(px->y * scale_);
+        my = static_cast<float>(px->y * scale_ - crop_off_);
         valid_.at<uchar>(r, c) = 255;
       }
       map_x_.at<float>(r, c) = mx;
@@ -155,17 +177,20 @@ void BevTracker::update_bonnet(const cv::Mat& gray) {
   // Road rows change between frames in proportion to their texture (it streams past); a bonnet reflects the
   // scene but stays put, so its change is small relative to its own gradients. Rows at the bottom whose
   // change/gradient ratio is well below the road's are bonnet. Only frames where the road visibly moves vote.
+  // `gray` is the reduced crop; only its bottom band (bonnet_max_fraction of the whole frame's rows) is read,
+  // with one row above it for the vertical gradient.
   if (prev_gray_.empty() || prev_gray_.size() != gray.size()) return;
+  const int max_rows = std::min(static_cast<int>(opt_.bonnet_max_fraction * reduced_height_), gray.rows - 1);
+  if (max_rows < 1) return;
+  const cv::Range rows(gray.rows - max_rows - 1, gray.rows);
   cv::Mat diff, gy, row_diff, row_grad;
-  cv::absdiff(gray, prev_gray_, diff);
-  cv::Sobel(gray, gy, CV_16S, 0, 1, 3);
+  cv::absdiff(gray.rowRange(rows), prev_gray_.rowRange(rows), diff);
+  cv::Sobel(gray.rowRange(rows), gy, CV_16S, 0, 1, 3);
   gy = cv::abs(gy);
   cv::reduce(diff, row_diff, 1, cv::REDUCE_AVG, CV_64F);
-  cv::Mat gyf;
-  gy.convertTo(gyf, CV_64F, 0.25);
-  cv::reduce(gyf, row_grad, 1, cv::REDUCE_AVG, CV_64F);
-  const int h = gray.rows;
-  const int max_rows = static_cast<int>(opt_.bonnet_max_fraction * h);
+  cv::reduce(gy, row_grad, 1, cv::REDUCE_AVG, CV_64F);
+  row_grad *= 0.25;
+  const int h = diff.rows;  // rows of the band; h - k is the k-th row from the bottom of the frame
   auto ratio = [&](int r) { return row_diff.at<double>(r) / (row_grad.at<double>(r) + 1.0); };
   // Reference: the road rows of the bottom band move fastest; take its upper quartile of change/gradient.
   std::vector<double> band, band_diff;
@@ -187,7 +212,7 @@ void BevTracker::update_bonnet(const cv::Mat& gray) {
   bonnet_votes_.push_back(n);
   const double vote = median_of(bonnet_votes_);
   // A few still rows at the border are not worth a map rebuild; a bonnet is tens of rows.
-  bonnet_rows_ = vote >= 0.02 * h ? static_cast<int>(vote / scale_) + 3 : 0;
+  bonnet_rows_ = vote >= 0.02 * reduced_height_ ? static_cast<int>(vote / scale_) + 3 : 0;
 }
 
 cv::Point2d BevTracker::bev_to_ego(const cv::Point2f& b) const {
@@ -315,8 +340,13 @@ std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::opt
     reset();
     return out;
   }
-  cv::Mat gray = detail::gray8(bgr);
-  if (gray.cols != cam_.width || gray.rows != cam_.height) cv::resize(gray, gray, cv::Size(cam_.width, cam_.height));
+  cv::Mat gray;
+  if (bgr.cols == cam_.width && bgr.rows == cam_.height) {
+    gray = detail::gray8(bgr.rowRange(crop_top_, bgr.rows));
+  } else {
+    cv::resize(detail::gray8(bgr), gray, cv::Size(cam_.width, cam_.height));
+    gray = gray.rowRange(crop_top_, gray.rows);
+  }
   if (scale_ < 1.0) cv::resize(gray, gray, cv::Size(), scale_, scale_, cv::INTER_AREA);
   update_bonnet(gray);
   if (bonnet_rows_ != maps_bonnet_rows_) build_maps();

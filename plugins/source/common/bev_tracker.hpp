@@ -60,6 +60,11 @@ class BevTracker {
   CameraModel cam_;
   OdometryOptions opt_;
   double scale_ = 1.0;
+  // Only the image rows the road view and the bonnet analysis read are converted and reduced: the source rows
+  // from crop_top_ down, which start at crop_off_ = crop_top_ * scale_ rows of the reduced frame.
+  int crop_top_ = 0;
+  double crop_off_ = 0;
+  int reduced_height_ = 0;  // rows of the whole reduced frame
   cv::Mat map_x_, map_y_, valid_, weight_;
   cv::Mat prev_gray_, prev_bev_;
   int bonnet_rows_ = 0;
