@@ -31,15 +31,30 @@ bool BevTracker::patch_agrees(const cv::Mat& a, const cv::Mat& b, cv::Point2f pa
   const cv::Size sz(2 * r + 1, 2 * r + 1);
   if (pa.x < r + 1 || pa.y < r + 1 || pa.x > a.cols - r - 2 || pa.y > a.rows - r - 2) return false;
   if (pb.x < r + 1 || pb.y < r + 1 || pb.x > b.cols - r - 2 || pb.y > b.rows - r - 2) return false;
-  cv::Mat x, y;
+  // The two patches (bilinear, as cv::getRectSubPix samples them) in buffers of this thread, then their means,
+  // spreads and zero-mean correlation in one pass each.
+  thread_local cv::Mat x, y;
   cv::getRectSubPix(a, sz, pa, x, CV_32F);
   cv::getRectSubPix(b, sz, pb, y, CV_32F);
-  cv::Scalar mx, sx, my, sy;
-  cv::meanStdDev(x, mx, sx);
-  cv::meanStdDev(y, my, sy);
-  if (sx[0] < opt_.min_patch_contrast || sy[0] < opt_.min_patch_contrast) return false;
-  const double zncc = cv::mean((x - mx[0]).mul(y - my[0]))[0] / (sx[0] * sy[0]);
-  return zncc >= opt_.min_patch_zncc;
+  const int n = sz.area();
+  const float* px = x.ptr<float>();
+  const float* py = y.ptr<float>();
+  double sx = 0, sy = 0;
+  for (int i = 0; i < n; ++i) {
+    sx += px[i];
+    sy += py[i];
+  }
+  const double mx = sx / n, my = sy / n;
+  double vxx = 0, vyy = 0, vxy = 0;
+  for (int i = 0; i < n; ++i) {
+    const double dx = px[i] - mx, dy = py[i] - my;
+    vxx += dx * dx;
+    vyy += dy * dy;
+    vxy += dx * dy;
+  }
+  const double std_x = std::sqrt(vxx / n), std_y = std::sqrt(vyy / n);
+  if (std_x < opt_.min_patch_contrast || std_y < opt_.min_patch_contrast) return false;
+  return vxy / n / (std_x * std_y) >= opt_.min_patch_zncc;
 }
 
 cv::Point2d Rigid2::apply(const cv::Point2d& q) const {
@@ -83,11 +98,14 @@ Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Poi
   auto consensus = [&](const Rigid2& m, std::vector<int>& in) {
     in.clear();
     double score = 0;
-    for (int i = 0; i < n; ++i)
-      if (cv::norm(p[i] - m.apply(q[i])) < thr) {
+    const double c = std::cos(m.theta), s = std::sin(m.theta);  // Rigid2::apply's, once per model
+    for (int i = 0; i < n; ++i) {
+      const double ex = p[i].x - (c * q[i].x - s * q[i].y + m.t.x), ey = p[i].y - (s * q[i].x + c * q[i].y + m.t.y);
+      if (ex * ex + ey * ey < thr * thr) {
         in.push_back(i);
         score += w[i];
       }
+    }
     return score;
   };
   std::vector<int> in;
@@ -385,10 +403,12 @@ std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::opt
   std::vector<float> err;
   const cv::TermCriteria tc(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 40, 0.01);
   const cv::Size win(opt_.klt_window, opt_.klt_window);
-  cv::calcOpticalFlowPyrLK(from, bev, start, f1, st, err, win, opt_.klt_levels, tc,
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
-  cv::calcOpticalFlowPyrLK(bev, from, f1, back, st_back, err, win, opt_.klt_levels, tc,
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  // Between close frames whose coarse alignment found the motion, the guess is within a pixel or two of it and
+  // KLT refines it with klt_levels_refine levels (each level costs as much as the base); otherwise (no coarse
+  // peak, or far-apart frames whose road views also deform) with klt_levels.
+  const int levels = !prewarp && last_coarse_yaw_ ? opt_.klt_levels_refine : opt_.klt_levels;
+  cv::calcOpticalFlowPyrLK(from, bev, start, f1, st, err, win, levels, tc, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(bev, from, f1, back, st_back, err, win, levels, tc, cv::OPTFLOW_USE_INITIAL_FLOW);
   for (size_t i = 0; i < f0.size(); ++i) {
     if (!st[i] || !st_back[i]) continue;
     const cv::Point2f e = back[i] - start[i];

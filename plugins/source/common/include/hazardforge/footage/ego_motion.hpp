@@ -48,6 +48,9 @@ struct OdometryOptions {
   double prior_relative = 0.25;
   int klt_window = 21;
   int klt_levels = 2;
+  // Between frames closer than two_view_min_interval_s whose coarse alignment found the motion, KLT starts
+  // within a pixel or two of it and refines with this many pyramid levels instead.
+  int klt_levels_refine = 0;
   double fb_max_px = 1.0;      // forward-backward tracking error above this drops a track
   // A track also needs a patch (2 r + 1 square) with this much contrast (grey-level std) in both views and a
   // zero-mean normalised cross-correlation of at least min_patch_zncc between them.
