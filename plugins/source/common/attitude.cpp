@@ -12,6 +12,10 @@
 
 namespace hf::footage {
 
+namespace {
+constexpr int kCornerMargin = 8;  // rows around the far-scene band the corner measure is computed on
+}  // namespace
+
 AttitudeTracker::AttitudeTracker(const CameraModel& camera, AttitudeOptions opt) : cam_(camera), opt_(opt) {
   scale_ = camera.width > opt_.max_width ? static_cast<double>(opt_.max_width) / camera.width : 1.0;
 }
@@ -36,10 +40,15 @@ void AttitudeTracker::add(const cv::Mat& bgr, double t) {
   const int y1 = std::clamp(static_cast<int>(hy + opt_.band_below * gray.rows), 0, gray.rows);
   std::vector<cv::Point2f> p0, p1, back;
   if (y1 - y0 >= 8) {
-    cv::Mat mask = cv::Mat::zeros(prev.size(), CV_8U);
-    mask.rowRange(y0, y1).setTo(255);
-    cv::goodFeaturesToTrack(prev, p0, opt_.max_corners, opt_.corner_quality, opt_.min_corner_distance_px,
-                            mask);
+    // Corners of the band only: the corner measure is computed on the band and a margin of rows around it
+    // (which its 3x3 gradient, block and maximum filters read), not on the whole frame and then masked. The
+    // corners are the same ones, in the margin's coordinates.
+    const int m0 = std::max(0, y0 - kCornerMargin), m1 = std::min(prev.rows, y1 + kCornerMargin);
+    cv::Mat mask = cv::Mat::zeros(m1 - m0, prev.cols, CV_8U);
+    mask.rowRange(y0 - m0, y1 - m0).setTo(255);
+    cv::goodFeaturesToTrack(prev.rowRange(m0, m1), p0, opt_.max_corners, opt_.corner_quality,
+                            opt_.min_corner_distance_px, mask);
+    for (cv::Point2f& p : p0) p.y += static_cast<float>(m0);
   }
   if (static_cast<int>(p0.size()) >= opt_.min_inliers) {
     std::vector<uchar> st, st_back;
