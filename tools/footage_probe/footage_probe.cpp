@@ -22,6 +22,7 @@
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
+#include "hazardforge/process_memory.hpp"
 #include "hazardforge/image_file.hpp"
 
 namespace fs = std::filesystem;
@@ -65,6 +66,7 @@ cv::Mat read_image(const fs::path& file, const std::string& what) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hf::keep_freed_memory_for_reuse();  // the host's allocator policy, so the timings are the pipeline's
   CLI::App app{"Horizon and ego motion from a monocular front-camera clip, as JSON"};
   std::string images, video, list;
   double fps = 0, fx = 0, fy = 0, cx = -1, cy = -1, hfov = 0, ref_horizon = std::nan("");
