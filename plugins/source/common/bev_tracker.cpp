@@ -83,6 +83,20 @@ Rigid2 fit_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2
   return r;
 }
 
+double rigid_residual(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, const std::vector<int>& idx,
+                      Rigid2* fit) {
+  const Rigid2 r = fit_rigid(p, q, idx);
+  if (fit) *fit = r;
+  double ss = 0, ws = 0;
+  for (int i : idx) {
+    const cv::Point2d e = p[i] - r.apply(q[i]);
+    const double w = 1.0 / std::max(1.0, q[i].dot(q[i]));
+    ss += w * e.dot(e) * q[i].dot(q[i]) / 100.0;
+    ws += w;
+  }
+  return ss / ws;
+}
+
 Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, double thr,
                     int iterations, std::vector<int>& best) {
   const int n = static_cast<int>(p.size());

@@ -25,6 +25,10 @@ struct Rigid2 {
 
 // Least-squares rotation + translation with p ~ R q + t over the pairs listed in idx.
 Rigid2 fit_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, const std::vector<int>& idx);
+// Weighted mean squared residual of the least-squares rigid fit over the pairs listed in idx, each weighted by
+// 1 / distance^2 (ground errors grow with distance^2) and compared as if 10 m away.
+double rigid_residual(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, const std::vector<int>& idx,
+                      Rigid2* fit = nullptr);
 // RANSAC over point pairs, then least squares on the inliers; returns the inlier indices in `inliers`.
 Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, double threshold,
                     int iterations, std::vector<int>& inliers);

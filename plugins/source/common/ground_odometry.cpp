@@ -1,16 +1,19 @@
 // Ground-plane visual odometry: ground points tracked in the bird's-eye view and a RANSAC rigid fit give the
 // distance travelled and the yaw change between consecutive frames.
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "bev_tracker.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/two_view.hpp"
+#include "hazardforge/footage/attitude.hpp"
 
 namespace hf::footage {
 
 struct GroundOdometry::Impl {
-  Impl(const CameraModel& c, const OdometryOptions& o) : opt(o), tracker(c, o), rotation(c) {}
+  Impl(const CameraModel& c, const OdometryOptions& o) : cam(c), opt(o), tracker(c, o), rotation(c) {}
+  CameraModel cam;
   OdometryOptions opt;
   detail::BevTracker tracker;
   TwoViewRotation rotation;
@@ -78,9 +81,39 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
     q.push_back(m.q);
   }
   std::vector<int> best;
-  const detail::Rigid2 m = detail::ransac_rigid(p, q, s.opt.ransac_threshold_m, s.opt.ransac_iterations, best);
+  detail::Rigid2 m = detail::ransac_rigid(p, q, s.opt.ransac_threshold_m, s.opt.ransac_iterations, best);
   const int k = static_cast<int>(best.size());
   if (k < 2) return out;
+  if (s.opt.pair_pitch && std::hypot(m.t.x, m.t.y) >= s.opt.pair_pitch_min_travel_m) {
+    // The road's own pitch under this pair: the inliers re-projected to the ground with it, and fitted again.
+    std::vector<cv::Point2d> ip, iq;
+    for (int i : best) {
+      ip.push_back(matches[static_cast<size_t>(i)].img_p);
+      iq.push_back(matches[static_cast<size_t>(i)].img_q);
+    }
+    if (const auto dp = ground_pitch_offset(s.cam, ip, iq, s.opt.pair_pitch_range_deg * M_PI / 180.0,
+                                            s.opt.pair_pitch_sharpness)) {
+      const CameraModel c = with_pitch_roll(s.cam, s.cam.pitch() + *dp, s.cam.roll());
+      bool all = true;
+      std::vector<cv::Point2d> p2 = p, q2 = q;
+      for (int i : best) {
+        const auto a = c.pixel_to_ground(matches[static_cast<size_t>(i)].img_p);
+        const auto b = c.pixel_to_ground(matches[static_cast<size_t>(i)].img_q);
+        if (!a || !b) {
+          all = false;
+          break;
+        }
+        p2[static_cast<size_t>(i)] = cv::Point2d((*a)[0], (*a)[1]);
+        q2[static_cast<size_t>(i)] = cv::Point2d((*b)[0], (*b)[1]);
+      }
+      if (all) {
+        p = std::move(p2);
+        q = std::move(q2);
+        m = detail::fit_rigid(p, q, best);
+        out.ground_pitch_offset = *dp;
+      }
+    }
+  }
   double ss = 0, spread = 0;
   cv::Point2d mq(0, 0);
   for (int i : best) mq += q[i];
@@ -119,6 +152,51 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
     s.last_speed = out.speed_mps;
   }
   return out;
+}
+
+std::optional<double> ground_pitch_offset(const CameraModel& camera, const std::vector<cv::Point2d>& img_p,
+                                          const std::vector<cv::Point2d>& img_q, double range_rad,
+                                          double sharpness) {
+  if (img_p.size() != img_q.size() || img_p.size() < 3) return std::nullopt;
+  constexpr double kDeg = M_PI / 180.0;
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::vector<cv::Point2d> p, q;
+  std::vector<int> all(img_p.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  auto residual = [&](double dp) {
+    const CameraModel c = with_pitch_roll(camera, camera.pitch() + dp, camera.roll());
+    p.clear();
+    q.clear();
+    for (size_t i = 0; i < img_p.size(); ++i) {
+      const auto a = c.pixel_to_ground(img_p[i]), b = c.pixel_to_ground(img_q[i]);
+      if (!a || !b) return kNaN;
+      p.emplace_back((*a)[0], (*a)[1]);
+      q.emplace_back((*b)[0], (*b)[1]);
+    }
+    detail::Rigid2 fit;
+    const double e = detail::rigid_residual(p, q, all, &fit);
+    return e / std::max(1e-12, fit.t.dot(fit.t));
+  };
+  double best = std::numeric_limits<double>::infinity(), bp = 0;
+  auto scan = [&](double lo, double hi, double step) {
+    for (double dp = lo; dp <= hi + 1e-12; dp += step) {
+      const double e = residual(dp);
+      if (std::isfinite(e) && e < best) {
+        best = e;
+        bp = dp;
+      }
+    }
+  };
+  scan(-range_rad, range_rad, 0.25 * kDeg);
+  if (!std::isfinite(best)) return std::nullopt;
+  const double coarse = bp;
+  scan(coarse - 0.3 * kDeg, coarse + 0.3 * kDeg, 0.025 * kDeg);
+  if (bp <= -range_rad + 0.1 * kDeg || bp >= range_rad - 0.1 * kDeg) return std::nullopt;
+  const double lo = residual(bp - kDeg), hi = residual(bp + kDeg);
+  const double side = std::min(std::isfinite(lo) ? lo : std::numeric_limits<double>::infinity(),
+                               std::isfinite(hi) ? hi : std::numeric_limits<double>::infinity());
+  if (!(side > sharpness * best)) return std::nullopt;
+  return bp;
 }
 
 }  // namespace hf::footage

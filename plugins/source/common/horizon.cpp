@@ -216,16 +216,10 @@ double rigid_residual(const CameraModel& cam, const std::vector<detail::GroundMa
     q.emplace_back((*b)[0], (*b)[1]);
     all.push_back(static_cast<int>(all.size()));
   }
-  const detail::Rigid2 r = detail::fit_rigid(p, q, all);
+  detail::Rigid2 r;
+  const double e = detail::rigid_residual(p, q, all, &r);
   if (travel) *travel = std::hypot(r.t.x, r.t.y);
-  double ss = 0, ws = 0;
-  for (size_t i = 0; i < p.size(); ++i) {
-    const cv::Point2d e = p[i] - r.apply(q[i]);
-    const double w = 1.0 / std::max(1.0, q[i].dot(q[i]));  // ground error grows with distance^2
-    ss += w * e.dot(e) * q[i].dot(q[i]) / 100.0;            // ... so compare errors scaled to 10 m
-    ws += w;
-  }
-  return ss / ws;
+  return e;
 }
 
 }  // namespace

@@ -572,8 +572,13 @@ void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, c
       l["yaw_rate_sigma_dps"] = m.yaw_rate_sigma * deg;
       l["measured"] = m.measured;          // this frame's speed (and turn) measured on the road
       l["yaw_measured"] = m.yaw_measured;  // this frame's turn measured (road or whole picture)
-      if (static_cast<size_t>(k) < raw_motion_.size() && raw_motion_[static_cast<size_t>(k)].measured)
-        l["raw_speed_mps"] = raw_motion_[static_cast<size_t>(k)].speed_mps;
+      if (static_cast<size_t>(k) < raw_motion_.size()) {
+        const auto& r = raw_motion_[static_cast<size_t>(k)];
+        if (r.measured) l["raw_speed_mps"] = r.speed_mps;
+        // The road's pitch under this frame and the one before, relative to the clip's camera, where the
+        // road's motion fixed it (OdometryOptions::pair_pitch).
+        if (r.ground_pitch_offset) l["road_pitch_offset_deg"] = *r.ground_pitch_offset * deg;
+      }
     }
     lines += json_text(l) + "\n";
   }

@@ -23,6 +23,7 @@ struct EgoMotionSample {
   double speed_sigma = 0, yaw_rate_sigma = 0;  // 1-sigma (raw: from the fit residuals; smoothed: posterior)
   double quality = 0;     // inlier fraction of the raw measurement
   int inliers = 0;        // ground points that agreed with the fitted motion
+  std::optional<double> ground_pitch_offset;  // rad: the road's pitch under this pair, when it was measured
 };
 
 struct OdometryOptions {
@@ -70,6 +71,16 @@ struct OdometryOptions {
   // On frames as far apart, the previous road view is warped by the coarse motion before KLT, so the patches
   // turn alike (KLT's window and the patch check assume a shift; 2 Hz keyframes turn by 10 degrees and more).
   bool prewarp = true;
+  // The road's pitch under each pair: a fixed camera pitch misreads distances wherever the body pitches (braking,
+  // bumps) or the road ahead climbs or falls relative to the wheels (a grade change, a banked bend); every
+  // distance then scales alike only in one direction, so the road's motion between the views stops being
+  // rigid. Between views at least pair_pitch_min_travel_m apart, the pitch offset (within +- range) that makes
+  // the inliers' motion most nearly rigid is taken, when the minimum is clear (ground_pitch_offset); the
+  // horizon's ground cue uses the same range, travel and sharpness.
+  bool pair_pitch = true;
+  double pair_pitch_range_deg = 8.0;
+  double pair_pitch_min_travel_m = 0.4;
+  double pair_pitch_sharpness = 1.5;
   // Rigid 2-D fit on the ground (RANSAC on point pairs, then least squares on the inliers).
   double ransac_threshold_m = 0.15;
   int ransac_iterations = 300;
@@ -137,6 +148,16 @@ struct SmoothOptions {
   // is held within speed * max_curvature; <= 0: not limited.
   double max_curvature = 0.2;  // 1/m
 };
+
+// The pitch offset (rad, the convention of CameraModel::pitch()) to add to `camera` for which the ground points
+// seen at img_p in one view and img_q in the next move most nearly rigidly between them: the weighted
+// residual of the least-squares rigid fit, relative to the travel (a pitch that shrinks every distance is no
+// better). Searched over +- range_rad (0.25 deg steps, then 0.025 deg); nullopt when the minimum lies at the
+// range's edge, when the residual 1 deg to either side is not `sharpness` times the minimum (the points' depth
+// range does not pin the pitch down), or when fewer than 3 points stay on the ground at the best pitch.
+std::optional<double> ground_pitch_offset(const CameraModel& camera, const std::vector<cv::Point2d>& img_p,
+                                          const std::vector<cv::Point2d>& img_q, double range_rad,
+                                          double sharpness = 1.5);
 
 // Filters a whole clip's raw samples (forward Kalman + RTS smoother over speed, acceleration, yaw rate), with
 // outlier rejection, so every frame gets a value and a sigma. Samples marked measured on output are the raw
