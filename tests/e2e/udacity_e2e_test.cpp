@@ -45,10 +45,10 @@ TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   EXPECT_LE(spec["extra"]["under_way_s"].get<double>(), 1.0);
   const Json tr = read_json_file(out / "trajectory.json");
   EXPECT_TRUE(tr["planner"]["feasible"].get<bool>());
-  EXPECT_DOUBLE_EQ(tr["planner"]["ego_speed_mps"].get<double>(), 20.0);
-  // Already in view when the clip starts, and in the ego path (|y| < 1.0 + 0.5 + w/2) before it ends (1.52
-  // s).
-  EXPECT_LT(tr["points"].front()["x"].get<double>(), 60.0);
+  // The ego's speed is the video's estimate (nothing states it): within 10 % of the 29.3 m/s the lane dashes'
+  // cycle gives (docs/footage-geometry.md).
+  EXPECT_NEAR(tr["planner"]["ego_speed_mps"].get<double>(), 29.3, 2.93);
+  // In the ego path (|y| < 1.0 + 0.5 + w/2) before the clip ends (1.52 s); in view from the start (below).
   bool in_path = false;
   for (const Json& p : tr["points"])
     in_path |= p["t"].get<double>() < 1.48 && std::abs(p["y"].get<double>()) < 1.5;
@@ -57,6 +57,8 @@ TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   // The verdict with the default criteria plus require_hazard_critical.
   const Json v = read_json_file(out / "verification.json");
   EXPECT_TRUE(v["passed"].get<bool>()) << v.dump(2);
+  // Already in view when the clip starts: visible in every frame from the trigger (frame 1) on.
+  EXPECT_EQ(v["visible_frames"].get<int>(), v["frames"].get<int>() - 1);
   EXPECT_EQ(v["criteria"]["min_iou"], 0.5);
   EXPECT_EQ(v["criteria"]["min_redetection_rate"], 0.5);
   EXPECT_TRUE(v["criteria"]["require_unsafe"].get<bool>());
