@@ -5,7 +5,6 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-#include <iostream>
 #include <optional>
 #include <random>
 #include <vector>

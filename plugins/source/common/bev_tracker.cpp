@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -95,6 +96,28 @@ double rigid_residual(const std::vector<cv::Point2d>& p, const std::vector<cv::P
     ws += w;
   }
   return ss / ws;
+}
+
+bool pairs_on_ground(const CameraModel& cam, const std::vector<cv::Point2d>& img_p, const std::vector<cv::Point2d>& img_q,
+                     std::vector<cv::Point2d>& p, std::vector<cv::Point2d>& q) {
+  p.clear();
+  q.clear();
+  for (size_t i = 0; i < img_p.size() && i < img_q.size(); ++i) {
+    const auto a = cam.pixel_to_ground(img_p[i]), b = cam.pixel_to_ground(img_q[i]);
+    if (!a || !b) return false;
+    p.emplace_back((*a)[0], (*a)[1]);
+    q.emplace_back((*b)[0], (*b)[1]);
+  }
+  return true;
+}
+
+double ground_residual(const CameraModel& cam, const std::vector<cv::Point2d>& img_p,
+                       const std::vector<cv::Point2d>& img_q, Rigid2* fit) {
+  std::vector<cv::Point2d> p, q;
+  if (!pairs_on_ground(cam, img_p, img_q, p, q)) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<int> all(p.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  return rigid_residual(p, q, all, fit);
 }
 
 Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, double thr,

@@ -29,6 +29,13 @@ Rigid2 fit_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2
 // 1 / distance^2 (ground errors grow with distance^2) and compared as if 10 m away.
 double rigid_residual(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, const std::vector<int>& idx,
                       Rigid2* fit = nullptr);
+// The image points of matched pairs (full-resolution pixels, as GroundMatch::img_p / img_q) put on the road with
+// `cam`, as ego-frame ground points; false when one of them lies above the horizon.
+bool pairs_on_ground(const CameraModel& cam, const std::vector<cv::Point2d>& img_p, const std::vector<cv::Point2d>& img_q,
+                     std::vector<cv::Point2d>& p, std::vector<cv::Point2d>& q);
+// rigid_residual of all the pairs put on the road with `cam`; NaN when one lies above the horizon.
+double ground_residual(const CameraModel& cam, const std::vector<cv::Point2d>& img_p,
+                       const std::vector<cv::Point2d>& img_q, Rigid2* fit = nullptr);
 // RANSAC over point pairs, then least squares on the inliers; returns the inlier indices in `inliers`.
 Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, double threshold,
                     int iterations, std::vector<int>& inliers);

@@ -5,9 +5,9 @@
 #include <optional>
 
 #include "bev_tracker.hpp"
+#include "hazardforge/footage/attitude.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/two_view.hpp"
-#include "hazardforge/footage/attitude.hpp"
 
 namespace hf::footage {
 
@@ -91,27 +91,16 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
       ip.push_back(matches[static_cast<size_t>(i)].img_p);
       iq.push_back(matches[static_cast<size_t>(i)].img_q);
     }
-    if (const auto dp = ground_pitch_offset(s.cam, ip, iq, s.opt.pair_pitch_range_deg * M_PI / 180.0,
-                                            s.opt.pair_pitch_sharpness)) {
-      const CameraModel c = with_pitch_roll(s.cam, s.cam.pitch() + *dp, s.cam.roll());
-      bool all = true;
-      std::vector<cv::Point2d> p2 = p, q2 = q;
-      for (int i : best) {
-        const auto a = c.pixel_to_ground(matches[static_cast<size_t>(i)].img_p);
-        const auto b = c.pixel_to_ground(matches[static_cast<size_t>(i)].img_q);
-        if (!a || !b) {
-          all = false;
-          break;
-        }
-        p2[static_cast<size_t>(i)] = cv::Point2d((*a)[0], (*a)[1]);
-        q2[static_cast<size_t>(i)] = cv::Point2d((*b)[0], (*b)[1]);
+    std::vector<cv::Point2d> gp, gq;
+    const auto dp = ground_pitch_offset(s.cam, ip, iq, s.opt.pair_pitch_range_deg * M_PI / 180.0,
+                                        s.opt.pair_pitch_sharpness);
+    if (dp && detail::pairs_on_ground(with_pitch_roll(s.cam, s.cam.pitch() + *dp, s.cam.roll()), ip, iq, gp, gq)) {
+      for (size_t j = 0; j < best.size(); ++j) {
+        p[static_cast<size_t>(best[j])] = gp[j];
+        q[static_cast<size_t>(best[j])] = gq[j];
       }
-      if (all) {
-        p = std::move(p2);
-        q = std::move(q2);
-        m = detail::fit_rigid(p, q, best);
-        out.ground_pitch_offset = *dp;
-      }
+      m = detail::fit_rigid(p, q, best);
+      out.ground_pitch_offset = *dp;
     }
   }
   double ss = 0, spread = 0;
@@ -159,23 +148,11 @@ std::optional<double> ground_pitch_offset(const CameraModel& camera, const std::
                                           double sharpness) {
   if (img_p.size() != img_q.size() || img_p.size() < 3) return std::nullopt;
   constexpr double kDeg = M_PI / 180.0;
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  std::vector<cv::Point2d> p, q;
-  std::vector<int> all(img_p.size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
   auto residual = [&](double dp) {
-    const CameraModel c = with_pitch_roll(camera, camera.pitch() + dp, camera.roll());
-    p.clear();
-    q.clear();
-    for (size_t i = 0; i < img_p.size(); ++i) {
-      const auto a = c.pixel_to_ground(img_p[i]), b = c.pixel_to_ground(img_q[i]);
-      if (!a || !b) return kNaN;
-      p.emplace_back((*a)[0], (*a)[1]);
-      q.emplace_back((*b)[0], (*b)[1]);
-    }
     detail::Rigid2 fit;
-    const double e = detail::rigid_residual(p, q, all, &fit);
-    return e / std::max(1e-12, fit.t.dot(fit.t));
+    const double e =
+        detail::ground_residual(with_pitch_roll(camera, camera.pitch() + dp, camera.roll()), img_p, img_q, &fit);
+    return e / std::max(1e-12, fit.t.dot(fit.t));  // NaN stays NaN
   };
   double best = std::numeric_limits<double>::infinity(), bp = 0;
   auto scan = [&](double lo, double hi, double step) {

@@ -201,27 +201,6 @@ std::optional<cv::Point2d> focus_of_expansion(const std::vector<cv::Point2f>& p0
   return refined ? refined : std::optional<cv::Point2d>(best);
 }
 
-// Weighted squared residual of the best rigid ground motion when the image points are back-projected with `cam`:
-// NaN when a point falls above the horizon.
-double rigid_residual(const CameraModel& cam, const std::vector<detail::GroundMatch>& m, const std::vector<int>& idx,
-                      double* travel = nullptr) {
-  std::vector<cv::Point2d> p, q;
-  std::vector<int> all;
-  p.reserve(idx.size());
-  q.reserve(idx.size());
-  for (int i : idx) {
-    const auto a = cam.pixel_to_ground(m[i].img_p), b = cam.pixel_to_ground(m[i].img_q);
-    if (!a || !b) return kNaN;
-    p.emplace_back((*a)[0], (*a)[1]);
-    q.emplace_back((*b)[0], (*b)[1]);
-    all.push_back(static_cast<int>(all.size()));
-  }
-  detail::Rigid2 r;
-  const double e = detail::rigid_residual(p, q, all, &r);
-  if (travel) *travel = std::hypot(r.t.x, r.t.y);
-  return e;
-}
-
 }  // namespace
 
 struct HorizonEstimator::Ground {
@@ -364,6 +343,11 @@ void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double d
   const detail::Rigid2 nominal = detail::ransac_rigid(p, q, 0.4, 300, in);
   if (static_cast<int>(in.size()) < opt_.ground_min_matches) return;
   if (std::hypot(nominal.t.x, nominal.t.y) < opt_.ground_min_travel_m) return;
+  std::vector<cv::Point2d> ip, iq;  // the inliers' image points, put on the road at each candidate pitch and roll
+  for (int i : in) {
+    ip.push_back(m[static_cast<size_t>(i)].img_p);
+    iq.push_back(m[static_cast<size_t>(i)].img_q);
+  }
   const CameraModel& base = ground_->nominal;
   auto cam_at = [&](double pitch, double roll) {
     return CameraModel::pinhole(base.width, base.height, base.fx, base.fy, base.cx, base.cy,
@@ -373,7 +357,7 @@ void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double d
     double best = kInf;
     for (double pitch = p0; pitch <= p1 + 1e-12; pitch += pstep) {
       for (double roll = r0; roll <= r1 + 1e-12; roll += rstep) {
-        const double e = rigid_residual(cam_at(pitch, roll), m, in);
+        const double e = detail::ground_residual(cam_at(pitch, roll), ip, iq);
         if (std::isfinite(e) && e < best) {
           best = e;
           bp = pitch;
@@ -388,7 +372,8 @@ void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double d
   if (!std::isfinite(search(-pr, pr, 0.25 * kDeg, -rr, rr, 0.5 * kDeg, bp, br))) return;
   double best = search(bp - 0.3 * kDeg, bp + 0.3 * kDeg, 0.025 * kDeg, br - 0.6 * kDeg, br + 0.6 * kDeg, 0.1 * kDeg, bp, br);
   // A flat residual (too little depth range, points not on the ground) does not pin the pitch down.
-  const double lo = rigid_residual(cam_at(bp - kDeg, br), m, in), hi = rigid_residual(cam_at(bp + kDeg, br), m, in);
+  const double lo = detail::ground_residual(cam_at(bp - kDeg, br), ip, iq);
+  const double hi = detail::ground_residual(cam_at(bp + kDeg, br), ip, iq);
   const double side = std::min(std::isfinite(lo) ? lo : kInf, std::isfinite(hi) ? hi : kInf);
   if (!(side > opt_.ground_sharpness * best) || bp <= -pr + 0.1 * kDeg || bp >= pr - 0.1 * kDeg) return;
   Sample s{Sample::kGroundMotion, 0, 0, 0, br, frame};
