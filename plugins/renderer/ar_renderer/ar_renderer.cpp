@@ -501,8 +501,8 @@ ComponentInfo ArRenderer::describe() {
   i.doc =
       "Places the hazard's 3D box (HazardTrajectory, anchor frame = ego frame at anchor_time) in each frame "
       "from "
-      "the ego motion (dataset poses, the recording's ego track, ground-plane odometry on the frames, or a "
-      "constant speed), projects it with the "
+      "the ego motion (dataset poses, the recording's ego track, or the frames' own speed and yaw rate: a "
+      "source's, or what the ground_odometry stage measured on the frames), projects it with the "
       "frame's "
       "camera, picks the asset whose view matches the object's heading relative to the camera, warps it with "
       "a "
@@ -527,19 +527,17 @@ ComponentInfo ArRenderer::describe() {
       ParamSpec::boolean("fallback_assets", true)
           .describe("use the default set for classes/views assets_dir lacks"),
       ParamSpec::string("ego_motion", "auto")
-          .one_of({"auto", "poses", "track", "flow", "constant_speed"})
+          .one_of({"auto", "poses", "track", "constant_speed"})
           .describe(
               "how the hazard is kept fixed in the world: auto = poses when frames carry them, else the "
-              "recording's ego track (Frame.ego_track: what the video source estimated), else flow = the "
-              "footage kit's ground-plane odometry (the video source's) run on the frames"),
+              "recording's ego track (Frame.ego_track: what the video source estimated), else constant_speed "
+              "= dead reckoning on each frame's own speed and yaw rate (a source's, or the ground_odometry "
+              "stage's measured on the frames), else ego_speed_mps"),
       ParamSpec::number("ego_speed_mps", -1.0)
           .from_scene("ego.speed_mps")
           .range(-1.0, 80.0)
-          .describe("ego speed for constant_speed and on frames the odometry cannot measure (frame speed "
-                    "first); -1 = unknown"),
-      ParamSpec::number("motion_smoothing", 0.5)
-          .range(0.0, 0.95)
-          .describe("exponential smoothing of the odometry's ego velocities (ego_motion flow)"),
+          .describe("ego speed for constant_speed on frames that carry none (the frame's own speed first); "
+                    "-1 = unknown"),
       ParamSpec::number("max_view_error_deg", 30.0)
           .range(0.0, 180.0)
           .describe("an asset of the kept instance / assets_dir is used when its view is this close"),
@@ -619,7 +617,6 @@ RendererOptions renderer_options(const Params& p) {
   o.composite.clip_to_box = p.get_bool("clip_to_box");
   o.ego.mode = parse_ego_motion_mode(p.get_string("ego_motion"));
   o.ego.speed_mps = p.get_double("ego_speed_mps");
-  o.ego.smoothing = p.get_double("motion_smoothing");
   o.max_view_error_deg = p.get_double("max_view_error_deg");
   o.occlusion = p.get_bool("occlusion");
   o.occluder_min_score = p.get_double("occluder_min_score");

@@ -134,8 +134,8 @@ class HazardRenderer {
 //           one of each per input frame, stamped with the frame's time; visible_frames (Frame): the same
 //           augmented frame, only when the hazard is visible in it (param visible_frames). Frames outside the
 //           trajectory's time span pass through unchanged (hazard.visible = false).
-//  params:  assets_dir, fallback_assets, ego_motion (auto|poses|track|flow|constant_speed),
-//           ego_speed_mps, motion_smoothing, max_view_error_deg, shadow, shadow_strength, scene_light,
+//  params:  assets_dir, fallback_assets, ego_motion (auto|poses|track|constant_speed),
+//           ego_speed_mps, max_view_error_deg, shadow, shadow_strength, scene_light,
 //           harmonize_luma, harmonize_chroma, exposure_smoothing, grain, feather_px, match_sharpness,
 //           exposure_s, occlusion, occluder_min_score, ego_front_m, realism, realism_references,
 //           realism_reference_every, realism_min_score, visible_frames, corridor_half_width, corridor_margin,

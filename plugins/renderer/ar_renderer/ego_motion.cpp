@@ -1,4 +1,4 @@
-// Ego motion for anchoring a hazard in the world: dataset poses, the ego track, ground-plane odometry or a
+// Ego motion for anchoring a hazard in the world: dataset poses, the ego track, the frames' own speed or a
 // constant speed.
 #include "ego_motion.hpp"
 
@@ -46,17 +46,21 @@ double yaw_of(const cv::Matx44d& T) {
 EgoMotionMode parse_ego_motion_mode(const std::string& s) {
   if (s == "auto") return EgoMotionMode::kAuto;
   if (s == "poses") return EgoMotionMode::kPoses;
-  if (s == "flow") return EgoMotionMode::kFlow;
   if (s == "constant_speed") return EgoMotionMode::kConstantSpeed;
   if (s == "track") return EgoMotionMode::kTrack;
-  throw Error("ego_motion '" + s + "' is not one of auto, poses, track, flow, constant_speed");
+  if (s == "flow")
+    throw Error(
+        "ego_motion 'flow' is no longer the renderer's: measure the ego motion on the frames with the "
+        "ground_odometry stage ({id: odometry, stage: ground_odometry, inputs: {frames: <source>.frames}}) "
+        "and "
+        "give the renderer odometry.frames; ego_motion auto then follows their speed and yaw rate");
+  throw Error("ego_motion '" + s + "' is not one of auto, poses, track, constant_speed");
 }
 
 // ---- EgoTrajectory
 // ---------------------------------------------------------------------------------------------
 
 EgoTrajectory::EgoTrajectory(Options o) : opt_(std::move(o)) {}
-EgoTrajectory::~EgoTrajectory() = default;
 
 std::vector<std::string> EgoTrajectory::take_warnings() {
   std::vector<std::string> w;
@@ -68,9 +72,9 @@ void EgoTrajectory::update(const Frame& f) {
   if (!resolved_) {
     EgoMotionMode m = opt_.mode;
     if (m == EgoMotionMode::kAuto)
-      m = f.ego.T_world_ego ? EgoMotionMode::kPoses
+      m = f.ego.T_world_ego                                 ? EgoMotionMode::kPoses
           : f.ego_track && f.ego_track->samples.size() >= 2 ? EgoMotionMode::kTrack
-                                                             : EgoMotionMode::kFlow;
+                                                            : EgoMotionMode::kConstantSpeed;
     resolved_ = m;
   }
   const double t = f.timestamp;
@@ -80,7 +84,8 @@ void EgoTrajectory::update(const Frame& f) {
     if (!f.ego.T_world_ego)
       throw Error(frame_name(f) +
                   ": ego_motion 'poses' needs the ego pose (Frame.ego.T_world_ego), which this "
-                  "frame lacks; use ego_motion: flow or constant_speed for sources without poses");
+                  "frame lacks; use ego_motion: constant_speed (the frames' speed, or ego_speed_mps) for "
+                  "sources without poses");
     // The road the ego drives on is its ground plane, in the planner as here: its pose on the map (x, y,
     // heading), without the body's pitch and roll. Datasets' attitude comes from an IMU while their height
     // stays fixed (nuScenes: z = 0 throughout, pitch -4.6..2.8 deg in scene-0916), and chaining that pitch
@@ -91,62 +96,46 @@ void EgoTrajectory::update(const Frame& f) {
     last_source_ = "poses";
   } else if (*resolved_ == EgoMotionMode::kTrack) {
     if (!f.ego_track || f.ego_track->samples.size() < 2)
-      throw Error(frame_name(f) +
-                  ": ego_motion 'track' needs the recording's ego track (Frame.ego_track: dataset poses or the "
-                  "ego motion the video source estimated), which this frame lacks");
+      throw Error(
+          frame_name(f) +
+          ": ego_motion 'track' needs the recording's ego track (Frame.ego_track: dataset poses or the "
+          "ego motion the video source estimated), which this frame lacks");
     const EgoTrackSample e = f.ego_track->at(t);
     current_ = planar_pose(e.x, e.y, e.yaw);
     last_source_ = "track (" + f.ego_track->source + ")";
   } else if (!have_prev_) {
-    current_ = cv::Matx44d::eye();  // odometry starts at the first frame
-    last_source_ = *resolved_ == EgoMotionMode::kFlow ? "flow" : "constant_speed";
-    if (*resolved_ == EgoMotionMode::kFlow) {
-      if (!f.camera.valid() || f.image.empty())
-        throw Error(frame_name(f) + ": ego_motion 'flow' needs the frame's image and camera model");
-      odometry_ = std::make_unique<footage::GroundOdometry>(f.camera, opt_.odometry);
-      last_odometry_ = odometry_->add(f.image, f.index, t);
-    }
+    current_ = cv::Matx44d::eye();  // dead reckoning starts at the first frame
+    last_source_ = f.ego.speed_mps ? "frame speed (" + f.ego.source + ")" : "constant_speed";
   } else {
     cv::Vec3d rate;  // (vx, vy, yaw rate) in the previous ego frame
-    bool have = false;
-    if (*resolved_ == EgoMotionMode::kFlow) {
-      last_odometry_ = odometry_->add(f.image, f.index, t);
-      if (last_odometry_.measured) {
-        // Forward speed and yaw rate of the interval (the odometry's non-holonomic model: no sideways slip).
-        rate = cv::Vec3d(last_odometry_.speed_mps, 0.0, last_odometry_.yaw_rate);
-        if (have_rate_) rate = opt_.smoothing * smoothed_rate_ + (1.0 - opt_.smoothing) * rate;
-        have = true;
-        last_source_ = "flow";
+    std::optional<double> v = f.ego.speed_mps;
+    double w = f.ego.yaw_rate.value_or(0.0);
+    if (v && prev_speed_) {  // the interval's mean (trapezoid), when both ends carry a speed
+      v = 0.5 * (*v + *prev_speed_);
+      w = 0.5 * (w + prev_yaw_rate_.value_or(w));
+    }
+    if (v) {
+      rate = cv::Vec3d(*v, 0.0, w);
+      last_source_ = "frame speed (" + (f.ego.source.empty() ? std::string("unknown") : f.ego.source) + ")";
+    } else if (opt_.speed_mps >= 0) {
+      rate = cv::Vec3d(opt_.speed_mps, 0.0, w);
+      last_source_ = "constant_speed";
+    } else if (have_rate_) {
+      rate = last_rate_;  // hold the last estimate through a short stretch without a speed
+      last_source_ = "hold";
+    } else {
+      rate = cv::Vec3d(0, 0, 0);
+      last_source_ = "hold";
+      if (!warned_no_speed_) {
+        warnings_.push_back(
+            frame_name(f) +
+            ": no ego speed known (the frame carries none and ego_speed_mps is unset; for a "
+            "source without ego motion, the ground_odometry stage measures it on the frames): "
+            "assuming the ego is still");
+        warned_no_speed_ = true;
       }
     }
-    if (!have) {
-      std::optional<double> v = f.ego.speed_mps;
-      double w = f.ego.yaw_rate.value_or(0.0);
-      if (v && prev_speed_) {  // the interval's mean (trapezoid), when both ends carry a speed
-        v = 0.5 * (*v + *prev_speed_);
-        w = 0.5 * (w + prev_yaw_rate_.value_or(w));
-      }
-      if (!v && opt_.speed_mps >= 0) v = opt_.speed_mps;
-      if (v) {
-        rate = cv::Vec3d(*v, 0.0, w);
-        last_source_ = "constant_speed";
-      } else if (have_rate_) {
-        rate = smoothed_rate_;  // hold the last estimate through a short degenerate stretch
-        last_source_ = "hold";
-      } else {
-        rate = cv::Vec3d(0, 0, 0);
-        last_source_ = "hold";
-        if (!warned_no_speed_) {
-          warnings_.push_back(
-              frame_name(f) + ": no ego speed known (" +
-              (*resolved_ == EgoMotionMode::kFlow ? std::string("the road view gave no motion measurement")
-                                                  : std::string("constant_speed")) +
-              "; the frame has no speed and ego_speed_mps is unset): assuming the ego is still");
-          warned_no_speed_ = true;
-        }
-      }
-    }
-    smoothed_rate_ = rate;
+    last_rate_ = rate;
     have_rate_ = true;
     // Integrate along the arc: translate along the mid-interval heading.
     const double psi = rate[2] * dt, c = std::cos(psi / 2), s = std::sin(psi / 2);

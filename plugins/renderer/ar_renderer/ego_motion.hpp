@@ -1,17 +1,15 @@
-// Ego motion for anchoring a hazard in the world: dataset poses, the recording's ego track, the footage kit's
-// ground-plane odometry run on the frames, or a constant speed, turned into one pose per frame in a
-// world-fixed frame.
+// Ego motion for anchoring a hazard in the world: dataset poses, the recording's ego track, or the frames'
+// own speed and yaw rate (a source's, or the ground_odometry stage's measured on the frames) or a constant
+// speed, turned into one pose per frame in a world-fixed frame.
 #pragma once
 
 #include <map>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
-#include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/types.hpp"
 
 namespace hf::render {
@@ -21,7 +19,7 @@ cv::Matx44d planar_pose(double x, double y, double yaw);
 cv::Matx44d invert_rigid(const cv::Matx44d& T);
 double yaw_of(const cv::Matx44d& T);
 
-enum class EgoMotionMode { kAuto, kPoses, kTrack, kFlow, kConstantSpeed };
+enum class EgoMotionMode { kAuto, kPoses, kTrack, kConstantSpeed };
 EgoMotionMode parse_ego_motion_mode(const std::string& s);
 
 // Keeps one world_from_ego pose per frame seen so far, from the configured source, and answers
@@ -30,14 +28,9 @@ class EgoTrajectory {
  public:
   struct Options {
     EgoMotionMode mode = EgoMotionMode::kAuto;
-    double speed_mps = -1.0;  // constant_speed / fallback when the frame carries none; < 0 = unknown
-    double smoothing = 0.5;   // exponential smoothing of the odometry's velocities (0 = none)
-    // ego_motion 'flow': the footage kit's ground-plane odometry (the video source's), run frame by frame on
-    // the frames this stage receives, with the first frame's camera.
-    footage::OdometryOptions odometry;
+    double speed_mps = -1.0;  // constant_speed: used when the frame carries no speed; < 0 = unknown
   };
   explicit EgoTrajectory(Options o);
-  ~EgoTrajectory();
 
   // Adds the pose of this frame. Throws hf::Error naming the frame when the chosen source cannot serve it.
   void update(const Frame& f);
@@ -47,18 +40,16 @@ class EgoTrajectory {
   // Ego velocity in its own current axes (m/s), from the last two poses.
   cv::Vec3d velocity_ego() const { return velocity_ego_; }
   // Ego yaw rate (rad/s, positive = left): the frame's when it carries one, else the heading change between
-  // the last two poses (dataset poses, flow or dead reckoning); unknown on the first frame.
+  // the last two poses (dataset poses, the track or dead reckoning); unknown on the first frame.
   std::optional<double> yaw_rate() const { return yaw_rate_; }
-  // What produced the last pose: "poses", "track (video)", "flow", "constant_speed", "hold".
+  // What produced the last pose: "poses", "track (video)", "frame speed (video)" (the frame's own speed, with
+  // its source), "constant_speed" (the stated speed), "hold".
   const std::string& last_source() const { return last_source_; }
-  // The odometry's raw measurement of the last frame (ego_motion 'flow'; measured = false otherwise).
-  const footage::EgoMotionSample& last_odometry() const { return last_odometry_; }
   double first_time() const { return history_.empty() ? 0.0 : history_.begin()->first; }
   std::vector<std::string> take_warnings();
 
  private:
   Options opt_;
-  std::unique_ptr<footage::GroundOdometry> odometry_;  // created on the first frame, with its camera
   std::map<double, cv::Matx44d> history_;
   cv::Matx44d current_ = cv::Matx44d::eye();
   cv::Vec3d velocity_ego_{0, 0, 0};
@@ -67,9 +58,8 @@ class EgoTrajectory {
   double prev_t_ = 0.0;
   std::optional<double> prev_speed_, prev_yaw_rate_;
   bool have_prev_ = false;
-  cv::Vec3d smoothed_rate_{0, 0, 0};  // (vx, vy, yaw rate) in the previous ego frame
+  cv::Vec3d last_rate_{0, 0, 0};  // (vx, vy, yaw rate) in the previous ego frame
   bool have_rate_ = false;
-  footage::EgoMotionSample last_odometry_;
   std::string last_source_;
   std::vector<std::string> warnings_;
   bool warned_no_speed_ = false;

@@ -1,5 +1,6 @@
-// Cost of the ar_renderer per 1600x900 frame (Google Benchmark): pass-through, compositing at several
-// distances, and flow-based ego motion. Single OpenCV thread, so the numbers are per-core work.
+// Cost of the ar_renderer per 1600x900 frame (Google Benchmark): pass-through and compositing at several
+// distances (ego motion from the frames is the ground_odometry stage's, benchmarked there). Single OpenCV
+// thread, so the numbers are per-core work.
 //
 //   build/bin/hf_ar_renderer_bench --benchmark_min_time=3 --benchmark_repetitions=3
 //   --benchmark_report_aggregates_only=true
@@ -22,7 +23,7 @@ using namespace hf::render;
 
 CameraModel camera() { return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.02, 1.5); }
 
-// A road-like frame: noise texture (the compositing cost does not depend on content, the flow's does).
+// A road-like frame: noise texture (the compositing cost does not depend on content).
 const cv::Mat& background() {
   static const cv::Mat img = [] {
     cv::Mat n(900, 1600, CV_32F), acc(900, 1600, CV_32F, cv::Scalar(0));
@@ -120,57 +121,6 @@ void BM_Person(benchmark::State& state) {
   run_frames(state, weaving("person", static_cast<double>(state.range(0))));
 }
 BENCHMARK(BM_Person)->Arg(6)->Arg(15)->Unit(benchmark::kMillisecond);
-
-// Ego motion from the frames (ego_motion: flow) per frame as the renderer runs it: the footage kit's
-// ground-plane odometry through the EgoTrajectory. The frames are the road seen 0.8 m further on each time
-// (20 m/s at 25 fps; ground homography of the forward step); the sequence restarts every 12 frames (the
-// restart is not timed).
-void BM_FlowEgoMotion(benchmark::State& state) {
-  cv::setNumThreads(1);
-  const CameraModel cam = camera();
-  std::vector<cv::Mat> frames;
-  for (int k = 0; k < 12; ++k) {
-    std::vector<cv::Point2f> src, dst;
-    for (double x : {6.0, 25.0})
-      for (double y : {-4.0, 4.0}) {
-        src.emplace_back(*cam.project_ego({x, y, 0}));
-        dst.emplace_back(*cam.project_ego({x - 0.8 * k, y, 0}));
-      }
-    cv::Mat f;
-    cv::warpPerspective(background(), f, cv::getPerspectiveTransform(src, dst), background().size());
-    frames.push_back(f);
-  }
-  EgoTrajectory::Options o;
-  o.mode = EgoMotionMode::kFlow;
-  auto start = [&] {
-    auto ego = std::make_unique<EgoTrajectory>(o);
-    Frame f;
-    f.image = frames[0];
-    f.camera = cam;
-    ego->update(f);
-    return ego;
-  };
-  std::unique_ptr<EgoTrajectory> ego = start();
-  int64_t k = 1, n = 0, measured = 0;
-  for (auto _ : state) {
-    if (k == static_cast<int64_t>(frames.size())) {
-      state.PauseTiming();
-      ego = start();
-      k = 1;
-      state.ResumeTiming();
-    }
-    Frame f;
-    f.index = k;
-    f.timestamp = 0.04 * static_cast<double>(k);
-    f.image = frames[static_cast<size_t>(k++)];
-    f.camera = cam;
-    ego->update(f);
-    measured += ego->last_odometry().measured ? 1 : 0;
-    ++n;
-  }
-  state.counters["measured"] = benchmark::Counter(static_cast<double>(measured) / static_cast<double>(n));
-}
-BENCHMARK(BM_FlowEgoMotion)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -1,0 +1,87 @@
+// Ego motion without poses on real data (nuScenes scene-0916 keyframes, 2 Hz, 2-3 m and up to 15 degrees
+// between frames): the ground_odometry stage (the footage kit's ground-plane odometry) measures the pairs it
+// can and, with replace, keeps the frames' own speed and yaw rate on the others; the renderer's dead
+// reckoning on its frames is measured against the dataset's poses.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <map>
+
+#include "ego_motion.hpp"
+#include "ground_odometry_stage.hpp"
+#include "hazardforge/testing/stage_runner.hpp"
+#include "nuscenes_source.hpp"
+#include "test_support.hpp"
+
+namespace hf::render {
+namespace {
+
+TEST(EgoMotionNuScenes, GroundOdometryOnKeyframesAgainstThePoses) {
+  const auto root = hf::test::shared_data("nuscenes");
+  HF_REQUIRE_SHARED(root / "v1.0-mini" / "ego_pose.json");
+  auto src = hf::testing::StageRunner::create<source::NuScenesSource>("dataroot: " + root.string() +
+                                                                      "\nscenes: [scene-0916]");
+  src.run();
+  const auto frames = src.collect<Frame>("frames");
+  ASSERT_EQ(frames.size(), 41u);
+  auto odo = hf::testing::StageRunner::create<filter::GroundOdometryStage>("replace: true");
+  for (const Frame& f : frames) {
+    Frame g = f;
+    g.ego.T_world_ego.reset();  // as a source without poses; speed and yaw rate stay
+    g.ego.velocity_world.reset();
+    g.ego_track.reset();
+    odo.push("frames", g, g.timestamp);
+  }
+  odo.run();
+  const auto out = odo.collect<Frame>("frames");
+  ASSERT_EQ(out.size(), frames.size());
+  std::ifstream in(odo.output_dir() / "ego_odometry.jsonl");
+  std::vector<Json> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(Json::parse(l));
+  ASSERT_EQ(lines.size(), frames.size());
+  EgoTrajectory ego(EgoTrajectory::Options{});
+  std::map<std::string, int> sources;
+  std::vector<cv::Matx44d> poses;
+  std::vector<double> rel;  // relative speed error of the pairs the odometry measured
+  int measured = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    ego.update(out[i]);
+    if (i > 0) ++sources[out[i].ego.source];
+    poses.push_back(ego.current());
+    if (i > 0 && lines[i]["measured"].get<bool>()) {
+      ++measured;
+      const cv::Matx44d gt = invert_rigid(*frames[i - 1].ego.T_world_ego) * *frames[i].ego.T_world_ego;
+      const double v = std::hypot(gt(0, 3), gt(1, 3)) / (frames[i].timestamp - frames[i - 1].timestamp);
+      rel.push_back(std::abs(lines[i]["raw_speed_mps"].get<double>() - v) / v);
+    }
+  }
+  std::sort(rel.begin(), rel.end());
+  const double median_rel = rel.empty() ? 1.0 : rel[rel.size() / 2];
+  std::cout << "odometry measured " << measured << " of 40 keyframe pairs (median relative speed error "
+            << median_rel << "); frames leaving with its estimate " << sources["video"]
+            << ", with their own (dataset) speed " << sources["dataset"] << "\n";
+  // The kit's figures on this scene (docs/footage-geometry.md): fewer than half the pairs measured, 10-20 %
+  // off.
+  EXPECT_GE(measured, 10);
+  EXPECT_GE(sources["video"], measured);
+  EXPECT_EQ(sources["video"] + sources["dataset"], 40);
+  EXPECT_LT(median_rel, 0.25);
+  // Over any 2 s window (4 steps, ~9 m driven) the dead-reckoned path stays within 3 m of the poses (printed
+  // below for the docs; with the frames' speed alone it was 0.26 m: where a source carries a speed, the stage
+  // without replace leaves it alone).
+  double worst = 0;
+  for (size_t i = 0; i + 4 < frames.size(); ++i) {
+    const cv::Matx44d gt = invert_rigid(*frames[i].ego.T_world_ego) * *frames[i + 4].ego.T_world_ego;
+    const cv::Matx44d est = invert_rigid(poses[i]) * poses[i + 4];
+    worst = std::max(worst, std::hypot(gt(0, 3) - est(0, 3), gt(1, 3) - est(1, 3)));
+  }
+  EXPECT_LT(worst, 3.0);
+  RecordProperty("worst_2s_error_m", std::to_string(worst));
+  std::cout << "worst 2 s dead-reckoning error: " << worst << " m\n";
+}
+
+}  // namespace
+}  // namespace hf::render
