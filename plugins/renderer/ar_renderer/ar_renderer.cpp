@@ -532,7 +532,7 @@ ComponentInfo ArRenderer::describe() {
               "how the hazard is kept fixed in the world: auto = poses when frames carry them, else the "
               "recording's ego track (Frame.ego_track: what the video source estimated), else constant_speed "
               "= dead reckoning on each frame's own speed and yaw rate (a source's, or the ground_odometry "
-              "stage's measured on the frames), else ego_speed_mps"),
+              "stage's measured on the frames), else ego_speed_mps (the former flow mode is that stage now)"),
       ParamSpec::number("ego_speed_mps", -1.0)
           .from_scene("ego.speed_mps")
           .range(-1.0, 80.0)
