@@ -16,19 +16,26 @@ struct TwoViewMotion {
   double yaw_sigma = 0;  // rad, from the agreement of two halves of the inliers (and a floor)
   int inliers = 0;       // feature pairs that agree with the essential matrix
   double inlier_fraction = 0;
+  // The direction the camera moved in, in the previous frame's ego axes on the ground (rad, left positive,
+  // 0 = along the ego's x axis as the camera model mounts it), and its sigma from interleaved subsets of the
+  // inliers (and a floor). The length of the move is not observable from the two views; with the camera's
+  // lever arm ahead of the rear axle, the direction and the turn give it (lever_arm.hpp).
+  double heading = 0;
+  double heading_sigma = 0;
 };
 
-// Rotation between consecutive frames from ORB features matched across the whole picture: an essential matrix
-// (RANSAC, 1 px at the working size) and the rotation it decomposes into, projected on the ego's vertical
-// axis. Unlike the road's bird's-eye view it needs no texture on the asphalt and no flat ground, and the far
-// scene (buildings, trees, parked cars) fixes the rotation however large the step between frames (2 Hz
-// keyframes turn by 10 degrees and more). The translation's length is not observable here; the ground view
-// measures it.
+// Rotation between consecutive frames from SIFT features matched across the whole picture: an essential
+// matrix (MAGSAC, 1 px at the working size) and the rotation and direction of travel it decomposes into, the
+// rotation projected on the ego's vertical axis. SIFT rather than ORB: ORB's matches fix the rotation but not
+// the direction of travel to the fraction of a degree the lever-arm scale needs. Unlike the road's bird's-eye
+// view it needs no texture on the asphalt and no flat ground, and the far scene (buildings, trees, parked
+// cars) fixes the rotation however large the step between frames (2 Hz keyframes turn by 10 degrees and
+// more). The translation's length is not observable here; the ground view measures it.
 class TwoViewRotation {
  public:
   struct Options {
     int max_width = 960;  // frames are downscaled to at most this width
-    int features = 2000;
+    int features = 4000;
     double ratio = 0.8;      // Lowe's ratio test
     double ransac_px = 1.0;  // essential-matrix inlier threshold at the working size
     int min_inliers =
@@ -40,8 +47,10 @@ class TwoViewRotation {
     double min_forward = 0.8;
     double min_parallax_px = 1.0;  // median image motion of the inliers at the working size (less: standing)
     double max_split_deg = 1.0;    // the two halves' heading changes must agree within this
-    double max_homography_share = 0.8;  // refused when a homography fits this share of the matrix's inliers
-    double min_sigma_deg = 0.1;         // floor of the heading change's sigma
+    double max_homography_share = 0.8;    // refused when a homography fits this share of the matrix's inliers
+    double min_sigma_deg = 0.1;           // floor of the heading change's sigma
+    double min_heading_sigma_deg = 0.25;  // floor of the direction of travel's sigma
+    int heading_subsets = 4;              // the direction's sigma from this many interleaved inlier subsets
   };
   explicit TwoViewRotation(const CameraModel& camera) : TwoViewRotation(camera, Options{}) {}
   TwoViewRotation(const CameraModel& camera, Options opt);
@@ -56,7 +65,7 @@ class TwoViewRotation {
   double scale_ = 1.0;
   cv::Matx33d K_;
   cv::Vec3d up_cam_;  // the ego's vertical axis in camera coordinates
-  cv::Ptr<cv::ORB> orb_;
+  cv::Ptr<cv::SIFT> sift_;
   std::vector<cv::KeyPoint> prev_keypoints_;
   cv::Mat prev_descriptors_;
 };
