@@ -22,8 +22,9 @@
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
-#include "hazardforge/process_memory.hpp"
+#include "hazardforge/footage/lever_arm.hpp"
 #include "hazardforge/image_file.hpp"
+#include "hazardforge/process_memory.hpp"
 
 namespace fs = std::filesystem;
 using hf::Json;
@@ -94,6 +95,11 @@ int main(int argc, char** argv) {
   std::string debug_dir;
   app.add_option("--debug-dir", debug_dir, "write each frame (with the horizon drawn) and its bird's-eye view here");
   app.add_option("--ref-horizon", ref_horizon, "reference horizon row at cx, reported beside the estimate");
+  bool no_lever_arm = false;
+  app.add_flag(
+      "--no-lever-arm", no_lever_arm,
+      "between frames 0.15 s and more apart, take the distance from the road view alone (not also from the "
+      "camera's lever arm in the bends)");
   bool no_far_scene = false;
   app.add_flag(
       "--no-far-scene", no_far_scene,
@@ -275,6 +281,17 @@ int main(int argc, char** argv) {
     r.speed_mps *= used_height / height;
     r.speed_sigma *= used_height / height;
   }
+  // The distance from the camera's lever arm in the bends (height-independent: after the rescale), as the
+  // video source.
+  if (!no_lever_arm) {
+    hf::footage::LeverArmOptions lo;
+    if (est && std::isfinite(est->travel_x)) lo.prior_bias = std::atan2(cam.cx - est->travel_x, cam.fx);
+    const auto scale = hf::footage::apply_lever_arm(raw, cam.cam_to_ego({0, 0, 0})[0], lo);
+    out["lever_arm"] = {{"lever_m", num(scale.lever_m())},
+                        {"bias_deg", num(scale.bias() * 180 / M_PI)},
+                        {"bias_sigma_deg", num(scale.bias_sigma() * 180 / M_PI)},
+                        {"straight_pairs", scale.straight_pairs()}};
+  }
   if (!debug_dir.empty()) {
     fs::create_directories(debug_dir);
     hf::footage::GroundOdometry dbg(cam);
@@ -302,12 +319,30 @@ int main(int argc, char** argv) {
   std::vector<double> rel_raw, rel_smooth, sp_raw, sp_smooth, yaw_smooth;
   int measured = 0;
   for (size_t i = 0; i < raw.size(); ++i) {
-    Json f = {{"frame", i}, {"t", num(clip.t[i])}, {"measured", raw[i].measured},
-              {"raw_speed", num(raw[i].speed_mps)}, {"raw_yaw_rate", num(raw[i].yaw_rate)},
-              {"quality", num(raw[i].quality)}, {"inliers", raw[i].inliers},
+    Json f = {{"frame", i},
+              {"t", num(clip.t[i])},
+              {"measured", raw[i].measured},
+              {"raw_speed", num(raw[i].speed_mps)},
+              {"raw_yaw_rate", num(raw[i].yaw_rate)},
+              {"raw_speed_sigma", num(raw[i].speed_sigma)},
+              {"speed_cue", hf::footage::speed_cue_name(raw[i].speed_cue)},
+              {"quality", num(raw[i].quality)},
+              {"inliers", raw[i].inliers},
               {"kept", smooth[i].measured},
-              {"speed", num(smooth[i].speed_mps)}, {"speed_sigma", num(smooth[i].speed_sigma)},
-              {"yaw_rate", num(smooth[i].yaw_rate)}, {"yaw_rate_sigma", num(smooth[i].yaw_rate_sigma)}};
+              {"speed", num(smooth[i].speed_mps)},
+              {"speed_sigma", num(smooth[i].speed_sigma)},
+              {"yaw_rate", num(smooth[i].yaw_rate)},
+              {"yaw_rate_sigma", num(smooth[i].yaw_rate_sigma)}};
+    if (raw[i].road_speed_mps) f["road_speed"] = num(*raw[i].road_speed_mps);
+    if (raw[i].lever_speed_mps) {
+      f["lever_speed"] = num(*raw[i].lever_speed_mps);
+      f["lever_speed_sigma"] = num(raw[i].lever_speed_sigma);
+    }
+    if (const auto& tv = raw[i].two_view)
+      f["two_view"] = {{"turn_deg", num(tv->yaw * 180 / M_PI)},
+                       {"heading_deg", num(tv->heading * 180 / M_PI)},
+                       {"heading_sigma_deg", num(tv->heading_sigma * 180 / M_PI)},
+                       {"inliers", tv->inliers}};
     if (raw[i].measured) {
       ++measured;
       sp_raw.push_back(raw[i].speed_mps);

@@ -33,7 +33,9 @@ ComponentInfo GroundOdometryStage::describe() {
       "by frame on the frames it receives, with the first frame's camera: the road 3-22 m ahead warped to a "
       "bird's-eye view, a coarse search over distance and turn, KLT, a rigid fit on the ground, and the "
       "whole "
-      "picture's turn between frames 0.15 s or more apart. Measured intervals are smoothed exponentially; "
+      "picture's turn between frames 0.15 s or more apart; between those, in the bends, the distance from "
+      "the camera's lever arm ahead of the rear axle (the straight travel from the straight pairs seen so "
+      "far). Measured intervals are smoothed exponentially; "
       "frames it cannot measure hold the last estimate. Each frame leaves with ego.speed_mps, ego.yaw_rate "
       "and ego.source = \"video\", which the estimators (the ego speed in TTC), the generator, the planner "
       "and the renderer read. Causal: no later "
@@ -76,13 +78,19 @@ void GroundOdometryStage::process(StageContext& ctx, const Inputs& in, Outputs& 
     const auto t0 = std::chrono::steady_clock::now();
     if (!odometry_)
       odometry_ = std::make_unique<footage::GroundOdometry>(f.camera, footage::OdometryOptions{});
-    const footage::EgoMotionSample s = odometry_->add(f.image, f.index, f.timestamp);
+    if (!lever_) lever_ = std::make_unique<footage::LeverArmScale>(f.camera.cam_to_ego({0, 0, 0})[0]);
+    // In the bends, the distance from the camera's lever arm (causal: the straight travel from the straight
+    // pairs seen so far).
+    footage::EgoMotionSample s = odometry_->add(f.image, f.index, f.timestamp);
+    lever_->observe(s);
+    s = lever_->fuse(s);
     ctx.record_timing("odometry",
                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     line["measured"] = s.measured;
     if (s.measured) {
       ++measured_;
       line["raw_speed_mps"] = s.speed_mps;
+      line["raw_speed_from"] = footage::speed_cue_name(s.speed_cue);
       line["raw_yaw_rate_dps"] = s.yaw_rate * kDeg;
       if (s.ground_pitch_offset) line["road_pitch_offset_deg"] = *s.ground_pitch_offset * kDeg;
       // A front camera's ego does not drive backwards (the kit's smoother holds the same floor).

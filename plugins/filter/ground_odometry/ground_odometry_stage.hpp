@@ -7,6 +7,7 @@
 
 #include "hazardforge/atomic_file.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
+#include "hazardforge/footage/lever_arm.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::filter {
@@ -32,6 +33,7 @@ class GroundOdometryStage : public Stage {
   double smoothing_ = 0.5;
   bool replace_ = false;
   std::unique_ptr<footage::GroundOdometry> odometry_;  // created on the first frame it runs on
+  std::unique_ptr<footage::LeverArmScale> lever_;      // the same
   std::optional<double> speed_, yaw_rate_;             // the smoothed estimate so far
   RecordFile log_;
   int64_t frames_ = 0, estimated_ = 0, measured_ = 0, passed_ = 0;

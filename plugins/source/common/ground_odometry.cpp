@@ -47,6 +47,7 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   if (s.last_measured_t && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s) prior = s.last_speed;
   std::optional<double> known_yaw;
   double known_yaw_sigma = 0;
+  std::optional<TwoViewMotion> two_view;
   if (had_prev && dt < s.opt.two_view_min_interval_s) {
     // Video-rate frames: the far scene's shift when another cue measured it, else the road's turn (and no
     // stale frame is compared later).
@@ -59,6 +60,7 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
     if (const auto r = s.rotation.add(bgr, s.opt.max_yaw_rate * std::max(dt, 0.0) + 0.02)) {
       known_yaw = r->yaw;
       known_yaw_sigma = r->yaw_sigma;
+      two_view = r;
     }
   }
   const auto matches = s.tracker.add(bgr, had_prev ? dt : 0.0, prior, had_prev ? known_yaw : std::nullopt,
@@ -66,8 +68,10 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   s.have_prev = !bgr.empty();
   s.prev_t = timestamp;
   if (!had_prev || !(dt > 1e-6)) return out;
+  out.interval_s = dt;
   // The heading change from the whole picture (or the far scene) is a measurement of its own, also when the
   // road gives no speed.
+  out.two_view = two_view;
   if (known_yaw) {
     out.yaw_measured = true;
     out.yaw_rate = *known_yaw / dt;
@@ -137,10 +141,25 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   }
   out.measured = k >= s.opt.min_inliers && out.quality >= s.opt.min_inlier_fraction;
   if (out.measured) {
+    out.speed_cue = EgoMotionSample::SpeedCue::kRoad;
     s.last_measured_t = timestamp;
     s.last_speed = out.speed_mps;
   }
   return out;
+}
+
+const char* speed_cue_name(EgoMotionSample::SpeedCue cue) {
+  switch (cue) {
+    case EgoMotionSample::SpeedCue::kRoad:
+      return "road";
+    case EgoMotionSample::SpeedCue::kLeverArm:
+      return "lever_arm";
+    case EgoMotionSample::SpeedCue::kRoadAndLeverArm:
+      return "road+lever_arm";
+    case EgoMotionSample::SpeedCue::kNone:
+      break;
+  }
+  return "none";
 }
 
 std::optional<double> ground_pitch_offset(const CameraModel& camera, const std::vector<cv::Point2d>& img_p,

@@ -12,6 +12,7 @@
 #include "hazardforge/footage/camera_height.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/horizon.hpp"
+#include "hazardforge/footage/lever_arm.hpp"
 #include "hazardforge/footage/two_view_calibration.hpp"
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/output_path.hpp"
@@ -121,6 +122,7 @@ void CameraSetup::configure(StageContext& ctx) {
       (intrinsics_size_.size() != 2 || intrinsics_size_[0] <= 0 || intrinsics_size_[1] <= 0))
     throw Error("parameter 'intrinsics_size' is [width, height] in px, got " + Json(intrinsics_size_).dump());
   forward_ = p.get_double("camera_forward");
+  forward_stated_ = p.stated("camera_forward");
   undistort_ = p.get_bool("undistort");
   resize_w_ = static_cast<int>(p.get_int("resize_width"));
   resize_h_ = static_cast<int>(p.get_int("resize_height"));
@@ -488,6 +490,14 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     return;
   }
   if (raw.empty()) return;
+  // In the bends, where the road view is weakest, the distance from the camera's lever arm ahead of the rear
+  // axle (frames 0.15 s and more apart, where the whole picture's geometry is computed; independent of the
+  // height). The mounting yaw comes from the clip's straight pairs, else the lane lines' vanishing point.
+  footage::LeverArmOptions lever_opt;
+  if (est && std::isfinite(est->travel_x))
+    lever_opt.prior_bias = std::atan2(camera_.cx - est->travel_x, camera_.fx);
+  const footage::LeverArmScale lever =
+      footage::apply_lever_arm(raw, camera_.cam_to_ego({0, 0, 0})[0], lever_opt);
   const auto smooth = footage::smooth_ego_motion(raw);
   size_t measured = 0;
   for (const auto& r : raw) measured += r.measured ? 1 : 0;
@@ -521,8 +531,27 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
   track_ = track;
   raw_motion_ = raw;
   smooth_motion_ = smooth;
-  provenance_["ego_speed"] = "estimated from the video (ground-plane odometry, " + std::to_string(measured) +
-                             " of " + std::to_string(raw.size()) + " frames measured)";
+  size_t by_lever = 0, lever_only = 0;
+  for (const auto& r : raw) {
+    by_lever += r.speed_cue == footage::EgoMotionSample::SpeedCue::kRoadAndLeverArm ? 1 : 0;
+    lever_only += r.speed_cue == footage::EgoMotionSample::SpeedCue::kLeverArm ? 1 : 0;
+  }
+  std::string ego_speed = "estimated from the video (ground-plane odometry, " + std::to_string(measured) +
+                          " of " + std::to_string(raw.size()) + " frames measured";
+  if (by_lever + lever_only > 0)
+    ego_speed +=
+        "; in the bends the camera's lever arm (" + std::to_string(lever.lever_m()).substr(0, 4) +
+        " m ahead of the rear axle, " + (forward_stated_ ? "stated" : "default") + ") gave " +
+        std::to_string(lever_only) + " frames' speed and was averaged into " + std::to_string(by_lever) +
+        ", straight travel " +
+        std::to_string(lever.bias() * 180.0 / CV_PI).substr(0, lever.bias() < 0 ? 5 : 4) +
+        " deg off the camera axis (" +
+        (lever.from_straight_pairs()
+             ? "from " + std::to_string(lever.straight_pairs()) + " straight pairs"
+             : std::string(std::isfinite(est ? est->travel_x : NAN) ? "from the lane lines' vanishing point"
+                                                                    : "assumed 0")) +
+        ")";
+  provenance_["ego_speed"] = ego_speed + ")";
   size_t turned = 0;
   for (const auto& r : raw) turned += r.yaw_measured ? 1 : 0;
   const bool video_rate = 1.0 / fps < footage::OdometryOptions{}.two_view_min_interval_s;
@@ -574,7 +603,12 @@ void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, c
       l["yaw_measured"] = m.yaw_measured;  // this frame's turn measured (road or whole picture)
       if (static_cast<size_t>(k) < raw_motion_.size()) {
         const auto& r = raw_motion_[static_cast<size_t>(k)];
-        if (r.measured) l["raw_speed_mps"] = r.speed_mps;
+        if (r.measured) {
+          l["raw_speed_mps"] = r.speed_mps;
+          l["raw_speed_from"] = footage::speed_cue_name(r.speed_cue);  // road, lever_arm or road+lever_arm
+        }
+        if (r.road_speed_mps) l["road_speed_mps"] = *r.road_speed_mps;
+        if (r.lever_speed_mps) l["lever_arm_speed_mps"] = *r.lever_speed_mps;
         // The road's pitch under this frame and the one before, relative to the clip's camera, where the
         // road's motion fixed it (OdometryOptions::pair_pitch).
         if (r.ground_pitch_offset) l["road_pitch_offset_deg"] = *r.ground_pitch_offset * deg;

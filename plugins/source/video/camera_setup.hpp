@@ -74,7 +74,8 @@ class CameraSetup {
   std::filesystem::path calib_path_;
   double fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0, hfov_deg_ = 0;
   double height_ = 1.5, pitch_deg_ = 0, roll_deg_ = 0, forward_ = 1.5;
-  bool pitch_stated_ = false, roll_stated_ = false, height_stated_ = false, speed_stated_ = false;
+  bool pitch_stated_ = false, roll_stated_ = false, height_stated_ = false, speed_stated_ = false,
+       forward_stated_ = false;
   bool self_calibrate_ = true;
   bool follow_attitude_ = true;
   std::vector<long long> intrinsics_size_;

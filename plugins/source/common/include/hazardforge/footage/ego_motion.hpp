@@ -16,15 +16,29 @@ namespace hf::footage {
 struct EgoMotionSample {
   int64_t frame = 0;
   double t = 0;
-  double speed_mps = 0;   // forward speed
-  double yaw_rate = 0;    // rad/s, positive = turning left
-  bool measured = false;  // false = no usable measurement at this frame (filled by the filter/smoother)
+  double interval_s = 0;      // from the previous frame (0 for the first)
+  double speed_mps = 0;       // forward speed
+  double yaw_rate = 0;        // rad/s, positive = turning left
+  bool measured = false;      // false = no usable measurement at this frame (filled by the filter/smoother)
   bool yaw_measured = false;  // the yaw rate alone was measured (the two-view rotation), also without a speed
   double speed_sigma = 0, yaw_rate_sigma = 0;  // 1-sigma (raw: from the fit residuals; smoothed: posterior)
-  double quality = 0;     // inlier fraction of the raw measurement
-  int inliers = 0;        // ground points that agreed with the fitted motion
-  std::optional<double> ground_pitch_offset;  // rad: the road's pitch under this pair, when it was measured
+  double quality = 0;                          // inlier fraction of the raw measurement
+  int inliers = 0;                             // ground points that agreed with the fitted motion
+  std::optional<double> ground_pitch_offset;   // rad: the road's pitch under this pair, when it was measured
+  // The whole picture's two-view geometry of this pair (frames at least two_view_min_interval_s apart, when
+  // the essential matrix was trusted): the turn and the camera's direction of travel. LeverArmScale
+  // (lever_arm.hpp) turns them into a distance driven in the bends, where the road view is weakest.
+  std::optional<TwoViewMotion> two_view;
+  // Which cue the raw speed came from.
+  enum class SpeedCue { kNone, kRoad, kLeverArm, kRoadAndLeverArm };
+  SpeedCue speed_cue = SpeedCue::kNone;
+  std::optional<double> road_speed_mps;   // the road view's own reading, when the lever arm changed the speed
+  std::optional<double> lever_speed_mps;  // the lever arm's reading, when it was computed (and its sigma)
+  double lever_speed_sigma = 0;
 };
+
+// "road", "lever_arm", "road+lever_arm" or "none" (for ego_motion.jsonl and the probe).
+const char* speed_cue_name(EgoMotionSample::SpeedCue cue);
 
 struct OdometryOptions {
   // Bird's-eye view of the road in ego coordinates (x forward of the rear axle, y left), metres.
