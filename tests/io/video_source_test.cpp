@@ -11,6 +11,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "hazardforge/core/calibration.hpp"
+#include "folder_clock.hpp"
 #include "image_sequence_source.hpp"
 #include "synthetic_road.hpp"
 #include "io_test_util.hpp"
@@ -493,6 +494,91 @@ TEST(VideoSource, IntrinsicsAreStatedForTheirImageSize) {
               run_source<VideoSource>("{path: '" + folder.string() + "', fps: 10, fx: 1152, intrinsics_size: [1000, 1000]}");
             }).find("different aspect ratio"),
             std::string::npos);
+}
+
+// Image folders whose names carry times: nuScenes' "..._1538984233512470.jpg" (microseconds), ns and ms
+// stamps; frame counters, mixed lengths, names out of time order and a single file give none.
+TEST(FolderClock, TimesFromTheFileNames) {
+  using source::times_from_names;
+  auto paths = [](std::initializer_list<const char*> names) {
+    std::vector<std::filesystem::path> v;
+    for (const char* n : names) v.emplace_back(std::string("/data/") + n);
+    return v;
+  };
+  const auto us = times_from_names(paths({"n015__CAM_FRONT__1538984233512470.jpg",
+                                          "n015__CAM_FRONT__1538984234012472.jpg",
+                                          "n015__CAM_FRONT__1538984234412460.jpg"}));
+  ASSERT_TRUE(us.has_value());
+  EXPECT_EQ(us->unit, "us");
+  ASSERT_EQ(us->seconds.size(), 3u);
+  EXPECT_DOUBLE_EQ(us->seconds[0], 0.0);
+  EXPECT_NEAR(us->seconds[1], 0.500002, 1e-9);
+  EXPECT_NEAR(us->seconds[2], 0.899990, 1e-9);
+  const auto ns = times_from_names(paths({"ring_front_315966070559696000.png", "ring_front_315966070592963000.png"}));
+  ASSERT_TRUE(ns.has_value());
+  EXPECT_EQ(ns->unit, "ns");
+  EXPECT_NEAR(ns->seconds[1], 0.033267, 1e-9);
+  const auto ms = times_from_names(paths({"1700000000000.jpg", "1700000000100.jpg", "1700000000200.jpg"}));
+  ASSERT_TRUE(ms.has_value());
+  EXPECT_NEAR(ms->median_interval_s, 0.1, 1e-12);
+  EXPECT_FALSE(times_from_names(paths({"0000000000.png", "0000000001.png", "0000000002.png"})));  // KITTI counters
+  EXPECT_FALSE(times_from_names(paths({"a_1538984233512470.jpg", "a_1538984234012.jpg"})));        // mixed lengths
+  EXPECT_FALSE(times_from_names(paths({"b_1538984234012472.jpg", "a_1538984233512470.jpg"})));     // back in time
+  EXPECT_FALSE(times_from_names(paths({"x_1538984233512470.jpg"})));
+  EXPECT_FALSE(times_from_names(paths({"f_1538984233512470.jpg", "f_1538984333512470.jpg"})));  // 100 s apart
+}
+
+// The video source on such a folder: every frame, ego_motion.jsonl and camera.json carry the names' times (not
+// index / fps), with no frame rate stated and no warning; a stated rate that agrees keeps them, one that does
+// not is used evenly, with a warning naming both. The image_sequence source times them alike.
+TEST(FolderClock, AnImageFolderIsTimedByItsNames) {
+  TempDir dir;
+  const auto folder = dir / "keyframes";
+  std::filesystem::create_directories(folder);
+  const std::vector<long long> us = {1538984233512470, 1538984234012472, 1538984234512460, 1538984234912460,
+                                     1538984235412460};
+  for (size_t k = 0; k < us.size(); ++k)
+    cv::imwrite((folder / ("CAM_FRONT__" + std::to_string(us[k]) + ".jpg")).string(),
+                synthetic(static_cast<int>(k), {160, 90}));
+  const std::string base = "path: '" + folder.string() + "', fx: 150, self_calibrate: false";
+  {
+    testing::StageRunner r;
+    const auto frames = run_source<VideoSource>("{" + base + "}", &r);
+    ASSERT_EQ(frames.size(), us.size());
+    for (size_t k = 0; k < us.size(); ++k)
+      EXPECT_NEAR(frames[k].timestamp, (us[k] - us[0]) * 1e-6, 1e-9) << "frame " << k;
+    EXPECT_NEAR(*frames[0].stream_end, (us.back() - us[0]) * 1e-6, 1e-9);
+    for (const std::string& l : r.log()) EXPECT_EQ(l.find("ASSUMING"), std::string::npos) << l;
+    const Json cam = read_json(r.output_dir() / "camera.json");
+    EXPECT_NEAR(cam["fps"].get<double>(), 2.0, 1e-3);  // the median interval, 0.5 s
+    EXPECT_EQ(cam["sources"]["fps"].get<std::string>().rfind("per-frame times from the file names (us", 0), 0u)
+        << cam["sources"]["fps"];
+    std::ifstream in(r.output_dir() / "ego_motion.jsonl");
+    std::string line;
+    for (size_t k = 0; std::getline(in, line); ++k)
+      EXPECT_NEAR(Json::parse(line)["timestamp"].get<double>(), (us[k] - us[0]) * 1e-6, 1e-9) << "line " << k;
+  }
+  {
+    testing::StageRunner r;
+    const auto frames = run_source<VideoSource>("{" + base + ", fps: 2}", &r);
+    EXPECT_NEAR(frames[3].timestamp, 1.39999, 1e-9);  // 0.4 s after frame 2, not 1.5
+  }
+  {
+    testing::StageRunner r;
+    const auto frames = run_source<VideoSource>("{" + base + ", fps: 10}", &r);
+    EXPECT_NEAR(frames[3].timestamp, 0.3, 1e-12);
+    bool warned = false;
+    for (const std::string& l : r.log())
+      warned = warned || (l.find("the file names carry times at 2.0") != std::string::npos &&
+                          l.find("the stated frame rate is 10.0") != std::string::npos);
+    EXPECT_TRUE(warned);
+  }
+  {
+    testing::StageRunner r;
+    const auto frames = run_source<ImageSequenceSource>("{" + base + ", pattern: '*.jpg'}", &r);
+    ASSERT_EQ(frames.size(), us.size());
+    EXPECT_NEAR(frames[3].timestamp, 1.39999, 1e-9);
+  }
 }
 
 TEST(CameraSource, NonexistentDeviceOrUrlFails) {

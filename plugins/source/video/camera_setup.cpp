@@ -370,7 +370,7 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     std::string what;
     for (int64_t k = 0; next_native(native, what); ++k) {
       if (ctx.stop_requested()) return;
-      if (stride == 1 || k % stride <= 1) horizon.add(prepare(native, what), static_cast<double>(k) / fps);
+      if (stride == 1 || k % stride <= 1) horizon.add(prepare(native, what), time_at(k, fps));
     }
   }
   const auto est = horizon.result();
@@ -435,10 +435,10 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
       if (ctx.stop_requested()) return;
       const cv::Mat img = prepare(native, what);
       // The far scene's shift first: between video frames it is the ego's turn, more precise than the road's.
-      if (attitude) attitude->add(img, static_cast<double>(k) / fps);
+      if (attitude) attitude->add(img, time_at(k, fps));
       if (odo)
         raw.push_back(
-            odo->add(img, k, static_cast<double>(k) / fps, attitude ? attitude->last_turn() : std::nullopt));
+            odo->add(img, k, time_at(k, fps), attitude ? attitude->last_turn() : std::nullopt));
       height_est.add(img);
     }
   }
@@ -585,7 +585,7 @@ void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, c
   std::string lines;
   for (int64_t k = 0; k < frames; ++k) {
     const EgoState e = ego_at(k);
-    Json l = {{"frame", k}, {"timestamp", static_cast<double>(k) / fps}};
+    Json l = {{"frame", k}, {"timestamp", time_at(k, fps)}};
     l["speed_mps"] = e.speed_mps ? Json(*e.speed_mps) : Json();
     l["yaw_rate_dps"] = e.yaw_rate ? Json(*e.yaw_rate * deg) : Json();
     l["source"] = e.source.empty() ? "unknown" : e.source;

@@ -59,6 +59,9 @@ class CameraSetup {
   using FrameReader = std::function<bool(cv::Mat& native, std::string& what)>;  // what: names the frame in errors
   using FramePass = std::function<FrameReader()>;
   void estimate_from_footage(const FramePass& open_pass, int64_t frames, double fps, StageContext& ctx);
+  // Each frame's time (s from the first) when the frames are not evenly spaced (an image folder whose names
+  // carry times); empty = index / fps. Set before estimate_from_footage.
+  void set_frame_times(std::vector<double> times) { times_ = std::move(times); }
   // Writes camera.json (the geometry used and where each value came from) and ego_motion.jsonl (one line per
   // frame) below the run folder.
   void write_reports(StageContext& ctx, int64_t frames, double fps, const std::string& fps_source) const;
@@ -76,6 +79,10 @@ class CameraSetup {
   double height_ = 1.5, pitch_deg_ = 0, roll_deg_ = 0, forward_ = 1.5;
   bool pitch_stated_ = false, roll_stated_ = false, height_stated_ = false, speed_stated_ = false,
        forward_stated_ = false;
+  std::vector<double> times_;
+  double time_at(int64_t k, double fps) const {
+    return static_cast<size_t>(k) < times_.size() ? times_[static_cast<size_t>(k)] : static_cast<double>(k) / fps;
+  }
   bool self_calibrate_ = true;
   bool follow_attitude_ = true;
   std::vector<long long> intrinsics_size_;

@@ -27,7 +27,8 @@ ComponentInfo ImageSequenceSource::describe() {
   ComponentInfo i = base_info("image_sequence", "frames from a folder of images sorted by name");
   i.doc =
       "Lists the files of `path` matching `pattern`, sorted by name, and emits them at `fps` (timestamps "
-      "index / fps). Camera params as for `video`.";
+      "index / fps), or at the times their names carry (13/16/18-19-digit ms/us/ns stems). Camera params as "
+      "for `video`.";
   i.params = {
       ParamSpec::path("path", std::nullopt).describe("folder of images"),
       ParamSpec::string("pattern", "*.png").describe("file name glob (fnmatch), e.g. *.jpg"),
@@ -57,15 +58,10 @@ void ImageSequenceSource::open(StageContext& ctx) {
   files_.erase(files_.begin(), files_.begin() + static_cast<std::ptrdiff_t>(start));
   if (const long long m = p.get_int("max_frames"); m >= 0 && static_cast<size_t>(m) < files_.size())
     files_.resize(static_cast<size_t>(m));
-  fps_ = p.get_double("fps");
-  std::string fps_source = "stated";
-  if (fps_ <= 0) {
-    fps_ = 10.0;
-    fps_source = "assumed 10 fps: an image folder has no frame rate (state the source's fps)";
-    ctx.log(LogLevel::kWarning, "image folder '" + folder.string() + "': no frame rate stated; ASSUMING 10 fps. "
-                                "Every speed, TTC and time in this run scales with it: set fps");
-  }
+  clock_ = folder_clock(files_, p.get_double("fps"), folder.string(), "the source's fps");
+  if (clock_.warning) ctx.log(LogLevel::kWarning, *clock_.warning);
   setup_.configure(ctx);
+  setup_.set_frame_times(clock_.times);
   setup_.init(read(0).size(), "image '" + files_[0].string() + "'", ctx);
   setup_.estimate_from_footage(
       [this]() -> CameraSetup::FrameReader {
@@ -77,8 +73,8 @@ void ImageSequenceSource::open(StageContext& ctx) {
           return true;
         };
       },
-      static_cast<int64_t>(files_.size()), fps_, ctx);
-  setup_.write_reports(ctx, static_cast<int64_t>(files_.size()), fps_, fps_source);
+      static_cast<int64_t>(files_.size()), clock_.fps, ctx);
+  setup_.write_reports(ctx, static_cast<int64_t>(files_.size()), clock_.fps, clock_.source);
 }
 
 cv::Mat ImageSequenceSource::read(size_t k) const {
@@ -91,13 +87,13 @@ bool ImageSequenceSource::next(StageContext& /*ctx*/, Outputs& out) {
   cv::Mat raw = read(pos_);
   Frame f;
   f.index = static_cast<int64_t>(pos_);
-  f.timestamp = static_cast<double>(pos_) / fps_;
+  f.timestamp = clock_.at(pos_);
   f.image = setup_.prepare(raw, "image '" + file.string() + "'");
   f.camera = setup_.camera_at(static_cast<int64_t>(pos_));
   f.ego = setup_.ego_at(static_cast<int64_t>(pos_));
   f.ego_track = setup_.ego_track();
   f.road_markings = setup_.road_markings();
-  f.stream_end = static_cast<double>(files_.size() - 1) / fps_;
+  f.stream_end = clock_.at(files_.size() - 1);
   f.source_id = file.filename().string();
   f.meta = {{"file", file.string()}, {"intrinsics", setup_.intrinsics_source()}};
   const double ts = f.timestamp;

@@ -6,12 +6,14 @@
 #include <vector>
 
 #include "camera_setup.hpp"
+#include "folder_clock.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::source {
 
 // Reads every file of `path` matching the glob `pattern`, sorted by file name.
-// Ports: out `frames` (Frame, BGR 8-bit). Timestamps: emitted index / fps (default 10 Hz); all images must
+// Ports: out `frames` (Frame, BGR 8-bit). Timestamps: the file names' (folder_clock.hpp), else emitted
+// index / fps (default 10 Hz); all images must
 // share one size. Params: path, pattern, fps, start_frame, max_frames + the camera params of CameraSetup.
 class ImageSequenceSource : public SourceStage {
  public:
@@ -23,7 +25,7 @@ class ImageSequenceSource : public SourceStage {
  private:
   std::vector<std::filesystem::path> files_;
   CameraSetup setup_;
-  double fps_ = 10;
+  FolderClock clock_;  // frame times: the file names' or index / fps
   size_t pos_ = 0;
   cv::Mat read(size_t k) const;
 };

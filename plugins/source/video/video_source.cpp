@@ -16,8 +16,9 @@ namespace fs = std::filesystem;
 ComponentInfo VideoSource::describe() {
   ComponentInfo i = base_info("video", "frames of a video file (OpenCV/FFmpeg) with a pinhole camera model");
   i.doc =
-      "Decodes a video file. Timestamps are emitted index / fps (fps from the file unless set). The camera "
-      "model "
+      "Decodes a video file, or reads an image folder in name order. Timestamps are emitted index / fps "
+      "(fps from the file unless set); an image folder whose file names end in 13/16/18-19-digit ms/us/ns "
+      "timestamps (nuScenes and many recorders' exports) is timed by them. The camera model "
       "comes from a calibration file, fx/fy/cx/cy, or a horizontal FOV; with none of them the focal length is "
       "estimated from views of the clip 0.5 s apart that turn (else 60 deg is assumed, with a warning). "
       "With "
@@ -34,8 +35,8 @@ ComponentInfo VideoSource::describe() {
           .describe("video file, or a folder of images (png/jpg/jpeg/bmp/tif, sorted by name)"),
       ParamSpec::number("fps", 0.0)
           .range(0, 1000)
-          .describe("frame rate for timestamps (0 = from the file; an image folder needs it stated, else "
-                    "10 fps is assumed with a warning)"),
+          .describe("frame rate for timestamps (0 = from the file; an image folder needs it stated unless "
+                    "its file names carry times, else 10 fps is assumed with a warning)"),
       ParamSpec::integer("start_frame", 0).range(0, std::nullopt).describe("first file frame to emit"),
       ParamSpec::integer("max_frames", -1).range(-1, std::nullopt).describe("frames to emit (-1 = all)"),
       ParamSpec::boolean("allow_partial", false)
@@ -78,12 +79,12 @@ void VideoSource::open(StageContext& ctx) {
     if (max_frames_ >= 0 && static_cast<size_t>(max_frames_) < files_.size())
       files_.resize(static_cast<size_t>(max_frames_));
     count_ = static_cast<int64_t>(files_.size());
-    if (fps_ <= 0) {
-      fps_ = 10.0;
-      fps_source_ = "assumed 10 fps: an image folder has no frame rate (state source.fps)";
-      ctx.log(LogLevel::kWarning, "image folder '" + path_ + "': no frame rate stated; ASSUMING 10 fps. Every "
-                                  "speed, TTC and time in this run scales with it: set source.fps");
-    }
+    // Per-frame times from the file names when they carry them, else index / fps.
+    clock_ = folder_clock(files_, fps_, path_, "source.fps");
+    fps_ = clock_.fps;
+    fps_source_ = clock_.source;
+    if (clock_.warning) ctx.log(LogLevel::kWarning, *clock_.warning);
+    setup_.set_frame_times(clock_.times);
     pending_ = read_image(0);
     setup_.init(pending_.size(), "image '" + files_[0].string() + "'", ctx);
   } else {
@@ -95,6 +96,7 @@ void VideoSource::open(StageContext& ctx) {
       if (!(fps_ > 0 && fps_ < 1000))
         throw Error("video file '" + path_ + "' reports no usable frame rate; set the 'fps' parameter");
     }
+    clock_.fps = fps_;
     const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
     file_frames_ = n > 0 ? static_cast<int64_t>(std::llround(n)) : -1;
     // Skip by decoding rather than seeking: FFmpeg seeks land on keyframes, which would shift the start.
@@ -184,13 +186,13 @@ bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
   }
   Frame f;
   f.index = emitted_;
-  f.timestamp = static_cast<double>(emitted_) / fps_;
+  f.timestamp = clock_.at(static_cast<size_t>(emitted_));
   f.image = setup_.prepare(raw, "'" + path_ + "' frame " + std::to_string(file_frame));
   f.camera = setup_.camera_at(emitted_);
   f.ego = setup_.ego_at(emitted_);
   f.ego_track = setup_.ego_track();
   f.road_markings = setup_.road_markings();
-  if (count_ && *count_ > 0) f.stream_end = static_cast<double>(*count_ - 1) / fps_;
+  if (count_ && *count_ > 0) f.stream_end = clock_.at(static_cast<size_t>(*count_ - 1));
   if (!files_.empty()) {
     f.source_id = files_[static_cast<size_t>(emitted_)].filename().string();
     f.meta = {{"file", files_[static_cast<size_t>(emitted_)].string()}, {"intrinsics", setup_.intrinsics_source()}};

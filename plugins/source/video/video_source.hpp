@@ -10,6 +10,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "camera_setup.hpp"
+#include "folder_clock.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::source {
@@ -40,6 +41,7 @@ class VideoSource : public SourceStage {
   std::optional<int64_t> count_;
   cv::Mat pending_;  // the first frame, decoded in open() to validate the file
   std::vector<std::filesystem::path> files_;  // image-folder mode
+  FolderClock clock_;  // frame times: the folder's file names' or index / fps
   std::string fps_source_;
   int64_t written_frames_ = 0;
   cv::Mat read_image(size_t k) const;
