@@ -12,6 +12,7 @@
 
 #include "box_geometry.hpp"
 #include "hazardforge/realism/metrics.hpp"
+#include "warp.hpp"
 
 namespace hf::render {
 
@@ -564,8 +565,7 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   if (drawn.area() > 0) {
     const cv::Matx33d T(1, 0, -(roi.x + drawn.x), 0, 1, -(roi.y + drawn.y), 0, 0, 1);
     cv::Mat out = pre(drawn);
-    cv::warpPerspective(st.sprite, out, cv::Mat(T * H), drawn.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-                        cv::Scalar::all(0));
+    warp_bgra(st.sprite, out, T * H);
   }
   if (!clip_poly.empty()) {
     cv::Mat keep = area(st.clip, spr.size(), CV_8U);
