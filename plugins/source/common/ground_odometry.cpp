@@ -21,6 +21,7 @@ struct GroundOdometry::Impl {
   bool have_prev = false;
   std::optional<double> last_measured_t;
   double last_speed = 0;
+  bool last_confirmed = false;  // the last measurement agreed with the one before it
 };
 
 GroundOdometry::GroundOdometry(const CameraModel& camera, OdometryOptions opt)
@@ -44,7 +45,11 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   const double dt = timestamp - s.prev_t;
   const bool had_prev = s.have_prev;
   std::optional<double> prior;
-  if (s.last_measured_t && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s) prior = s.last_speed;
+  // The search is narrowed only around a speed two measurements in a row agreed on: a single wrong reading (a
+  // static bonnet or overlay before the bonnet rows are known, a lead car filling the road view) would
+  // otherwise hold every later search near it.
+  if (s.last_measured_t && s.last_confirmed && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s)
+    prior = s.last_speed;
   std::optional<double> known_yaw;
   double known_yaw_sigma = 0;
   std::optional<TwoViewMotion> two_view;
@@ -142,6 +147,12 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   out.measured = k >= s.opt.min_inliers && out.quality >= s.opt.min_inlier_fraction;
   if (out.measured) {
     out.speed_cue = EgoMotionSample::SpeedCue::kRoad;
+    // Agreement as the narrowed search allows: the speed's change within prior_accel_mps2 over the time between
+    // the two plus prior_relative of it, and 0.2 m over this pair.
+    s.last_confirmed = s.last_measured_t && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s &&
+                       std::abs(out.speed_mps - s.last_speed) <=
+                           s.opt.prior_accel_mps2 * (timestamp - *s.last_measured_t) +
+                               s.opt.prior_relative * std::abs(s.last_speed) + 0.2 / dt;
     s.last_measured_t = timestamp;
     s.last_speed = out.speed_mps;
   }

@@ -57,7 +57,8 @@ struct OdometryOptions {
   double max_yaw_rate = 0.6;  // rad/s
   // After a measured frame (within prior_max_age_s) the distance search is narrowed to the last measured speed
   // +- (prior_accel_mps2 * dt + prior_relative * speed) * dt: weak texture along the lane lines leaves the
-  // driven distance ambiguous, the speed does not jump.
+  // driven distance ambiguous, the speed does not jump. Only once two measurements in a row agreed within that
+  // window: a single wrong reading (a static bonnet before its rows are known) would hold every later search.
   double prior_max_age_s = 1.0;
   double prior_accel_mps2 = 4.0;
   double prior_relative = 0.25;
