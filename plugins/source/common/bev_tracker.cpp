@@ -2,6 +2,7 @@
 // consecutive views, and the rigid 2-D fits.
 #include "bev_tracker.hpp"
 #include "gray.hpp"
+#include "median.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -16,14 +17,6 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 constexpr int kWorkWidth = 960;  // source frames are reduced to this width before warping (anti-aliasing)
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m), v.end());
-  return v[m];
-}
-
 
 }  // namespace
 
@@ -255,7 +248,7 @@ void BevTracker::update_bonnet(const cv::Mat& gray) {
   }
   std::sort(band.begin(), band.end());
   const double road = band[band.size() * 3 / 4];
-  if (median_of(band_diff) < 2.0) return;
+  if (detail::upper_median(band_diff) < 2.0) return;
   // The bonnet reaches up to the highest row below which at least 80 % of the rows are still (single rows at
   // the very bottom may flicker: compression, undistortion borders).
   int n = 0, still = 0;
@@ -265,7 +258,7 @@ void BevTracker::update_bonnet(const cv::Mat& gray) {
     if (is_still && still >= 0.8 * k) n = k;
   }
   bonnet_votes_.push_back(n);
-  const double vote = median_of(bonnet_votes_);
+  const double vote = detail::upper_median(bonnet_votes_);
   // A few still rows at the border are not worth a map rebuild; a bonnet is tens of rows.
   bonnet_rows_ = vote >= 0.02 * reduced_height_ ? static_cast<int>(vote / scale_) + 3 : 0;
 }

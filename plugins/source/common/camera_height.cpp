@@ -2,6 +2,7 @@
 #include "hazardforge/footage/camera_height.hpp"
 
 #include "gray.hpp"
+#include "median.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,13 +16,6 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 constexpr int kWorkWidth = 960;
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m), v.end());
-  return v[m];
-}
 
 }  // namespace
 
@@ -292,7 +286,7 @@ std::optional<RoadMarkings> CameraHeightEstimator::markings() const {
       note << "line in " << v.found << " of " << s.seen << " frames (too few to say)";
       continue;
     }
-    const double fill = median_of(v.fills);
+    const double fill = detail::upper_median(v.fills);
     out.colour = v.yellow * 2 > v.found ? "yellow" : "white";
     if (fill >= s.opt.min_solid_fill) {
       out.boundary = "solid";
@@ -317,10 +311,10 @@ std::optional<HeightEstimate> CameraHeightEstimator::result() const {
   const Impl& s = *impl_;
   const int n = static_cast<int>(s.widths.size());
   if (n < s.opt.min_frames) return std::nullopt;
-  const double med = median_of(s.widths);
+  const double med = detail::upper_median(s.widths);
   std::vector<double> dev;
   for (double w : s.widths) dev.push_back(std::abs(w - med));
-  const double spread = 1.4826 * median_of(dev) / med;
+  const double spread = 1.4826 * detail::upper_median(dev) / med;
   if (spread > s.opt.max_frame_spread) return std::nullopt;
   HeightEstimate e;
   const double h0 = s.cam.height_above_ground();

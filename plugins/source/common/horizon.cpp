@@ -3,6 +3,7 @@
 #include "hazardforge/footage/horizon.hpp"
 
 #include "gray.hpp"
+#include "median.hpp"
 
 #include "bev_tracker.hpp"
 #include "hazardforge/footage/attitude.hpp"
@@ -24,20 +25,12 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-double median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m), v.end());
-  double r = v[m];
-  if (v.size() % 2 == 0) r = 0.5 * (r + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m)));
-  return r;
-}
 
 double mad_sigma(const std::vector<double>& v, double med) {
   std::vector<double> d;
   d.reserve(v.size());
   for (double x : v) d.push_back(std::abs(x - med));
-  return 1.4826 * median(d);
+  return 1.4826 * detail::median(d);
 }
 
 cv::Mat to_gray(const cv::Mat& bgr, double scale) {
@@ -287,7 +280,7 @@ void HorizonEstimator::add(const cv::Mat& bgr, double timestamp) {
       for (const Sample& s : samples_)
         if (s.cue != Sample::kHomography) rows.push_back(s.y * scale_);
       double floor_row = 0.5 * gray.rows;
-      if (!rows.empty()) floor_row = std::clamp(median(rows) + 0.06 * gray.rows, 0.3 * gray.rows, 0.8 * gray.rows);
+      if (!rows.empty()) floor_row = std::clamp(detail::median(rows) + 0.06 * gray.rows, 0.3 * gray.rows, 0.8 * gray.rows);
       std::vector<cv::Point2f> ra, rb;
       for (size_t i = 0; i < a.size(); ++i) {
         if (a[i].y > floor_row && b[i].y > floor_row) {
@@ -406,7 +399,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   bool roll_known = false;
   const double max_sigma = opt_.max_roll_sigma_deg * kDeg;
   if (static_cast<int>(rolls.size()) >= opt_.min_roll_samples) {
-    const double m = median(rolls);
+    const double m = detail::median(rolls);
     const double sig = mad_sigma(rolls, m);
     if (sig < max_sigma) {
       std::vector<double> in;
@@ -414,7 +407,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
         if (std::abs(r - m) <= std::max(3 * sig, 0.2 * kDeg)) in.push_back(r);
       const double se = 1.2533 * sig / std::sqrt(static_cast<double>(in.size()));  // standard error of a median
       if (static_cast<int>(in.size()) >= opt_.min_roll_samples && se < opt_.max_roll_error_deg * kDeg) {
-        roll = median(in);
+        roll = detail::median(in);
         est.roll_sigma_rad = std::max(se, 1e-4);
         roll_known = true;
       }
@@ -427,7 +420,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
     const double sx = std::sqrt(sxx / px.size());
     if (sx > 0.05 * cam_.width) {
       // Least squares line y = a + b (x - mx) after dropping points beyond 3 MAD of the rows.
-      const double my = median(py), sy = std::max(mad_sigma(py, my), 1.0);
+      const double my = detail::median(py), sy = std::max(mad_sigma(py, my), 1.0);
       double sxy = 0, sxx2 = 0, sumy = 0, sumx = 0;
       int n = 0;
       for (size_t i = 0; i < px.size(); ++i) {
@@ -475,7 +468,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
     const bool plane = s.cue == Sample::kHomography || s.cue == Sample::kGroundMotion;
     rows.push_back(plane ? s.row_at_cx : s.y + slope * (cam_.cx - s.x));
   }
-  const double m = median(rows);
+  const double m = detail::median(rows);
   const double gate = std::max(3 * mad_sigma(rows, m), opt_.inlier_gate_fraction * h);
   std::vector<double> in_rows, cue_rows[5], vp_cols;
   std::vector<int> frames;
@@ -490,7 +483,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   std::sort(frames.begin(), frames.end());
   est.frames_used = static_cast<int>(std::unique(frames.begin(), frames.end()) - frames.begin());
   const double mean = std::accumulate(in_rows.begin(), in_rows.end(), 0.0) / in_rows.size();
-  const double centre = median(in_rows);  // the estimate: median of the inliers (few, skewed samples)
+  const double centre = detail::median(in_rows);  // the estimate: median of the inliers (few, skewed samples)
   double var = 0;
   for (double r : in_rows) var += (r - mean) * (r - mean);
   const double sd = in_rows.size() > 1 ? std::sqrt(var / (in_rows.size() - 1)) : 0.0;
@@ -501,14 +494,14 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   est.vanishing_points = static_cast<int>(cue_rows[Sample::kVanishingPoint].size());
   est.foe_points = static_cast<int>(cue_rows[Sample::kFoe].size());
   est.homographies = static_cast<int>(cue_rows[Sample::kHomography].size());
-  est.vp_row = median(cue_rows[Sample::kVanishingPoint]);
-  if (vp_cols.size() >= 3) est.travel_x = median(vp_cols);
-  est.foe_row = median(cue_rows[Sample::kFoe]);
-  est.homography_row = median(cue_rows[Sample::kHomography]);
+  est.vp_row = detail::median(cue_rows[Sample::kVanishingPoint]);
+  if (vp_cols.size() >= 3) est.travel_x = detail::median(vp_cols);
+  est.foe_row = detail::median(cue_rows[Sample::kFoe]);
+  est.homography_row = detail::median(cue_rows[Sample::kHomography]);
   est.ground_motions = static_cast<int>(cue_rows[Sample::kGroundMotion].size());
-  est.ground_motion_row = median(cue_rows[Sample::kGroundMotion]);
+  est.ground_motion_row = detail::median(cue_rows[Sample::kGroundMotion]);
   est.epipoles = static_cast<int>(cue_rows[Sample::kEpipole].size());
-  est.epipole_row = median(cue_rows[Sample::kEpipole]);
+  est.epipole_row = detail::median(cue_rows[Sample::kEpipole]);
   const char* names[5] = {"vanishing_point", "flow_foe", "road_homography", "ground_motion", "epipole"};
   for (int c = 0; c < 5; ++c) {
     if (cue_rows[c].empty()) continue;
@@ -525,7 +518,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   }
   for (int c = 0; c < 5; ++c) {
     if (cue_rows[c].size() < 3) continue;
-    const double d = median(cue_rows[c]) - centre;
+    const double d = detail::median(cue_rows[c]) - centre;
     if (std::abs(d) > 0.5 * gate) {
       est.notes.push_back(std::string(names[c]) + " rows sit " + std::to_string(static_cast<int>(std::lround(d))) +
                           " px from the combined horizon (road slope, curve or turning bias)");

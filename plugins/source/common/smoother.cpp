@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include "hazardforge/footage/ego_motion.hpp"
+#include "median.hpp"
 
 namespace hf::footage {
 
@@ -13,14 +14,6 @@ namespace {
 
 using Vec3 = cv::Matx31d;
 using Mat3 = cv::Matx33d;
-
-double median_of(std::vector<double> v) {
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m), v.end());
-  double r = v[m];
-  if (v.size() % 2 == 0) r = 0.5 * (r + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m)));
-  return r;
-}
 
 }  // namespace
 
@@ -46,7 +39,7 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
     }
     bool ok = true;
     if (vs.size() >= 2) {
-      const double mv = median_of(vs), mw = median_of(ws);
+      const double mv = detail::median(vs), mw = detail::median(ws);
       const EgoMotionSample& s = raw[measured[k]];
       if (std::abs(s.speed_mps - mv) > std::max(opt.median_gate_mps, opt.median_gate_rel * std::abs(mv))) ok = false;
       // A two-view yaw rate (yaw_measured) follows a real turn from frame to frame; the gate is for the

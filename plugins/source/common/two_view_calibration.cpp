@@ -8,20 +8,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "gray.hpp"
+#include "median.hpp"
 
 namespace hf::footage {
-
-namespace {
-
-double median_of(std::vector<double> v) {
-  const size_t n = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n), v.end());
-  if (v.size() % 2) return v[n];
-  const double hi = v[n];
-  return 0.5 * (hi + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n)));
-}
-
-}  // namespace
 
 TwoViewCalibration::TwoViewCalibration(cv::Size image, Options opt) : image_(image), opt_(opt) {
   scale_ = image.width > opt_.max_width ? static_cast<double>(opt_.max_width) / image.width : 1.0;
@@ -93,7 +82,7 @@ std::optional<TwoViewCalibration::PairResult> TwoViewCalibration::measure_pair(
   }
   const size_t best = static_cast<size_t>(std::min_element(cost.begin(), cost.end()) - cost.begin());
   r.f = fs[best];
-  r.sharpness = cost[best] / std::max(median_of(cost), 1e-300);
+  r.sharpness = cost[best] / std::max(detail::median(cost), 1e-300);
   // The rotation between the views at that focal length.
   const cv::Matx33d K(r.f, 0, cx, 0, r.f, cy, 0, 0, 1);
   cv::Mat R, t;
@@ -108,7 +97,7 @@ std::optional<TwoViewCalibration::PairResult> TwoViewCalibration::measure_pair(
     cv::Mat u, s, vt;
     cv::SVD::compute(cv::Mat(Fm.t()), s, u, vt, cv::SVD::FULL_UV);
     const double ez = vt.at<double>(2, 2);
-    if (std::abs(ez) > 1e-12 && median_of(motion) >= opt.min_parallax_px && -t.at<double>(2) > 0.5) {
+    if (std::abs(ez) > 1e-12 && detail::median(motion) >= opt.min_parallax_px && -t.at<double>(2) > 0.5) {
       const cv::Point2d e(vt.at<double>(2, 0) / ez, vt.at<double>(2, 1) / ez);
       if (e.x >= 0 && e.x < w && e.y >= 0 && e.y < image.height) r.epipole = e;
     }
@@ -120,10 +109,10 @@ std::optional<TwoViewCalibration::PairResult> TwoViewCalibration::measure_pair(
 
 std::optional<FocalEstimate> TwoViewCalibration::result() const {
   if (static_cast<int>(accepted_.size()) < opt_.min_pairs) return std::nullopt;
-  const double f = median_of(accepted_);
+  const double f = detail::median(accepted_);
   std::vector<double> dev;
   for (double v : accepted_) dev.push_back(std::abs(v - f));
-  const double mad = median_of(dev);
+  const double mad = detail::median(dev);
   FocalEstimate e;
   e.fx = f;
   e.spread = mad / f;
@@ -141,7 +130,7 @@ bool TwoViewCalibration::looks_level(double f) const {
   if (epipoles_.size() < 3) return false;
   std::vector<double> rows;
   for (const Epipole& e : epipoles_) rows.push_back(e.point.y);
-  return std::atan(std::abs(image_.height / 2.0 - median_of(rows)) / f) < opt_.min_pitch_deg * CV_PI / 180.0;
+  return std::atan(std::abs(image_.height / 2.0 - detail::median(rows)) / f) < opt_.min_pitch_deg * CV_PI / 180.0;
 }
 
 std::string TwoViewCalibration::why_not() const {
@@ -150,7 +139,7 @@ std::string TwoViewCalibration::why_not() const {
     return std::to_string(accepted_.size()) + " of " + tried + " turned by " +
            std::to_string(static_cast<int>(opt_.min_rotation_deg)) + " deg or more with a clear minimum, " +
            std::to_string(opt_.min_pairs) + " needed: a straight drive does not fix the focal length";
-  const double f = median_of(accepted_);
+  const double f = detail::median(accepted_);
   if (looks_level(f))
     return "the camera looks level (the direction of travel on the picture's centre row), and a level camera's "
            "turns do not fix the focal length";
