@@ -486,6 +486,10 @@ TEST(LeverArm, MountingYawFromThePriorWithoutStraightPairs) {
   const auto a = LeverArmScale(1.5, told).fuse(s);
   ASSERT_TRUE(a.lever_speed_mps.has_value());
   EXPECT_NEAR(*a.lever_speed_mps, speed, 0.02 * speed);
+  // The prior from the lane lines' column: 1 deg right of the principal point is a travel 1 deg to the right.
+  const CameraModel cam = test_camera(0.0, 0.0);
+  EXPECT_NEAR(with_travel_column({}, cam, cam.cx + cam.fx * std::tan(1 * kDeg)).prior_bias, -1 * kDeg, 1e-9);
+  EXPECT_EQ(with_travel_column(told, cam, std::numeric_limits<double>::quiet_NaN()).prior_bias, told.prior_bias);
   const LeverArmScale untold(1.5);
   EXPECT_FALSE(untold.from_straight_pairs());
   const auto b = untold.fuse(s);

@@ -284,8 +284,8 @@ int main(int argc, char** argv) {
   // The distance from the camera's lever arm in the bends (height-independent: after the rescale), as the
   // video source.
   if (!no_lever_arm) {
-    hf::footage::LeverArmOptions lo;
-    if (est && std::isfinite(est->travel_x)) lo.prior_bias = std::atan2(cam.cx - est->travel_x, cam.fx);
+    const hf::footage::LeverArmOptions lo =
+        est ? hf::footage::with_travel_column({}, cam, est->travel_x) : hf::footage::LeverArmOptions{};
     const auto scale = hf::footage::apply_lever_arm(raw, cam.cam_to_ego({0, 0, 0})[0], lo);
     out["lever_arm"] = {{"lever_m", num(scale.lever_m())},
                         {"bias_deg", num(scale.bias() * 180 / M_PI)},

@@ -5,19 +5,13 @@
 #include <cmath>
 #include <limits>
 
+#include "median.hpp"
+
 namespace hf::footage {
 
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-
-double median_of(std::vector<double> v) {
-  const size_t n = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n), v.end());
-  if (v.size() % 2) return v[n];
-  const double hi = v[n];
-  return 0.5 * (hi + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n)));
-}
 
 }  // namespace
 
@@ -32,6 +26,11 @@ std::optional<double> lever_arm_chord(double turn, double heading, double lever_
   return c;
 }
 
+LeverArmOptions with_travel_column(LeverArmOptions opt, const CameraModel& camera, double travel_x) {
+  if (std::isfinite(travel_x)) opt.prior_bias = std::atan2(camera.cx - travel_x, camera.fx);
+  return opt;
+}
+
 LeverArmScale::LeverArmScale(double lever_m, LeverArmOptions opt) : lever_m_(lever_m), opt_(opt) {}
 
 void LeverArmScale::observe(const EgoMotionSample& s) {
@@ -39,15 +38,15 @@ void LeverArmScale::observe(const EgoMotionSample& s) {
   if (std::abs(s.two_view->yaw) < opt_.straight_turn_deg * kDeg) straight_.push_back(s.two_view->heading);
 }
 
-double LeverArmScale::bias() const { return from_straight_pairs() ? median_of(straight_) : opt_.prior_bias; }
+double LeverArmScale::bias() const { return from_straight_pairs() ? detail::median(straight_) : opt_.prior_bias; }
 
 double LeverArmScale::bias_sigma() const {
   if (!from_straight_pairs()) return opt_.prior_bias_sigma_deg * kDeg;
   // The median's sigma from the pairs' spread (MAD), as of a normal sample.
-  const double m = median_of(straight_);
+  const double m = detail::median(straight_);
   std::vector<double> dev;
   for (double h : straight_) dev.push_back(std::abs(h - m));
-  const double sd = 1.4826 * median_of(dev);
+  const double sd = 1.4826 * detail::median(dev);
   return 1.2533 * sd / std::sqrt(static_cast<double>(straight_.size()));
 }
 

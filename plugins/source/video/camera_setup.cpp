@@ -493,9 +493,9 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
   // In the bends, where the road view is weakest, the distance from the camera's lever arm ahead of the rear
   // axle (frames 0.15 s and more apart, where the whole picture's geometry is computed; independent of the
   // height). The mounting yaw comes from the clip's straight pairs, else the lane lines' vanishing point.
-  footage::LeverArmOptions lever_opt;
-  if (est && std::isfinite(est->travel_x))
-    lever_opt.prior_bias = std::atan2(camera_.cx - est->travel_x, camera_.fx);
+  const bool lane_column = est && std::isfinite(est->travel_x);
+  const footage::LeverArmOptions lever_opt =
+      est ? footage::with_travel_column({}, camera_, est->travel_x) : footage::LeverArmOptions{};
   const footage::LeverArmScale lever =
       footage::apply_lever_arm(raw, camera_.cam_to_ego({0, 0, 0})[0], lever_opt);
   const auto smooth = footage::smooth_ego_motion(raw);
@@ -548,7 +548,7 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
         " deg off the camera axis (" +
         (lever.from_straight_pairs()
              ? "from " + std::to_string(lever.straight_pairs()) + " straight pairs"
-             : std::string(std::isfinite(est ? est->travel_x : NAN) ? "from the lane lines' vanishing point"
+             : std::string(lane_column ? "from the lane lines' vanishing point"
                                                                     : "assumed 0")) +
         ")";
   provenance_["ego_speed"] = ego_speed + ")";

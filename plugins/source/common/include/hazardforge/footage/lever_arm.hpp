@@ -44,6 +44,11 @@ struct LeverArmOptions {
 // direction of straight travel), then fuse() each: offline, observe the whole clip and fuse afterwards;
 // causally, observe and fuse sample by sample (the bias then rests on the straight pairs seen so far, else the
 // prior).
+// The prior of that correction from the column where the direction of travel meets the horizon
+// (HorizonEstimate::travel_x, from the lane lines' vanishing points): a column right of the principal point is a
+// direction of travel to the right of the camera axis (negative). The options unchanged when the column is NaN.
+LeverArmOptions with_travel_column(LeverArmOptions opt, const CameraModel& camera, double travel_x);
+
 class LeverArmScale {
  public:
   explicit LeverArmScale(double lever_m, LeverArmOptions opt = {});
