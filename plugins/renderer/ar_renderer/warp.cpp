@@ -15,16 +15,14 @@ bool warp_bgra_accelerated() {
 }
 
 void warp_bgra(const cv::Mat& src, cv::Mat& dst, const cv::Matx33d& H) {
-  if (src.type() == CV_8UC4 && dst.type() == CV_8UC4 && !src.empty() && warp_bgra_accelerated()) {
-    bool invertible = false;
-    const cv::Matx33d Minv = H.inv(cv::DECOMP_LU, &invertible);
-    if (invertible) {
 #if defined(HF_WARP_AVX2)
-      detail::warp_bgra_avx2(src, dst, Minv);
-      return;
-#endif
-    }
+  bool invertible = false;
+  const cv::Matx33d Minv = H.inv(cv::DECOMP_LU, &invertible);
+  if (invertible && src.type() == CV_8UC4 && dst.type() == CV_8UC4 && !src.empty() && warp_bgra_accelerated()) {
+    detail::warp_bgra_avx2(src, dst, Minv);
+    return;
   }
+#endif
   cv::warpPerspective(src, dst, cv::Mat(H), dst.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
 }
 
