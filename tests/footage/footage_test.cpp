@@ -359,6 +359,30 @@ TEST(TwoViewRotation, HeadingChangeOfATurningDrive) {
   }
 }
 
+// The camera's pitch change between two views: 2 Hz keyframes of a turning drive whose camera tips down and up
+// by up to 0.8 degrees between frames (a road's grade changing under the car, the body's nods), the geometry
+// given only the clip's camera. Each change comes back with its sign (+ = further down) within 0.15 degrees,
+// the heading change within its usual tolerance, and a level drive reads none.
+TEST(TwoViewRotation, PitchChangeBetweenViews) {
+  const std::vector<double> pitch_deg = {3.0, 3.5, 3.5, 2.7, 3.2, 3.0};
+  for (const bool level : {false, true}) {
+    TwoViewRotation rot(test_camera(3.0, 0.0));
+    int measured = 0;
+    for (size_t i = 0; i < pitch_deg.size(); ++i) {
+      const double t = 0.5 * static_cast<double>(i);
+      const double p = level ? 3.0 : pitch_deg[i];
+      const auto r = rot.add(render_with_walls(test_camera(p, 0.0), pose_at(t, 5.0, 0.1, {0, 0.0, -0.25})));
+      if (i == 0 || !r) continue;
+      ++measured;
+      const double change = level ? 0.0 : pitch_deg[i] - pitch_deg[i - 1];
+      EXPECT_NEAR(r->pitch / kDeg, change, 0.15) << "frame " << i << (level ? " (level)" : "");
+      EXPECT_GT(r->pitch_sigma, 0.0);
+      EXPECT_NEAR(r->yaw, 0.1 * 0.5, 0.3 * kDeg) << "frame " << i;
+    }
+    EXPECT_GE(measured, 4) << (level ? "level" : "pitching");
+  }
+}
+
 // The odometry with the two-view heading: every frame's yaw rate is measured, also where the road alone would
 // not fix it, and the smoother keeps it.
 TEST(GroundOdometry, KeyframesTurningBetweenBuildings) {

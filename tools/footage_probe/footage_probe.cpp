@@ -277,10 +277,7 @@ int main(int argc, char** argv) {
   if (!height_opt && hest) used_height = hest->height_m;
   out["odometry_height_m"] = num(used_height);
   out["odometry_height_from"] = height_opt ? "command line" : hest ? "lane-line spacing" : "default 1.5 m";
-  for (auto& r : raw) {
-    r.speed_mps *= used_height / height;
-    r.speed_sigma *= used_height / height;
-  }
+  hf::footage::rescale_height(raw, used_height / height);
   // The distance from the camera's lever arm in the bends (height-independent: after the rescale), as the
   // video source.
   if (!no_lever_arm) {

@@ -159,6 +159,13 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   return out;
 }
 
+void rescale_height(std::vector<EgoMotionSample>& samples, double ratio) {
+  for (auto& r : samples) {
+    r.speed_mps *= ratio;
+    r.speed_sigma *= ratio;
+  }
+}
+
 const char* speed_cue_name(EgoMotionSample::SpeedCue cue) {
   switch (cue) {
     case EgoMotionSample::SpeedCue::kRoad:

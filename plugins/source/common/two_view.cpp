@@ -18,6 +18,7 @@ TwoViewRotation::TwoViewRotation(const CameraModel& camera, Options opt) : cam_(
                    1);
   const cv::Vec3d o = camera.ego_to_cam({0, 0, 0}), z = camera.ego_to_cam({0, 0, 1});
   up_cam_ = cv::normalize(z - o);
+  left_cam_ = cv::normalize(camera.ego_to_cam({0, 1, 0}) - o);
   sift_ = cv::SIFT::create(opt_.features);
 }
 
@@ -85,6 +86,13 @@ std::optional<TwoViewMotion> TwoViewRotation::add(const cv::Mat& bgr, double max
     return w.dot(up_cam_);
   };
   out.yaw = yaw_of(R);
+  // A turn about the ego's left axis by a positive angle tips the forward axis down: the pitch() convention.
+  auto pitch_of = [&](const cv::Mat& rot) {
+    cv::Vec3d w;
+    cv::Rodrigues(rot.t(), w);
+    return w.dot(left_cam_);
+  };
+  out.pitch = pitch_of(R);
   // The camera's centre moved to -R^T t in the previous camera's coordinates; its direction on the ground in
   // the previous ego axes.
   auto heading_of = [&](const cv::Mat& rot, const cv::Mat& tr) {
@@ -106,7 +114,7 @@ std::optional<TwoViewMotion> TwoViewRotation::add(const cv::Mat& bgr, double max
     (first ? a1 : a2).push_back(a[i]);
     (first ? b1 : b2).push_back(b[i]);
   }
-  double split = 0.0;
+  double split = 0.0, pitch_split = 0.0;
   bool first_half = true;
   for (const auto& [pa, pb] : {std::pair(&a1, &b1), std::pair(&a2, &b2)}) {
     cv::Mat mk;
@@ -116,10 +124,12 @@ std::optional<TwoViewMotion> TwoViewRotation::add(const cv::Mat& bgr, double max
     cv::Mat Rh, th;
     cv::recoverPose(Eh, *pa, *pb, cv::Mat(K_), Rh, th, mk);
     split = first_half ? yaw_of(Rh) : std::abs(split - yaw_of(Rh));
+    pitch_split = first_half ? pitch_of(Rh) : std::abs(pitch_split - pitch_of(Rh));
     first_half = false;
   }
   if (split > opt_.max_split_deg * M_PI / 180.0) return std::nullopt;
   out.yaw_sigma = std::hypot(opt_.min_sigma_deg * M_PI / 180.0, split / 2.0);
+  out.pitch_sigma = std::hypot(opt_.min_sigma_deg * M_PI / 180.0, pitch_split / 2.0);
   // The direction of travel is coupled to the rotation (a small turn and a sideways step look alike on far
   // points), and two halves often agree by chance: its sigma comes from heading_subsets interleaved subsets
   // (the whole's sigma is their standard deviation over sqrt(subsets)). A subset whose decomposition does not

@@ -473,10 +473,7 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
     const double h0 = camera_.height_above_ground();
     if (const auto he = height_est.result()) {
       camera_ = footage::with_height(camera_, he->height_m);
-      for (auto& r : raw) {
-        r.speed_mps *= he->height_m / h0;
-        r.speed_sigma *= he->height_m / h0;
-      }
+      footage::rescale_height(raw, he->height_m / h0);
       provenance_["height_m"] = "estimated from the lane lines (" + he->note + "; sigma " +
                                 std::to_string(he->sigma_m).substr(0, 4) + " m, confidence " +
                                 std::to_string(he->confidence).substr(0, 4) + ")";
@@ -609,6 +606,8 @@ void CameraSetup::write_reports(StageContext& ctx, int64_t frames, double fps, c
         }
         if (r.road_speed_mps) l["road_speed_mps"] = *r.road_speed_mps;
         if (r.lever_speed_mps) l["lever_arm_speed_mps"] = *r.lever_speed_mps;
+        // The camera's pitch change from the previous frame (the whole picture's rotation), + = further down.
+        if (r.two_view) l["pitch_change_deg"] = r.two_view->pitch * deg;
         // The road's pitch under this frame and the one before, relative to the clip's camera, where the
         // road's motion fixed it (OdometryOptions::pair_pitch).
         if (r.ground_pitch_offset) l["road_pitch_offset_deg"] = *r.ground_pitch_offset * deg;

@@ -37,6 +37,10 @@ struct EgoMotionSample {
   double lever_speed_sigma = 0;
 };
 
+// The road view's readings of odometry run at one camera height, for a camera `ratio` times as high: speeds and
+// their sigmas scale with the height. The lever arm's and the whole picture's cues do not depend on it.
+void rescale_height(std::vector<EgoMotionSample>& samples, double ratio);
+
 // "road", "lever_arm", "road+lever_arm" or "none" (for ego_motion.jsonl and the probe).
 const char* speed_cue_name(EgoMotionSample::SpeedCue cue);
 

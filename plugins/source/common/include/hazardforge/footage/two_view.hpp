@@ -22,6 +22,12 @@ struct TwoViewMotion {
   // lever arm ahead of the rear axle, the direction and the turn give it (lever_arm.hpp).
   double heading = 0;
   double heading_sigma = 0;
+  // The camera's pitch change from the previous frame (rad, positive = turned further down, the convention of
+  // CameraModel::pitch()): the rotation about the ego's lateral axis. On a car the body follows the road, so
+  // chained over a clip these changes trace the road's grade along the path (and the body's nods); sigma from
+  // the two halves of the inliers, like the yaw's.
+  double pitch = 0;
+  double pitch_sigma = 0;
 };
 
 // Rotation between consecutive frames from SIFT features matched across the whole picture: an essential
@@ -64,7 +70,8 @@ class TwoViewRotation {
   Options opt_;
   double scale_ = 1.0;
   cv::Matx33d K_;
-  cv::Vec3d up_cam_;  // the ego's vertical axis in camera coordinates
+  cv::Vec3d up_cam_;    // the ego's vertical axis in camera coordinates
+  cv::Vec3d left_cam_;  // the ego's lateral (left) axis in camera coordinates
   cv::Ptr<cv::SIFT> sift_;
   std::vector<cv::KeyPoint> prev_keypoints_;
   cv::Mat prev_descriptors_;
