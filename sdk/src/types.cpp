@@ -417,4 +417,8 @@ void to_json(Json& j, const Frame& v) {
        {"meta", v.meta}};
 }
 
+std::string frame_name(const Frame& f) {
+  return "frame " + std::to_string(f.index) + " (t=" + std::to_string(f.timestamp) + " s)";
+}
+
 }  // namespace hf

@@ -16,10 +16,6 @@ namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
 
-std::string frame_name(const Frame& f) {
-  return "frame " + std::to_string(f.index) + " (t=" + std::to_string(f.timestamp) + " s)";
-}
-
 }  // namespace
 
 ComponentInfo GroundOdometryStage::describe() {

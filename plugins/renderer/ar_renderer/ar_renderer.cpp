@@ -36,10 +36,6 @@ cv::Vec3d rotate(const cv::Matx44d& T, const cv::Vec3d& v) {
           T(2, 0) * v[0] + T(2, 1) * v[1] + T(2, 2) * v[2]};
 }
 
-std::string frame_name(const Frame& f) {
-  return "frame " + std::to_string(f.index) + " (t=" + std::to_string(f.timestamp) + " s)";
-}
-
 }  // namespace
 
 HazardRenderer::HazardRenderer(RendererOptions o, std::shared_ptr<const AssetLibrary> assets)

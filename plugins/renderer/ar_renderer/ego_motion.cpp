@@ -13,10 +13,6 @@ namespace hf::render {
 
 namespace {
 
-std::string frame_name(const Frame& f) {
-  return "frame " + std::to_string(f.index) + " (t=" + std::to_string(f.timestamp) + " s)";
-}
-
 cv::Matx33d rot_of(const cv::Matx44d& T) {
   return {T(0, 0), T(0, 1), T(0, 2), T(1, 0), T(1, 1), T(1, 2), T(2, 0), T(2, 1), T(2, 2)};
 }

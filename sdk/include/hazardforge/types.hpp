@@ -152,6 +152,9 @@ struct Frame {
   std::shared_ptr<const Annotations> annotations;  // dataset ground truth, when the source carries it
 };
 
+// How messages name a frame: "frame 12 (t=6.000000 s)".
+std::string frame_name(const Frame& f);
+
 struct Detection {
   cv::Rect2f box;  // pixels, in the frame's image
   int class_id = -1;
