@@ -80,19 +80,15 @@ std::optional<TwoViewMotion> TwoViewRotation::add(const cv::Mat& bgr, double max
   if (motion.empty() || motion[motion.size() / 2] < opt_.min_parallax_px) return std::nullopt;
   // R maps the previous camera's coordinates into the current one's: the camera turned by R^T. Its rotation
   // vector projected on the vertical axis is the heading change (left positive about the ego's up axis).
-  auto yaw_of = [&](const cv::Mat& rot) {
+  auto turn_of = [](const cv::Mat& rot) {
     cv::Vec3d w;
     cv::Rodrigues(rot.t(), w);
-    return w.dot(up_cam_);
+    return w;
   };
-  out.yaw = yaw_of(R);
+  const cv::Vec3d turn = turn_of(R);
+  out.yaw = turn.dot(up_cam_);
   // A turn about the ego's left axis by a positive angle tips the forward axis down: the pitch() convention.
-  auto pitch_of = [&](const cv::Mat& rot) {
-    cv::Vec3d w;
-    cv::Rodrigues(rot.t(), w);
-    return w.dot(left_cam_);
-  };
-  out.pitch = pitch_of(R);
+  out.pitch = turn.dot(left_cam_);
   // The camera's centre moved to -R^T t in the previous camera's coordinates; its direction on the ground in
   // the previous ego axes.
   auto heading_of = [&](const cv::Mat& rot, const cv::Mat& tr) {
@@ -123,8 +119,9 @@ std::optional<TwoViewMotion> TwoViewRotation::add(const cv::Mat& bgr, double max
     if (Eh.rows != 3 || Eh.cols != 3) return std::nullopt;
     cv::Mat Rh, th;
     cv::recoverPose(Eh, *pa, *pb, cv::Mat(K_), Rh, th, mk);
-    split = first_half ? yaw_of(Rh) : std::abs(split - yaw_of(Rh));
-    pitch_split = first_half ? pitch_of(Rh) : std::abs(pitch_split - pitch_of(Rh));
+    const cv::Vec3d w = turn_of(Rh);
+    split = first_half ? w.dot(up_cam_) : std::abs(split - w.dot(up_cam_));
+    pitch_split = first_half ? w.dot(left_cam_) : std::abs(pitch_split - w.dot(left_cam_));
     first_half = false;
   }
   if (split > opt_.max_split_deg * M_PI / 180.0) return std::nullopt;
