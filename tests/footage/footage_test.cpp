@@ -709,6 +709,34 @@ TEST(EgoMotionSmoother, RejectsAnOutlierAndFillsGaps) {
   }
 }
 
+// Three readings in a row that disagree with a confident filter restart it from the third: that reading is
+// then the state, with its own variance plus 1 (m/s)^2. Applied a second time as a measurement, with the
+// innovation variance of the state it replaced, the update drove the speed variance negative (a restart on
+// the last frame came back with sigma 0; on the Udacity clip the negative variance ran into the backward pass).
+TEST(EgoMotionSmoother, ARestartStartsFromItsMeasurementWithItsVariance) {
+  std::vector<EgoMotionSample> raw;
+  for (int i = 0; i < 23; ++i) {
+    EgoMotionSample s;
+    s.frame = i;
+    s.t = 0.04 * i;
+    s.interval_s = i > 0 ? 0.04 : 0.0;
+    s.speed_mps = i < 20 ? 20.0 : 24.0;
+    s.speed_sigma = 0.3;
+    s.yaw_rate_sigma = 0.01;
+    s.measured = true;
+    raw.push_back(s);
+  }
+  SmoothOptions opt;
+  opt.median_window = 1;  // the pre-gate passes the last three; the filter's gate is tested here
+  const auto out = smooth_ego_motion(raw, opt);
+  EXPECT_FALSE(out[20].measured);
+  EXPECT_FALSE(out[21].measured);
+  ASSERT_TRUE(out[22].measured);
+  EXPECT_DOUBLE_EQ(out[22].speed_mps, 24.0);
+  const double rv = 0.3 * 0.3 + opt.speed_sigma_floor * opt.speed_sigma_floor;
+  EXPECT_NEAR(out[22].speed_sigma, std::sqrt(rv + 1.0), 1e-9);
+}
+
 // Queued behind a lead, traffic moving through the road region makes the odometry read a small reverse speed:
 // the ego of a front camera does not reverse, so the smoothed speed stops at zero (unless reversing is
 // allowed). `frames` measured samples 0.1 s apart: braking from 2 m/s to a stop at frame 20, then

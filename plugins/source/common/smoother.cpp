@@ -80,9 +80,9 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
       const double rv = s.speed_sigma * s.speed_sigma + opt.speed_sigma_floor * opt.speed_sigma_floor;
       const double rw = s.yaw_rate_sigma * s.yaw_rate_sigma + opt.yaw_sigma_floor * opt.yaw_sigma_floor;
       // Speed and yaw rate are measured independently (H picks rows 0 and 2): two scalar updates.
-      double iv = s.speed_mps - x(0);
+      const double iv = s.speed_mps - x(0);
       const double sv = P(0, 0) + rv;
-      double iw = s.yaw_rate - x(2);
+      const double iw = s.yaw_rate - x(2);
       const double sw = P(2, 2) + rw;
       const bool outlier =
           std::abs(iv) > opt.gate_sigma * std::sqrt(sv) || std::abs(iw) > opt.gate_sigma * std::sqrt(sw);
@@ -93,15 +93,15 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
         if (outlier) {
           // Several measurements in a row disagree with the filter, and with each other they passed the median
           // gate: the filter, not the road, is wrong (it locked on a bad start). Restart from this measurement.
+          // The state is then this measurement; it is not applied a second time.
           x = Vec3(s.speed_mps, 0.0, s.yaw_rate);
           P = Mat3::diag(cv::Vec3d(rv + 1.0, 4.0, rw + 0.01));
-          iv = 0;
-          iw = 0;
+        } else {
+          const Vec3 kv(P(0, 0) / sv, P(1, 0) / sv, P(2, 0) / sv);
+          x = x + kv * iv;
+          P = P - kv * Vec3(P(0, 0), P(0, 1), P(0, 2)).t();
         }
         rejected_run = 0;
-        Vec3 kv(P(0, 0) / sv, P(1, 0) / sv, P(2, 0) / sv);
-        x = x + kv * iv;
-        P = P - kv * Vec3(P(0, 0), P(0, 1), P(0, 2)).t();
         const double sw2 = P(2, 2) + rw;
         Vec3 kw(P(0, 2) / sw2, P(1, 2) / sw2, P(2, 2) / sw2);
         x = x + kw * (s.yaw_rate - x(2));
