@@ -66,9 +66,28 @@ TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   EXPECT_GE(v["redetection"]["rate"].get<double>(), 0.5);
   EXPECT_GE(v["unsafe"]["hazard_critical_frames"].get<int>(), 3);
   EXPECT_LT(v["ttc"]["achieved_min_ttc_s"].get<double>(), 1.5);
-  // The person is re-estimated within 10 % of where it was inserted.
+  // The person is re-estimated where it was inserted. Near (at most 25 m ahead: 75 px tall in the frame, 37 px
+  // in the detector's 640x384 input) the re-assessed tracks read it within 0-6 %; farther out, at 19-28 px in
+  // the detector's input, they read it 9-23 % far, in runs of frames with one offset (a track's start). The
+  // bounds below are about twice those; the clip-wide median lies between the two groups (0.09-0.11 as the
+  // ego's estimated speed moves by a few percent, which moves where the person is planned).
   EXPECT_GE(v["distance"]["matched_frames"].get<int>(), 5);
-  EXPECT_LT(v["distance"]["median_rel_error"].get<double>(), 0.1);
+  EXPECT_LT(v["distance"]["median_rel_error"].get<double>(), 0.15);
+  int near = 0;
+  std::ifstream frames(out / "frames.jsonl");
+  for (std::string line; std::getline(frames, line);) {
+    const Json rec = Json::parse(line);
+    if (!rec.contains("verifier.records") || !rec["verifier.records"].contains("data")) continue;
+    const Json& d = rec["verifier.records"]["data"];
+    if (!d.contains("distance_rel_error") || d["distance_rel_error"].is_null()) continue;
+    const double intended = d["distance_compared_m"][1].get<double>(), rel = d["distance_rel_error"].get<double>();
+    EXPECT_LT(rel, 0.35) << "frame " << d["frame"] << " at " << intended << " m";
+    if (intended <= 25.0) {
+      ++near;
+      EXPECT_LT(rel, 0.1) << "frame " << d["frame"] << " at " << intended << " m";
+    }
+  }
+  EXPECT_GE(near, 5);
 }
 
 }  // namespace

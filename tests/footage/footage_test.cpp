@@ -737,6 +737,35 @@ TEST(EgoMotionSmoother, ARestartStartsFromItsMeasurementWithItsVariance) {
   EXPECT_NEAR(out[22].speed_sigma, std::sqrt(rv + 1.0), 1e-9);
 }
 
+// A filter that locked on a wrong start restarts from the measurements that keep disagreeing with it. The
+// restart's measurement becomes the state; it is not applied a second time (which, with the innovation
+// variance of the rejected state, drove the speed variance negative and the smoothed speeds into a ramp on the
+// Udacity clip). Overconfident raw speeds at 25 fps like that clip's: 31 m/s scattered by 1.8 m/s, each
+// claiming 0.2 m/s, so that the gate keeps rejecting and restarting.
+TEST(EgoMotionSmoother, OverconfidentRawSpeedsAreWeighedByTheirScatter) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> scatter(0.0, 1.8);
+  for (int seed = 0; seed < 20; ++seed) {
+    std::vector<EgoMotionSample> raw;
+    for (int i = 0; i < 38; ++i) {
+      EgoMotionSample s;
+      s.frame = i;
+      s.t = 0.04 * i;
+      s.interval_s = i > 0 ? 0.04 : 0.0;
+      s.speed_mps = 31.0 + scatter(rng);
+      s.speed_sigma = 0.2;
+      s.yaw_rate_sigma = 0.01;
+      s.measured = i > 1;
+      raw.push_back(s);
+    }
+    const auto out = smooth_ego_motion(raw);
+    for (const auto& s : out) {
+      EXPECT_NEAR(s.speed_mps, 31.0, 1.8) << "clip " << seed << " frame " << s.frame;
+      EXPECT_GT(s.speed_sigma, 0.05) << "clip " << seed << " frame " << s.frame;
+    }
+  }
+}
+
 // Queued behind a lead, traffic moving through the road region makes the odometry read a small reverse speed:
 // the ego of a front camera does not reverse, so the smoothed speed stops at zero (unless reversing is
 // allowed). `frames` measured samples 0.1 s apart: braking from 2 m/s to a stop at frame 20, then

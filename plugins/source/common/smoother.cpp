@@ -28,9 +28,12 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
   std::vector<size_t> measured;
   for (size_t i = 0; i < n; ++i)
     if (raw[i].measured && std::isfinite(raw[i].speed_mps) && std::isfinite(raw[i].yaw_rate)) measured.push_back(i);
+  // The raw speeds' own sigmas against their scatter about the same medians: normalised residuals of the
+  // frames with a full neighbourhood.
+  std::vector<double> residual;
+  const int w = std::max(1, opt.median_window);
   for (size_t k = 0; k < measured.size(); ++k) {
     std::vector<double> vs, ws;
-    const int w = std::max(1, opt.median_window);
     for (int d = -w; d <= w; ++d) {
       const long j = static_cast<long>(k) + d;
       if (d == 0 || j < 0 || j >= static_cast<long>(measured.size())) continue;
@@ -45,8 +48,20 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
       // A two-view yaw rate (yaw_measured) follows a real turn from frame to frame; the gate is for the
       // road's.
       if (!s.yaw_measured && std::abs(s.yaw_rate - mw) > opt.median_gate_yaw) ok = false;
+      if (ok && vs.size() == static_cast<size_t>(2 * w))
+        residual.push_back((s.speed_mps - mv) / std::hypot(s.speed_sigma, opt.speed_sigma_floor));
     }
     use[measured[k]] = ok;
+  }
+  // Where the raw speeds scatter more than their sigmas say (the road view's sigma is its fit's, not the
+  // frame-to-frame noise of what it tracked), the sigmas are scaled up to the scatter: an overconfident
+  // filter rejects, restarts on and follows single readings. Only up, never down; the scatter of a residual
+  // about the median of 2w neighbours is sqrt(1 + pi / (2 (2w + 1))) of a sample's.
+  double noise_scale = 1.0;
+  if (static_cast<int>(residual.size()) >= opt.min_scatter_samples) {
+    for (double& r : residual) r = std::abs(r);
+    const double spread = 1.4826 * detail::median(residual) / std::sqrt(1.0 + M_PI / (2.0 * (2 * w + 1)));
+    if (std::isfinite(spread)) noise_scale = std::max(1.0, spread);
   }
 
   // 2. Forward Kalman filter over x = (speed, acceleration, yaw rate).
@@ -77,7 +92,8 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
     Pp[i] = P;
     if (use[i]) {
       const EgoMotionSample& s = raw[i];
-      const double rv = s.speed_sigma * s.speed_sigma + opt.speed_sigma_floor * opt.speed_sigma_floor;
+      const double rv = noise_scale * noise_scale *
+                        (s.speed_sigma * s.speed_sigma + opt.speed_sigma_floor * opt.speed_sigma_floor);
       const double rw = s.yaw_rate_sigma * s.yaw_rate_sigma + opt.yaw_sigma_floor * opt.yaw_sigma_floor;
       // Speed and yaw rate are measured independently (H picks rows 0 and 2): two scalar updates.
       const double iv = s.speed_mps - x(0);

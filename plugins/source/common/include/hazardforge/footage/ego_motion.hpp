@@ -151,6 +151,9 @@ struct SmoothOptions {
   // Before filtering, a raw sample farther from the median of its +-median_window measured neighbours than
   // max(median_gate_mps, median_gate_rel * |median|) in speed, or median_gate_yaw in yaw rate, is dropped.
   int median_window = 2;
+  // The raw speeds' sigmas are scaled up to their scatter about those medians when at least this many frames
+  // with a full neighbourhood measure it.
+  int min_scatter_samples = 8;
   double median_gate_mps = 1.5;
   double median_gate_rel = 0.25;
   double median_gate_yaw = 0.1;
