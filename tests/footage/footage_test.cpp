@@ -766,6 +766,33 @@ TEST(EgoMotionSmoother, OverconfidentRawSpeedsAreWeighedByTheirScatter) {
   }
 }
 
+// A raw speed is a distance over the interval since the previous frame: the mean speed over that interval,
+// which at 2 Hz keyframes lags the speed at the frame by a quarter of a second. Accelerating at 1 m/s^2 and
+// then braking at 0.8 m/s^2, read as each interval's mean, the smoothed speed is the speed at each frame
+// (taken as the frame's own, it would read 0.25 m/s low while accelerating and 0.2 m/s high while braking).
+TEST(EgoMotionSmoother, AnIntervalsMeanSpeedIsPlacedHalfAnIntervalEarlier) {
+  auto speed = [](double t) { return t <= 5.0 ? 4.0 + t : 9.0 - 0.8 * (t - 5.0); };
+  std::vector<EgoMotionSample> raw;
+  for (int i = 0; i < 21; ++i) {
+    EgoMotionSample s;
+    s.frame = i;
+    s.t = 0.5 * i;
+    s.interval_s = i > 0 ? 0.5 : 0.0;
+    double mean = 0;  // over (t - 0.5, t], by the midpoint rule (exact for a linear stretch)
+    for (int k = 0; k < 100; ++k) mean += speed(s.t - 0.5 + 0.005 * (k + 0.5)) / 100.0;
+    s.speed_mps = mean;
+    s.speed_sigma = 0.05;
+    s.yaw_rate_sigma = 0.01;
+    s.measured = i > 0;
+    raw.push_back(s);
+  }
+  const auto out = smooth_ego_motion(raw);
+  for (int i = 2; i < 21; ++i) {
+    if (std::abs(out[i].t - 5.0) <= 1.0) continue;  // the kink: no filter follows it at once
+    EXPECT_NEAR(out[i].speed_mps, speed(out[i].t), 0.08) << "frame " << i;
+  }
+}
+
 // Queued behind a lead, traffic moving through the road region makes the odometry read a small reverse speed:
 // the ego of a front camera does not reverse, so the smoothed speed stops at zero (unless reversing is
 // allowed). `frames` measured samples 0.1 s apart: braking from 2 m/s to a stop at frame 20, then

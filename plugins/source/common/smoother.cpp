@@ -95,9 +95,13 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
       const double rv = noise_scale * noise_scale *
                         (s.speed_sigma * s.speed_sigma + opt.speed_sigma_floor * opt.speed_sigma_floor);
       const double rw = s.yaw_rate_sigma * s.yaw_rate_sigma + opt.yaw_sigma_floor * opt.yaw_sigma_floor;
-      // Speed and yaw rate are measured independently (H picks rows 0 and 2): two scalar updates.
-      const double iv = s.speed_mps - x(0);
-      const double sv = P(0, 0) + rv;
+      // Speed and yaw rate are measured independently: two scalar updates. A raw speed is the distance over
+      // the interval since the previous frame, the mean speed over it: with the acceleration a, the speed
+      // half an interval before this frame, H = (1, -interval/2, 0).
+      const double lag = std::isfinite(s.interval_s) && s.interval_s > 0 ? 0.5 * s.interval_s : 0.0;
+      const Vec3 h(1.0, -lag, 0.0);
+      const double iv = s.speed_mps - (x(0) - lag * x(1));
+      const double sv = h.dot(P * h) + rv;
       const double iw = s.yaw_rate - x(2);
       const double sw = P(2, 2) + rw;
       const bool outlier =
@@ -113,9 +117,10 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
           x = Vec3(s.speed_mps, 0.0, s.yaw_rate);
           P = Mat3::diag(cv::Vec3d(rv + 1.0, 4.0, rw + 0.01));
         } else {
-          const Vec3 kv(P(0, 0) / sv, P(1, 0) / sv, P(2, 0) / sv);
+          const Vec3 ph = P * h;
+          const Vec3 kv = ph * (1.0 / sv);
           x = x + kv * iv;
-          P = P - kv * Vec3(P(0, 0), P(0, 1), P(0, 2)).t();
+          P = P - kv * ph.t();
         }
         rejected_run = 0;
         const double sw2 = P(2, 2) + rw;
