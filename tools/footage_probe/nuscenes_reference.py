@@ -3,12 +3,58 @@
 
 Writes the scene's CAM_FRONT keyframes as a probe list (image path, seconds since the first frame, reference speed
 from consecutive ego poses) and prints the calibrated camera's horizon row at cx, pitch, roll, height, yaw rates.
-usage: nuscenes_reference.py DATAROOT SCENE_NAME OUT_LIST
+With --lever it also prints, per keyframe pair, what the poses and the calibration say the lever-arm scale
+(plugins/source/common/lever_arm.cpp) would see: the turn, the camera's direction of travel in the previous ego
+axes, the rear axle's own direction minus half the turn (its crab), and the chord the lever-arm model gives from
+those exact values against the poses' chord.
+usage: nuscenes_reference.py DATAROOT SCENE_NAME OUT_LIST [--lever]
 """
 import json
 import math
 import os
 import sys
+
+
+def rotation(q):
+    w, x, y, z = q
+    return [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+
+
+def lever_arm_chord(turn, heading, lever):
+    """The chord the rear axle drove, as lever_arm.cpp solves it (None when the pair does not fix it)."""
+    den = math.sin(heading - 0.5 * turn)
+    num = lever * (math.sin(turn) * math.cos(heading) + (1 - math.cos(turn)) * math.sin(heading))
+    return num / den if abs(den) > 1e-9 and num / den > 0 else None
+
+
+def lever_check(poses, cam_translation):
+    """poses: [(R, translation)] per keyframe; prints the per-pair table and the model's error on the bends."""
+    mul = lambda M, v: [sum(M[i][j] * v[j] for j in range(3)) for i in range(3)]
+    mul_t = lambda M, v: [sum(M[j][i] * v[j] for j in range(3)) for i in range(3)]
+    lever = cam_translation[0]
+    print("pair turn_deg camera_heading_deg rear_axle_crab_deg chord_m model_chord_m model_error")
+    errors = []
+    for k in range(1, len(poses)):
+        (R0, p0), (R1, p1) = poses[k - 1], poses[k]
+        c0 = [a + b for a, b in zip(p0, mul(R0, cam_translation))]
+        c1 = [a + b for a, b in zip(p1, mul(R1, cam_translation))]
+        d = mul_t(R0, [a - b for a, b in zip(c1, c0)])
+        o = mul_t(R0, [a - b for a, b in zip(p1, p0)])
+        turn = (math.atan2(R1[1][0], R1[0][0]) - math.atan2(R0[1][0], R0[0][0]) + math.pi) % (2 * math.pi) - math.pi
+        heading = math.atan2(d[1], d[0])
+        chord = math.dist(p0[:2], p1[:2])
+        model = lever_arm_chord(turn, heading, lever) if abs(turn) >= math.radians(2) else None
+        if model:
+            errors.append(model / chord - 1)
+        print(f"{k} {math.degrees(turn):.3f} {math.degrees(heading):.3f} "
+              f"{math.degrees(math.atan2(o[1], o[0]) - turn / 2):+.3f} {chord:.3f} "
+              + (f"{model:.3f} {100 * (model / chord - 1):+.1f}%" if model else "- -"))
+    if errors:
+        a = sorted(abs(e) for e in errors)
+        print(f"pairs turning >= 2 deg: {len(errors)}, model error median |{100 * a[len(a) // 2]:.1f}| %, "
+              f"range {100 * min(errors):+.1f} .. {100 * max(errors):+.1f} %")
 
 
 def main():
@@ -25,10 +71,7 @@ def main():
         rows.append(cam[tok])
         tok = samples[tok]["next"]
     c = cs[rows[0]["calibrated_sensor_token"]]
-    w, x, y, z = c["rotation"]  # camera -> ego
-    R = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    R = rotation(c["rotation"])  # camera -> ego
     K = c["camera_intrinsic"]
     fx, cx, fy, cy = K[0][0], K[0][2], K[1][1], K[1][2]
     up = R[2]  # ego z in camera axes (third row of R = R^T e_z)
@@ -60,6 +103,9 @@ def main():
                       "height_m": c["translation"][2], "forward_m": c["translation"][0],
                       "horizon_y_at_cx": horizon, "pitch_deg": math.degrees(pitch), "roll_deg": math.degrees(roll),
                       "speed_mps": [round(v, 3) for v in speeds], "yaw_rate": [round(v, 3) for v in yaws]}, indent=1))
+    if "--lever" in sys.argv[4:]:
+        lever_check([(rotation(ep[r["ego_pose_token"]]["rotation"]), ep[r["ego_pose_token"]]["translation"])
+                     for r in rows], c["translation"])
 
 
 if __name__ == "__main__":
