@@ -368,6 +368,10 @@ TEST(VideoSource, AnImageFolderTellsItsPitchAndEgoMotion) {
       << cam.dump(2);
   EXPECT_NEAR(cam["height_m"].get<double>(), 1.5 * 3.6 / 3.5, 0.05);
   for (const Frame& f : frames) EXPECT_NEAR(f.camera.height_above_ground(), cam["height_m"].get<double>(), 1e-9);
+  // The speed says how the smoother weighed the readings.
+  EXPECT_NE(cam["sources"]["ego_speed"].get<std::string>().find("; smoothed over the clip with the readings'"),
+            std::string::npos)
+      << cam["sources"]["ego_speed"];
   // Every frame carries the pitch, its speed and yaw rate (source video) and the clip's ego track.
   std::vector<double> speeds, yaw_rates;
   for (const Frame& f : frames) {

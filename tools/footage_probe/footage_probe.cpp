@@ -307,7 +307,12 @@ int main(int argc, char** argv) {
       cv::imwrite(debug_dir + name, f);
     }
   }
-  const auto smooth = hf::footage::smooth_ego_motion(raw);
+  hf::footage::SmoothReport smoothing;
+  const auto smooth = hf::footage::smooth_ego_motion(raw, {}, &smoothing);
+  out["smoother"] = {{"noise_scale", num(smoothing.noise_scale)},
+                     {"scatter_frames", smoothing.scatter_frames},
+                     {"rejected", smoothing.rejected},
+                     {"restarts", smoothing.restarts}};
   out["odometry_ms_per_frame"] = num(odo_ms / clip.frames.size());  // with the far-scene tracker, as in the source
   out["far_scene_ms_per_frame"] = num(far_ms / clip.frames.size());
   out["bonnet_rows"] = odo.bonnet_rows();

@@ -17,9 +17,12 @@ using Mat3 = cv::Matx33d;
 
 }  // namespace
 
-std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample>& raw, SmoothOptions opt) {
+std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample>& raw, SmoothOptions opt,
+                                               SmoothReport* report) {
+  SmoothReport rep;
   const size_t n = raw.size();
   std::vector<EgoMotionSample> out = raw;
+  if (report) *report = rep;
   if (n == 0) return out;
 
   // 1. Median pre-gate against the neighbours: a single wild measurement (a truck filling the road, a bump)
@@ -63,6 +66,8 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
     const double spread = 1.4826 * detail::median(residual) / std::sqrt(1.0 + M_PI / (2.0 * (2 * w + 1)));
     if (std::isfinite(spread)) noise_scale = std::max(1.0, spread);
   }
+  rep.noise_scale = noise_scale;
+  rep.scatter_frames = static_cast<int>(residual.size());
 
   // 2. Forward Kalman filter over x = (speed, acceleration, yaw rate).
   std::vector<Vec3> xf(n), xp(n);
@@ -109,8 +114,10 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
       if (outlier) ++rejected_run;
       if (outlier && rejected_run < opt.restart_after) {
         use[i] = false;
+        ++rep.rejected;
       } else {
         if (outlier) {
+          ++rep.restarts;
           // Several measurements in a row disagree with the filter, and with each other they passed the median
           // gate: the filter, not the road, is wrong (it locked on a bad start). Restart from this measurement.
           // The state is then this measurement; it is not applied a second time.
@@ -168,6 +175,7 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
     o.measured = use[k];
     o.yaw_measured = use[k] || yaw_used[k];
   }
+  if (report) *report = rep;
   return out;
 }
 

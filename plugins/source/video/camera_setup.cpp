@@ -495,7 +495,8 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
       est ? footage::with_travel_column({}, camera_, est->travel_x) : footage::LeverArmOptions{};
   const footage::LeverArmScale lever =
       footage::apply_lever_arm(raw, camera_.cam_to_ego({0, 0, 0})[0], lever_opt);
-  const auto smooth = footage::smooth_ego_motion(raw);
+  footage::SmoothReport smoothing;
+  const auto smooth = footage::smooth_ego_motion(raw, {}, &smoothing);
   size_t measured = 0;
   for (const auto& r : raw) measured += r.measured ? 1 : 0;
   if (measured == 0) {
@@ -548,6 +549,16 @@ void CameraSetup::estimate_from_footage(const FramePass& open_pass, int64_t fram
              : std::string(lane_column ? "from the lane lines' vanishing point"
                                                                     : "assumed 0")) +
         ")";
+  // How the whole-clip smoother weighed the readings.
+  const bool too_few = smoothing.scatter_frames < footage::SmoothOptions{}.min_scatter_samples;
+  ego_speed += "; smoothed over the clip with ";
+  ego_speed += smoothing.noise_scale > 1.0
+                   ? "the readings' sigmas scaled by " + std::to_string(smoothing.noise_scale).substr(0, 4) +
+                         " to their own scatter over " + std::to_string(smoothing.scatter_frames) + " frames"
+                   : "the readings' own sigmas (their scatter over " + std::to_string(smoothing.scatter_frames) +
+                         " frames " + (too_few ? "too few to tell" : "within them") + ")";
+  ego_speed += ", " + std::to_string(smoothing.rejected) + " readings rejected, " +
+               std::to_string(smoothing.restarts) + " restarts";
   provenance_["ego_speed"] = ego_speed + ")";
   size_t turned = 0;
   for (const auto& r : raw) turned += r.yaw_measured ? 1 : 0;

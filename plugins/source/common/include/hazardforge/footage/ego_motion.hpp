@@ -184,6 +184,14 @@ std::optional<double> ground_pitch_offset(const CameraModel& camera, const std::
 // Filters a whole clip's raw samples (forward Kalman + RTS smoother over speed, acceleration, yaw rate), with
 // outlier rejection, so every frame gets a value and a sigma. Samples marked measured on output are the raw
 // measurements that were kept; rejected ones come back measured=false with filled values.
-std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample>& raw, SmoothOptions opt = {});
+// `report`, when given, says how the filter treated the clip's readings.
+struct SmoothReport {
+  double noise_scale = 1.0;  // the raw speeds' sigmas were multiplied by this (their scatter; >= 1)
+  int scatter_frames = 0;    // frames whose residuals measured that scatter
+  int rejected = 0;          // readings the filter's gate dropped (not counting the median pre-gate's)
+  int restarts = 0;          // times the filter restarted from readings that kept disagreeing with it
+};
+std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample>& raw, SmoothOptions opt = {},
+                                               SmoothReport* report = nullptr);
 
 }  // namespace hf::footage
