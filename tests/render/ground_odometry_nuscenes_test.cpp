@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -14,7 +15,9 @@
 #include "ground_odometry_stage.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "nuscenes_source.hpp"
+#include "temp_dir.hpp"
 #include "test_support.hpp"
+#include "video_source.hpp"
 
 namespace hf::render {
 namespace {
@@ -90,6 +93,58 @@ TEST(EgoMotionNuScenes, GroundOdometryOnKeyframesAgainstThePoses) {
   EXPECT_LT(worst, 3.0);
   RecordProperty("worst_2s_error_m", std::to_string(worst));
   std::cout << "worst 2 s dead-reckoning error: " << worst << " m\n";
+}
+
+// The issue's own measure of the video's ego speed: the scene's 41 CAM_FRONT keyframes as a plain image folder
+// (000.jpg ... 040.jpg, no tables, no calibration, no times in the names) at a stated 2 fps, nothing else
+// stated; every frame's smoothed speed against the poses' central difference at that keyframe (the mean of the
+// two intervals' speeds around it, weighted by their lengths). docs/footage-geometry.md: 8.3 %, no frame beyond
+// 20 %; the goal is 10 %.
+TEST(EgoMotionNuScenes, TheVideoSourceOnThePlainKeyframeFolderAgainstThePoses) {
+  const auto root = hf::test::shared_data("nuscenes");
+  HF_REQUIRE_SHARED(root / "v1.0-mini" / "ego_pose.json");
+  auto src = hf::testing::StageRunner::create<source::NuScenesSource>("dataroot: " + root.string() +
+                                                                      "\nscenes: [scene-0916]");
+  src.run();
+  const auto frames = src.collect<Frame>("frames");
+  ASSERT_EQ(frames.size(), 41u);
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(root / "samples" / "CAM_FRONT")) files.push_back(e.path());
+  std::sort(files.begin(), files.end());  // the dataset's names carry the times: this is the scene's order
+  ASSERT_EQ(files.size(), 41u);
+  hf::test::TempDir dir;
+  for (size_t k = 0; k < files.size(); ++k) {
+    const std::string n = std::to_string(k);
+    std::filesystem::create_symlink(std::filesystem::absolute(files[k]),
+                                    dir / (std::string(3 - n.size(), '0') + n + ".jpg"));
+  }
+  auto video = hf::testing::StageRunner::create<source::VideoSource>("{path: '" + dir.path().string() +
+                                                                     "', fps: 2}");
+  video.run();
+  ASSERT_EQ(video.collect<Frame>("frames").size(), 41u);
+  std::ifstream in(video.output_dir() / "ego_motion.jsonl");
+  std::vector<double> speed;
+  for (std::string l; std::getline(in, l);) speed.push_back(Json::parse(l)["speed_mps"].get<double>());
+  ASSERT_EQ(speed.size(), 41u);
+  // The poses' speed over each interval, and at each keyframe.
+  std::vector<double> v(41, 0.0), dt(41, 0.0);
+  for (size_t i = 1; i < 41; ++i) {
+    const cv::Matx44d gt = invert_rigid(*frames[i - 1].ego.T_world_ego) * *frames[i].ego.T_world_ego;
+    dt[i] = frames[i].timestamp - frames[i - 1].timestamp;
+    v[i] = std::hypot(gt(0, 3), gt(1, 3)) / dt[i];
+  }
+  std::vector<double> rel;
+  int beyond = 0;
+  for (size_t k = 0; k < 41; ++k) {
+    const double truth = k == 0 ? v[1] : k == 40 ? v[40] : (v[k] * dt[k] + v[k + 1] * dt[k + 1]) / (dt[k] + dt[k + 1]);
+    rel.push_back(std::abs(speed[k] - truth) / truth);
+    beyond += rel.back() > 0.2 ? 1 : 0;
+  }
+  std::sort(rel.begin(), rel.end());
+  std::cout << "video source on the plain keyframe folder: median relative speed error " << rel[20] << ", "
+            << beyond << " frames beyond 20 %, largest " << rel.back() << "\n";
+  EXPECT_LT(rel[20], 0.10);
+  EXPECT_LE(beyond, 3);
 }
 
 }  // namespace
