@@ -22,13 +22,18 @@
 namespace hf::render {
 namespace {
 
-TEST(EgoMotionNuScenes, GroundOdometryOnKeyframesAgainstThePoses) {
-  const auto root = hf::test::shared_data("nuscenes");
-  HF_REQUIRE_SHARED(root / "v1.0-mini" / "ego_pose.json");
+// scene-0916's 41 keyframes as NuScenesSource gives them (poses, speeds, the calibrated camera).
+std::vector<Frame> scene_keyframes(const std::filesystem::path& root) {
   auto src = hf::testing::StageRunner::create<source::NuScenesSource>("dataroot: " + root.string() +
                                                                       "\nscenes: [scene-0916]");
   src.run();
-  const auto frames = src.collect<Frame>("frames");
+  return src.collect<Frame>("frames");
+}
+
+TEST(EgoMotionNuScenes, GroundOdometryOnKeyframesAgainstThePoses) {
+  const auto root = hf::test::shared_data("nuscenes");
+  HF_REQUIRE_SHARED(root / "v1.0-mini" / "ego_pose.json");
+  const auto frames = scene_keyframes(root);
   ASSERT_EQ(frames.size(), 41u);
   auto odo = hf::testing::StageRunner::create<filter::GroundOdometryStage>("replace: true");
   for (const Frame& f : frames) {
@@ -103,10 +108,7 @@ TEST(EgoMotionNuScenes, GroundOdometryOnKeyframesAgainstThePoses) {
 TEST(EgoMotionNuScenes, TheVideoSourceOnThePlainKeyframeFolderAgainstThePoses) {
   const auto root = hf::test::shared_data("nuscenes");
   HF_REQUIRE_SHARED(root / "v1.0-mini" / "ego_pose.json");
-  auto src = hf::testing::StageRunner::create<source::NuScenesSource>("dataroot: " + root.string() +
-                                                                      "\nscenes: [scene-0916]");
-  src.run();
-  const auto frames = src.collect<Frame>("frames");
+  const auto frames = scene_keyframes(root);
   ASSERT_EQ(frames.size(), 41u);
   std::vector<std::filesystem::path> files;
   for (const auto& e : std::filesystem::directory_iterator(root / "samples" / "CAM_FRONT")) files.push_back(e.path());
