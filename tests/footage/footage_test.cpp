@@ -747,6 +747,8 @@ TEST(EgoMotionSmoother, ARestartStartsFromItsMeasurementWithItsVariance) {
   EXPECT_DOUBLE_EQ(out[22].speed_mps, 24.0);
   const double rv = 0.3 * 0.3 + opt.speed_sigma_floor * opt.speed_sigma_floor;
   EXPECT_NEAR(out[22].speed_sigma, std::sqrt(rv + 1.0), 1e-9);
+  const double rw = 0.01 * 0.01 + opt.yaw_sigma_floor * opt.yaw_sigma_floor;  // nor is its yaw rate
+  EXPECT_NEAR(out[22].yaw_rate_sigma, std::sqrt(rw + 0.01), 1e-9);
 }
 
 // Raw speeds that scatter more than their sigmas say (the Udacity clip's road view claims 0.2-0.3 m/s and

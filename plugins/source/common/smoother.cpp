@@ -22,8 +22,10 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
   SmoothReport rep;
   const size_t n = raw.size();
   std::vector<EgoMotionSample> out = raw;
-  if (report) *report = rep;
-  if (n == 0) return out;
+  if (n == 0) {
+    if (report) *report = rep;
+    return out;
+  }
 
   // 1. Median pre-gate against the neighbours: a single wild measurement (a truck filling the road, a bump)
   //    must not drag the filter before its innovation gate has something to compare with.
@@ -120,7 +122,7 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
           ++rep.restarts;
           // Several measurements in a row disagree with the filter, and with each other they passed the median
           // gate: the filter, not the road, is wrong (it locked on a bad start). Restart from this measurement.
-          // The state is then this measurement; it is not applied a second time.
+          // The state is then this measurement (speed and yaw rate); it is not applied a second time.
           x = Vec3(s.speed_mps, 0.0, s.yaw_rate);
           P = Mat3::diag(cv::Vec3d(rv + 1.0, 4.0, rw + 0.01));
         } else {
@@ -128,12 +130,12 @@ std::vector<EgoMotionSample> smooth_ego_motion(const std::vector<EgoMotionSample
           const Vec3 kv = ph * (1.0 / sv);
           x = x + kv * iv;
           P = P - kv * ph.t();
+          const double sw2 = P(2, 2) + rw;
+          Vec3 kw(P(0, 2) / sw2, P(1, 2) / sw2, P(2, 2) / sw2);
+          x = x + kw * (s.yaw_rate - x(2));
+          P = P - kw * Vec3(P(2, 0), P(2, 1), P(2, 2)).t();
         }
         rejected_run = 0;
-        const double sw2 = P(2, 2) + rw;
-        Vec3 kw(P(0, 2) / sw2, P(1, 2) / sw2, P(2, 2) / sw2);
-        x = x + kw * (s.yaw_rate - x(2));
-        P = P - kw * Vec3(P(2, 0), P(2, 1), P(2, 2)).t();
       }
     }
     if (!use[i] && raw[i].yaw_measured && std::isfinite(raw[i].yaw_rate)) {
