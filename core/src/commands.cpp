@@ -26,7 +26,8 @@ std::string num(double v) {
 std::string param_line(const ParamSpec& p) {
   std::ostringstream os;
   os << p.name << " (" << param_type_name(p.type);
-  if (p.required()) os << ", required";
+  if (p.required())
+    os << ", required";
   else
     os << ", default " << hf::json_text(p.default_value);
   if (p.min || p.max) {
@@ -43,8 +44,10 @@ std::string param_line(const ParamSpec& p) {
 
 std::string port_flags(const PortSpec& p) {
   std::string f;
-  if (p.sticky) f += " sticky";
-  else if (p.optional) f += " optional";
+  if (p.sticky)
+    f += " sticky";
+  else if (p.optional)
+    f += " optional";
   if (p.multi) f += " multi";
   return f;
 }
@@ -84,7 +87,8 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
     if (!i.inputs.empty() || !i.outputs.empty()) {
       os << "| port | direction | type | flags | description |\n|---|---|---|---|---|\n";
       for (const auto& p : i.inputs)
-        os << "| `" << p.name << "` | in | " << p.type_str() << " |" << port_flags(p) << " | " << p.doc << " |\n";
+        os << "| `" << p.name << "` | in | " << p.type_str() << " |" << port_flags(p) << " | " << p.doc
+           << " |\n";
       for (const auto& p : i.outputs)
         os << "| `" << p.name << "` | out | " << p.type_str() << " | | " << p.doc << " |\n";
       os << "\n";
@@ -101,7 +105,8 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
         for (const auto& ch : p.choices) range += (range.empty() ? "" : ", ") + ch;
         os << "| `" << p.name << "` | " << param_type_name(p.type) << " | "
            << (p.required() ? std::string("*required*") : "`" + hf::json_text(p.default_value) + "`") << " | "
-           << range << " | " << p.doc << (p.scene_key.empty() ? "" : " (scene: `" + p.scene_key + "`)") << " |\n";
+           << range << " | " << p.doc << (p.scene_key.empty() ? "" : " (scene: `" + p.scene_key + "`)")
+           << " |\n";
       }
       os << "\n";
     }
@@ -120,12 +125,14 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
   if (!i.outputs.empty()) {
     os << "\noutputs:\n";
     for (const auto& p : i.outputs)
-      os << "  " << std::left << std::setw(14) << p.name << " " << p.type_str() << (p.doc.empty() ? "" : "  — " + p.doc)
-         << "\n";
+      os << "  " << std::left << std::setw(14) << p.name << " " << p.type_str()
+         << (p.doc.empty() ? "" : "  — " + p.doc) << "\n";
   }
   if (!i.params.empty()) {
     os << "\nparams:\n";
-    for (const auto& p : i.params) os << "  " << param_line(p) << (p.doc.empty() ? "" : "\n      " + p.doc) << (p.scene_key.empty() ? "" : "\n      from scene." + p.scene_key) << "\n";
+    for (const auto& p : i.params)
+      os << "  " << param_line(p) << (p.doc.empty() ? "" : "\n      " + p.doc)
+         << (p.scene_key.empty() ? "" : "\n      from scene." + p.scene_key) << "\n";
   }
   return os.str();
 }
@@ -145,7 +152,8 @@ FrameWindow parse_frame_window(const std::string& text) {
       throw Error("--frames '" + text + "': '" + part + "' is not a frame index (0, 1, 2, ...)");
     return v;
   };
-  if (colon == std::string::npos) throw Error("--frames '" + text + "': expected FIRST:LAST, e.g. 12:40 or 12:");
+  if (colon == std::string::npos)
+    throw Error("--frames '" + text + "': expected FIRST:LAST, e.g. 12:40 or 12:");
   FrameWindow w{number(text.substr(0, colon), 0), number(text.substr(colon + 1), -1)};
   if (w.last >= 0 && w.last < w.first)
     throw Error("--frames '" + text + "': the last frame comes before the first");
@@ -157,8 +165,8 @@ int cmd_run(Host& host, const CommonOptions& o) {
   if (!out.message.empty()) std::cerr << redact_urls(out.message) << "\n";
   if (out.result && out.exit_code == 0) {
     const RunResult& r = *out.result;
-    std::cerr << "done: " << r.frames << " frames in " << std::fixed << std::setprecision(1) << r.wall_s << " s ("
-              << (r.wall_s > 0 ? static_cast<double>(r.frames) / r.wall_s : 0.0) << " frames/s) -> "
+    std::cerr << "done: " << r.frames << " frames in " << std::fixed << std::setprecision(1) << r.wall_s
+              << " s (" << (r.wall_s > 0 ? static_cast<double>(r.frames) / r.wall_s : 0.0) << " frames/s) -> "
               << out.output_dir.string() << "\n";
   }
   return out.exit_code;
@@ -226,20 +234,22 @@ int cmd_inspect_all(Host& host, bool markdown) {
   std::vector<const RegisteredComponent*> all;
   for (const auto& c : host.registry().all()) all.push_back(&c);
   // Grouped by kind in pipeline order, then by name, so the generated page is stable.
-  const std::vector<std::string> order = {kind::kSource,   kind::kDetector,  kind::kTracker,     kind::kEstimator,
-                                          kind::kRiskMetric, kind::kGenerator, kind::kLlmProvider, kind::kPlanner,
-                                          kind::kHazardTemplate, kind::kRenderer, kind::kVerifier, kind::kFilter,
-                                          kind::kSink};
+  const std::vector<std::string> order = {
+      kind::kSource,    kind::kDetector,    kind::kTracker, kind::kEstimator,      kind::kRiskMetric,
+      kind::kGenerator, kind::kLlmProvider, kind::kPlanner, kind::kHazardTemplate, kind::kRenderer,
+      kind::kVerifier,  kind::kFilter,      kind::kSink};
   auto rank = [&](const std::string& k) {
     auto it = std::find(order.begin(), order.end(), k);
     return static_cast<size_t>(it - order.begin());
   };
   std::sort(all.begin(), all.end(), [&](const auto* a, const auto* b) {
-    return std::make_pair(rank(a->info.kind), a->info.name) < std::make_pair(rank(b->info.kind), b->info.name);
+    return std::make_pair(rank(a->info.kind), a->info.name) <
+           std::make_pair(rank(b->info.kind), b->info.name);
   });
   if (markdown)
-    std::cout << "# Stage and component reference\n\nGenerated by `hazardforge inspect --all --markdown`; do not "
-                 "edit by hand (a test checks it matches the code).\n\n";
+    std::cout
+        << "# Stage and component reference\n\nGenerated by `hazardforge inspect --all --markdown`; do not "
+           "edit by hand (a test checks it matches the code).\n\n";
   std::string last_kind;
   for (const auto* c : all) {
     if (markdown && c->info.kind != last_kind) std::cout << "## " << c->info.kind << "\n\n";
@@ -275,7 +285,8 @@ int cmd_eval(Host& host, const CommonOptions& o) {
     ++printed;
   }
   if (printed == 0) {
-    std::cerr << "error: " << o.config << ": the run wrote no report.md — does the graph have an evaluation sink?\n";
+    std::cerr << "error: " << o.config
+              << ": the run wrote no report.md — does the graph have an evaluation sink?\n";
     return 1;
   }
   return 0;

@@ -5,8 +5,8 @@
 #include <dlfcn.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 #include "hazardforge/geometry.hpp"
@@ -15,15 +15,24 @@ namespace hf {
 
 const char* param_type_name(ParamType t) {
   switch (t) {
-    case ParamType::kBool: return "bool";
-    case ParamType::kInt: return "int";
-    case ParamType::kDouble: return "number";
-    case ParamType::kString: return "string";
-    case ParamType::kPath: return "path";
-    case ParamType::kIntList: return "list of int";
-    case ParamType::kDoubleList: return "list of number";
-    case ParamType::kStringList: return "list of string";
-    case ParamType::kObject: return "mapping";
+    case ParamType::kBool:
+      return "bool";
+    case ParamType::kInt:
+      return "int";
+    case ParamType::kDouble:
+      return "number";
+    case ParamType::kString:
+      return "string";
+    case ParamType::kPath:
+      return "path";
+    case ParamType::kIntList:
+      return "list of int";
+    case ParamType::kDoubleList:
+      return "list of number";
+    case ParamType::kStringList:
+      return "list of string";
+    case ParamType::kObject:
+      return "mapping";
   }
   return "?";
 }
@@ -38,7 +47,9 @@ ParamSpec make(std::string name, ParamType t, Json def) {
 }
 }  // namespace
 
-ParamSpec ParamSpec::boolean(std::string name, bool def) { return make(std::move(name), ParamType::kBool, def); }
+ParamSpec ParamSpec::boolean(std::string name, bool def) {
+  return make(std::move(name), ParamType::kBool, def);
+}
 ParamSpec ParamSpec::integer(std::string name, std::optional<long long> def) {
   return make(std::move(name), ParamType::kInt, def ? Json(*def) : Json());
 }
@@ -82,14 +93,17 @@ ParamSpec& ParamSpec::from_scene(std::string key) {
   return *this;
 }
 
-// ---- Params ----------------------------------------------------------------------------------------------------
+// ---- Params
+// ----------------------------------------------------------------------------------------------------
 
 Params::Params(Json values, std::filesystem::path base_dir)
     : values_(std::move(values)), base_dir_(std::move(base_dir)) {
   if (!values_.is_object()) values_ = Json::object();
 }
 
-bool Params::has(const std::string& name) const { return values_.contains(name) && !values_[name].is_null(); }
+bool Params::has(const std::string& name) const {
+  return values_.contains(name) && !values_[name].is_null();
+}
 
 const Json& Params::raw(const std::string& name) const {
   auto it = values_.find(name);
@@ -147,7 +161,8 @@ std::vector<std::string> Params::get_strings(const std::string& name) const {
   return out;
 }
 
-// ---- validation --------------------------------------------------------------------------------------------------
+// ---- validation
+// --------------------------------------------------------------------------------------------------
 
 std::string nearest_name(const std::string& name, const std::vector<std::string>& candidates) {
   auto lower = [](std::string s) {
@@ -198,15 +213,23 @@ bool type_ok(ParamType t, const Json& v) {
     return std::all_of(v.begin(), v.end(), pred);
   };
   switch (t) {
-    case ParamType::kBool: return v.is_boolean();
-    case ParamType::kInt: return v.is_number_integer();
-    case ParamType::kDouble: return v.is_number();
+    case ParamType::kBool:
+      return v.is_boolean();
+    case ParamType::kInt:
+      return v.is_number_integer();
+    case ParamType::kDouble:
+      return v.is_number();
     case ParamType::kString:
-    case ParamType::kPath: return v.is_string();
-    case ParamType::kIntList: return all_of([](const Json& e) { return e.is_number_integer(); });
-    case ParamType::kDoubleList: return all_of([](const Json& e) { return e.is_number(); });
-    case ParamType::kStringList: return all_of([](const Json& e) { return e.is_string(); });
-    case ParamType::kObject: return v.is_object();
+    case ParamType::kPath:
+      return v.is_string();
+    case ParamType::kIntList:
+      return all_of([](const Json& e) { return e.is_number_integer(); });
+    case ParamType::kDoubleList:
+      return all_of([](const Json& e) { return e.is_number(); });
+    case ParamType::kStringList:
+      return all_of([](const Json& e) { return e.is_string(); });
+    case ParamType::kObject:
+      return v.is_object();
   }
   return false;
 }
@@ -219,7 +242,8 @@ Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, con
   const size_t before = diags.size();
   auto err = [&](const std::string& key, std::string msg) {
     auto it = locs.find(key);
-    diags.push_back({Diagnostic::Severity::kError, it != locs.end() ? it->second : owner_loc, std::move(msg)});
+    diags.push_back(
+        {Diagnostic::Severity::kError, it != locs.end() ? it->second : owner_loc, std::move(msg)});
   };
   Json out = Json::object();
   if (!given.is_null() && !given.is_object()) {
@@ -241,9 +265,9 @@ Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, con
     const bool present = given.is_object() && given.contains(s.name) && !given[s.name].is_null();
     if (!present) {
       if (s.required()) {
-        diags.push_back({Diagnostic::Severity::kError, owner_loc,
-                         what + ": required parameter '" + s.name + "' (" + param_type_name(s.type) +
-                             ") is missing"});
+        diags.push_back(
+            {Diagnostic::Severity::kError, owner_loc,
+             what + ": required parameter '" + s.name + "' (" + param_type_name(s.type) + ") is missing"});
       } else {
         out[s.name] = s.default_value;
       }
@@ -263,7 +287,8 @@ Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, con
     }
     auto check_range = [&](double x) {
       if ((s.min && x < *s.min) || (s.max && x > *s.max)) {
-        err(s.name, what + ": parameter '" + s.name + "' = " + fmt_num(x) + " is out of range " + range_text(s));
+        err(s.name,
+            what + ": parameter '" + s.name + "' = " + fmt_num(x) + " is out of range " + range_text(s));
         return false;
       }
       return true;
@@ -304,7 +329,8 @@ Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, con
 
 }  // namespace hf
 
-// ---- variables ---------------------------------------------------------------------------------------------------
+// ---- variables
+// ---------------------------------------------------------------------------------------------------
 
 namespace hf {
 
@@ -358,8 +384,9 @@ std::string expand_vars(const std::string& text, const std::map<std::string, std
       }
       if (!found) {
         if (!has_def)
-          throw Error("undefined variable ${" + name + "}" +
-                      (name == "HAZARDFORGE_SHARED" ? " (set it to the folder holding data/ and models/)" : ""));
+          throw Error(
+              "undefined variable ${" + name + "}" +
+              (name == "HAZARDFORGE_SHARED" ? " (set it to the folder holding data/ and models/)" : ""));
         value = def;
       }
       out += value;

@@ -8,7 +8,8 @@
 
 namespace hf {
 
-// ---- CameraModel -------------------------------------------------------------------------------------------------
+// ---- CameraModel
+// -------------------------------------------------------------------------------------------------
 
 double CameraModel::pitch() const {
   // Optical axis (camera z) in ego axes; pitch is its downward angle.
@@ -25,16 +26,20 @@ double CameraModel::roll() const {
 }
 
 std::optional<double> CameraModel::horizon_y(double x) const {
-  // Points at infinity on the ground plane: directions d = (cos a, sin a, 0) in ego axes. The vanishing line is
-  // the set of pixels whose viewing ray has zero ego z: n . K^-1 (x, y, 1) = 0 with n = R^T e_z.
+  // Points at infinity on the ground plane: directions d = (cos a, sin a, 0) in ego axes. The vanishing line
+  // is the set of pixels whose viewing ray has zero ego z: n . K^-1 (x, y, 1) = 0 with n = R^T e_z.
   const cv::Vec3d n = R_ego_cam.t() * cv::Vec3d(0, 0, 1);  // ego up in camera axes
   // ray_cam = ((x - cx)/fx, (y - cy)/fy, 1); n0*(x-cx)/fx + n1*(y-cy)/fy + n2 = 0
   if (std::abs(n[1]) < 1e-12) return std::nullopt;
   return cy - fy * (n[0] * (x - cx) / fx + n[2]) / n[1];
 }
 
-cv::Vec3d CameraModel::ego_to_cam(const cv::Vec3d& p_ego) const { return R_ego_cam.t() * (p_ego - t_ego_cam); }
-cv::Vec3d CameraModel::cam_to_ego(const cv::Vec3d& p_cam) const { return R_ego_cam * p_cam + t_ego_cam; }
+cv::Vec3d CameraModel::ego_to_cam(const cv::Vec3d& p_ego) const {
+  return R_ego_cam.t() * (p_ego - t_ego_cam);
+}
+cv::Vec3d CameraModel::cam_to_ego(const cv::Vec3d& p_cam) const {
+  return R_ego_cam * p_cam + t_ego_cam;
+}
 
 std::optional<cv::Point2d> CameraModel::project_cam(const cv::Vec3d& p) const {
   if (p[2] <= 0.01) return std::nullopt;
@@ -85,7 +90,8 @@ CameraModel CameraModel::pinhole(int w, int h, double fx, double fy, double cx, 
   return c;
 }
 
-// ---- EgoTrack ---------------------------------------------------------------------------------------------------
+// ---- EgoTrack
+// ---------------------------------------------------------------------------------------------------
 
 void EgoTrack::validate(const std::string& where) const {
   for (size_t k = 0; k < samples.size(); ++k) {
@@ -119,7 +125,9 @@ EgoTrackSample EgoTrack::at(double t) const {
   return r;
 }
 
-const char* to_string(SafetyLabel l) { return l == SafetyLabel::kUnsafe ? "Unsafe" : "Safe"; }
+const char* to_string(SafetyLabel l) {
+  return l == SafetyLabel::kUnsafe ? "Unsafe" : "Safe";
+}
 
 std::optional<TrajectoryPoint> HazardTrajectory::at(double t) const {
   if (points.empty() || t < points.front().t - 1e-9 || t > points.back().t + 1e-9) return std::nullopt;
@@ -175,22 +183,29 @@ std::optional<TrajectoryPoint> HazardTrajectory::continued_at(double t) const {
   return p;
 }
 
-// ---- JSON ----------------------------------------------------------------------------------------------------------
+// ---- JSON
+// ----------------------------------------------------------------------------------------------------------
 
-Json finite_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(); }
+Json finite_or_null(double v) {
+  return std::isfinite(v) ? Json(v) : Json();
+}
 
 namespace {
-Json rect(const cv::Rect2f& r) { return Json::array({r.x, r.y, r.width, r.height}); }
+Json rect(const cv::Rect2f& r) {
+  return Json::array({r.x, r.y, r.width, r.height});
+}
 template <class T>
 Json opt(const std::optional<T>& v) {
   return v ? Json(*v) : Json();
 }
-Json optd(const std::optional<double>& v) { return v ? finite_or_null(*v) : Json(); }
+Json optd(const std::optional<double>& v) {
+  return v ? finite_or_null(*v) : Json();
+}
 }  // namespace
 
 void to_json(Json& j, const CameraModel& v) {
-  j = {{"width", v.width}, {"height", v.height}, {"fx", v.fx}, {"fy", v.fy}, {"cx", v.cx}, {"cy", v.cy},
-       {"distortion", v.distortion}};
+  j = {{"width", v.width}, {"height", v.height},        {"fx", v.fx}, {"fy", v.fy}, {"cx", v.cx},
+       {"cy", v.cy},       {"distortion", v.distortion}};
   Json R = Json::array();
   for (int r = 0; r < 3; ++r) R.push_back({v.R_ego_cam(r, 0), v.R_ego_cam(r, 1), v.R_ego_cam(r, 2)});
   j["R_ego_cam"] = R;
@@ -221,12 +236,15 @@ void to_json(Json& j, const Detections& v) {
   j = {{"frame", v.frame_index}, {"detector", v.detector}, {"items", v.items}};
 }
 void to_json(Json& j, const Track& v) {
-  j = {{"id", v.id},       {"box", rect(v.box)},   {"label", v.label},
-       {"score", v.score}, {"age", v.age},         {"hits", v.hits},
+  j = {{"id", v.id},         {"box", rect(v.box)},
+       {"label", v.label},   {"score", v.score},
+       {"age", v.age},       {"hits", v.hits},
        {"misses", v.misses}, {"velocity_px", {v.velocity_px.x, v.velocity_px.y}}};
   if (v.truncated) j["truncated"] = v.truncated;
 }
-void to_json(Json& j, const Tracks& v) { j = {{"frame", v.frame_index}, {"tracker", v.tracker}, {"items", v.items}}; }
+void to_json(Json& j, const Tracks& v) {
+  j = {{"frame", v.frame_index}, {"tracker", v.tracker}, {"items", v.items}};
+}
 void to_json(Json& j, const ObjectState& v) {
   j = {{"track_id", v.track_id},
        {"label", v.label},
@@ -329,7 +347,8 @@ void from_json(const Json& j, HazardSpec& v) {
   v.start_time_s = j.value("start_time_s", 0.0);
   if (j.contains("deceleration_mps2") && !j["deceleration_mps2"].is_null())
     v.deceleration_mps2 = j["deceleration_mps2"].get<double>();
-  if (j.contains("target_ttc_s") && !j["target_ttc_s"].is_null()) v.target_ttc_s = j["target_ttc_s"].get<double>();
+  if (j.contains("target_ttc_s") && !j["target_ttc_s"].is_null())
+    v.target_ttc_s = j["target_ttc_s"].get<double>();
   v.extra = j.value("extra", Json::object());
   v.rationale = j.value("rationale", std::string());
   v.provenance = j.value("provenance", Json::object());
@@ -370,7 +389,9 @@ void to_json(Json& j, const HazardInstance& v) {
                        {"lateral_shift_m", v.taken_over->lateral_shift_m}};
 }
 void to_json(Json& j, const AppearanceStats& v) {
-  auto vec = [](const cv::Vec3d& x) { return Json::array({finite_or_null(x[0]), finite_or_null(x[1]), finite_or_null(x[2])}); };
+  auto vec = [](const cv::Vec3d& x) {
+    return Json::array({finite_or_null(x[0]), finite_or_null(x[1]), finite_or_null(x[2])});
+  };
   j = {{"label", v.label},
        {"box", rect(v.box)},
        {"edge_contrast", finite_or_null(v.edge_contrast)},
@@ -386,7 +407,9 @@ void to_json(Json& j, const AppearanceStats& v) {
        {"aspect", finite_or_null(v.aspect)}};
   if (!v.source.empty()) j["source"] = v.source;
 }
-void to_json(Json& j, const Record& v) { j = {{"kind", v.kind}, {"data", v.data}}; }
+void to_json(Json& j, const Record& v) {
+  j = {{"kind", v.kind}, {"data", v.data}};
+}
 void to_json(Json& j, const AnnotatedObject& v) {
   j = {{"instance", v.instance_id},
        {"category", v.category},
@@ -399,7 +422,8 @@ void to_json(Json& j, const AnnotatedObject& v) {
 }
 void to_json(Json& j, const Annotations& v) {
   j = {{"objects", v.objects}};
-  if (v.ego_velocity_ego) j["ego_velocity_ego"] = {(*v.ego_velocity_ego)[0], (*v.ego_velocity_ego)[1], (*v.ego_velocity_ego)[2]};
+  if (v.ego_velocity_ego)
+    j["ego_velocity_ego"] = {(*v.ego_velocity_ego)[0], (*v.ego_velocity_ego)[1], (*v.ego_velocity_ego)[2]};
 }
 void to_json(Json& j, const LaneMarkingSide& v) {
   j = {{"line", v.boundary}, {"colour", v.colour}, {"lanes_beyond", v.lanes}, {"seen_share", v.seen_share}};
@@ -408,12 +432,8 @@ void to_json(Json& j, const RoadMarkings& v) {
   j = {{"source", v.source}, {"frames", v.frames}, {"left", v.left}, {"right", v.right}, {"note", v.note}};
 }
 void to_json(Json& j, const Frame& v) {
-  j = {{"index", v.index},
-       {"timestamp", v.timestamp},
-       {"source_id", v.source_id},
-       {"width", v.image.cols},
-       {"height", v.image.rows},
-       {"ego_speed_mps", optd(v.ego.speed_mps)},
+  j = {{"index", v.index},      {"timestamp", v.timestamp}, {"source_id", v.source_id},
+       {"width", v.image.cols}, {"height", v.image.rows},   {"ego_speed_mps", optd(v.ego.speed_mps)},
        {"meta", v.meta}};
 }
 

@@ -1,6 +1,6 @@
 // A rendered road world seen by a camera of known geometry, for the footage kit's and the sources' tests: a
-// straight road along the world x axis (asphalt noise, dashed lane lines, edge lines, verges), rendered per pixel
-// by inverse mapping (pixel -> ground in the ego frame -> world -> texture).
+// straight road along the world x axis (asphalt noise, dashed lane lines, edge lines, verges), rendered per
+// pixel by inverse mapping (pixel -> ground in the ego frame -> world -> texture).
 #pragma once
 
 #include <algorithm>
@@ -18,15 +18,16 @@ using hf::CameraModel;
 
 constexpr double kDeg = M_PI / 180.0;
 
-// A straight road along the world x axis: asphalt noise (features of ~10 cm), dashed lane lines (3 m dash, 9 m
-// gap) at +-1.75 m and +-5.25 m, solid edge lines at +-7 m, kerb-side grass beyond. Stored as a texture pyramid so
-// that each pixel samples the level matching its ground footprint (no aliasing far away).
+// A straight road along the world x axis: asphalt noise (features of ~10 cm), dashed lane lines (3 m dash, 9
+// m gap) at +-1.75 m and +-5.25 m, solid edge lines at +-7 m, kerb-side grass beyond. Stored as a texture
+// pyramid so that each pixel samples the level matching its ground footprint (no aliasing far away).
 class RoadWorld {
  public:
   static constexpr double kRes = 0.04;  // m per texel at level 0
   static constexpr double kX0 = -20, kY0 = -20;
   RoadWorld() {
-    const int w = static_cast<int>(160 / kRes), h = static_cast<int>(40 / kRes);  // x: -20..140 m, y: -20..20 m
+    const int w = static_cast<int>(160 / kRes),
+              h = static_cast<int>(40 / kRes);  // x: -20..140 m, y: -20..20 m
     cv::Mat noise(h, w, CV_32F);
     cv::RNG rng(1234);
     rng.fill(noise, cv::RNG::NORMAL, 0, 1);
@@ -40,7 +41,8 @@ class RoadWorld {
       for (int c = 0; c < w; ++c) {
         const double x = kX0 + c * kRes;
         if (dashed && std::fmod(x + 1000.0, 12.0) >= 3.0) continue;
-        const int r0 = static_cast<int>((y - width / 2 - kY0) / kRes), r1 = static_cast<int>((y + width / 2 - kY0) / kRes);
+        const int r0 = static_cast<int>((y - width / 2 - kY0) / kRes),
+                  r1 = static_cast<int>((y + width / 2 - kY0) / kRes);
         for (int r = r0; r <= r1; ++r) tex.at<float>(r, c) = 215;
       }
     };
@@ -60,7 +62,8 @@ class RoadWorld {
   }
   // Grey level at world (x, y) for a ground footprint of `foot` metres.
   float sample(double x, double y, double foot) const {
-    const double lev = std::clamp(std::log2(std::max(foot, 1e-6) / kRes), 0.0, static_cast<double>(levels_.size() - 1));
+    const double lev =
+        std::clamp(std::log2(std::max(foot, 1e-6) / kRes), 0.0, static_cast<double>(levels_.size() - 1));
     const int l = static_cast<int>(lev);
     const cv::Mat& t = levels_[l];
     const double s = kRes * std::pow(2.0, l);
@@ -68,8 +71,9 @@ class RoadWorld {
     const int u0 = static_cast<int>(std::floor(u)), v0 = static_cast<int>(std::floor(v));
     if (u0 < 0 || v0 < 0 || u0 + 1 >= t.cols || v0 + 1 >= t.rows) return 70.f;
     const double a = u - u0, b = v - v0;
-    return static_cast<float>((1 - a) * (1 - b) * t.at<float>(v0, u0) + a * (1 - b) * t.at<float>(v0, u0 + 1) +
-                              (1 - a) * b * t.at<float>(v0 + 1, u0) + a * b * t.at<float>(v0 + 1, u0 + 1));
+    return static_cast<float>((1 - a) * (1 - b) * t.at<float>(v0, u0) +
+                              a * (1 - b) * t.at<float>(v0, u0 + 1) + (1 - a) * b * t.at<float>(v0 + 1, u0) +
+                              a * b * t.at<float>(v0 + 1, u0 + 1));
   }
 
  private:
@@ -85,8 +89,8 @@ struct Pose {
   double x = 0, y = 0, yaw = 0;
 };
 
-// Inverse mapping: every pixel's ray meets the ground in the ego frame, the ego pose takes it to the world, the
-// texture gives its grey level. Sky above the horizon (and beyond 150 m) is a smooth gradient.
+// Inverse mapping: every pixel's ray meets the ground in the ego frame, the ego pose takes it to the world,
+// the texture gives its grey level. Sky above the horizon (and beyond 150 m) is a smooth gradient.
 inline cv::Mat render(const CameraModel& cam, const Pose& pose) {
   cv::Mat img(cam.height, cam.width, CV_8UC3);
   const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);

@@ -143,13 +143,14 @@ TEST(EgoPath, SmoothingKeepsTheSpeedAtTheEndsOfAShortTrack) {
   }
 }
 
-// Pose noise while standing (a few centimetres backwards) does not turn the path round: the heading is held, so
-// an object planned along the path ahead stays ahead and keeps its direction.
+// Pose noise while standing (a few centimetres backwards) does not turn the path round: the heading is held,
+// so an object planned along the path ahead stays ahead and keeps its direction.
 TEST(EgoPath, BackwardsNoiseAtAStandstillKeepsTheHeading) {
   std::vector<EgoTrackSample> track;
   double x = 0;
   for (int i = 0; i <= 60; ++i) {
-    const double v = i < 30 ? 2.0 - 2.0 * i / 30.0 : -0.3 * std::exp(-(i - 30) / 10.0);  // stop, then drift back
+    const double v =
+        i < 30 ? 2.0 - 2.0 * i / 30.0 : -0.3 * std::exp(-(i - 30) / 10.0);  // stop, then drift back
     EgoTrackSample s;
     s.t = 0.1 * i;
     s.x = x;
@@ -190,10 +191,12 @@ TEST(EgoPath, MalformedTracksAreNamed) {
   };
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(msg({{0, 1, 2, nan}}), "frame 4: ego track sample 0 has a value that is not finite");
-  EXPECT_EQ(msg({{0, 1, 2, 0}, {0, 1, 2, 0}}),
-            "frame 4: ego track sample 1: t=0.000000 s does not come after the previous sample's t=0.000000 s");
+  EXPECT_EQ(
+      msg({{0, 1, 2, 0}, {0, 1, 2, 0}}),
+      "frame 4: ego track sample 1: t=0.000000 s does not come after the previous sample's t=0.000000 s");
   EXPECT_EQ(msg({{0, 1, 2, 0}}), "frame 4: ego_track has 1 sample(s); a recorded path needs at least two");
-  EXPECT_EQ(msg({{1, 1, 2, 0}, {2, 2, 2, 0}}), "frame 4: the anchor time 0.25 s is outside the ego_track's span [1, 2] s");
+  EXPECT_EQ(msg({{1, 1, 2, 0}, {2, 2, 2, 0}}),
+            "frame 4: the anchor time 0.25 s is outside the ego_track's span [1, 2] s");
   EXPECT_EQ(msg({{1, 1, 2, 0}, {2, 2, 2, 0}}, 1.5), "");
 }
 

@@ -38,7 +38,8 @@ CameraModel test_camera(double pitch_deg, double roll_deg) {
 TEST(Horizon, PitchAndRollOfARenderedDriveWithinTolerance) {
   const CameraModel truth = test_camera(3.0, 1.5);
   HorizonEstimator est(CameraModel::pinhole(800, 450, 720, 720, 400, 225));
-  // 10 m/s, turning gently so that the road's vanishing point sweeps across the image (it traces the horizon).
+  // 10 m/s, turning gently so that the road's vanishing point sweeps across the image (it traces the
+  // horizon).
   const Pose start{0, -1.0, -0.12};
   for (int i = 0; i < 30; ++i) {
     const double t = 0.1 * i;
@@ -222,16 +223,19 @@ void check_odometry(double speed, double yaw_rate, double dt, int frames) {
   }
 }
 
-TEST(GroundOdometry, TenFramesPerSecondTurning) { check_odometry(12.0, 0.1, 0.1, 12); }
+TEST(GroundOdometry, TenFramesPerSecondTurning) {
+  check_odometry(12.0, 0.1, 0.1, 12);
+}
 
 // The road's pitch under a pair (ground_pitch_offset): ground points 5-25 m ahead seen by a 1280x720 camera
-// pitched `true_deg`, before and after the ego drove `d` m (turning 3 deg when it moves), with 0.3 px noise; the
-// camera assumed at `assumed_deg`.
+// pitched `true_deg`, before and after the ego drove `d` m (turning 3 deg when it moves), with 0.3 px noise;
+// the camera assumed at `assumed_deg`.
 std::optional<double> pitch_offset_of_a_pair(double true_deg, double assumed_deg, double d = 2.0) {
   const CameraModel truth = CameraModel::pinhole(1280, 720, 1000, 1000, 640, 360, 1.5, true_deg * kDeg, 1.5);
   const CameraModel assumed = with_pitch_roll(truth, assumed_deg * kDeg, 0.0);
   const double yaw = d > 0 ? 3.0 * kDeg : 0.0;
-  const double tx = d * std::cos(0.5 * yaw), ty = d * std::sin(0.5 * yaw), c = std::cos(yaw), s = std::sin(yaw);
+  const double tx = d * std::cos(0.5 * yaw), ty = d * std::sin(0.5 * yaw), c = std::cos(yaw),
+               s = std::sin(yaw);
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 0.3);
   std::vector<cv::Point2d> a, b;
@@ -296,8 +300,12 @@ TEST(GroundPitch, KeyframesSeenWithAPitchTheClipsCameraDoesNotKnow) {
     }
   }
 }
-TEST(GroundOdometry, TwentyFiveFramesPerSecondHighway) { check_odometry(20.0, 0.0, 0.04, 12); }
-TEST(GroundOdometry, KeyframesHalfASecondApart) { check_odometry(5.0, 0.05, 0.5, 8); }
+TEST(GroundOdometry, TwentyFiveFramesPerSecondHighway) {
+  check_odometry(20.0, 0.0, 0.04, 12);
+}
+TEST(GroundOdometry, KeyframesHalfASecondApart) {
+  check_odometry(5.0, 0.05, 0.5, 8);
+}
 
 // A dash camera that sees its own bonnet and burns a clock into the picture: the bottom rows and a corner
 // hold a static, textured picture in every frame. The speed and yaw rate come from the road as without them.
@@ -360,10 +368,10 @@ TEST(TwoViewRotation, HeadingChangeOfATurningDrive) {
   }
 }
 
-// The camera's pitch change between two views: 2 Hz keyframes of a turning drive whose camera tips down and up
-// by up to 0.8 degrees between frames (a road's grade changing under the car, the body's nods), the geometry
-// given only the clip's camera. Each change comes back with its sign (+ = further down) within 0.15 degrees,
-// the heading change within its usual tolerance, and a level drive reads none.
+// The camera's pitch change between two views: 2 Hz keyframes of a turning drive whose camera tips down and
+// up by up to 0.8 degrees between frames (a road's grade changing under the car, the body's nods), the
+// geometry given only the clip's camera. Each change comes back with its sign (+ = further down) within 0.15
+// degrees, the heading change within its usual tolerance, and a level drive reads none.
 TEST(TwoViewRotation, PitchChangeBetweenViews) {
   const std::vector<double> pitch_deg = {3.0, 3.5, 3.5, 2.7, 3.2, 3.0};
   for (const bool level : {false, true}) {
@@ -514,7 +522,8 @@ TEST(LeverArm, MountingYawFromThePriorWithoutStraightPairs) {
   // The prior from the lane lines' column: 1 deg right of the principal point is a travel 1 deg to the right.
   const CameraModel cam = test_camera(0.0, 0.0);
   EXPECT_NEAR(with_travel_column({}, cam, cam.cx + cam.fx * std::tan(1 * kDeg)).prior_bias, -1 * kDeg, 1e-9);
-  EXPECT_EQ(with_travel_column(told, cam, std::numeric_limits<double>::quiet_NaN()).prior_bias, told.prior_bias);
+  EXPECT_EQ(with_travel_column(told, cam, std::numeric_limits<double>::quiet_NaN()).prior_bias,
+            told.prior_bias);
   const LeverArmScale untold(1.5);
   EXPECT_FALSE(untold.from_straight_pairs());
   const auto b = untold.fuse(s);
@@ -596,8 +605,12 @@ void check_height(double stated_height, double yaw_rate) {
   EXPECT_GT(h->sigma_m, 0.05);  // the lane-width assumption's spread is part of it
 }
 
-TEST(CameraHeight, LaneLinesGiveTheHeightFromTooLow) { check_height(1.2, 0.0); }
-TEST(CameraHeight, LaneLinesGiveTheHeightFromTooHighWhileTurning) { check_height(2.0, 0.05); }
+TEST(CameraHeight, LaneLinesGiveTheHeightFromTooLow) {
+  check_height(1.2, 0.0);
+}
+TEST(CameraHeight, LaneLinesGiveTheHeightFromTooHighWhileTurning) {
+  check_height(2.0, 0.05);
+}
 
 // Lane markings on the rendered road (dashed lines, 3 m dash in a 12 m cycle, at +-1.75 and +-5.25 m; solid
 // edge lines at +-7 m): in the middle lane and in the lane left of it, the ego lane's lines are dashed on
@@ -710,8 +723,8 @@ TEST(EgoMotionSmoother, RejectsAnOutlierAndFillsGaps) {
   }
 }
 
-// `frames` raw speed readings `interval` s apart, the i-th reading speed(i) with sigma `sigma`; the first frame
-// has no interval and no reading.
+// `frames` raw speed readings `interval` s apart, the i-th reading speed(i) with sigma `sigma`; the first
+// frame has no interval and no reading.
 std::vector<EgoMotionSample> readings(int frames, double interval, double sigma,
                                       const std::function<double(int)>& speed) {
   std::vector<EgoMotionSample> raw;
@@ -732,7 +745,8 @@ std::vector<EgoMotionSample> readings(int frames, double interval, double sigma,
 // Three readings in a row that disagree with a confident filter restart it from the third: that reading is
 // then the state, with its own variance plus 1 (m/s)^2. Applied a second time as a measurement, with the
 // innovation variance of the state it replaced, the update drove the speed variance negative (a restart on
-// the last frame came back with sigma 0; on the Udacity clip the negative variance ran into the backward pass).
+// the last frame came back with sigma 0; on the Udacity clip the negative variance ran into the backward
+// pass).
 TEST(EgoMotionSmoother, ARestartStartsFromItsMeasurementWithItsVariance) {
   const auto raw = readings(23, 0.04, 0.3, [](int i) { return i < 20 ? 20.0 : 24.0; });
   SmoothOptions opt;
@@ -754,8 +768,8 @@ TEST(EgoMotionSmoother, ARestartStartsFromItsMeasurementWithItsVariance) {
 // Raw speeds that scatter more than their sigmas say (the Udacity clip's road view claims 0.2-0.3 m/s and
 // scatters by about 2 m/s) are weighed by the scatter: otherwise the filter keeps rejecting readings,
 // restarting on single ones and following them. 20 clips at 25 fps, 31 m/s scattered by 1.8 m/s, each reading
-// claiming 0.2 m/s: every smoothed frame stays within 1.8 m/s of 31 (unscaled, the readings are followed to 27
-// and 34 m/s).
+// claiming 0.2 m/s: every smoothed frame stays within 1.8 m/s of 31 (unscaled, the readings are followed to
+// 27 and 34 m/s).
 TEST(EgoMotionSmoother, OverconfidentRawSpeedsAreWeighedByTheirScatter) {
   std::mt19937 rng(7);
   std::normal_distribution<double> scatter(0.0, 1.8);
@@ -773,8 +787,8 @@ TEST(EgoMotionSmoother, OverconfidentRawSpeedsAreWeighedByTheirScatter) {
       EXPECT_GT(s.speed_sigma, 0.05) << "clip " << clip << " frame " << s.frame;
     }
   }
-  // The scatter over the claimed sigma (0.2 m/s and the 0.2 m/s floor): 6.4. A clip's 32 residuals measure it to
-  // about +-35 % (5-95 %: 4.1-9.1 over 2000 clips); the median of 20 clips to about 10 %.
+  // The scatter over the claimed sigma (0.2 m/s and the 0.2 m/s floor): 6.4. A clip's 32 residuals measure it
+  // to about +-35 % (5-95 %: 4.1-9.1 over 2000 clips); the median of 20 clips to about 10 %.
   std::sort(scales.begin(), scales.end());
   EXPECT_NEAR(0.5 * (scales[9] + scales[10]), 1.8 / std::hypot(0.2, SmoothOptions{}.speed_sigma_floor), 0.9);
 }
@@ -866,17 +880,18 @@ TEST(EgoMotionSmoother, NoMeasurementsGivesUnmeasuredOutput) {
 
 }  // namespace
 
-// Two views of a scene of known geometry as matched points: random points 4-60 m ahead, seen by a camera of focal
-// length f (1280x720, principal point at the centre, pitched down by 3 degrees) before and after the car turned
-// left by `yaw_deg` and moved `forward_m` along the chord of its arc; 0.3 px of noise, and 15 % of the pairs
-// replaced by random ones.
+// Two views of a scene of known geometry as matched points: random points 4-60 m ahead, seen by a camera of
+// focal length f (1280x720, principal point at the centre, pitched down by 3 degrees) before and after the
+// car turned left by `yaw_deg` and moved `forward_m` along the chord of its arc; 0.3 px of noise, and 15 % of
+// the pairs replaced by random ones.
 struct PointPair {
   std::vector<cv::Point2f> a, b;
   cv::Point2d epipole;  // the later view's image of the earlier camera centre
 };
 PointPair synthetic_views(double f, double yaw_deg, double forward_m, unsigned seed, double pitch_deg = 3.0) {
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> ux(-25, 25), uy(-8, 1.5), uz(4, 60), upx(0, 1280), upy(0, 720), u01(0, 1);
+  std::uniform_real_distribution<double> ux(-25, 25), uy(-8, 1.5), uz(4, 60), upx(0, 1280), upy(0, 720),
+      u01(0, 1);
   std::normal_distribution<double> noise(0.0, 0.3);
   const cv::Matx33d K(f, 0, 640, 0, f, 360, 0, 0, 1);
   // World: x right, y down, z ahead (level). A left turn shows what was ahead to the right.
@@ -893,9 +908,12 @@ PointPair synthetic_views(double f, double yaw_deg, double forward_m, unsigned s
     const cv::Vec3d Xa = Rp * X, Xb = Rb * (X - Cb);
     if (Xa[2] < 2 || Xb[2] < 2) continue;
     const cv::Vec3d pa = K * Xa, pb = K * Xb;
-    const cv::Point2f a(static_cast<float>(pa[0] / pa[2] + noise(rng)), static_cast<float>(pa[1] / pa[2] + noise(rng)));
-    const cv::Point2f b(static_cast<float>(pb[0] / pb[2] + noise(rng)), static_cast<float>(pb[1] / pb[2] + noise(rng)));
-    if (a.x < 0 || a.x >= 1280 || a.y < 0 || a.y >= 720 || b.x < 0 || b.x >= 1280 || b.y < 0 || b.y >= 720) continue;
+    const cv::Point2f a(static_cast<float>(pa[0] / pa[2] + noise(rng)),
+                        static_cast<float>(pa[1] / pa[2] + noise(rng)));
+    const cv::Point2f b(static_cast<float>(pb[0] / pb[2] + noise(rng)),
+                        static_cast<float>(pb[1] / pb[2] + noise(rng)));
+    if (a.x < 0 || a.x >= 1280 || a.y < 0 || a.y >= 720 || b.x < 0 || b.x >= 1280 || b.y < 0 || b.y >= 720)
+      continue;
     const bool outlier = u01(rng) < 0.15;
     out.a.push_back(a);
     out.b.push_back(outlier ? cv::Point2f(static_cast<float>(upx(rng)), static_cast<float>(upy(rng))) : b);
@@ -903,8 +921,8 @@ PointPair synthetic_views(double f, double yaw_deg, double forward_m, unsigned s
   return out;
 }
 
-// Pairs of a drive turning by 5-8 degrees fix the focal length, whatever the lens (no pull towards a default);
-// each pair alone is noisy, their median is not. The epipoles are the direction of travel.
+// Pairs of a drive turning by 5-8 degrees fix the focal length, whatever the lens (no pull towards a
+// default); each pair alone is noisy, their median is not. The epipoles are the direction of travel.
 TEST(TwoViewCalibration, TurningPairsFixTheFocalLength) {
   for (const double f : {500.0, 896.0, 1500.0}) {
     TwoViewCalibration est({1280, 720});
@@ -940,7 +958,8 @@ TEST(TwoViewCalibration, AStraightDriveDoesNotFixTheFocalLength) {
     const PointPair v = synthetic_views(896.0, 0.0, 3.0, 40u + i);
     const auto r = TwoViewCalibration::measure_pair(v.a, v.b, {1280, 720}, est.options());
     ASSERT_TRUE(r.has_value());
-    EXPECT_FALSE(r->accepted) << "f " << r->f << " rotation " << r->rotation_deg << " sharpness " << r->sharpness;
+    EXPECT_FALSE(r->accepted) << "f " << r->f << " rotation " << r->rotation_deg << " sharpness "
+                              << r->sharpness;
     ASSERT_TRUE(r->epipole.has_value());
     rows.push_back(r->epipole->y);
     true_row = v.epipole.y;
@@ -955,12 +974,14 @@ TEST(TwoViewCalibration, AStraightDriveDoesNotFixTheFocalLength) {
   EXPECT_TRUE(!still || (!still->accepted && !still->epipole));
 }
 
-// A level camera turning on a plane is the degenerate case: whatever its pairs say, no estimate, and the reason.
+// A level camera turning on a plane is the degenerate case: whatever its pairs say, no estimate, and the
+// reason.
 TEST(TwoViewCalibration, ALevelCameraDoesNotFixTheFocalLength) {
   TwoViewCalibration est({1280, 720});
   for (int i = 0; i < 25; ++i) {
     const PointPair v = synthetic_views(896.0, i % 2 ? 5.0 : -8.0, 3.0, 70u + i, 0.0);
-    if (const auto r = TwoViewCalibration::measure_pair(v.a, v.b, {1280, 720}, est.options())) est.add_pair(*r, i);
+    if (const auto r = TwoViewCalibration::measure_pair(v.a, v.b, {1280, 720}, est.options()))
+      est.add_pair(*r, i);
   }
   EXPECT_FALSE(est.result().has_value());
   EXPECT_TRUE(est.why_not().find("level") != std::string::npos ||
@@ -969,12 +990,13 @@ TEST(TwoViewCalibration, ALevelCameraDoesNotFixTheFocalLength) {
       << est.why_not();
 }
 
-// The real nuScenes keyframes (2 Hz, a drive through two bends; calibrated fx 1266.4 px at 1600x900, principal
-// point 16 px right of and 41 px below the centre): the focal length from the bends, and a straight run that the
-// estimator must not take for one.
+// The real nuScenes keyframes (2 Hz, a drive through two bends; calibrated fx 1266.4 px at 1600x900,
+// principal point 16 px right of and 41 px below the centre): the focal length from the bends, and a straight
+// run that the estimator must not take for one.
 TEST(TwoViewCalibration, NuScenesKeyframes) {
   std::vector<std::filesystem::path> files;
-  for (const auto& e : std::filesystem::directory_iterator(hf::test::shared_data("nuscenes/samples/CAM_FRONT")))
+  for (const auto& e :
+       std::filesystem::directory_iterator(hf::test::shared_data("nuscenes/samples/CAM_FRONT")))
     files.push_back(e.path());
   std::sort(files.begin(), files.end());  // the names carry the timestamps
   ASSERT_EQ(files.size(), 41u);
@@ -1002,7 +1024,8 @@ TEST(TwoViewCalibration, NuScenesKeyframes) {
 TEST(Horizon, EpipolesAreAHorizonCue) {
   const CameraModel cam = CameraModel::pinhole(800, 450, 560, 560, 400, 225, 1.5, 2.0 * kDeg, 1.5, 0.0);
   HorizonEstimator h(cam);
-  for (int i = 0; i < 12; ++i) h.add_epipole({380.0 + 3.0 * i, *cam.horizon_y(380.0 + 3.0 * i) + (i % 2 ? 1.5 : -1.5)}, i);
+  for (int i = 0; i < 12; ++i)
+    h.add_epipole({380.0 + 3.0 * i, *cam.horizon_y(380.0 + 3.0 * i) + (i % 2 ? 1.5 : -1.5)}, i);
   const auto est = h.result();
   ASSERT_TRUE(est.has_value());
   EXPECT_EQ(est->epipoles, 12);

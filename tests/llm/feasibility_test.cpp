@@ -89,9 +89,10 @@ TEST_F(Feasibility, SceneRulesFromThePrompt) {
   EXPECT_EQ(e[0],
             "/heading_deg = 90 makes a vehicle cross the ego path, which needs an intersection (intersection "
             "= no)");
-  EXPECT_EQ(e[1],
-            "/kind = \"cut_in\" needs a lane beside the ego lane going its way: this road has one lane in the "
-            "ego's direction (multi_lane = no)");
+  EXPECT_EQ(
+      e[1],
+      "/kind = \"cut_in\" needs a lane beside the ego lane going its way: this road has one lane in the "
+      "ego's direction (multi_lane = no)");
 }
 
 // What a kind needs of the scene comes from its template (HazardKindInfo::needs), for any kind.
@@ -104,9 +105,10 @@ TEST_F(Feasibility, KindNeedsFromTheTemplates) {
   c.kind = "cut_in";
   std::vector<std::string> e = check(c);
   ASSERT_FALSE(e.empty());
-  EXPECT_EQ(e[0],
-            "/kind = \"cut_in\" needs a lane beside the ego lane going its way: no lane beside the ego lane goes "
-            "its way (lanes_left 1, lanes_right 0, oncoming_lanes 1, traffic keeps right)");
+  EXPECT_EQ(
+      e[0],
+      "/kind = \"cut_in\" needs a lane beside the ego lane going its way: no lane beside the ego lane goes "
+      "its way (lanes_left 1, lanes_right 0, oncoming_lanes 1, traffic keeps right)");
   // Keeping left, the oncoming lanes are on the right: the left lane goes the ego's way.
   cfg_.road.driving_side = "left";
   cfg_.road.lanes_right = 1;
@@ -117,11 +119,13 @@ TEST_F(Feasibility, KindNeedsFromTheTemplates) {
   cfg_.road.oncoming_lanes = 0;
   e = check(c);
   ASSERT_GE(e.size(), 2u);
-  EXPECT_EQ(e[0],
-            "/kind = \"head_on\" needs a lane with oncoming traffic beside the ego lane: no lane carries oncoming "
-            "traffic (lanes_left 1, lanes_right 1, oncoming_lanes 0, traffic keeps left)");
-  EXPECT_EQ(e[1], "/kind = \"head_on\" needs a tracked vehicle ahead in the ego path: no vehicle is tracked ahead "
-                  "in the ego path");
+  EXPECT_EQ(
+      e[0],
+      "/kind = \"head_on\" needs a lane with oncoming traffic beside the ego lane: no lane carries oncoming "
+      "traffic (lanes_left 1, lanes_right 1, oncoming_lanes 0, traffic keeps left)");
+  EXPECT_EQ(e[1],
+            "/kind = \"head_on\" needs a tracked vehicle ahead in the ego path: no vehicle is tracked ahead "
+            "in the ego path");
 }
 
 TEST_F(Feasibility, PersonOnTheShoulderOnlyWithTheExplicitRelaxation) {

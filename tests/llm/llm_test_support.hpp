@@ -153,14 +153,16 @@ class OfflineScene {
       templates_[k] = registry_.create<HazardTemplate>(kind::kHazardTemplate, k, params);
       all.push_back(templates_[k]->kind_info());
     }
-    for (const std::string& k : settings_.allowed_kinds) settings_.kinds.push_back(templates_.at(k)->kind_info());
+    for (const std::string& k : settings_.allowed_kinds)
+      settings_.kinds.push_back(templates_.at(k)->kind_info());
     summary_ = llm_hazard::summarize_scene(frame, states, {&risk}, settings_, limits_, sizes_);
     reply_.emplace(llm_hazard::reply_schema(
-        llm_hazard::with_kind_fields(llm_hazard::load_schema_file(share_dir() + "/schemas/hazard_spec.schema.json"),
-                                     all),
+        llm_hazard::with_kind_fields(
+            llm_hazard::load_schema_file(share_dir() + "/schemas/hazard_spec.schema.json"), all),
         settings_.allowed_kinds));
-    checker_.emplace(*reply_, templates_, summary_.context,
-                     llm_hazard::feasibility_config(settings_, limits_, sizes_, frame.timestamp, std::nullopt));
+    checker_.emplace(
+        *reply_, templates_, summary_.context,
+        llm_hazard::feasibility_config(settings_, limits_, sizes_, frame.timestamp, std::nullopt));
     base_.emplace(llm_hazard::proposal_request(settings_, summary_.context));
     catalog_.emplace(*checker_, settings_.allowed_kinds, *base_);
   }

@@ -61,26 +61,33 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
   // The scene's rules: what can be drawn, the lanes and their directions, coming into view, taking over.
   EXPECT_NE(prompt.find("8. Only these classes can be drawn into the video: bus, car, person, truck.\n"),
             std::string::npos);
-  EXPECT_NE(prompt.find("9. Lanes and directions: traffic keeps left; lanes 3.5 m wide; left of the ego lane: 1 lane "
-                        "going the ego's way; right of it: 1 lane going the ego's way, then 1 lane with oncoming "
-                        "traffic."),
+  EXPECT_NE(prompt.find(
+                "9. Lanes and directions: traffic keeps left; lanes 3.5 m wide; left of the ego lane: 1 lane "
+                "going the ego's way; right of it: 1 lane going the ego's way, then 1 lane with oncoming "
+                "traffic."),
             std::string::npos);
-  EXPECT_NE(prompt.find("10. The object must come into view plausibly: from beyond the image border (beside or behind "
-                        "the ego), from behind a detected object, or far enough away to be small when first seen (at "
-                        "most 63 px of the 900 px image height) — never popping up on the road close ahead.\n"),
-            std::string::npos);
-  EXPECT_NE(prompt.find("11. A detected vehicle may itself become the hazard (extra.track_id): the renderer removes the "
-                        "real one."),
-            std::string::npos);
+  EXPECT_NE(
+      prompt.find(
+          "10. The object must come into view plausibly: from beyond the image border (beside or behind "
+          "the ego), from behind a detected object, or far enough away to be small when first seen (at "
+          "most 63 px of the 900 px image height) — never popping up on the road close ahead.\n"),
+      std::string::npos);
+  EXPECT_NE(
+      prompt.find(
+          "11. A detected vehicle may itself become the hazard (extra.track_id): the renderer removes the "
+          "real one."),
+      std::string::npos);
   EXPECT_NE(prompt.find("Earlier attempts on this recording: none.\n"), std::string::npos);
-  EXPECT_NE(prompt.find("- pedestrian_crossing (person): a person steps off the kerb and crosses the ego lane. "
-                        "Played out: waits on the kerb just beyond the road edge"),
-            std::string::npos)
+  EXPECT_NE(
+      prompt.find("- pedestrian_crossing (person): a person steps off the kerb and crosses the ego lane. "
+                  "Played out: waits on the kerb just beyond the road edge"),
+      std::string::npos)
       << prompt;
-  EXPECT_NE(prompt.find("Needs sidewalks (given here).\n  extra.crossing_from: the road edge the person steps "
-                        "off from (equals side).\n- sudden_stop (car, truck, bus, motorcycle): a lead vehicle "
-                        "brakes hard to a stop."),
-            std::string::npos);
+  EXPECT_NE(
+      prompt.find("Needs sidewalks (given here).\n  extra.crossing_from: the road edge the person steps "
+                  "off from (equals side).\n- sudden_stop (car, truck, bus, motorcycle): a lead vehicle "
+                  "brakes hard to a stop."),
+      std::string::npos);
   EXPECT_EQ(prompt.find("<!--"), std::string::npos);
   EXPECT_NE(prompt.find("# Role"), std::string::npos);
   EXPECT_NE(prompt.find("- Environment: Rainy city street, peds on sidewalk\n"), std::string::npos);

@@ -1,6 +1,6 @@
-// Scene-aware refusals, for every kind: paths through tracked objects, classes without appearance assets, lanes
-// used against their traffic, hazards popping up on the road, taken-over tracks; and the offline planner keeps
-// to the same rules.
+// Scene-aware refusals, for every kind: paths through tracked objects, classes without appearance assets,
+// lanes used against their traffic, hazards popping up on the road, taken-over tracks; and the offline
+// planner keeps to the same rules.
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
@@ -60,30 +60,37 @@ HazardTrajectory crossing_at_40m() {
   return trajectory("person", walk, kPerson);
 }
 
-// A person who crosses at x = 40 m from the left kerb (2 m/s) walks through the car parked there on the right.
+// A person who crosses at x = 40 m from the left kerb (2 m/s) walks through the car parked there on the
+// right.
 TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
   const HazardTrajectory tr = crossing_at_40m();
   hazard::RoadModel road;
   SceneRules rules;
   // The car's rear 37.75 m ahead (what distance_m measures): its centre at 40 m.
-  const auto errs = check_trajectory_rules(tr, scene_with({tracked(7, "car", 37.75, -3.5, 0.0)}), road, sizes(), rules);
+  const auto errs =
+      check_trajectory_rules(tr, scene_with({tracked(7, "car", 37.75, -3.5, 0.0)}), road, sizes(), rules);
   ASSERT_EQ(errs.size(), 1u);
-  EXPECT_EQ(errs[0],
-            "the planned path of the person runs into the tracked car (track 7, predicted at constant velocity): "
-            "3.9 s after it appears the person would be at (x 40, y -2.05) m and the car at (x 40, y -3.5) m. Place "
-            "it where its path stays clear of the tracked objects");
+  EXPECT_EQ(
+      errs[0],
+      "the planned path of the person runs into the tracked car (track 7, predicted at constant velocity): "
+      "3.9 s after it appears the person would be at (x 40, y -2.05) m and the car at (x 40, y -3.5) m. "
+      "Place "
+      "it where its path stays clear of the tracked objects");
   // A car driving away at 15 m/s is past the crossing by then: its predicted positions are clear.
-  EXPECT_TRUE(check_trajectory_rules(tr, scene_with({tracked(7, "car", 20.0, -3.5, 15.0)}), road, sizes(), rules)
-                  .empty());
+  EXPECT_TRUE(
+      check_trajectory_rules(tr, scene_with({tracked(7, "car", 20.0, -3.5, 15.0)}), road, sizes(), rules)
+          .empty());
   // Predicted, not only where it is now: a car 60 m ahead coming at 5 m/s meets the person 4 s later.
-  EXPECT_EQ(check_trajectory_rules(tr, scene_with({tracked(9, "car", 60.0, -1.75, -5.0)}), road, sizes(), rules)
-                .size(),
-            1u);
+  EXPECT_EQ(
+      check_trajectory_rules(tr, scene_with({tracked(9, "car", 60.0, -1.75, -5.0)}), road, sizes(), rules)
+          .size(),
+      1u);
   // The object a spec takes over is the hazard itself.
   HazardTrajectory over = tr;
   over.spec.extra = {{"track_id", 7}};
-  EXPECT_TRUE(check_trajectory_rules(over, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), road, sizes(), rules)
-                  .empty());
+  EXPECT_TRUE(
+      check_trajectory_rules(over, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), road, sizes(), rules)
+          .empty());
 }
 
 // A filtered estimator's covariance says when a velocity is indistinguishable from standing still: a parked
@@ -137,10 +144,11 @@ TEST(SceneRules, OnlyClassesWithAppearanceAssets) {
   SceneRules rules;
   rules.asset_classes = asset_classes("");
   rules.assets_where = "the default set, share/assets";
-  EXPECT_EQ(check_spec_rules(s, scene_with({}), rules),
-            std::vector<std::string>{
-                "/object_class = \"motorcycle\" has no appearance assets, so the renderer cannot draw it (classes "
-                "with assets: bus, car, person, truck; the default set, share/assets)"});
+  EXPECT_EQ(
+      check_spec_rules(s, scene_with({}), rules),
+      std::vector<std::string>{
+          "/object_class = \"motorcycle\" has no appearance assets, so the renderer cannot draw it (classes "
+          "with assets: bus, car, person, truck; the default set, share/assets)"});
 }
 
 // The generator offers a model only the drawable classes, and refuses the rest.
@@ -156,14 +164,15 @@ TEST(SceneRules, TheReplySchemaOffersOnlyDrawableClasses) {
   r.run();
   ASSERT_EQ(r.outputs("hazard").size(), 1u);
   const auto got = srv.requests();
-  EXPECT_EQ(got[0]["format"]["properties"]["object_class"]["enum"], Json::array({"person", "car", "bus", "truck"}));
+  EXPECT_EQ(got[0]["format"]["properties"]["object_class"]["enum"],
+            Json::array({"person", "car", "bus", "truck"}));
   EXPECT_NE(got[1]["messages"][2]["content"].get<std::string>().find(
                 "- /object_class = \"motorcycle\" is not one of \"person\", \"car\", \"bus\", \"truck\""),
             std::string::npos);
 }
 
-// Traffic keeps right and the lane left of the ego's is oncoming: a vehicle there drives towards the ego, so a
-// cut-in from the left is refused; one from the right (a lane going the ego's way) is not.
+// Traffic keeps right and the lane left of the ego's is oncoming: a vehicle there drives towards the ego, so
+// a cut-in from the left is refused; one from the right (a lane going the ego's way) is not.
 TEST(SceneRules, NoCutInFromALaneWithOncomingTraffic) {
   hazard::RoadModel road;
   road.oncoming_lanes = 1;
@@ -173,15 +182,20 @@ TEST(SceneRules, NoCutInFromALaneWithOncomingTraffic) {
     left.push_back({-2.0 + 0.7 * k, 3.5, 0.0});
     right.push_back({-2.0 + 0.7 * k, -3.5, 0.0});
   }
-  EXPECT_EQ(check_trajectory_rules(trajectory("car", left, kCar), scene_with({}), road, sizes(), rules),
-            std::vector<std::string>{
-                "the car starts at y 3.5 m in a lane with oncoming traffic (lanes_left 1, lanes_right 1, "
-                "oncoming_lanes 1, traffic keeps right) but drives the ego's way, against that lane's traffic"});
-  EXPECT_TRUE(check_trajectory_rules(trajectory("car", right, kCar), scene_with({}), road, sizes(), rules).empty());
+  EXPECT_EQ(
+      check_trajectory_rules(trajectory("car", left, kCar), scene_with({}), road, sizes(), rules),
+      std::vector<std::string>{
+          "the car starts at y 3.5 m in a lane with oncoming traffic (lanes_left 1, lanes_right 1, "
+          "oncoming_lanes 1, traffic keeps right) but drives the ego's way, against that lane's traffic"});
+  EXPECT_TRUE(
+      check_trajectory_rules(trajectory("car", right, kCar), scene_with({}), road, sizes(), rules).empty());
   // Keeping left, the oncoming lane is the right one.
   road.driving_side = "left";
-  EXPECT_TRUE(check_trajectory_rules(trajectory("car", left, kCar), scene_with({}), road, sizes(), rules).empty());
-  EXPECT_EQ(check_trajectory_rules(trajectory("car", right, kCar), scene_with({}), road, sizes(), rules).size(), 1u);
+  EXPECT_TRUE(
+      check_trajectory_rules(trajectory("car", left, kCar), scene_with({}), road, sizes(), rules).empty());
+  EXPECT_EQ(
+      check_trajectory_rules(trajectory("car", right, kCar), scene_with({}), road, sizes(), rules).size(),
+      1u);
 }
 
 // The lanes the footage's markings show take the place of unstated lane counts, never of stated ones: a solid
@@ -245,13 +259,14 @@ TEST(SceneRules, CutInsComeFromTheSideTheLaneMarkingsOpen) {
   }
 }
 
-// The offline planner keeps to it: traffic keeping left, the lane on the right is oncoming (the car parked in it
-// is the synthetic scene's), and every cut-in comes from the left.
+// The offline planner keeps to it: traffic keeping left, the lane on the right is oncoming (the car parked in
+// it is the synthetic scene's), and every cut-in comes from the left.
 TEST(SceneRules, TheOfflinePlannerCutsInOnlyFromALaneGoingTheEgosWay) {
   std::set<std::string> sides;
   for (int64_t seed = 0; seed < 10; ++seed) {
-    auto r = test::make_runner("force_kind: cut_in\nmulti_lane: 'yes'\ndriving_side: left\noncoming_lanes: 1\nseed: " +
-                               std::to_string(seed) + "\n");
+    auto r = test::make_runner(
+        "force_kind: cut_in\nmulti_lane: 'yes'\ndriving_side: left\noncoming_lanes: 1\nseed: " +
+        std::to_string(seed) + "\n");
     test::push_scene(r, 6, "city street");
     r.run();
     const auto specs = r.collect<HazardSpec>("hazard");
@@ -269,43 +284,51 @@ TEST(SceneRules, NoHazardPopsUpOnTheRoadCloseAhead) {
   SceneRules rules;
   auto standing = [](double x, double y) { return std::vector<cv::Vec3d>(20, cv::Vec3d(x, y, 0.0)); };
   const SceneContext empty = scene_with({});
-  EXPECT_EQ(check_trajectory_rules(trajectory("car", standing(20.0, 0.0), kCar), empty, road, sizes(), rules),
-            std::vector<std::string>{
-                "the car would pop up on the road 20 m ahead: when it is first seen (0 s after it appears) its box is "
-                "fully in view, 118 px tall, and no tracked object hides it. Let it enter from beyond the image "
-                "border, from behind a nearer tracked object, or far enough to be first seen small (at most 63 px "
-                "tall, 7 % of the image height)"});
+  EXPECT_EQ(
+      check_trajectory_rules(trajectory("car", standing(20.0, 0.0), kCar), empty, road, sizes(), rules),
+      std::vector<std::string>{
+          "the car would pop up on the road 20 m ahead: when it is first seen (0 s after it appears) its box "
+          "is "
+          "fully in view, 118 px tall, and no tracked object hides it. Let it enter from beyond the image "
+          "border, from behind a nearer tracked object, or far enough to be first seen small (at most 63 px "
+          "tall, 7 % of the image height)"});
   // Far enough to be small (39 px at 50 m), or beside the ego at the image border, or not on the road.
-  EXPECT_TRUE(check_trajectory_rules(trajectory("car", standing(50.0, 0.0), kCar), empty, road, sizes(), rules).empty());
-  EXPECT_TRUE(check_trajectory_rules(trajectory("car", standing(5.0, 3.5), kCar), empty, road, sizes(), rules).empty());
   EXPECT_TRUE(
-      check_trajectory_rules(trajectory("person", standing(20.0, 6.0), kPerson), empty, road, sizes(), rules).empty());
+      check_trajectory_rules(trajectory("car", standing(50.0, 0.0), kCar), empty, road, sizes(), rules)
+          .empty());
+  EXPECT_TRUE(check_trajectory_rules(trajectory("car", standing(5.0, 3.5), kCar), empty, road, sizes(), rules)
+                  .empty());
+  EXPECT_TRUE(
+      check_trajectory_rules(trajectory("person", standing(20.0, 6.0), kPerson), empty, road, sizes(), rules)
+          .empty());
   // Hidden behind a van standing nearer, at the left kerb, whose box covers it in the image.
   ObjectState van = tracked(4, "truck", 12.0, 4.5, 0.0);
   const hazard::BoxView seen = hazard::view_of(test::test_camera(), 20.0, 0.0, 0.0, kCar);
   van.box = cv::Rect2f(static_cast<float>(seen.box.x - 10), static_cast<float>(seen.box.y - 10),
                        static_cast<float>(seen.box.width + 20), static_cast<float>(seen.box.height + 20));
-  EXPECT_TRUE(
-      check_trajectory_rules(trajectory("car", standing(20.0, 0.0), kCar), scene_with({van}), road, sizes(), rules)
-          .empty());
+  EXPECT_TRUE(check_trajectory_rules(trajectory("car", standing(20.0, 0.0), kCar), scene_with({van}), road,
+                                     sizes(), rules)
+                  .empty());
 }
 
-// A taken-over lead is the real one, where the recording shows it: its neighbour in the next lane as close as the
-// recording has them is no collision (coming closer is), and it does not pop up (it was in view already).
+// A taken-over lead is the real one, where the recording shows it: its neighbour in the next lane as close as
+// the recording has them is no collision (coming closer is), and it does not pop up (it was in view already).
 TEST(SceneRules, ATakenOverLeadStartsWhereTheRealOneIs) {
   hazard::RoadModel road;
   SceneRules rules;
   // The lead at 20 m braking from 4 m/s; a truck beside it in the right lane, 2.3 m away (closer than the
   // clearance: estimated positions scatter), driving on at 6 m/s.
   std::vector<cv::Vec3d> brake;
-  for (int k = 0; k <= 40; ++k) brake.push_back({20.0 + std::max(0.0, 4.0 * 0.05 * k - 2.0 * 0.0025 * k * k), 0.0, 0.0});
+  for (int k = 0; k <= 40; ++k)
+    brake.push_back({20.0 + std::max(0.0, 4.0 * 0.05 * k - 2.0 * 0.0025 * k * k), 0.0, 0.0});
   HazardTrajectory lead = trajectory("car", brake, kCar);
   lead.spec.extra = {{"track_id", 3}};
   const ObjectState truck = tracked(2, "truck", 20.0, -2.3, 6.0);
-  EXPECT_TRUE(check_trajectory_rules(lead, scene_with({tracked(3, "car", 20.0, 0.0, 4.0), truck}), road, sizes(), rules)
+  EXPECT_TRUE(check_trajectory_rules(lead, scene_with({tracked(3, "car", 20.0, 0.0, 4.0), truck}), road,
+                                     sizes(), rules)
                   .empty());
-  // A person beside it walking towards it comes closer than the recording shows: refused. (A vehicle's tracked
-  // lateral speed is not extrapolated: vehicles keep their lanes.)
+  // A person beside it walking towards it comes closer than the recording shows: refused. (A vehicle's
+  // tracked lateral speed is not extrapolated: vehicles keep their lanes.)
   ObjectState walker = tracked(5, "person", 20.0, -1.5, 0.0);
   walker.velocity_rel = cv::Vec2d(-10.0, 1.0);
   EXPECT_EQ(check_trajectory_rules(lead, scene_with({walker}), road, sizes(), rules).size(), 1u);
@@ -318,8 +341,8 @@ TEST(SceneRules, ATakenOverLeadStartsWhereTheRealOneIs) {
   EXPECT_EQ(check_trajectory_rules(inserted, scene_with({truck}), road, sizes(), rules).size(), 2u);
 }
 
-// Taking over a tracked object (the real lead of a sudden stop) is allowed by default, since the renderer removes
-// the real one; a scene that switches takeovers off refuses it.
+// Taking over a tracked object (the real lead of a sudden stop) is allowed by default, since the renderer
+// removes the real one; a scene that switches takeovers off refuses it.
 TEST(SceneRules, TakingOverATrackedObjectIsRefusedWhereTakeoversAreOff) {
   HazardSpec s;
   s.object_class = "car";
@@ -327,11 +350,12 @@ TEST(SceneRules, TakingOverATrackedObjectIsRefusedWhereTakeoversAreOff) {
   SceneRules rules;
   EXPECT_TRUE(check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules).empty());
   rules.take_over_tracks = false;
-  EXPECT_EQ(check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules),
-            std::vector<std::string>{
-                "/extra/track_id = 7 takes over the tracked car, but this scene does not allow takeovers "
-                "(take_over_tracks false: the renderer would leave the real one in the video beside the inserted "
-                "one). Insert a new object instead (extra.track_id null)"});
+  EXPECT_EQ(
+      check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules),
+      std::vector<std::string>{
+          "/extra/track_id = 7 takes over the tracked car, but this scene does not allow takeovers "
+          "(take_over_tracks false: the renderer would leave the real one in the video beside the inserted "
+          "one). Insert a new object instead (extra.track_id null)"});
 }
 
 }  // namespace

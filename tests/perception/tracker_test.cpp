@@ -397,7 +397,7 @@ TEST(SortTracker, KalmanPredictionCarriesTheTrackThroughAGap) {
   }
   // The held (unpredicted) box of the last seen frame does not overlap the reappearing object.
   EXPECT_EQ(box_iou(box_at(100 + 15.0 * (gap_start - 1), 300, 40, 80),
-                          box_at(100 + 15.0 * (gap_start + gap), 300, 40, 80)),
+                    box_at(100 + 15.0 * (gap_start + gap), 300, 40, 80)),
             0.0);
   EXPECT_NEAR(out.back().items[0].velocity_px.x, 150.0, 1e-2);  // 15 px per 0.1 s
 }

@@ -35,7 +35,8 @@ AnnotatedObject object(const std::string& id, const std::string& label, cv::Vec3
 }
 
 BoxCorners corners_of(const AnnotatedObject& o) {
-  return box_corners(o.center_ego[0], o.center_ego[1], o.yaw_ego, o.size_lwh, o.center_ego[2] - o.size_lwh[2] / 2);
+  return box_corners(o.center_ego[0], o.center_ego[1], o.yaw_ego, o.size_lwh,
+                     o.center_ego[2] - o.size_lwh[2] / 2);
 }
 
 // Paints the faces of the box the camera sees in shades of `colour` with some texture; returns their mask.
@@ -77,14 +78,16 @@ Scene make_scene(int64_t index, double a_x) {
   const auto A = object("inst-a", "car", {a_x, 1.0, 0.76}, 0.4, {4.5, 1.85, 1.52}, 300);
   ann->objects.push_back(A);
   if (index == 0) {
-    const auto E = object("inst-e", "car", {24.0, 1.3, 0.76}, 0.4, {4.5, 1.85, 1.52}, 300);  // hidden behind A
-    const auto D = object("inst-d", "car", {16.0, -5.0, 0.76}, 0.0, {4.5, 1.85, 1.52}, 3);   // too few points
+    const auto E =
+        object("inst-e", "car", {24.0, 1.3, 0.76}, 0.4, {4.5, 1.85, 1.52}, 300);            // hidden behind A
+    const auto D = object("inst-d", "car", {16.0, -5.0, 0.76}, 0.0, {4.5, 1.85, 1.52}, 3);  // too few points
     paint_box(img, cam, E, cv::Scalar(200, 80, 40));
     paint_box(img, cam, D, cv::Scalar(40, 200, 40));
     ann->objects.push_back(E);
     ann->objects.push_back(D);
     ann->objects.push_back(object("inst-c", "truck", {7.0, 6.0, 1.5}, 0.0, {8.0, 2.5, 3.0}, 900));  // clipped
-    ann->objects.push_back(object("inst-b", "person", {60.0, 0.0, 0.85}, 0.0, {0.5, 0.6, 1.7}, 40));  // too far
+    ann->objects.push_back(
+        object("inst-b", "person", {60.0, 0.0, 0.85}, 0.0, {0.5, 0.6, 1.7}, 40));               // too far
     ann->objects.push_back(object("inst-f", "", {10.0, -3.0, 0.5}, 0.0, {0.5, 2.0, 1.0}, 50));  // not wanted
   }
   s.mask_a = paint_box(img, cam, A, cv::Scalar(40, 40, 210));
@@ -151,8 +154,8 @@ TEST(AssetHarvester, HarvestedAssetsCompositeWithCorrectAlpha) {
   o.composite.shadow = false;
   o.composite.exposure_s = 0;
   o.ego.mode = EgoMotionMode::kPoses;
-  HazardRenderer r(o, std::make_shared<const AssetLibrary>(
-                          AssetLibrary::load(out, fs::path(share_dir()) / "assets")));
+  HazardRenderer r(
+      o, std::make_shared<const AssetLibrary>(AssetLibrary::load(out, fs::path(share_dir()) / "assets")));
   auto traj = std::make_shared<const HazardTrajectory>(
       hf::test::static_object("car", 16.0, -0.5, 0.1, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
   const cv::Mat img = hf::test::textured_image();
@@ -205,7 +208,8 @@ TEST(AssetHarvester, StreamWithoutAnnotationsIsAnError) {
     runner.run();
     FAIL() << "expected an error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("none of the 1 frames carried annotations"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("none of the 1 frames carried annotations"), std::string::npos)
+        << e.what();
   }
 }
 

@@ -1,4 +1,5 @@
-// Synthetic frames with known geometry for the renderer tests: cameras, textured backgrounds and roads, poses.
+// Synthetic frames with known geometry for the renderer tests: cameras, textured backgrounds and roads,
+// poses.
 #pragma once
 
 #include <cmath>
@@ -65,8 +66,8 @@ inline HazardTrajectory static_object(const std::string& cls, double x, double y
 }
 
 // A road image seen by `cam` from the ego pose (x, y, yaw) over a world-fixed ground texture (`tex` covers
-// [x0, x0 + tex.cols * res] x [y0 - tex.rows * res / 2, y0 + tex.rows * res / 2]); rendered 3x supersampled so
-// distant texture is filtered like a real lens would. Above the horizon: flat grey.
+// [x0, x0 + tex.cols * res] x [y0 - tex.rows * res / 2, y0 + tex.rows * res / 2]); rendered 3x supersampled
+// so distant texture is filtered like a real lens would. Above the horizon: flat grey.
 inline cv::Mat road_image(const CameraModel& cam, const cv::Mat& tex, double res, double x0, double ego_x,
                           double ego_y, double ego_yaw) {
   constexpr int kS = 3;

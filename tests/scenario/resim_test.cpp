@@ -43,7 +43,8 @@ std::shared_ptr<EgoTrack> arc_track(double r, double v, double t_end) {
   track->source = "dataset";
   for (double t = 0; t <= t_end + 1e-9; t += 0.5) {
     const double turn = v * t / r;
-    track->samples.push_back({t, cx + r * std::sin(h0 + turn), cy - r * std::cos(h0 + turn), h0 + turn, v, v / r});
+    track->samples.push_back(
+        {t, cx + r * std::sin(h0 + turn), cy - r * std::cos(h0 + turn), h0 + turn, v, v / r});
   }
   return track;
 }
@@ -172,8 +173,7 @@ TEST(Resimulation, PedestrianInABendOfTheRecordedPath) {
   s.kind = "pedestrian_crossing", s.object_class = "person", s.initial_distance_m = 45, s.side = "right";
   s.speed_mps = 1.4, s.target_ttc_s = 1.4;
   Case c{"pedestrian_crossing_bend", plan("pedestrian_crossing", s, scene), options(1, 0, "sidewalk")};
-  c.opt.ego_path =
-      hazard::EgoPath::recorded(scene.ego_track->samples, 4.0, "test");
+  c.opt.ego_path = hazard::EgoPath::recorded(scene.ego_track->samples, 4.0, "test");
   const Measured m = run_case(c);
   expect_meets(c, m);
   // The lane-keeping ego drives the recorded path: within a few centimetres of the plan's ego (the anchor

@@ -26,9 +26,10 @@ TEST(UnderWay, RefusedUnlessTheTemplateAllowsIt) {
   auto tpl = make_template("sudden_stop", {{"duration_s", 3.0}});
   HazardSpec s = lead_stop(30, 15, 6);
   s.extra["under_way_s"] = 0.5;
-  EXPECT_EQ(tpl->check(s, test_scene(15.0)),
-            std::vector<std::string>{"extra.under_way_s 0.5 s exceeds max_under_way_s 0 s (raise the template "
-                                     "param to plan hazards already under way when they appear)"});
+  EXPECT_EQ(
+      tpl->check(s, test_scene(15.0)),
+      std::vector<std::string>{"extra.under_way_s 0.5 s exceeds max_under_way_s 0 s (raise the template "
+                               "param to plan hazards already under way when they appear)"});
   s.extra["under_way_s"] = -0.5;
   auto allowing = make_template("sudden_stop", {{"duration_s", 3.0}, {"max_under_way_s", 1.0}});
   EXPECT_EQ(allowing->check(s, test_scene(15.0)),
@@ -87,10 +88,10 @@ TEST(UnderWay, ACutInAlreadyChangingLanesAppearsInViewAndEndsAtTheTarget) {
   const hazard::PlanOutcome o = tpl->evaluate(s, test_scene(20.0));
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
   const TrajectoryPoint& p0 = o.trajectory.points.front();
-  EXPECT_GT(p0.x, 5.0);                // ahead of the ego's front
-  EXPECT_GT(p0.y, 0.0);                // still partly in its own lane ...
-  EXPECT_LT(p0.y, 3.5 - 0.1);          // ... but already moving across
-  EXPECT_LT(p0.heading, 0.0);          // pointing into the ego lane (towards -y)
+  EXPECT_GT(p0.x, 5.0);        // ahead of the ego's front
+  EXPECT_GT(p0.y, 0.0);        // still partly in its own lane ...
+  EXPECT_LT(p0.y, 3.5 - 0.1);  // ... but already moving across
+  EXPECT_LT(p0.heading, 0.0);  // pointing into the ego lane (towards -y)
   const auto cam = test::test_camera().project_ego(cv::Vec3d(p0.x, p0.y, 0.75));
   ASSERT_TRUE(cam.has_value());
   EXPECT_GE(cam->x, 0.0);

@@ -552,9 +552,9 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
   // Keypoint scale ratios of this frame's matched boxes.
   std::map<int64_t, estimation::ScaleRatio> ratios;
   if (cfg_.keypoints && !frame.image.empty()) {
-    // Only objects that could come into the ego's path need the closing-speed cue; tracking corners costs a few
-    // milliseconds per box, so boxes whose state lies farther than keypoint_band_m to the side (or behind) are
-    // left to the range cues. A track seen for the first time is always measured.
+    // Only objects that could come into the ego's path need the closing-speed cue; tracking corners costs a
+    // few milliseconds per box, so boxes whose state lies farther than keypoint_band_m to the side (or
+    // behind) are left to the range cues. A track seen for the first time is always measured.
     std::map<int64_t, cv::Rect2f> boxes;
     for (const Track& tr : tracks.items) {
       if (tr.misses != 0) continue;

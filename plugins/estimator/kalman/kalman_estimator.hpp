@@ -25,7 +25,8 @@ namespace hf {
 struct RangeCue {
   std::optional<double> pinhole_depth, pinhole_var;  // optical depth (m) and its variance
   std::optional<double> ground_depth, ground_var;
-  double pinhole_noise_var = 0.0, ground_noise_var = 0.0;  // the frame-to-frame (jitter) part of each variance
+  double pinhole_noise_var = 0.0,
+         ground_noise_var = 0.0;     // the frame-to-frame (jitter) part of each variance
   std::optional<double> depth, var;  // fused, with the cues' whole expected errors (they set the weights)
   // Variance of the fused depth from frame-to-frame noise alone (box jitter). The prior's height error and
   // the pitch / road offsets are biases that persist along a track: they scale range and closing speed alike,

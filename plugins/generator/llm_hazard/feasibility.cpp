@@ -58,8 +58,9 @@ std::string unmet_condition(const std::string& c, const FeasibilityConfig& cfg, 
   namespace sc = scene_condition;
   const hazard::RoadModel& road = cfg.road;
   auto lanes = [&] {
-    return "lanes_left " + std::to_string(road.lanes_left) + ", lanes_right " + std::to_string(road.lanes_right) +
-           ", oncoming_lanes " + std::to_string(road.oncoming_lanes) + ", traffic keeps " + road.driving_side;
+    return "lanes_left " + std::to_string(road.lanes_left) + ", lanes_right " +
+           std::to_string(road.lanes_right) + ", oncoming_lanes " + std::to_string(road.oncoming_lanes) +
+           ", traffic keeps " + road.driving_side;
   };
   if (c == sc::kSidewalks)
     return cfg.sidewalks || cfg.pedestrians_without_sidewalks ? "" : "the scene has none (sidewalks = no)";

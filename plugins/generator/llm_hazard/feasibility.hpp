@@ -69,7 +69,8 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
 // ("a lane beside the ego lane going its way"), and why it does not hold in this scene ("" = it holds).
 bool known_condition(const std::string& condition);
 std::string condition_text(const std::string& condition);
-std::string unmet_condition(const std::string& condition, const FeasibilityConfig& cfg, const SceneContext& scene);
+std::string unmet_condition(const std::string& condition, const FeasibilityConfig& cfg,
+                            const SceneContext& scene);
 // Every unmet condition of `needs`, as "<what it means>: <why not>".
 std::vector<std::string> unmet_needs(const std::vector<std::string>& needs, const FeasibilityConfig& cfg,
                                      const SceneContext& scene);

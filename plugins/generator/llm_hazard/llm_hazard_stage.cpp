@@ -267,8 +267,8 @@ void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std
     if (std::find(registered.begin(), registered.end(), k) == registered.end())
       ctx.log(LogLevel::kWarning,
               "no hazard_template '" + k + "' is registered: the generic kinematic checks apply");
-  // Every registered kind, allowed or not: the reply's extra fields are those of all of them (a model may fill
-  // another kind's field with null), and the allowed ones check and propose.
+  // Every registered kind, allowed or not: the reply's extra fields are those of all of them (a model may
+  // fill another kind's field with null), and the allowed ones check and propose.
   for (const std::string& k : registered) {
     try {
       templates_[k] = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, k, shared);
@@ -279,7 +279,6 @@ void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std
                                       "' does not take the road/TTC params; it checks with its own defaults");
     }
   }
-
 }
 
 namespace {
@@ -397,9 +396,10 @@ void LlmHazardGenerator::open(StageContext& ctx) {
     kind_infos_.push_back(kind_info_of(templates_, k));
     for (const std::string& need : kind_infos_.back().needs)
       if (!known_condition(need))
-        throw Error("hazard_template '" + k + "' needs the scene condition '" + need +
-                    "', which this generator does not know (known: sidewalks, same_direction_lane, oncoming_lane, "
-                    "intersection, tracked_lead)");
+        throw Error(
+            "hazard_template '" + k + "' needs the scene condition '" + need +
+            "', which this generator does not know (known: sidewalks, same_direction_lane, oncoming_lane, "
+            "intersection, tracked_lead)");
   }
   std::vector<HazardKindInfo> all_kinds = kind_infos_;
   for (const std::string& k : registered)
@@ -433,7 +433,8 @@ void LlmHazardGenerator::open(StageContext& ctx) {
         rules_.asset_classes.end())
       drawable.push_back(c);
   if (drawable.empty())
-    throw Error("no object class of the hazard spec schema has appearance assets (" + rules_.assets_where + ")");
+    throw Error("no object class of the hazard spec schema has appearance assets (" + rules_.assets_where +
+                ")");
   replies["properties"]["object_class"]["enum"] = drawable;
   reply_validator_.emplace(std::move(replies));
   spec_validator_.emplace(spec_schema_);
@@ -776,8 +777,8 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
               s.road.lanes_from + "; traffic keeps " + s.road.driving_side + ", " + s.driving_side_why + ")");
 
   SceneSummary scene = summarize_scene(frame, states, risks, s, limits_, sizes_);
-  const FeasibilityConfig fc = feasibility_config(s, limits_, sizes_, frame.timestamp,
-                                                  states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate);
+  const FeasibilityConfig fc = feasibility_config(
+      s, limits_, sizes_, frame.timestamp, states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate);
   std::map<std::string, std::string> values = scene.placeholders;
   values["schema"] = reply_validator_->schema().dump(2);
   const std::string prompt = prompt_->render(values);

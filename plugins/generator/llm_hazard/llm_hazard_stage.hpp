@@ -71,12 +71,13 @@ class LlmHazardGenerator : public Stage {
   std::string provider_name_;
   std::map<std::string, std::unique_ptr<HazardTemplate>> templates_;
   double horizon_s_ = 6.0;
-  double max_under_way_s_ = 0.0;  // the param, or what the clip cannot show (-1)  // templates' duration_s: the param, or what is left of the clip at the trigger
+  double max_under_way_s_ = 0.0;  // the param, or what the clip cannot show (-1)  // templates' duration_s:
+                                  // the param, or what is left of the clip at the trigger
   void make_templates(StageContext& ctx, const std::vector<std::string>& registered);
   std::vector<std::string> allowed_kinds_;
   std::vector<HazardKindInfo> kind_infos_;  // of the allowed kinds, in their order
-  SceneRules rules_;                         // drawable classes, takeovers, entry, clearance (params)
-  Feedback feedback_;                        // failed attempts of earlier runs (param feedback)
+  SceneRules rules_;                        // drawable classes, takeovers, entry, clearance (params)
+  Feedback feedback_;                       // failed attempts of earlier runs (param feedback)
   Json spec_schema_;
   std::optional<SchemaValidator> reply_validator_;
   std::optional<SchemaValidator> spec_validator_;

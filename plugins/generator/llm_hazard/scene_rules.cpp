@@ -70,8 +70,8 @@ RoadPose road_pose(const std::vector<TrajectoryPoint>& ego, double x, double y, 
   return p;
 }
 
-// Where an object at (x, y) is after driving `ds` metres along its lane, the lanes running beside the ego's path
-// `ego` (straight beyond its end), and its heading there; (x, y) + ds along x without a path.
+// Where an object at (x, y) is after driving `ds` metres along its lane, the lanes running beside the ego's
+// path `ego` (straight beyond its end), and its heading there; (x, y) + ds along x without a path.
 cv::Vec3d along_lane(const std::vector<TrajectoryPoint>& ego, double x, double y, double ds) {
   if (ego.size() < 2) return {x + ds, y, 0.0};
   size_t k = 0;
@@ -127,11 +127,13 @@ std::vector<std::string> asset_classes(const std::string& dir) {
   return {classes.begin(), classes.end()};
 }
 
-std::vector<std::string> check_spec_rules(const HazardSpec& spec, const SceneContext& scene, const SceneRules& rules) {
+std::vector<std::string> check_spec_rules(const HazardSpec& spec, const SceneContext& scene,
+                                          const SceneRules& rules) {
   std::vector<std::string> errs;
   const auto& classes = rules.asset_classes;
   if (!classes.empty() && std::find(classes.begin(), classes.end(), spec.object_class) == classes.end())
-    errs.push_back("/object_class = \"" + spec.object_class + "\" has no appearance assets, so the renderer cannot " +
+    errs.push_back("/object_class = \"" + spec.object_class +
+                   "\" has no appearance assets, so the renderer cannot " +
                    "draw it (classes with assets: " + join(classes) + "; " + rules.assets_where + ")");
   if (!rules.take_over_tracks && spec.extra.is_object() && spec.extra.contains("track_id") &&
       spec.extra["track_id"].is_number()) {
@@ -139,10 +141,11 @@ std::vector<std::string> check_spec_rules(const HazardSpec& spec, const SceneCon
     std::string what = "tracked object";
     for (const ObjectState& o : scene.objects)
       if (o.track_id == id) what = "tracked " + o.label;
-    errs.push_back("/extra/track_id = " + std::to_string(id) + " takes over the " + what +
-                   ", but this scene does not allow takeovers (take_over_tracks false: the renderer would leave "
-                   "the real one in the video beside the inserted one). Insert a new object instead "
-                   "(extra.track_id null)");
+    errs.push_back(
+        "/extra/track_id = " + std::to_string(id) + " takes over the " + what +
+        ", but this scene does not allow takeovers (take_over_tracks false: the renderer would leave "
+        "the real one in the video beside the inserted one). Insert a new object instead "
+        "(extra.track_id null)");
   }
   return errs;
 }
@@ -155,7 +158,8 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
   const std::string& cls = tr.object_class;
   const double half_l = tr.size_lwh[0] / 2, half_w = tr.size_lwh[1] / 2, clear = rules.clearance_m / 2;
   std::optional<int64_t> taken;
-  if (tr.spec.extra.is_object() && tr.spec.extra.contains("track_id") && tr.spec.extra["track_id"].is_number())
+  if (tr.spec.extra.is_object() && tr.spec.extra.contains("track_id") &&
+      tr.spec.extra["track_id"].is_number())
     taken = static_cast<int64_t>(tr.spec.extra["track_id"].get<double>());
 
   // Clear of every tracked object, each predicted at constant velocity from where it is now (standing when
@@ -163,20 +167,21 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
   for (const ObjectState& o : scene.objects) {
     if (!std::isfinite(o.distance_m) || (taken && *taken == o.track_id)) continue;
     const ClassSize prior = sizes.has(o.label) ? sizes.at(o.label) : ClassSize{};
-    const double ol = o.length_m > 0 ? o.length_m : prior.length, ow = o.width_m > 0 ? o.width_m : prior.width;
+    const double ol = o.length_m > 0 ? o.length_m : prior.length,
+                 ow = o.width_m > 0 ? o.width_m : prior.width;
     const double ego = scene.ego_speed_mps.value_or(0.0);
     const cv::Vec2d v = hazard::ground_velocity(o, ego).value_or(cv::Vec2d(0, 0));
-    // A vehicle keeps its lane (it follows the road as the ego's path does) at its speed along it: its tracked
-    // lateral speed is mostly box noise (a truck beside the ego, cut off by the image border, reads 1-2.5 m/s
-    // towards the ego lane on the KITTI raw clip), which a constant-velocity prediction would turn into a
-    // collision with anything planned in the next lane. People keep their velocity.
+    // A vehicle keeps its lane (it follows the road as the ego's path does) at its speed along it: its
+    // tracked lateral speed is mostly box noise (a truck beside the ego, cut off by the image border, reads
+    // 1-2.5 m/s towards the ego lane on the KITTI raw clip), which a constant-velocity prediction would turn
+    // into a collision with anything planned in the next lane. People keep their velocity.
     const bool in_lane = is_vehicle(o.label);
     const double oh = cv::norm(v) > 0.5 ? std::atan2(v[1], v[0]) : 0.0;
     // distance_m reaches the face the camera sees; the footprint is placed by its centre, half its length on.
     const double x0 = o.distance_m + rules.distance_origin_x + ol / 2.0, y0 = o.lateral_m;
-    // A taken-over object starts where the real one is: a neighbour as close as the recording shows them is not a
-    // collision; only coming closer than that is — sideways for one in the next lane (which may pass it), in
-    // any direction for one in its own lane.
+    // A taken-over object starts where the real one is: a neighbour as close as the recording shows them is
+    // not a collision; only coming closer than that is — sideways for one in the next lane (which may pass
+    // it), in any direction for one in its own lane.
     std::optional<double> recorded_gap;
     bool side_by_side = false;
     for (const TrajectoryPoint& p : tr.points) {
@@ -238,12 +243,15 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
           nearer.emplace_back(o.box.x, o.box.y, o.box.width, o.box.height);
       const bool hidden = covered_fraction(view.box, nearer) >= 0.5;
       if (!entering && !off_road && !small && !hidden)
-        errs.push_back("the " + cls + " would pop up on the road " + num(p.x) + " m ahead: when it is first seen (" +
-                       num(p.t - tr.anchor_time) + " s after it appears) its box is fully in view, " +
-                       hazard::num(view.box.height, 0) + " px tall, and no tracked object hides it. Let it enter from "
-                       "beyond the image border, from behind a nearer tracked object, or far enough to be first "
-                       "seen small (at most " + hazard::num(max_px, 0) + " px tall, " + num(100 * rules.entry_max_height) +
-                       " % of the image height)");
+        errs.push_back(
+            "the " + cls + " would pop up on the road " + num(p.x) + " m ahead: when it is first seen (" +
+            num(p.t - tr.anchor_time) + " s after it appears) its box is fully in view, " +
+            hazard::num(view.box.height, 0) +
+            " px tall, and no tracked object hides it. Let it enter from "
+            "beyond the image border, from behind a nearer tracked object, or far enough to be first "
+            "seen small (at most " +
+            hazard::num(max_px, 0) + " px tall, " + num(100 * rules.entry_max_height) +
+            " % of the image height)");
       break;
     }
   }

@@ -44,8 +44,8 @@ Json opt(const std::optional<double>& v) {
   return v && std::isfinite(*v) ? Json(*v) : Json(nullptr);
 }
 
-// "traffic keeps right; left of the ego lane: 1 lane going the ego's way, then 1 with oncoming traffic; right of
-// it: none".
+// "traffic keeps right; left of the ego lane: 1 lane going the ego's way, then 1 with oncoming traffic; right
+// of it: none".
 std::string describe_lanes(const hazard::RoadModel& road) {
   auto side = [&](int sd) {
     const int same = road.same_direction_lanes(sd), oncoming = road.oncoming_lanes_on(sd);
@@ -57,8 +57,8 @@ std::string describe_lanes(const hazard::RoadModel& road) {
     if (oncoming > 0) out += (out.empty() ? "" : ", then ") + count(oncoming, "with oncoming traffic");
     return out;
   };
-  return "traffic keeps " + road.driving_side + "; lanes " + num(road.lane_width) + " m wide; left of the ego lane: " +
-         side(1) + "; right of it: " + side(-1);
+  return "traffic keeps " + road.driving_side + "; lanes " + num(road.lane_width) +
+         " m wide; left of the ego lane: " + side(1) + "; right of it: " + side(-1);
 }
 
 std::string fmt_opt(const std::optional<double>& v, const std::string& unit) {
@@ -265,7 +265,8 @@ std::string describe_kinds(const std::vector<HazardKindInfo>& kinds, const Feasi
       const std::vector<std::string> unmet = unmet_needs(k.needs, cfg, scene);
       std::string needs;
       for (const std::string& n : k.needs) needs += (needs.empty() ? "" : ", ") + condition_text(n);
-      out += " Needs " + needs + (unmet.empty() ? " (given here)." : " — NOT given here, so do not choose it.");
+      out +=
+          " Needs " + needs + (unmet.empty() ? " (given here)." : " — NOT given here, so do not choose it.");
     }
     for (const HazardField& f : k.extra_fields) out += "\n  extra." + f.name + ": " + f.doc + ".";
     out += "\n";
@@ -430,23 +431,26 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
       {"object_classes", classes.empty() ? "any class with kinematic limits" : classes},
       {"entry_rule",
        s.rules.entry_max_height > 0
-           ? "The object must come into view plausibly: from beyond the image border (beside or behind the ego), "
+           ? "The object must come into view plausibly: from beyond the image border (beside or behind the "
+             "ego), "
              "from behind a detected object, or far enough away to be small when first seen (at most " +
                  num(s.rules.entry_max_height * frame.camera.height) + " px of the " +
-                 std::to_string(frame.camera.height) + " px image height) — never popping up on the road close ahead."
-           : "The object may already be in view when it appears (it appears with the first frames of the video, "
+                 std::to_string(frame.camera.height) +
+                 " px image height) — never popping up on the road close ahead."
+           : "The object may already be in view when it appears (it appears with the first frames of the "
+             "video, "
              "or the scene sets no rule on coming into view)."},
-      {"take_over",
-       s.rules.take_over_tracks
-           ? "A detected vehicle may itself become the hazard (extra.track_id): the renderer removes the real one."
-           : "Do not make a detected object the hazard (extra.track_id stays null): the real one would stay in the "
-             "video beside it."}};
+      {"take_over", s.rules.take_over_tracks ? "A detected vehicle may itself become the hazard "
+                                               "(extra.track_id): the renderer removes the real one."
+                                             : "Do not make a detected object the hazard (extra.track_id "
+                                               "stays null): the real one would stay in the "
+                                               "video beside it."}};
 
   out.context.timestamp = frame.timestamp;
   out.context.objects = states.objects;
   out.context.distance_origin_x = states.distance_origin_x;
-  const FeasibilityConfig fc = feasibility_config(s, limits, sizes, frame.timestamp,
-                                                  states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate);
+  const FeasibilityConfig fc = feasibility_config(
+      s, limits, sizes, frame.timestamp, states.ego_yaw_rate ? states.ego_yaw_rate : frame.ego.yaw_rate);
   out.placeholders["kinds"] = describe_kinds(s.kinds, fc, out.context);
   out.context.ego_speed_mps = s.ego_speed_mps;
   out.context.camera = frame.camera;

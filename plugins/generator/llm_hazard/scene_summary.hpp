@@ -84,8 +84,8 @@ struct ResolvedRoad {
   hazard::RoadModel road;           // the prompt's, the scene rules' and the proposals' road
   hazard::RoadModel for_templates;  // the same facts, the resolved ones marked stated: the templates apply
                                     // the markings themselves
-  std::string driving_side_why;  // "stated", "default: ..." or "auto: the recording shows ..."
-  std::string conflict;          // a stated driving side the traffic contradicts, else empty
+  std::string driving_side_why;     // "stated", "default: ..." or "auto: the recording shows ..."
+  std::string conflict;             // a stated driving side the traffic contradicts, else empty
 };
 ResolvedRoad resolve_road(const hazard::RoadModel& stated, const RoadMarkings* markings,
                           const TrafficBeside::Seen& oncoming, const TrafficBeside::Seen& with_ego,

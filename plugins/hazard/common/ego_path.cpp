@@ -145,8 +145,8 @@ EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double ancho
     const double vx = c * gvx + s * gvy, vy = -s * gvx + c * gvy;
     const double ax = c * gax + s * gay, ay = -s * gax + c * gay;
     nd.speed = std::hypot(vx, vy);
-    // Backwards against the heading it had: pose noise while standing (or a short reverse), never a U-turn; the
-    // heading is held, so the path does not fold back on itself.
+    // Backwards against the heading it had: pose noise while standing (or a short reverse), never a U-turn;
+    // the heading is held, so the path does not fold back on itself.
     const bool backwards = held && vx * std::cos(*held) + vy * std::sin(*held) < 0;
     if (nd.speed > kMovingSpeed && !backwards) {
       nd.heading = std::atan2(vy, vx);

@@ -119,8 +119,9 @@ std::string fmt1(double v) {
   return buf;
 }
 
-Json proposal_spec(const std::string& kind, const std::string& cls, double x, double y, const std::string& side,
-                   double speed, double heading, const std::string& motion, double target) {
+Json proposal_spec(const std::string& kind, const std::string& cls, double x, double y,
+                   const std::string& side, double speed, double heading, const std::string& motion,
+                   double target) {
   return {{"kind", kind},
           {"object_class", cls},
           {"initial_distance_m", round_to(x, 0.1)},

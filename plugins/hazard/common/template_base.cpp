@@ -54,8 +54,8 @@ RoadModel RoadModel::from(const Params& p) {
   if (r.oncoming_lanes > r.lanes(side))
     throw Error("oncoming_lanes " + std::to_string(r.oncoming_lanes) + " exceeds the " +
                 std::to_string(r.lanes(side)) + " lane(s) on the " + (side > 0 ? "left" : "right") +
-                " (lanes_" + (side > 0 ? "left" : "right") + "), where oncoming traffic passes when traffic keeps " +
-                r.driving_side);
+                " (lanes_" + (side > 0 ? "left" : "right") +
+                "), where oncoming traffic passes when traffic keeps " + r.driving_side);
   return r;
 }
 
@@ -141,8 +141,10 @@ BoxView view_of(const CameraModel& cam, const EgoPath& ego, double s, double d, 
   return view_of(cam, m.x, m.y, *m.heading, size);
 }
 
-BoxView view_from_anchor(const PlanRequest& req, double s, double d, double rel_heading, const cv::Vec3d& size) {
-  if (req.under_way <= 0 || !req.anchor_ego) return view_of(req.scene.camera, req.ego, s, d, rel_heading, size);
+BoxView view_from_anchor(const PlanRequest& req, double s, double d, double rel_heading,
+                         const cv::Vec3d& size) {
+  if (req.under_way <= 0 || !req.anchor_ego)
+    return view_of(req.scene.camera, req.ego, s, d, rel_heading, size);
   return view_of(req.scene.camera, *req.anchor_ego, s - req.ego.s_at(req.under_way), d, rel_heading, size);
 }
 
@@ -190,9 +192,11 @@ ComponentInfo TemplateBase::base_info(const HazardKindInfo& kind, const std::str
     return out.empty() ? none : out;
   };
   std::string fields;
-  for (const HazardField& f : kind.extra_fields) fields += (fields.empty() ? "" : "; ") + ("extra." + f.name + ": " + f.doc);
-  i.doc = (doc.empty() ? "" : doc + " ") + "Classes: " + list(kind.object_classes, "any") + ". Needs: " +
-          list(kind.needs, "nothing of the scene") + ". Extra fields: " + (fields.empty() ? "none" : fields) +
+  for (const HazardField& f : kind.extra_fields)
+    fields += (fields.empty() ? "" : "; ") + ("extra." + f.name + ": " + f.doc);
+  i.doc = (doc.empty() ? "" : doc + " ") + "Classes: " + list(kind.object_classes, "any") +
+          ". Needs: " + list(kind.needs, "nothing of the scene") +
+          ". Extra fields: " + (fields.empty() ? "none" : fields) +
           ". As the prompt puts it: " + kind.play_out;
   return i;
 }
@@ -306,7 +310,8 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
     // heading at its first speed (the recording says nothing else about that time), as proposals assume.
     design_ego = under_way > 0 ? ego.seen_from(-under_way) : ego;
   }
-  // Arc length the ego covers from the hazard's start to the anchor time (road x of the design -> of the anchor).
+  // Arc length the ego covers from the hazard's start to the anchor time (road x of the design -> of the
+  // anchor).
   const double ego_shift = under_way > 0 ? design_ego.s_at(under_way) : 0.0;
 
   const ClassSize& prior = sizes_.at(cls);
@@ -393,7 +398,8 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
     // The limits hold for the whole manoeuvre, including its part before the anchor time: measure it from its
     // start (in the frame of the ego at the start) up to the last planned sample.
     std::vector<TrajectoryPoint> whole;
-    const int m_end = static_cast<int>(std::floor((under_way + (tr.points.back().t - tr.anchor_time)) * rate_hz_ + 1e-9));
+    const int m_end =
+        static_cast<int>(std::floor((under_way + (tr.points.back().t - tr.anchor_time)) * rate_hz_ + 1e-9));
     for (int k = 0; k <= m_end; ++k) {
       const ObjectMotion m = d.motion(k / rate_hz_);
       const EgoPath::Mapped a = design_ego.map(m.x, m.y, m.vx, m.vy, m.heading);

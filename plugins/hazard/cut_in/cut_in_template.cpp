@@ -37,7 +37,8 @@ ComponentInfo CutInTemplate::describe() {
       info(),
       "Starts beside or behind the ego in the adjacent lane, passes, then changes into the ego lane "
       "(minimum-jerk lateral shift within the class's lateral speed/acceleration/jerk and turn-rate limits) "
-      "while braking to a final speed below the ego's. At the end of the lane change the TTC equals target_ttc_s "
+      "while braking to a final speed below the ego's. At the end of the lane change the TTC equals "
+      "target_ttc_s "
       "and the gap is inside the ego's stopping distance.");
   i.params.push_back(
       hf::ParamSpec::number("closing_speed_mps", 3.0)
@@ -224,10 +225,11 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
   return d;
 }
 
-// Whether the plan of this cut-in, under way for `under_way` s when it appears, starts with the vehicle at the
-// image border (partly out of view), i.e. coming into view rather than appearing in it.
-bool CutInTemplate::enters_from_border(const ProposalRequest& request, const std::string& cls, double x0, double y0,
-                                       double v0, double v1, double decel, double under_way) const {
+// Whether the plan of this cut-in, under way for `under_way` s when it appears, starts with the vehicle at
+// the image border (partly out of view), i.e. coming into view rather than appearing in it.
+bool CutInTemplate::enters_from_border(const ProposalRequest& request, const std::string& cls, double x0,
+                                       double y0, double v0, double v1, double decel,
+                                       double under_way) const {
   if (under_way <= 0) return true;
   HazardSpec spec;
   spec.kind = kind_info().kind;
@@ -243,12 +245,14 @@ bool CutInTemplate::enters_from_border(const ProposalRequest& request, const std
   const hazard::PlanOutcome plan = evaluate(spec, request.scene);
   if (!plan.reasons.empty() || plan.trajectory.points.empty()) return false;
   const TrajectoryPoint& p = plan.trajectory.points.front();
-  const hazard::BoxView v = hazard::view_of(request.scene.camera, p.x, p.y, p.heading, plan.trajectory.size_lwh);
+  const hazard::BoxView v =
+      hazard::view_of(request.scene.camera, p.x, p.y, p.heading, plan.trajectory.size_lwh);
   return !v.in_front || v.inside_fraction < 0.98;
 }
 
-// Overtakes from beside/behind at v0 > ego, then brakes to v1 < ego while changing lanes. In slow traffic (the
-// ego below 5 m/s: a queue) a vehicle from the next lane squeezes into the gap ahead of the ego and stops there.
+// Overtakes from beside/behind at v0 > ego, then brakes to v1 < ego while changing lanes. In slow traffic
+// (the ego below 5 m/s: a queue) a vehicle from the next lane squeezes into the gap ahead of the ego and
+// stops there.
 HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   using hazard::fmt1;
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
@@ -312,12 +316,13 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
   };
   double x0 = start_x(0.0);
   // A horizon too short for the whole manoeuvre: when allowed, it is already under way when it appears and
-  // the lane change ends a little into the horizon — later when it must come into view plausibly, so that it is
-  // still beside the ego, at the image border, when it appears.
+  // the lane change ends a little into the horizon — later when it must come into view plausibly, so that it
+  // is still beside the ego, at the image border, when it appears.
   double under_way = 0;
   if (manoeuvre > sc.horizon - 0.5) {
     if (sc.max_under_way <= 0) return {nullptr, "the cut-in takes longer than the horizon"};
-    double end = (request.first_seen_max_height > 0 ? d.uniform(0.55, 0.8) : d.uniform(0.3, 0.5)) * sc.horizon;
+    double end =
+        (request.first_seen_max_height > 0 ? d.uniform(0.55, 0.8) : d.uniform(0.3, 0.5)) * sc.horizon;
     if (request.first_seen_max_height > 0) {
       // It must come into view from the image border: the lane change ends later (the vehicle is further back
       // when it appears) until the plan starts with the vehicle at the border, still beside the ego.
@@ -333,8 +338,8 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
     under_way = manoeuvre - end;
     x0 = start_x(-under_way);
     if (under_way > sc.max_under_way)
-      return {nullptr, "the cut-in would have to be under way for " + fmt1(under_way) + " s (max_under_way_s " +
-                           fmt1(sc.max_under_way) + ")"};
+      return {nullptr, "the cut-in would have to be under way for " + fmt1(under_way) +
+                           " s (max_under_way_s " + fmt1(sc.max_under_way) + ")"};
   }
   if (!fits(x0)) return no_start(x0);
   if (under_way == 0)
@@ -344,13 +349,13 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
                                     "overtakes in the " + side + " lane and cuts in, braking", sc.target);
   spec["deceleration_mps2"] = decel;
   spec["extra"]["final_speed_mps"] = v1;
-  spec["rationale"] = queue ? "In slow traffic a " + cls + " in the " + side + " lane, moving at " + fmt1(v0) +
-                                  " m/s, squeezes into the gap ahead of the ego, slowing to " + fmt1(v1) +
-                                  " m/s, about " +
-                                  fmt1(gap_end) + " m ahead; TTC near " + fmt1(ttc) + " s."
-                            : "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " +
-                                  fmt1(v0) + " m/s and cuts in ahead of the ego, braking to " + fmt1(v1) +
-                                  " m/s; it ends about " + fmt1(gap_end) + " m ahead, TTC near " + fmt1(ttc) + " s.";
+  spec["rationale"] =
+      queue ? "In slow traffic a " + cls + " in the " + side + " lane, moving at " + fmt1(v0) +
+                  " m/s, squeezes into the gap ahead of the ego, slowing to " + fmt1(v1) + " m/s, about " +
+                  fmt1(gap_end) + " m ahead; TTC near " + fmt1(ttc) + " s."
+            : "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " + fmt1(v0) +
+                  " m/s and cuts in ahead of the ego, braking to " + fmt1(v1) + " m/s; it ends about " +
+                  fmt1(gap_end) + " m ahead, TTC near " + fmt1(ttc) + " s.";
   if (under_way > 0) {
     spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
     spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fmt1(under_way) +

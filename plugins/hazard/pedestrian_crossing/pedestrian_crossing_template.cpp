@@ -17,9 +17,11 @@ HazardKindInfo PedestrianCrossingTemplate::info() {
   k.kind = "pedestrian_crossing";
   k.summary = "a person steps off the kerb and crosses the ego lane";
   k.play_out =
-      "waits on the kerb just beyond the road edge (|y| a little above the edge) at x = initial_distance_m, then "
+      "waits on the kerb just beyond the road edge (|y| a little above the edge) at x = initial_distance_m, "
+      "then "
       "walks across at speed_mps with heading about -90 (from the left) or +90 (from the right); "
-      "extra.crossing_from equals side. The walk is timed so the person enters the ego path at the target TTC.";
+      "extra.crossing_from equals side. The walk is timed so the person enters the ego path at the target "
+      "TTC.";
   k.object_classes = {"person"};
   k.needs = {scene_condition::kSidewalks};
   k.extra_fields = {{"crossing_from",
@@ -33,7 +35,8 @@ ComponentInfo PedestrianCrossingTemplate::describe() {
       info(),
       "The person waits at the kerb on `side` at x = initial_distance_m, then walks straight across at "
       "speed_mps (jerk-limited start). The start of the walk is timed so the constant-speed ego reaches the "
-      "crossing point while the person is in its path; with target_ttc_s the person enters the path when the TTC "
+      "crossing point while the person is in its path; with target_ttc_s the person enters the path when the "
+      "TTC "
       "equals it. With stop_in_path the person stops in the ego path (a pedestrian who freezes in the lane) "
       "instead of walking on, so the hazard stays in the path until the ego reaches it.");
   i.params.push_back(ParamSpec::boolean("stop_in_path", false)
@@ -240,9 +243,9 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
     return {nullptr, "the kerb point (" + fmt1(x_seen) + ", " + fmt1(y0) + ") m is outside the camera view"};
   if (std::string p = sc.overlap_problem(x_seen, y0, size); !p.empty()) return {nullptr, p};
   const std::string from = left ? "left" : "right";
-  Json spec = hazard::proposal_spec(kind_info().kind, cls, x0, y0, from, speed, -sign * 90.0,
-                                    "steps off the " + from + " kerb and crosses to the " + (left ? "right" : "left"),
-                                    sc.target);
+  Json spec = hazard::proposal_spec(
+      kind_info().kind, cls, x0, y0, from, speed, -sign * 90.0,
+      "steps off the " + from + " kerb and crosses to the " + (left ? "right" : "left"), sc.target);
   spec["extra"]["crossing_from"] = from;
   const std::string where =
       sc.sidewalks ? "The scene has sidewalks, so a pedestrian stepping off the " + from + " kerb "

@@ -165,14 +165,16 @@ double time_to_ttc(double gap0, const hazard::ProposalScene& sc, double v0, doub
   return kInf;
 }
 
-// "" or why an inserted lead of footprint `size` cannot start at (x0, y0): 2 m short of the tracked lead's rear,
-// in view, clear of the other tracked objects.
+// "" or why an inserted lead of footprint `size` cannot start at (x0, y0): 2 m short of the tracked lead's
+// rear, in view, clear of the other tracked objects.
 std::string insert_problem(const hazard::ProposalScene& sc, const hazard::ProposalScene::Obj* lead, double x0,
                            double y0, const hazard::Footprint& size) {
   if (lead && x0 + size.length / 2.0 + 2.0 > lead->x - lead->length / 2.0)
-    return "no room to insert a lead vehicle before the " + lead->label + " at " + hazard::fmt1(lead->x) + " m";
+    return "no room to insert a lead vehicle before the " + lead->label + " at " + hazard::fmt1(lead->x) +
+           " m";
   if (!sc.visible(x0, y0))
-    return "the start point (" + hazard::fmt1(x0) + ", " + hazard::fmt1(y0) + ") m is outside the camera view";
+    return "the start point (" + hazard::fmt1(x0) + ", " + hazard::fmt1(y0) +
+           ") m is outside the camera view";
   return sc.overlap_problem(x0, y0, size);
 }
 

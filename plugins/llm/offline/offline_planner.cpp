@@ -1,4 +1,5 @@
-// Deterministic hazard planner behind the LLM provider interface: asks the allowed kinds' templates for plans.
+// Deterministic hazard planner behind the LLM provider interface: asks the allowed kinds' templates for
+// plans.
 #include "offline_planner.hpp"
 
 #include <algorithm>
@@ -16,7 +17,8 @@ namespace {
 
 constexpr double kMinEgoSpeed = 1.0;  // m/s: below it no inserted object closes in on the ego
 
-// Raw 64-bit draws for the templates' proposals (hf::RandomDraw turns them into numbers the same way everywhere).
+// Raw 64-bit draws for the templates' proposals (hf::RandomDraw turns them into numbers the same way
+// everywhere).
 class Draw : public RandomDraw {
  public:
   explicit Draw(uint64_t seed) : gen_(seed) {}
@@ -42,7 +44,7 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
 struct Signature {
   std::string kind, object_class, side;
   std::optional<int64_t> track;
-  bool known = true;       // side and track known (a failed attempt without a spec rules out every side and track)
+  bool known = true;  // side and track known (a failed attempt without a spec rules out every side and track)
   bool same_frame = true;  // from an attempt at the frame this request is for
 
   static Signature of(const Json& spec) {
@@ -56,15 +58,17 @@ struct Signature {
     return s;
   }
   bool matches(const Signature& o) const {
-    return kind == o.kind && object_class == o.object_class && (!known || (side == o.side && track == o.track));
+    return kind == o.kind && object_class == o.object_class &&
+           (!known || (side == o.side && track == o.track));
   }
   std::string str() const {
-    return kind + " " + object_class + (known ? " " + side : "") + (track ? " track " + std::to_string(*track) : "");
+    return kind + " " + object_class + (known ? " " + side : "") +
+           (track ? " track " + std::to_string(*track) : "");
   }
 };
 
-// The scene context's `feedback` (written by the llm_hazard generator from its `feedback` file) and the replies
-// already rejected in this conversation.
+// The scene context's `feedback` (written by the llm_hazard generator from its `feedback` file) and the
+// replies already rejected in this conversation.
 struct Feedback {
   std::vector<Signature> failed;
   bool lower_ttc = false;     // an attempt never became critical enough
@@ -85,7 +89,8 @@ Feedback read_feedback(const LlmRequest& request) {
         sig.kind = a.value("kind", "");
         sig.object_class = a.value("object_class", "");
         sig.side = a.contains("side") && a["side"].is_string() ? a["side"].get<std::string>() : "";
-        if (a.contains("track_id") && a["track_id"].is_number_integer()) sig.track = a["track_id"].get<int64_t>();
+        if (a.contains("track_id") && a["track_id"].is_number_integer())
+          sig.track = a["track_id"].get<int64_t>();
         sig.known = a.value("has_spec", true);
         sig.same_frame = a.value("same_frame", true);
         f.failed.push_back(sig);
@@ -121,8 +126,8 @@ class Selection {
         aim_(aim),
         avoid_(avoid),
         prefer_visible_(prefer_visible) {
-    // A tracked object that failed as the hazard at this frame is not taken over again here; at another frame it
-    // is in another state (nearer, slower), and the aim or the braking changes, so it may serve again.
+    // A tracked object that failed as the hazard at this frame is not taken over again here; at another frame
+    // it is in another state (nearer, slower), and the aim or the braking changes, so it may serve again.
     for (const Signature& s : avoid)
       if (s.track && s.same_frame) avoid_tracks_.push_back(*s.track);
   }
@@ -175,7 +180,8 @@ class Selection {
         continue;
       }
       const Signature sig = Signature::of(p.spec);
-      auto same = std::find_if(avoid_.begin(), avoid_.end(), [&](const Signature& a) { return a.matches(sig); });
+      auto same =
+          std::find_if(avoid_.begin(), avoid_.end(), [&](const Signature& a) { return a.matches(sig); });
       if (same != avoid_.end()) {
         why = "the plan (" + sig.str() + ") repeats a failed attempt";
         skipped_repeat = true;
@@ -232,10 +238,14 @@ ComponentInfo OfflinePlanner::describe() {
   i.kind = kind::kLlmProvider;
   i.summary = "Deterministic, seeded hazard planner that answers like an LLM (no server needed)";
   i.doc =
-      "Asks the templates of the allowed kinds (LlmRequest::hazards, offered by the llm_hazard generator) for "
-      "plans, draws one, and checks it with the generator's rules before answering. Failed attempts in the scene "
-      "context's feedback are not repeated (same kind, class, side and track); after an attempt that never became "
-      "critical enough the aim is lowered by a quarter, after one that was never re-detected the largest, nearest "
+      "Asks the templates of the allowed kinds (LlmRequest::hazards, offered by the llm_hazard generator) "
+      "for "
+      "plans, draws one, and checks it with the generator's rules before answering. Failed attempts in the "
+      "scene "
+      "context's feedback are not repeated (same kind, class, side and track); after an attempt that never "
+      "became "
+      "critical enough the aim is lowered by a quarter, after one that was never re-detected the largest, "
+      "nearest "
       "plan of each kind is chosen.";
   i.params = {
       ParamSpec::number("aim", 0.85).range(0.3, 1.0).describe("planned TTC as a fraction of target_ttc_s"),
@@ -265,17 +275,20 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
   auto t0 = std::chrono::steady_clock::now();
   const Json& scene = request.scene;
   if (!scene.is_object() || scene.empty())
-    throw Error("offline: the request carries no scene context (the offline planner reads LlmRequest::scene)");
+    throw Error(
+        "offline: the request carries no scene context (the offline planner reads LlmRequest::scene)");
   if (!request.hazards)
     throw Error(
-        "offline: the request offers no hazard templates (LlmRequest::hazards): the offline planner plans with "
+        "offline: the request offers no hazard templates (LlmRequest::hazards): the offline planner plans "
+        "with "
         "the templates of the allowed kinds, which the llm_hazard generator offers");
   if (!scene.contains("ego_speed_mps") || !scene["ego_speed_mps"].is_number())
     throw Error("offline: the request's scene context lacks 'ego_speed_mps'");
   const double ego_speed = scene["ego_speed_mps"].get<double>();
   const auto previous = std::count_if(request.messages.begin(), request.messages.end(),
                                       [](const LlmMessage& m) { return m.role == "assistant"; });
-  const uint64_t seed = static_cast<uint64_t>(request.seed) * 0x9E3779B97F4A7C15ULL + static_cast<uint64_t>(previous);
+  const uint64_t seed =
+      static_cast<uint64_t>(request.seed) * 0x9E3779B97F4A7C15ULL + static_cast<uint64_t>(previous);
 
   // The offered kinds, those named in kind_order first.
   std::vector<std::string> offered, kinds;
@@ -308,7 +321,8 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
         Draw again(seed);
         Selection retry(request, *request.hazards, again, candidates_, aim, here, fb.more_visible);
         chosen = retry.run(kinds);
-        for (const std::string& p : retry.problems) problems.push_back("(repeats allowed from other frames) " + p);
+        for (const std::string& p : retry.problems)
+          problems.push_back("(repeats allowed from other frames) " + p);
         candidates = retry.candidates;
       }
     }
@@ -324,7 +338,8 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
   reply.model = "offline-planner-1";
   reply.raw = {{"planner", "offline"}, {"candidates", candidates}, {"rejected", problems}};
   if (fb.lower_ttc || fb.more_visible || !fb.failed.empty())
-    reply.raw["feedback"] = {{"avoided", fb.failed.size()}, {"aim", aim}, {"prefer_visible", fb.more_visible}};
+    reply.raw["feedback"] = {
+        {"avoided", fb.failed.size()}, {"aim", aim}, {"prefer_visible", fb.more_visible}};
   reply.latency_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return reply;
 }

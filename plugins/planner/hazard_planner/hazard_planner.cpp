@@ -28,7 +28,8 @@ ComponentInfo HazardPlanner::describe() {
   i.params = {
       ParamSpec::object("templates")
           .describe("per hazard kind, the params of its template, e.g. {cut_in: {duration_s: 4}}"),
-      ParamSpec::number("ego_speed_mps", -1.0).from_scene("ego.speed_mps")
+      ParamSpec::number("ego_speed_mps", -1.0)
+          .from_scene("ego.speed_mps")
           .range(-1, 100)
           .describe("ego speed when neither the frame nor the object states carry one (-1 = none)"),
       ParamSpec::string("on_infeasible", "error")
@@ -105,7 +106,8 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (!frame.camera.valid()) throw Error("hazard spec at " + where + ": the frame has no valid camera model");
 
   Json tpl_params = templates_.contains(spec->kind) ? templates_[spec->kind] : Json::object();
-  // The generator's bounds (horizon, how long a hazard may be under way) unless the template params state them.
+  // The generator's bounds (horizon, how long a hazard may be under way) unless the template params state
+  // them.
   Json with_bounds = tpl_params;
   if (spec->horizon_s && !with_bounds.contains("duration_s")) with_bounds["duration_s"] = *spec->horizon_s;
   if (spec->max_under_way_s && !with_bounds.contains("max_under_way_s"))

@@ -39,10 +39,10 @@ std::vector<OccluderCandidate> merge_occluders(const ObjectStates* states, const
 // road users measured the same way on the original picture (hazardforge/realism/metrics.hpp).
 struct RealismOptions {
   bool enabled = true;
-  int references = 1;            // real objects measured per class group (vehicles, people) and frame; 0 = none
-  int reference_every = 3;       // ... on every n-th frame (grabCut is the cost)
-  double min_score = 0.5;        // weakest detection measured
-  double min_height_px = 24.0;   // smallest box measured
+  int references = 1;       // real objects measured per class group (vehicles, people) and frame; 0 = none
+  int reference_every = 3;  // ... on every n-th frame (grabCut is the cost)
+  double min_score = 0.5;   // weakest detection measured
+  double min_height_px = 24.0;  // smallest box measured
   // Also the dataset's annotated road users (Frame::annotations: 3D boxes projected into the picture), up to
   // `references` per group and frame besides the detections' (an object both give is measured once): objects
   // the detector misses or mislabels count too, and they are never a false detection.
@@ -96,13 +96,14 @@ class HazardRenderer {
 
  private:
   void start_hazard(const HazardTrajectory& t);
-  void measure_realism(const Frame& original, const std::vector<OccluderCandidate>& objects, Result& res) const;
+  void measure_realism(const Frame& original, const std::vector<OccluderCandidate>& objects,
+                       Result& res) const;
   // The frame's annotated objects of a class group measured as references, tallest first, except those
   // overlapping a box in `measured` (IoU >= 0.5: already measured from the detections).
   std::vector<AppearanceStats> annotated_references(const Frame& original, const std::string& group,
                                                     const std::vector<cv::Rect2f>& measured) const;
-  // The taken-over real object in this frame (its track, else the box that best continues its last one), removed
-  // from `image` by inpainting; nullopt when it is not in view.
+  // The taken-over real object in this frame (its track, else the box that best continues its last one),
+  // removed from `image` by inpainting; nullopt when it is not in view.
   std::optional<TakenOver> remove_taken_over(cv::Mat& image, const std::vector<OccluderCandidate>& objects);
 
   RendererOptions opt_;
@@ -114,12 +115,12 @@ class HazardRenderer {
   std::optional<cv::Point2d> prev_center_px_;
   double prev_t_ = 0;
   bool warned_future_anchor_ = false;
-  std::optional<int64_t> taken_id_;        // the hazard's extra.track_id: a real object it replaces
-  bool reached_ = false;                   // past its plan, the ego has reached the hazard: no longer drawn
-  std::optional<cv::Rect2f> taken_box_;    // that object's latest box
-  int taken_unseen_ = 0;                   // frames since its track last had it
-  std::optional<double> taken_lateral_;    // its latest measured lateral offset (m)
-  std::optional<double> lane_shift_;       // smoothed sideways correction keeping the hazard in its lane (m)
+  std::optional<int64_t> taken_id_;      // the hazard's extra.track_id: a real object it replaces
+  bool reached_ = false;                 // past its plan, the ego has reached the hazard: no longer drawn
+  std::optional<cv::Rect2f> taken_box_;  // that object's latest box
+  int taken_unseen_ = 0;                 // frames since its track last had it
+  std::optional<double> taken_lateral_;  // its latest measured lateral offset (m)
+  std::optional<double> lane_shift_;     // smoothed sideways correction keeping the hazard in its lane (m)
   bool warned_taken_missing_ = false;
   std::vector<std::string> warnings_;
   SceneLightEstimator light_;

@@ -1,4 +1,5 @@
-// Appearance assets: reading and writing assets.yaml, preparing sprites for warping, and choosing one per view.
+// Appearance assets: reading and writing assets.yaml, preparing sprites for warping, and choosing one per
+// view.
 #include "asset_library.hpp"
 
 #include <algorithm>
@@ -40,16 +41,18 @@ class IndexReader {
     if (!v.is_number()) fail(ptr + "/" + name, "field '" + name + "' must be a number");
     return v.get<double>();
   }
-  std::string text(const Json& obj, const std::string& ptr, const std::string& name, bool required = true) const {
+  std::string text(const Json& obj, const std::string& ptr, const std::string& name,
+                   bool required = true) const {
     if (!required && !obj.contains(name)) return {};
     const Json& v = field(obj, ptr, name);
     if (!v.is_string()) fail(ptr + "/" + name, "field '" + name + "' must be a string");
     return v.get<std::string>();
   }
-  std::vector<double> numbers(const Json& obj, const std::string& ptr, const std::string& name, size_t n) const {
+  std::vector<double> numbers(const Json& obj, const std::string& ptr, const std::string& name,
+                              size_t n) const {
     const Json& v = field(obj, ptr, name);
-    if (!v.is_array() || v.size() != n) fail(ptr + "/" + name, "field '" + name + "' must be a list of " +
-                                                                    std::to_string(n) + " numbers");
+    if (!v.is_array() || v.size() != n)
+      fail(ptr + "/" + name, "field '" + name + "' must be a list of " + std::to_string(n) + " numbers");
     std::vector<double> out;
     for (size_t i = 0; i < n; ++i) {
       if (!v[i].is_number()) fail(ptr + "/" + name + "/" + std::to_string(i), "expected a number");
@@ -132,8 +135,8 @@ AssetIndex load_asset_index(const fs::path& dir) {
   if (r.text(root, "", "format") != kAssetFormat)
     r.fail("/format", std::string("format must be '") + kAssetFormat + "'");
   if (static_cast<int>(r.number(root, "", "version")) != kAssetFormatVersion)
-    r.fail("/version", "unsupported version (this build reads version " + std::to_string(kAssetFormatVersion) +
-                           ")");
+    r.fail("/version",
+           "unsupported version (this build reads version " + std::to_string(kAssetFormatVersion) + ")");
   const Json& list = r.field(root, "", "assets");
   if (!list.is_array()) r.fail("/assets", "'assets' must be a list");
   AssetIndex idx;
@@ -163,7 +166,8 @@ AssetIndex load_asset_index(const fs::path& dir) {
     auto an = r.numbers(e, p, "anchor_px", 2);
     s.anchor_px = cv::Point2d(an[0], an[1]);
     const Json& bc = r.field(e, p, "box_corners_px");
-    if (!bc.is_array() || bc.size() != 8) r.fail(p + "/box_corners_px", "box_corners_px must list 8 [x, y] pairs");
+    if (!bc.is_array() || bc.size() != 8)
+      r.fail(p + "/box_corners_px", "box_corners_px must list 8 [x, y] pairs");
     for (size_t k = 0; k < 8; ++k) {
       const std::string pk = p + "/box_corners_px/" + std::to_string(k);
       if (!bc[k].is_array() || bc[k].size() != 2 || !bc[k][0].is_number() || !bc[k][1].is_number())
@@ -175,7 +179,8 @@ AssetIndex load_asset_index(const fs::path& dir) {
     s.origin = r.text(e, p, "origin", false);
     if (s.instance.empty()) s.instance = s.file;
     if (!files.insert(s.file).second) r.fail(p + "/file", "file '" + s.file + "' is listed twice");
-    if (!fs::exists(dir / s.file)) r.fail(p + "/file", "asset picture '" + (dir / s.file).string() + "' not found");
+    if (!fs::exists(dir / s.file))
+      r.fail(p + "/file", "asset picture '" + (dir / s.file).string() + "' not found");
     idx.assets.push_back(std::move(s));
   }
   return idx;
@@ -185,19 +190,21 @@ void save_asset_index(const fs::path& dir, const AssetIndex& index, const std::s
   std::ostringstream os;
   std::istringstream cs(comment);
   for (std::string line; std::getline(cs, line);) os << "# " << line << "\n";
-  os << "format: " << kAssetFormat << "\nversion: " << kAssetFormatVersion << "\nassets:" << (index.assets.empty() ? " []" : "") << "\n";
+  os << "format: " << kAssetFormat << "\nversion: " << kAssetFormatVersion
+     << "\nassets:" << (index.assets.empty() ? " []" : "") << "\n";
   for (const AssetSpec& s : index.assets) {
     os << "  - file: " << quoted(s.file) << "\n";
     os << "    class: " << s.object_class << "\n";
     os << "    view: " << s.view << "\n";
     os << "    azimuth_deg: " << fmt(s.azimuth_deg, 1) << "\n";
-    os << "    size_lwh: [" << fmt(s.size_lwh[0], 3) << ", " << fmt(s.size_lwh[1], 3) << ", " << fmt(s.size_lwh[2], 3)
-       << "]\n";
+    os << "    size_lwh: [" << fmt(s.size_lwh[0], 3) << ", " << fmt(s.size_lwh[1], 3) << ", "
+       << fmt(s.size_lwh[2], 3) << "]\n";
     os << "    image_size: [" << s.image_size.width << ", " << s.image_size.height << "]\n";
     os << "    anchor_px: [" << fmt(s.anchor_px.x, 2) << ", " << fmt(s.anchor_px.y, 2) << "]\n";
     os << "    box_corners_px: [";
     for (int k = 0; k < 8; ++k)
-      os << (k ? ", " : "") << "[" << fmt(s.box_corners_px[k].x, 2) << ", " << fmt(s.box_corners_px[k].y, 2) << "]";
+      os << (k ? ", " : "") << "[" << fmt(s.box_corners_px[k].x, 2) << ", " << fmt(s.box_corners_px[k].y, 2)
+         << "]";
     os << "]\n";
     if (!s.source.empty()) os << "    source: " << s.source << "\n";
     if (!s.instance.empty()) os << "    instance: " << quoted(s.instance) << "\n";
@@ -267,7 +274,8 @@ LoadedAsset prepare_asset(const AssetSpec& spec, const cv::Mat& bgra) {
   }
   for (size_t k = 0; k < a.bgr.size(); ++k) {
     cv::copyMakeBorder(a.bgr[k], a.bgr[k], a.pad, a.pad, a.pad, a.pad, cv::BORDER_REPLICATE);
-    cv::copyMakeBorder(a.alpha[k], a.alpha[k], a.pad, a.pad, a.pad, a.pad, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::copyMakeBorder(a.alpha[k], a.alpha[k], a.pad, a.pad, a.pad, a.pad, cv::BORDER_CONSTANT,
+                       cv::Scalar(0));
     cv::Mat l;
     cv::cvtColor(a.bgr[k], l, cv::COLOR_BGR2Lab);
     a.lab.push_back(l);
@@ -308,7 +316,8 @@ AssetLibrary AssetLibrary::load(const fs::path& primary, const fs::path& fallbac
       if (img.size() != s.image_size)
         throw Error((dir / kAssetIndexFile).string() + ": error: asset '" + s.file + "': image_size [" +
                     std::to_string(s.image_size.width) + ", " + std::to_string(s.image_size.height) +
-                    "] does not match the picture's " + std::to_string(img.cols) + "x" + std::to_string(img.rows));
+                    "] does not match the picture's " + std::to_string(img.cols) + "x" +
+                    std::to_string(img.rows));
       lib.add(s, img, dir, is_fallback);
     }
   };
@@ -361,8 +370,8 @@ const LoadedAsset& AssetLibrary::select(const std::string& cls, double az, const
   if (pick < 0) {
     std::string have;
     for (const auto& c : classes()) have += (have.empty() ? "" : ", ") + c;
-    throw Error("no appearance asset for class '" + cls + "' in " + describe_folders() + " (classes available: " +
-                (have.empty() ? "none" : have) + ")");
+    throw Error("no appearance asset for class '" + cls + "' in " + describe_folders() +
+                " (classes available: " + (have.empty() ? "none" : have) + ")");
   }
   return prepared(static_cast<size_t>(pick));
 }

@@ -24,7 +24,7 @@ struct AssetSpec {
   double azimuth_deg = 0.0;  // camera direction seen from the object, object frame (see box_geometry.hpp)
   cv::Vec3d size_lwh;        // real-world size of the object's box, m
   cv::Size image_size;
-  cv::Point2d anchor_px;                     // ground-contact centre (projection of the box's bottom centre)
+  cv::Point2d anchor_px;                      // ground-contact centre (projection of the box's bottom centre)
   std::array<cv::Point2d, 8> box_corners_px;  // the box's corners in the picture (order of box_geometry.hpp)
   std::string source;                         // "generated" or "harvested"
   std::string instance;                       // model name or dataset instance token: one physical object
@@ -43,19 +43,20 @@ void save_asset_index(const std::filesystem::path& dir, const AssetIndex& index,
 // Writes a BGRA picture atomically.
 void write_png_atomic(const std::filesystem::path& file, const cv::Mat& bgra);
 
-// A loaded asset, prepared for fast warping: a pyramid of colour (with colours bled into transparent pixels so
-// interpolation at the edge never darkens) and alpha, plus the colour statistics used for harmonisation.
+// A loaded asset, prepared for fast warping: a pyramid of colour (with colours bled into transparent pixels
+// so interpolation at the edge never darkens) and alpha, plus the colour statistics used for harmonisation.
 struct LoadedAsset {
   AssetSpec spec;
   std::filesystem::path dir;
   bool from_fallback = false;
-  // Level 0 is the file; each level is padded by `pad` pixels (colour replicated, alpha zero) so warping never
-  // samples outside the picture. Pixel (x, y) of the file is at ((x + 0.5) / 2^k - 0.5 + pad) on level k.
+  // Level 0 is the file; each level is padded by `pad` pixels (colour replicated, alpha zero) so warping
+  // never samples outside the picture. Pixel (x, y) of the file is at ((x + 0.5) / 2^k - 0.5 + pad) on level
+  // k.
   std::vector<cv::Mat> bgr;    // CV_8UC3
   std::vector<cv::Mat> lab;    // CV_8UC3, bgr in 8-bit Lab (harmonisation works there)
   std::vector<cv::Mat> alpha;  // CV_8UC1
   int pad = 2;
-  cv::Scalar lab_mean, lab_std;  // 8-bit Lab statistics of the opaque pixels
+  cv::Scalar lab_mean, lab_std;                  // 8-bit Lab statistics of the opaque pixels
   int level_for_height(double target_px) const;  // coarsest level still at least target_px tall
   cv::Point2d level_px(const cv::Point2d& file_px, int level) const;  // file pixel -> level pixel (with pad)
 };
@@ -63,8 +64,8 @@ struct LoadedAsset {
 // Prepares one BGRA picture (tests and the harvester reuse this).
 LoadedAsset prepare_asset(const AssetSpec& spec, const cv::Mat& bgra);
 
-// All assets of a primary folder plus, optionally, the default set for classes and views it lacks. Pictures are
-// decoded when loaded (so a broken file fails at open) and prepared for warping on first use.
+// All assets of a primary folder plus, optionally, the default set for classes and views it lacks. Pictures
+// are decoded when loaded (so a broken file fails at open) and prepared for warping on first use.
 class AssetLibrary {
  public:
   // Loads every asset of `primary` and of `fallback` (skipped when empty or the same folder).

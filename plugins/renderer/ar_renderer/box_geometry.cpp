@@ -1,4 +1,5 @@
-// Oriented 3D boxes of road users: corners, projection into a camera, and which side of the object a camera sees.
+// Oriented 3D boxes of road users: corners, projection into a camera, and which side of the object a camera
+// sees.
 #include "box_geometry.hpp"
 
 #include <algorithm>
@@ -34,20 +35,28 @@ BoxCorners box_corners(double x, double y, double yaw, const cv::Vec3d& s, doubl
 
 std::array<int, 4> face_corners(Face f) {
   switch (f) {
-    case Face::kFront: return {0, 1, 5, 4};
-    case Face::kRear: return {2, 3, 7, 6};
-    case Face::kLeft: return {3, 0, 4, 7};
-    case Face::kRight: return {1, 2, 6, 5};
+    case Face::kFront:
+      return {0, 1, 5, 4};
+    case Face::kRear:
+      return {2, 3, 7, 6};
+    case Face::kLeft:
+      return {3, 0, 4, 7};
+    case Face::kRight:
+      return {1, 2, 6, 5};
   }
   return {0, 1, 5, 4};
 }
 
 double face_azimuth_deg(Face f) {
   switch (f) {
-    case Face::kFront: return 0.0;
-    case Face::kLeft: return 90.0;
-    case Face::kRear: return 180.0;
-    case Face::kRight: return -90.0;
+    case Face::kFront:
+      return 0.0;
+    case Face::kLeft:
+      return 90.0;
+    case Face::kRear:
+      return 180.0;
+    case Face::kRight:
+      return -90.0;
   }
   return 0.0;
 }
@@ -59,7 +68,9 @@ double wrap_deg(double a) {
   return a;
 }
 
-double angle_diff_deg(double a, double b) { return std::abs(wrap_deg(a - b)); }
+double angle_diff_deg(double a, double b) {
+  return std::abs(wrap_deg(a - b));
+}
 
 double camera_azimuth_deg(const cv::Vec3d& cam, double ox, double oy, double yaw) {
   return wrap_deg(std::atan2(cam[1] - oy, cam[0] - ox) * kDeg - yaw * kDeg);
@@ -108,7 +119,9 @@ std::vector<int> corners_of(const std::vector<Face>& faces) {
   return idx;
 }
 
-std::vector<int> visible_corners(double az) { return corners_of(visible_faces(az)); }
+std::vector<int> visible_corners(double az) {
+  return corners_of(visible_faces(az));
+}
 
 std::array<double, 4> face_shares(const std::array<cv::Point2d, 8>& px) {
   std::array<double, 4> share{};

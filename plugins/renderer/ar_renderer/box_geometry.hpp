@@ -1,4 +1,5 @@
-// Oriented 3D boxes of road users: corners, projection into a camera, and which side of the object a camera sees.
+// Oriented 3D boxes of road users: corners, projection into a camera, and which side of the object a camera
+// sees.
 #pragma once
 
 #include <array>
@@ -26,14 +27,15 @@ std::array<int, 4> face_corners(Face f);
 double face_azimuth_deg(Face f);
 
 // Direction of the camera as seen from the object, in the object's frame, degrees in (-180, 180]:
-// 0 = the camera is straight ahead of the object (it sees the front), 90 = on the object's left, 180 = behind.
+// 0 = the camera is straight ahead of the object (it sees the front), 90 = on the object's left, 180 =
+// behind.
 double camera_azimuth_deg(const cv::Vec3d& camera_pos, double obj_x, double obj_y, double obj_yaw);
 
 // The eight named views at 45 degree steps: front, front_left, left, rear_left, rear, rear_right, right,
 // front_right, and their azimuths.
 const std::vector<std::string>& view_names();
 double view_azimuth_deg(const std::string& view);  // throws hf::Error for an unknown name
-std::string view_for_azimuth(double azimuth_deg);   // nearest view
+std::string view_for_azimuth(double azimuth_deg);  // nearest view
 bool is_view_name(const std::string& view);
 
 // Faces a camera at this azimuth sees well enough to map a picture onto (one for head-on views, two for
@@ -42,11 +44,12 @@ std::vector<Face> visible_faces(double azimuth_deg);
 // Corner indices of those faces, without repeats, in ascending order.
 std::vector<int> visible_corners(double azimuth_deg);
 
-// Vertical faces turned towards the camera in a picture of the box, from the winding of their projected corners
-// (each face's corners are listed counter-clockwise seen from outside); faces whose projected area is below
-// `min_share` of the visible total are slivers and left out.
+// Vertical faces turned towards the camera in a picture of the box, from the winding of their projected
+// corners (each face's corners are listed counter-clockwise seen from outside); faces whose projected area is
+// below `min_share` of the visible total are slivers and left out.
 std::vector<Face> facing_faces(const std::array<cv::Point2d, 8>& px, double min_share = 0.05);
-// Share of each vertical face (front, left, rear, right) in the projected area of the faces turned to the camera.
+// Share of each vertical face (front, left, rear, right) in the projected area of the faces turned to the
+// camera.
 std::array<double, 4> face_shares(const std::array<cv::Point2d, 8>& px);
 // Corner indices of some faces, without repeats, ascending.
 std::vector<int> corners_of(const std::vector<Face>& faces);

@@ -1,4 +1,5 @@
-// Pastes one object picture into a frame on the ROI only: warp, harmonise, feather, blur, occlude, shadow, blend.
+// Pastes one object picture into a frame on the ROI only: warp, harmonise, feather, blur, occlude, shadow,
+// blend.
 #include "compositor.hpp"
 
 #include <algorithm>
@@ -80,8 +81,8 @@ bool ring_statistics(const cv::Mat& image, const cv::Rect& around, const std::ve
   return true;
 }
 
-// A noise estimate as a level to match: 0 where the estimator cannot tell (NaN), and capped, since road texture
-// inflates it.
+// A noise estimate as a level to match: 0 where the estimator cannot tell (NaN), and capped, since road
+// texture inflates it.
 double usable_noise(double sigma) {
   return std::isfinite(sigma) ? std::min(sigma, 6.0) : 0.0;
 }
@@ -120,8 +121,8 @@ double ring_noise(const cv::Mat& image, double x0, double y0, double x1, double 
   return usable_noise(realism::noise_sigma(strips));
 }
 
-// A fixed tile of unit Gaussian noise in 1/1024 units; frames read it at shifting offsets so the grain changes
-// every frame.
+// A fixed tile of unit Gaussian noise in 1/1024 units; frames read it at shifting offsets so the grain
+// changes every frame.
 const cv::Mat& noise_tile_q10() {
   static const cv::Mat tile = [] {
     cv::Mat t(256, 256, CV_32F), q;
@@ -299,9 +300,9 @@ void blend_row(uint8_t* d, const uint8_t* s, const uint8_t* sh, const int16_t* g
 }
 
 std::vector<int> mapping_corners(const AssetSpec& asset, const std::array<cv::Point2d, 8>& image_px) {
-  // When the picture shows the box's faces in about the proportions the frame does, its whole outline goes onto
-  // those faces (least squares), so the object fills its projected box. Otherwise only the faces both show are
-  // matched: the picture is not squeezed onto faces it shows much more (or less) of than the frame.
+  // When the picture shows the box's faces in about the proportions the frame does, its whole outline goes
+  // onto those faces (least squares), so the object fills its projected box. Otherwise only the faces both
+  // show are matched: the picture is not squeezed onto faces it shows much more (or less) of than the frame.
   const std::vector<Face> shown = facing_faces(asset.box_corners_px);
   if (shown.empty()) return visible_corners(asset.azimuth_deg);
   const auto a = face_shares(asset.box_corners_px), b = face_shares(image_px);
@@ -341,7 +342,8 @@ int motion_blur(cv::Mat& bgra, cv::Point2d blur, std::vector<uint8_t>& row) {
   return passes;
 }
 
-CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, CompositorState& st) {
+CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o,
+                          CompositorState& st) {
   CompositorState& ex = st;
   CompositeResult r;
   const LoadedAsset& a = *p.asset;
@@ -442,7 +444,8 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   const cv::Point2d blur = p.velocity_px_s * o.exposure_s;
   const double blur_len = std::min(cv::norm(blur), 0.5 * std::max(obj_h, 8.0));
   const int shadow_k = odd(std::max(3.0, 0.08 * obj_h));
-  const int pad = static_cast<int>(std::ceil(blur_len / 2 + 3 * o.feather_px)) + 2 + (o.match_sharpness > 0 ? 8 : 0);
+  const int pad =
+      static_cast<int>(std::ceil(blur_len / 2 + 3 * o.feather_px)) + 2 + (o.match_sharpness > 0 ? 8 : 0);
   const int spad = o.shadow ? shadow_k + 2 : 0;
   const cv::Rect img_rect(0, 0, image.cols, image.rows);
   // A cast shadow reaches beyond the object: the region drawn covers it.
@@ -493,14 +496,15 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
     }
   }
   ++ex.frame;
-  // The harmonised, premultiplied, feathered picture at this level. It is rebuilt only when the asset or level
-  // changes, when the (smoothed, so settling) harmonisation moves by more than two grey levels, or when the
-  // feather width in picture pixels drifts by a quarter as the object's size changes.
-  const cv::Mat lut = ex.valid && (o.harmonize_luma > 0 || o.harmonize_chroma > 0) ? harmonisation_lut(a, ex, o)
-                                                                                  : cv::Mat();
+  // The harmonised, premultiplied, feathered picture at this level. It is rebuilt only when the asset or
+  // level changes, when the (smoothed, so settling) harmonisation moves by more than two grey levels, or when
+  // the feather width in picture pixels drifts by a quarter as the object's size changes.
+  const cv::Mat lut =
+      ex.valid && (o.harmonize_luma > 0 || o.harmonize_chroma > 0) ? harmonisation_lut(a, ex, o) : cv::Mat();
   const double level_face_h = (sy1 - sy0) * f;
   const double feather = o.feather_px > 0.05 ? o.feather_px * level_face_h / std::max(iy1 - iy0, 1.0) : 0.0;
-  bool rebuild = st.sprite_asset != &a || st.sprite_level != r.level || lut.empty() != st.sprite_lut.empty() ||
+  bool rebuild = st.sprite_asset != &a || st.sprite_level != r.level ||
+                 lut.empty() != st.sprite_lut.empty() ||
                  std::abs(feather - st.sprite_feather) > 0.25 * std::max(st.sprite_feather, 0.2);
   if (!rebuild && !lut.empty()) {
     cv::Mat d;
@@ -541,13 +545,15 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   };
   cv::Mat pre = area(st.warped, roi.size(), CV_8UC4);
   pre.setTo(cv::Scalar::all(0));
-  const cv::Rect spr = cv::Rect(static_cast<int>(std::floor(x0)) - roi.x - 1, static_cast<int>(std::floor(y0)) - roi.y - 1,
-                                static_cast<int>(std::ceil(x1 - x0)) + 3, static_cast<int>(std::ceil(y1 - y0)) + 3) &
-                       cv::Rect(0, 0, roi.width, roi.height);
+  const cv::Rect spr =
+      cv::Rect(static_cast<int>(std::floor(x0)) - roi.x - 1, static_cast<int>(std::floor(y0)) - roi.y - 1,
+               static_cast<int>(std::ceil(x1 - x0)) + 3, static_cast<int>(std::ceil(y1 - y0)) + 3) &
+      cv::Rect(0, 0, roi.width, roi.height);
   if (spr.area() <= 0) return r;
   cv::Mat pre_spr = pre(spr);
   // Only what the kept outline can show is warped (the rest of the picture's rectangle stays clear): the
-  // outline's bounding box, a pixel wider for its anti-aliased edge (about 8 % of the warp for a car 8 m ahead).
+  // outline's bounding box, a pixel wider for its anti-aliased edge (about 8 % of the warp for a car 8 m
+  // ahead).
   cv::Rect drawn = spr;
   if (!clip_poly.empty()) {
     double cx0 = 1e18, cy0 = 1e18, cx1 = -1e18, cy1 = -1e18;
@@ -557,7 +563,8 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       cx1 = std::max(cx1, q.x);
       cy1 = std::max(cy1, q.y);
     }
-    const cv::Rect kept(static_cast<int>(std::floor(cx0)) - roi.x - 1, static_cast<int>(std::floor(cy0)) - roi.y - 1,
+    const cv::Rect kept(static_cast<int>(std::floor(cx0)) - roi.x - 1,
+                        static_cast<int>(std::floor(cy0)) - roi.y - 1,
                         static_cast<int>(std::ceil(cx1) - std::floor(cx0)) + 3,
                         static_cast<int>(std::ceil(cy1) - std::floor(cy0)) + 3);
     drawn &= kept;
@@ -593,11 +600,11 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   // the frame around it — the variance of its Laplacian brought to `match_sharpness` times the background
   // ring's, by the least Gaussian blur (hazardforge/realism), smoothed over frames. Premultiplied, so the
   // silhouette softens with it as a blurred camera would soften it.
-  // A recording's blur changes slowly (focus, exposure, speed): after the first reading it is read every fourth
-  // frame, two frames after the noise is read (the two readings never fall on one frame), and again whenever the
-  // picture was rebuilt (another pyramid level or feather changes its own sharpness); the frames between apply
-  // the last smoothed value. The reading is the larger part of the cost of matching (2.2 ms per frame for a car
-  // 8 m ahead in the renderer bench).
+  // A recording's blur changes slowly (focus, exposure, speed): after the first reading it is read every
+  // fourth frame, two frames after the noise is read (the two readings never fall on one frame), and again
+  // whenever the picture was rebuilt (another pyramid level or feather changes its own sharpness); the frames
+  // between apply the last smoothed value. The reading is the larger part of the cost of matching (2.2 ms per
+  // frame for a car 8 m ahead in the renderer bench).
   const bool read_blur = rebuild || st.blur_frames == 0 || (ex.frame - 1) % 4 == 2;
   if (o.match_sharpness > 0 && read_blur) {
     cv::Mat a_spr, solid, grey_spr, grey_bg;
@@ -611,7 +618,9 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
     if (std::isfinite(bg_var) && cv::countNonZero(solid) >= 64)
       sigma = realism::blur_to_match(grey_spr, solid, o.match_sharpness * bg_var, st.last_match_sigma);
     st.last_match_sigma = sigma;
-    st.blur_sigma = st.blur_frames == 0 ? sigma : o.exposure_smoothing * st.blur_sigma + (1 - o.exposure_smoothing) * sigma;
+    st.blur_sigma = st.blur_frames == 0
+                        ? sigma
+                        : o.exposure_smoothing * st.blur_sigma + (1 - o.exposure_smoothing) * sigma;
     ++st.blur_frames;
   }
   if (o.match_sharpness > 0) {
@@ -625,8 +634,9 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   }
   if (blur_len >= 1.5) {
     const int reach = static_cast<int>(std::ceil(blur_len)) + 1;
-    const cv::Rect moved = cv::Rect(spr.x - reach, spr.y - reach, spr.width + 2 * reach, spr.height + 2 * reach) &
-                           cv::Rect(0, 0, roi.width, roi.height);
+    const cv::Rect moved =
+        cv::Rect(spr.x - reach, spr.y - reach, spr.width + 2 * reach, spr.height + 2 * reach) &
+        cv::Rect(0, 0, roi.width, roi.height);
     cv::Mat part = pre(moved);
     motion_blur(part, blur / std::max(cv::norm(blur), 1e-9) * blur_len, st.row);
   }
@@ -649,11 +659,13 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
   r.coverage_before = r.coverage_after + removed;
 
   // Soft contact shadow shaped by the footprint, not its rectangle: a rounded footprint (superellipse
-  // |u|^4 + |v|^4 = 1 in the footprint's own coordinates, mapped by its homography, so perspective holds) a little
-  // larger than the object, with a darker core under its middle where the body is nearest the road; blurred.
+  // |u|^4 + |v|^4 = 1 in the footprint's own coordinates, mapped by its homography, so perspective holds) a
+  // little larger than the object, with a darker core under its middle where the body is nearest the road;
+  // blurred.
   cv::Mat shadow;
   if (o.shadow && o.shadow_strength > 0) {
-    // Footprint corners 0..3 are front-left, front-right, rear-right, rear-left: (u, v) = (+-1 forward, +-1 left).
+    // Footprint corners 0..3 are front-left, front-right, rear-right, rear-left: (u, v) = (+-1 forward, +-1
+    // left).
     const std::vector<cv::Point2f> unit = {{1, 1}, {1, -1}, {-1, -1}, {-1, 1}};
     std::vector<cv::Point2f> foot;
     for (int i = 0; i < 4; ++i) foot.emplace_back(p.corners_px[i] - cv::Point2d(roi.x, roi.y));
@@ -662,10 +674,12 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       std::vector<cv::Point> poly;
       for (int k = 0; k < 32; ++k) {
         const double th = 2 * CV_PI * k / 32, c = std::cos(th), sn = std::sin(th);
-        const double u = su * std::copysign(std::sqrt(std::abs(c)), c), v = sv * std::copysign(std::sqrt(std::abs(sn)), sn);
+        const double u = su * std::copysign(std::sqrt(std::abs(c)), c),
+                     v = sv * std::copysign(std::sqrt(std::abs(sn)), sn);
         const cv::Vec3d q = H * cv::Vec3d(u, v, 1);
         if (q[2] <= 1e-9) return std::vector<cv::Point>();
-        poly.emplace_back(static_cast<int>(std::lround(q[0] / q[2] * 16)), static_cast<int>(std::lround(q[1] / q[2] * 16)));
+        poly.emplace_back(static_cast<int>(std::lround(q[0] / q[2] * 16)),
+                          static_cast<int>(std::lround(q[1] / q[2] * 16)));
       }
       return poly;
     };
@@ -699,10 +713,10 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       for (auto& q : outer) q -= cv::Point(fb.x * 16, fb.y * 16);
       for (auto& q : core) q -= cv::Point(fb.x * 16, fb.y * 16);
       for (auto& q : cast) q -= cv::Point(fb.x * 16, fb.y * 16);
-      cv::fillPoly(part, std::vector<std::vector<cv::Point>>{outer}, cv::Scalar(std::lround(210 * o.shadow_strength)),
-                   cv::LINE_AA, 4);
-      cv::fillPoly(part, std::vector<std::vector<cv::Point>>{core}, cv::Scalar(std::lround(255 * o.shadow_strength)),
-                   cv::LINE_AA, 4);
+      cv::fillPoly(part, std::vector<std::vector<cv::Point>>{outer},
+                   cv::Scalar(std::lround(210 * o.shadow_strength)), cv::LINE_AA, 4);
+      cv::fillPoly(part, std::vector<std::vector<cv::Point>>{core},
+                   cv::Scalar(std::lround(255 * o.shadow_strength)), cv::LINE_AA, 4);
       if (!cast.empty()) {
         // Where the sun's shadow is darker than the contact shadow, it wins.
         cv::Mat sun(part.size(), CV_8U, cv::Scalar(0));
@@ -716,13 +730,14 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
     for (const cv::Rect& cl : occ) shadow(cl).setTo(0);
   }
 
-  // Blend: out = background * (1 - shadow) * (1 - alpha) + premultiplied colour (+ grain on the object, as the
-  // camera would have added it).
+  // Blend: out = background * (1 - shadow) * (1 - alpha) + premultiplied colour (+ grain on the object, as
+  // the camera would have added it).
   cv::Mat dst = image(roi);
   // Integer arithmetic (blend_row): background (255 - a)(255 - s) / 255^2 as two rounded divisions by 255;
   // grain = alpha x sigma x unit noise, from a fixed-point tile.
   const cv::Mat& tile = noise_tile_q10();
-  const int ox = static_cast<int>((ex.frame * 97) % tile.cols), oy = static_cast<int>((ex.frame * 61) % tile.rows);
+  const int ox = static_cast<int>((ex.frame * 97) % tile.cols),
+            oy = static_cast<int>((ex.frame * 61) % tile.rows);
   // Grain tops the picture's own noise up to the surroundings' (a harvested cut-out carries its camera's,
   // which blurring lowered): measured as drawn, on a central patch of the opaque picture, on the frames the
   // surroundings' noise is read on (it changes as slowly: with the blur and the pyramid level).

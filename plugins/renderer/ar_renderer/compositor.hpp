@@ -16,11 +16,11 @@ namespace hf::render {
 
 struct CompositeOptions {
   bool shadow = true;
-  double shadow_strength = 0.5;   // darkening at the shadow's core, 0..1
-  double harmonize_luma = 0.6;    // 0 = keep the asset's lightness statistics, 1 = match the surroundings'
-  double harmonize_chroma = 0.4;  // same for the a/b colour channels
-  double feather_px = 0.8;        // Gaussian sigma of the alpha edge
-  double exposure_s = 0.01;       // camera exposure time for motion blur (0 = none)
+  double shadow_strength = 0.5;     // darkening at the shadow's core, 0..1
+  double harmonize_luma = 0.6;      // 0 = keep the asset's lightness statistics, 1 = match the surroundings'
+  double harmonize_chroma = 0.4;    // same for the a/b colour channels
+  double feather_px = 0.8;          // Gaussian sigma of the alpha edge
+  double exposure_s = 0.01;         // camera exposure time for motion blur (0 = none)
   double exposure_smoothing = 0.7;  // exponential smoothing of the surroundings' statistics across frames
   bool grain = true;                // add sensor noise at the level measured around the object
   // Blur the picture until its interior is no sharper than this times the frame around it (variance of the
@@ -47,8 +47,9 @@ struct Placement {
   double cast_darkness = 0.0;
 };
 
-// What the compositor keeps from frame to frame for one hazard: the surroundings' colour statistics and noise,
-// smoothed (no exposure flicker), the harmonised picture (rebuilt only when it changes), and reused buffers.
+// What the compositor keeps from frame to frame for one hazard: the surroundings' colour statistics and
+// noise, smoothed (no exposure flicker), the harmonised picture (rebuilt only when it changes), and reused
+// buffers.
 struct CompositorState {
   cv::Scalar mean, stddev;
   bool valid = false;
@@ -58,17 +59,17 @@ struct CompositorState {
   const LoadedAsset* sprite_asset = nullptr;
   int sprite_level = -1;
   double sprite_feather = -1.0;
-  cv::Mat sprite_lut, sprite;    // harmonisation LUT and premultiplied, feathered BGRA picture it produced
-  double blur_sigma = 0.0;       // the recording's blur applied to the picture (smoothed), px
+  cv::Mat sprite_lut, sprite;     // harmonisation LUT and premultiplied, feathered BGRA picture it produced
+  double blur_sigma = 0.0;        // the recording's blur applied to the picture (smoothed), px
   double last_match_sigma = 0.0;  // the last frame's unsmoothed estimate (where the next search starts)
   int blur_frames = 0;
-  double own_noise = -1.0;       // the drawn picture's own noise (grey levels; -1: not measured yet)
+  double own_noise = -1.0;             // the drawn picture's own noise (grey levels; -1: not measured yet)
   cv::Mat warped, shadow, ring, clip;  // work buffers (grown, never shrunk)
   cv::Mat clip_back;                   // the kept outline on the picture's pyramid level
-  std::vector<uint8_t> row;  // one row, for the motion blur
-  cv::Mat grain_tile;        // the grain at full alpha (1/64 grey levels) for the sigma below
-  int grain_tile_q8 = 0;     // that sigma, 1/256 grey levels (0: not built)
-  std::vector<int16_t> grain_row;  // one row of it, for the blend
+  std::vector<uint8_t> row;            // one row, for the motion blur
+  cv::Mat grain_tile;                  // the grain at full alpha (1/64 grey levels) for the sigma below
+  int grain_tile_q8 = 0;               // that sigma, 1/256 grey levels (0: not built)
+  std::vector<int16_t> grain_row;      // one row of it, for the blend
 };
 
 struct CompositeResult {
@@ -90,16 +91,17 @@ struct CompositeResult {
   }
 };
 
-// The box corners a picture is mapped by: all faces the picture shows when it shows them in about the proportions
-// the frame does (the faces' shares of the projected area, from the winding of the projected corners, so
-// perspective counts), else the faces both show (the picture's own when they share none).
+// The box corners a picture is mapped by: all faces the picture shows when it shows them in about the
+// proportions the frame does (the faces' shares of the projected area, from the winding of the projected
+// corners, so perspective counts), else the faces both show (the picture's own when they share none).
 std::vector<int> mapping_corners(const AssetSpec& asset, const std::array<cv::Point2d, 8>& image_px);
 // The homography from an asset's level-0 pixels to image pixels, fitted on those corners (4 corners: exact;
 // 6: least squares).
 cv::Matx33d asset_homography(const LoadedAsset& asset, const std::array<cv::Point2d, 8>& corners_px);
 
 // Draws the object into `image` (BGR 8-bit, modified in place).
-CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o, CompositorState& state);
+CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o,
+                          CompositorState& state);
 
 // Motion blur of a premultiplied picture (any 8-bit type), in place: a box along `blur` (the image motion
 // over the exposure, px) of length 2^k, the power of two nearest its length, built by k halving-averages with

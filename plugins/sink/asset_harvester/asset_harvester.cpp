@@ -1,4 +1,5 @@
-// The asset_harvester sink: projects annotated 3D boxes, keeps well-visible objects, cuts them out with grabCut.
+// The asset_harvester sink: projects annotated 3D boxes, keeps well-visible objects, cuts them out with
+// grabCut.
 #include "asset_harvester.hpp"
 
 #include <algorithm>
@@ -42,8 +43,8 @@ std::optional<cv::Rect2d> visible_bounds(const CameraModel& cam, const BoxCorner
   return cv::Rect2d(x0, y0, x1 - x0, y1 - y0);
 }
 
-// Corner lists of the box faces turned towards the camera: vertical faces whose outward normal points at it, and
-// the top when the camera is above it.
+// Corner lists of the box faces turned towards the camera: vertical faces whose outward normal points at it,
+// and the top when the camera is above it.
 std::vector<std::array<int, 4>> camera_facing_faces(const CameraModel& cam, const BoxCorners& c) {
   std::vector<std::array<int, 4>> out;
   const cv::Vec3d centre = (c[0] + c[2]) * 0.5;
@@ -95,22 +96,32 @@ ComponentInfo AssetHarvester::describe() {
   i.kind = kind::kSink;
   i.summary = "cuts real object appearances (with alpha) out of annotated frames into an asset folder";
   i.doc =
-      "Projects each annotated 3D box with the frame's camera, keeps objects that are fully in view, large, near, "
-      "well covered by lidar/radar points and not overlapped by a nearer annotated object, cuts them out with "
-      "grabCut initialised from the projected box (rejecting cuts whose extent disagrees with the projected faces), "
-      "refines the edge by information-flow matting and colour decontamination, classifies the view from the object's yaw relative to the "
-      "camera, and writes PNGs with alpha plus assets.yaml (the format of share/assets) when the stream ends.";
+      "Projects each annotated 3D box with the frame's camera, keeps objects that are fully in view, large, "
+      "near, "
+      "well covered by lidar/radar points and not overlapped by a nearer annotated object, cuts them out "
+      "with "
+      "grabCut initialised from the projected box (rejecting cuts whose extent disagrees with the projected "
+      "faces), "
+      "refines the edge by information-flow matting and colour decontamination, classifies the view from the "
+      "object's yaw relative to the "
+      "camera, and writes PNGs with alpha plus assets.yaml (the format of share/assets) when the stream "
+      "ends.";
   i.inputs = {port<Frame>("frames", "frames with annotations (3D boxes in the ego frame)")};
   i.params = {
       ParamSpec::string("out_dir", "assets")
           .describe("asset folder to write; relative = below the run's output folder"),
-      ParamSpec::string_list("classes", {"car", "truck", "bus", "person"}).describe("project labels to harvest"),
+      ParamSpec::string_list("classes", {"car", "truck", "bus", "person"})
+          .describe("project labels to harvest"),
       ParamSpec::integer("min_points", 20)
           .range(-1, std::nullopt)
           .describe("fewest lidar+radar points in the box (objects with unknown counts pass)"),
-      ParamSpec::integer("min_height_px", 60).range(8, std::nullopt).describe("smallest projected box height"),
+      ParamSpec::integer("min_height_px", 60)
+          .range(8, std::nullopt)
+          .describe("smallest projected box height"),
       ParamSpec::integer("min_width_px", 24).range(4, std::nullopt).describe("smallest projected box width"),
-      ParamSpec::integer("border_margin_px", 4).range(0, 200).describe("the box must stay this far from the border"),
+      ParamSpec::integer("border_margin_px", 4)
+          .range(0, 200)
+          .describe("the box must stay this far from the border"),
       ParamSpec::number("max_distance_m", 40.0).range(1.0, 500.0).describe("farthest object harvested"),
       ParamSpec::number("max_occlusion", 0.2)
           .range(0.0, 1.0)
@@ -124,8 +135,9 @@ ComponentInfo AssetHarvester::describe() {
           .describe("smallest mask area / projected hull area (below = the cut failed)"),
       ParamSpec::number("min_box_iou", 0.7)
           .range(0.0, 1.0)
-          .describe("smallest IoU of the cut's bounding box with the projected faces' box (below = rejected: the "
-                    "mask disagrees with the annotation)"),
+          .describe(
+              "smallest IoU of the cut's bounding box with the projected faces' box (below = rejected: the "
+              "mask disagrees with the annotation)"),
       ParamSpec::boolean("matting", true)
           .describe("soft alpha by information-flow matting (OpenCV alphamat) around grabCut's edge"),
       ParamSpec::number("matting_band", 2.0)
@@ -133,7 +145,9 @@ ComponentInfo AssetHarvester::describe() {
           .describe("half-width of the matting's unknown band, % of the box height (at least 1 px)"),
       ParamSpec::boolean("decontaminate", true)
           .describe("remove the old background's colour from the soft edge (colour decontamination)"),
-      ParamSpec::integer("per_instance_view", 1).range(1, 100).describe("cuts kept per object instance and view"),
+      ParamSpec::integer("per_instance_view", 1)
+          .range(1, 100)
+          .describe("cuts kept per object instance and view"),
       ParamSpec::boolean("append", true).describe("keep the assets already listed in out_dir/assets.yaml"),
   };
   return i;
@@ -178,7 +192,8 @@ void AssetHarvester::process(StageContext& /*ctx*/, const Inputs& in, Outputs& /
   std::vector<double> depth(objs.size());
   for (size_t i = 0; i < objs.size(); ++i) {
     const auto& o = objs[i];
-    corners[i] = box_corners(o.center_ego[0], o.center_ego[1], o.yaw_ego, o.size_lwh, o.center_ego[2] - o.size_lwh[2] / 2);
+    corners[i] = box_corners(o.center_ego[0], o.center_ego[1], o.yaw_ego, o.size_lwh,
+                             o.center_ego[2] - o.size_lwh[2] / 2);
     depth[i] = cam.ego_to_cam(o.center_ego)[2];
   }
   const cv::Rect2d img(0, 0, f.image.cols, f.image.rows);
@@ -228,20 +243,23 @@ void AssetHarvester::process(StageContext& /*ctx*/, const Inputs& in, Outputs& /
       continue;
     }
 
-    // grabCut on a crop around the box: outside the projected box is background, inside the box's hull probably
-    // foreground, the rest of the box probably background.
+    // grabCut on a crop around the box: outside the projected box is background, inside the box's hull
+    // probably foreground, the rest of the box probably background.
     const double ctx_px = std::max(8.0, 0.25 * std::max(b.width, b.height));
-    const cv::Rect crop = cv::Rect(static_cast<int>(b.x - ctx_px), static_cast<int>(b.y - ctx_px),
-                                   static_cast<int>(b.width + 2 * ctx_px), static_cast<int>(b.height + 2 * ctx_px)) &
-                          cv::Rect(0, 0, f.image.cols, f.image.rows);
+    const cv::Rect crop =
+        cv::Rect(static_cast<int>(b.x - ctx_px), static_cast<int>(b.y - ctx_px),
+                 static_cast<int>(b.width + 2 * ctx_px), static_cast<int>(b.height + 2 * ctx_px)) &
+        cv::Rect(0, 0, f.image.cols, f.image.rows);
     cv::Mat mask(crop.size(), CV_8U, cv::Scalar(cv::GC_BGD));
-    const cv::Rect box_in_crop = cv::Rect(static_cast<int>(std::floor(b.x)) - crop.x - 1,
-                                          static_cast<int>(std::floor(b.y)) - crop.y - 1,
-                                          static_cast<int>(std::ceil(b.width)) + 3, static_cast<int>(std::ceil(b.height)) + 3) &
-                                 cv::Rect(0, 0, crop.width, crop.height);
+    const cv::Rect box_in_crop =
+        cv::Rect(static_cast<int>(std::floor(b.x)) - crop.x - 1,
+                 static_cast<int>(std::floor(b.y)) - crop.y - 1, static_cast<int>(std::ceil(b.width)) + 3,
+                 static_cast<int>(std::ceil(b.height)) + 3) &
+        cv::Rect(0, 0, crop.width, crop.height);
     mask(box_in_crop).setTo(cv::GC_PR_BGD);
     std::vector<cv::Point2f> pts;
-    for (const auto& p : pb->px) pts.emplace_back(static_cast<float>(p.x - crop.x), static_cast<float>(p.y - crop.y));
+    for (const auto& p : pb->px)
+      pts.emplace_back(static_cast<float>(p.x - crop.x), static_cast<float>(p.y - crop.y));
     std::vector<cv::Point2f> hull_f;
     cv::convexHull(pts, hull_f);
     std::vector<cv::Point> hull;
@@ -270,7 +288,8 @@ void AssetHarvester::process(StageContext& /*ctx*/, const Inputs& in, Outputs& /
     fg &= faces_grown;
     cv::morphologyEx(fg, fg, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}));
     fg = largest_component(fg);
-    const double fill = cv::countNonZero(fg) / std::max(1.0, static_cast<double>(cv::countNonZero(hull_mask)));
+    const double fill =
+        cv::countNonZero(fg) / std::max(1.0, static_cast<double>(cv::countNonZero(hull_mask)));
     if (fill < min_fill_) {
       reject("cut too small (grabCut lost the object)");
       continue;
@@ -286,12 +305,13 @@ void AssetHarvester::process(StageContext& /*ctx*/, const Inputs& in, Outputs& /
       }
     }
 
-    // The picture: the projected box (plus a pixel). Alpha: information-flow matting in a band around grabCut's
-    // edge (soft, no halo of the old background); colour: decontaminated at the edge, so what shows through the
-    // soft alpha is the object's colour and not the street it stood on.
-    const cv::Rect pic = cv::Rect(static_cast<int>(std::floor(b.x)) - 1, static_cast<int>(std::floor(b.y)) - 1,
-                                  static_cast<int>(std::ceil(b.width)) + 3, static_cast<int>(std::ceil(b.height)) + 3) &
-                         cv::Rect(0, 0, f.image.cols, f.image.rows);
+    // The picture: the projected box (plus a pixel). Alpha: information-flow matting in a band around
+    // grabCut's edge (soft, no halo of the old background); colour: decontaminated at the edge, so what shows
+    // through the soft alpha is the object's colour and not the street it stood on.
+    const cv::Rect pic =
+        cv::Rect(static_cast<int>(std::floor(b.x)) - 1, static_cast<int>(std::floor(b.y)) - 1,
+                 static_cast<int>(std::ceil(b.width)) + 3, static_cast<int>(std::ceil(b.height)) + 3) &
+        cv::Rect(0, 0, f.image.cols, f.image.rows);
     cv::Mat alpha_crop;
     if (matting_) {
       const int band = std::max(1, static_cast<int>(std::lround(matting_band_ * b.height / 100.0)));
@@ -325,7 +345,8 @@ void AssetHarvester::process(StageContext& /*ctx*/, const Inputs& in, Outputs& /
     s.source = "harvested";
     s.instance = o.instance_id.empty() ? f.source_id + "#" + std::to_string(i) : o.instance_id;
     s.origin = f.source_id + " frame " + std::to_string(f.index);
-    s.file = s.object_class + "_" + s.view + "_" + short_token(s.instance) + "_f" + std::to_string(f.index) + ".png";
+    s.file = s.object_class + "_" + s.view + "_" + short_token(s.instance) + "_f" + std::to_string(f.index) +
+             ".png";
     cut.bgra = bgra;
     cut.quality = b.height * fill;
     auto& list = cuts_[s.instance + "/" + s.view];
@@ -337,8 +358,9 @@ void AssetHarvester::process(StageContext& /*ctx*/, const Inputs& in, Outputs& /
 
 void AssetHarvester::finish(StageContext& ctx, Outputs& /*out*/) {
   if (frames_ > 0 && frames_with_annotations_ == 0)
-    throw Error("asset_harvester: none of the " + std::to_string(frames_) +
-                " frames carried annotations; the source must attach them (e.g. nuscenes with annotations: true)");
+    throw Error(
+        "asset_harvester: none of the " + std::to_string(frames_) +
+        " frames carried annotations; the source must attach them (e.g. nuscenes with annotations: true)");
   AssetIndex index;
   std::set<std::string> new_files;
   for (const auto& [key, list] : cuts_)
@@ -355,9 +377,11 @@ void AssetHarvester::finish(StageContext& ctx, Outputs& /*out*/) {
     }
   std::sort(index.assets.begin(), index.assets.end(),
             [](const AssetSpec& a, const AssetSpec& b) { return a.file < b.file; });
-  save_asset_index(out_dir_, index, "HazardForge appearance assets harvested from annotated frames (asset_harvester).");
+  save_asset_index(out_dir_, index,
+                   "HazardForge appearance assets harvested from annotated frames (asset_harvester).");
   std::string why;
-  for (const auto& [reason, n] : rejected_) why += (why.empty() ? "" : ", ") + std::to_string(n) + " " + reason;
+  for (const auto& [reason, n] : rejected_)
+    why += (why.empty() ? "" : ", ") + std::to_string(n) + " " + reason;
   ctx.log(LogLevel::kInfo, "asset_harvester: " + std::to_string(written) + " pictures from " +
                                std::to_string(objects_) + " candidate objects in " + std::to_string(frames_) +
                                " frames written to " + out_dir_.string() + " (" + std::to_string(matted_) +

@@ -14,15 +14,15 @@ namespace hf::render {
 
 // Stage "asset_harvester" (kind sink).
 //  inputs:  frames (Frame with annotations: 3D boxes in the ego frame, e.g. from the nuscenes source).
-//  outputs: none; writes <out_dir>/*.png (BGRA) and <out_dir>/assets.yaml (the format of share/assets) in finish().
-//  Each annotated object of a wanted class is projected with the frame's camera (8 corners -> 2D box); objects that
-//  are clipped by the border, too small, too far, with too few lidar/radar points, flagged occluded, or overlapped
-//  by a nearer annotated object are skipped; the rest are cut out with cv::grabCut initialised from the projected
-//  box (a cut whose bounding box has IoU < min_box_iou with the projected faces' box is rejected), the edge's
-//  alpha refined by information-flow matting (cv::alphamat) and its colour decontaminated
-//  (hazardforge/realism/matting.hpp); their view is classified from the object's yaw relative to the camera,
-//  and the best cut per instance and view is kept. Timestamps: none emitted.
-//  params:  out_dir, classes, min_points, min_height_px, min_width_px, border_margin_px, max_distance_m,
+//  outputs: none; writes <out_dir>/*.png (BGRA) and <out_dir>/assets.yaml (the format of share/assets) in
+//  finish(). Each annotated object of a wanted class is projected with the frame's camera (8 corners -> 2D
+//  box); objects that are clipped by the border, too small, too far, with too few lidar/radar points, flagged
+//  occluded, or overlapped by a nearer annotated object are skipped; the rest are cut out with cv::grabCut
+//  initialised from the projected box (a cut whose bounding box has IoU < min_box_iou with the projected
+//  faces' box is rejected), the edge's alpha refined by information-flow matting (cv::alphamat) and its
+//  colour decontaminated (hazardforge/realism/matting.hpp); their view is classified from the object's yaw
+//  relative to the camera, and the best cut per instance and view is kept. Timestamps: none emitted. params:
+//  out_dir, classes, min_points, min_height_px, min_width_px, border_margin_px, max_distance_m,
 //           max_occlusion, max_overlap, grabcut_iterations, min_fill, min_box_iou, matting, matting_band,
 //           decontaminate, per_instance_view, append.
 class AssetHarvester : public Stage {

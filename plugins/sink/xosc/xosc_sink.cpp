@@ -188,7 +188,8 @@ void XoscSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
   // the plan.
   if (const Frame* f = in.get<Frame>("frames"); f && std::abs(f->timestamp - traj->anchor_time) < 1e-6 &&
                                                 f->ego_track && f->ego_track->samples.size() >= 2) {
-    const std::string where = "xosc: frame " + std::to_string(f->index) + " (" + f->ego_track->source + " ego track)";
+    const std::string where =
+        "xosc: frame " + std::to_string(f->index) + " (" + f->ego_track->source + " ego track)";
     opt.ego_path = hazard::EgoPath::recorded(f->ego_track->samples, traj->anchor_time, where);
   }
   ++written_;

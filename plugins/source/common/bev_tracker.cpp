@@ -25,8 +25,8 @@ bool BevTracker::patch_agrees(const cv::Mat& a, const cv::Mat& b, cv::Point2f pa
   const cv::Size sz(2 * r + 1, 2 * r + 1);
   if (pa.x < r + 1 || pa.y < r + 1 || pa.x > a.cols - r - 2 || pa.y > a.rows - r - 2) return false;
   if (pb.x < r + 1 || pb.y < r + 1 || pb.x > b.cols - r - 2 || pb.y > b.rows - r - 2) return false;
-  // The two patches (bilinear, as cv::getRectSubPix samples them) in buffers of this thread, then their means,
-  // spreads and zero-mean correlation in one pass each.
+  // The two patches (bilinear, as cv::getRectSubPix samples them) in buffers of this thread, then their
+  // means, spreads and zero-mean correlation in one pass each.
   thread_local cv::Mat x, y;
   cv::getRectSubPix(a, sz, pa, x, CV_32F);
   cv::getRectSubPix(b, sz, pb, y, CV_32F);
@@ -56,7 +56,8 @@ cv::Point2d Rigid2::apply(const cv::Point2d& q) const {
   return {c * q.x - s * q.y + t.x, s * q.x + c * q.y + t.y};
 }
 
-Rigid2 fit_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, const std::vector<int>& idx) {
+Rigid2 fit_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q,
+                 const std::vector<int>& idx) {
   cv::Point2d mp(0, 0), mq(0, 0);
   for (int i : idx) {
     mp += p[i];
@@ -77,8 +78,8 @@ Rigid2 fit_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2
   return r;
 }
 
-double rigid_residual(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q, const std::vector<int>& idx,
-                      Rigid2* fit) {
+double rigid_residual(const std::vector<cv::Point2d>& p, const std::vector<cv::Point2d>& q,
+                      const std::vector<int>& idx, Rigid2* fit) {
   const Rigid2 r = fit_rigid(p, q, idx);
   if (fit) *fit = r;
   double ss = 0, ws = 0;
@@ -91,8 +92,9 @@ double rigid_residual(const std::vector<cv::Point2d>& p, const std::vector<cv::P
   return ss / ws;
 }
 
-bool pairs_on_ground(const CameraModel& cam, const std::vector<cv::Point2d>& img_p, const std::vector<cv::Point2d>& img_q,
-                     std::vector<cv::Point2d>& p, std::vector<cv::Point2d>& q) {
+bool pairs_on_ground(const CameraModel& cam, const std::vector<cv::Point2d>& img_p,
+                     const std::vector<cv::Point2d>& img_q, std::vector<cv::Point2d>& p,
+                     std::vector<cv::Point2d>& q) {
   p.clear();
   q.clear();
   for (size_t i = 0; i < img_p.size() && i < img_q.size(); ++i) {
@@ -119,8 +121,8 @@ Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Poi
   best.clear();
   if (n < 2) return {};
   // Consensus is weighted by 1 / distance^2: a point on a car body or a wall projects onto the ground farther
-  // away than it is and seems to move h / (h - z) times too fast; near the bottom of the image almost everything
-  // is road, so near points decide between competing motions.
+  // away than it is and seems to move h / (h - z) times too fast; near the bottom of the image almost
+  // everything is road, so near points decide between competing motions.
   std::vector<double> w(n);
   for (int i = 0; i < n; ++i) w[i] = 1.0 / std::max(1.0, q[i].dot(q[i]));
   cv::RNG rng(0xf00d);
@@ -130,7 +132,8 @@ Rigid2 ransac_rigid(const std::vector<cv::Point2d>& p, const std::vector<cv::Poi
     double score = 0;
     const double c = std::cos(m.theta), s = std::sin(m.theta);  // Rigid2::apply's, once per model
     for (int i = 0; i < n; ++i) {
-      const double ex = p[i].x - (c * q[i].x - s * q[i].y + m.t.x), ey = p[i].y - (s * q[i].x + c * q[i].y + m.t.y);
+      const double ex = p[i].x - (c * q[i].x - s * q[i].y + m.t.x),
+                   ey = p[i].y - (s * q[i].x + c * q[i].y + m.t.y);
       if (ex * ex + ey * ey < thr * thr) {
         in.push_back(i);
         score += w[i];
@@ -265,7 +268,8 @@ void BevTracker::update_bonnet(const cv::Mat& gray) {
 
 cv::Point2d BevTracker::bev_to_ego(const cv::Point2f& b) const {
   const double res = opt_.bev_resolution_m;
-  return {cam_.t_ego_cam[0] + opt_.far_m - (b.y + 0.5) * res, cam_.t_ego_cam[1] + opt_.half_width_m - (b.x + 0.5) * res};
+  return {cam_.t_ego_cam[0] + opt_.far_m - (b.y + 0.5) * res,
+          cam_.t_ego_cam[1] + opt_.half_width_m - (b.x + 0.5) * res};
 }
 
 cv::Point2d BevTracker::bev_to_image(const cv::Point2f& b) const {
@@ -277,9 +281,11 @@ cv::Point2d BevTracker::bev_to_image(const cv::Point2f& b) const {
 cv::Matx23d BevTracker::motion_to_pixels(double dist, double yaw, double k) const {
   // Car-like (non-holonomic) motion: the ego origin moves along the chord of an arc, p = R(yaw) q + t with
   // t = dist (cos yaw/2, sin yaw/2). In view pixels (c, r) at k times the view's pixel size:
-  // ego = B (c, r) + b, B = [[0, -k res], [-k res, 0]]. Returns the map current-view pixel -> previous-view pixel.
+  // ego = B (c, r) + b, B = [[0, -k res], [-k res, 0]]. Returns the map current-view pixel -> previous-view
+  // pixel.
   const double res = opt_.bev_resolution_m * k;
-  const double bx = cam_.t_ego_cam[0] + opt_.far_m - 0.5 * res, by = cam_.t_ego_cam[1] + opt_.half_width_m - 0.5 * res;
+  const double bx = cam_.t_ego_cam[0] + opt_.far_m - 0.5 * res,
+               by = cam_.t_ego_cam[1] + opt_.half_width_m - 0.5 * res;
   const double c = std::cos(yaw), s = std::sin(yaw);
   const double tx = dist * std::cos(0.5 * yaw), ty = dist * std::sin(0.5 * yaw);
   // B^-1 R B = [[c, s], [s, c]] (B is res times a swap with a sign flip); offset B^-1 (R b + t - b).
@@ -290,12 +296,14 @@ cv::Matx23d BevTracker::motion_to_pixels(double dist, double yaw, double k) cons
 cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur, double dt,
                                          std::optional<double> prior_speed,
                                          std::optional<double> known_yaw) const {
-  // Search over distance and yaw change only (a car does not slide sideways), scoring the zero-mean normalised
-  // correlation of the current view's textured pixels with the previous view at the predicted places. A free 2-D
-  // search (phase correlation) locks onto the streaks that tall objects leave in a bird's-eye view.
-  auto search = [&](double k, double d0, double d1, double dstep, double y0, double y1, double ystep, double& bd,
-                    double& by) {
-    const cv::Size sz(static_cast<int>(std::lround(cur.cols / k)), static_cast<int>(std::lround(cur.rows / k)));
+  // Search over distance and yaw change only (a car does not slide sideways), scoring the zero-mean
+  // normalised correlation of the current view's textured pixels with the previous view at the predicted
+  // places. A free 2-D search (phase correlation) locks onto the streaks that tall objects leave in a
+  // bird's-eye view.
+  auto search = [&](double k, double d0, double d1, double dstep, double y0, double y1, double ystep,
+                    double& bd, double& by) {
+    const cv::Size sz(static_cast<int>(std::lround(cur.cols / k)),
+                      static_cast<int>(std::lround(cur.rows / k)));
     cv::Mat a, b, va, vb, gx, gy, mag;
     cv::resize(prev, a, sz, 0, 0, cv::INTER_AREA);
     cv::resize(cur, b, sz, 0, 0, cv::INTER_AREA);
@@ -325,15 +333,16 @@ cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur
         int n = 0;
         for (size_t i = 0; i < keep; ++i) {
           const cv::Point& q = cand[i].second;
-          const double x = M(0, 0) * q.x + M(0, 1) * q.y + M(0, 2), y = M(1, 0) * q.x + M(1, 1) * q.y + M(1, 2);
+          const double x = M(0, 0) * q.x + M(0, 1) * q.y + M(0, 2),
+                       y = M(1, 0) * q.x + M(1, 1) * q.y + M(1, 2);
           const int x0 = static_cast<int>(std::floor(x)), y0i = static_cast<int>(std::floor(y));
           if (x0 < 0 || y0i < 0 || x0 + 1 >= sz.width || y0i + 1 >= sz.height) continue;
           if (!va.at<uchar>(y0i, x0) || !va.at<uchar>(y0i + 1, x0 + 1)) continue;
           const double fx = x - x0, fy = y - y0i;
           const float* r0 = af.ptr<float>(y0i);
           const float* r1 = af.ptr<float>(y0i + 1);
-          const double va_ = (1 - fx) * (1 - fy) * r0[x0] + fx * (1 - fy) * r0[x0 + 1] + (1 - fx) * fy * r1[x0] +
-                             fx * fy * r1[x0 + 1];
+          const double va_ = (1 - fx) * (1 - fy) * r0[x0] + fx * (1 - fy) * r0[x0 + 1] +
+                             (1 - fx) * fy * r1[x0] + fx * fy * r1[x0 + 1];
           const double vb_ = bv[i];
           sa += va_;
           sb += vb_;
@@ -373,7 +382,8 @@ cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur
   }
   double d = 0, yaw = 0;
   const double coarse = search(4.0, d_lo, d_hi, 0.2, y_lo, y_hi, y_step, d, yaw);
-  if (coarse > -1) search(2.0, d - 0.2, d + 0.2, 0.05, yaw - 1.0 * kDeg, yaw + 1.0 * kDeg, 0.25 * kDeg, d, yaw);
+  if (coarse > -1)
+    search(2.0, d - 0.2, d + 0.2, 0.05, yaw - 1.0 * kDeg, yaw + 1.0 * kDeg, 0.25 * kDeg, d, yaw);
   last_coarse_yaw_ = coarse > -1 ? std::optional<double>(yaw) : std::nullopt;
   cv::Mat inv;
   cv::invertAffineTransform(cv::Mat(motion_to_pixels(d, yaw, 1.0)), inv);
@@ -433,9 +443,9 @@ std::vector<GroundMatch> BevTracker::add(const cv::Mat& bgr, double dt, std::opt
   std::vector<float> err;
   const cv::TermCriteria tc(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 40, 0.01);
   const cv::Size win(opt_.klt_window, opt_.klt_window);
-  // Between close frames whose coarse alignment found the motion, the guess is within a pixel or two of it and
-  // KLT refines it with klt_levels_refine levels (each level costs as much as the base); otherwise (no coarse
-  // peak, or far-apart frames whose road views also deform) with klt_levels.
+  // Between close frames whose coarse alignment found the motion, the guess is within a pixel or two of it
+  // and KLT refines it with klt_levels_refine levels (each level costs as much as the base); otherwise (no
+  // coarse peak, or far-apart frames whose road views also deform) with klt_levels.
   const int levels = !prewarp && last_coarse_yaw_ ? opt_.klt_levels_refine : opt_.klt_levels;
   cv::calcOpticalFlowPyrLK(from, bev, start, f1, st, err, win, levels, tc, cv::OPTFLOW_USE_INITIAL_FLOW);
   cv::calcOpticalFlowPyrLK(bev, from, f1, back, st_back, err, win, levels, tc, cv::OPTFLOW_USE_INITIAL_FLOW);

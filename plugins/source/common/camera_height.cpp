@@ -125,7 +125,8 @@ struct CameraHeightEstimator::Impl {
         if (b >= 0 && b < bins) prof[static_cast<size_t>(b)] += 1.0;
       }
       std::vector<double> sm(prof.size(), 0.0);
-      for (size_t i = 1; i + 1 < prof.size(); ++i) sm[i] = 0.25 * prof[i - 1] + 0.5 * prof[i] + 0.25 * prof[i + 1];
+      for (size_t i = 1; i + 1 < prof.size(); ++i)
+        sm[i] = 0.25 * prof[i - 1] + 0.5 * prof[i] + 0.25 * prof[i + 1];
       double score = 0;
       for (double x : sm) score += x * x;
       if (score > best_score) {
@@ -134,9 +135,9 @@ struct CameraHeightEstimator::Impl {
         best_prof = sm;
       }
     }
-    // Near support: a vehicle ahead leaves bright streaks in a bird's-eye view too, but they start at its wheels;
-    // the road just in front of the camera is nearly always road, so a lane line must show in the nearest
-    // near_support_m of the visible view.
+    // Near support: a vehicle ahead leaves bright streaks in a bird's-eye view too, but they start at its
+    // wheels; the road just in front of the camera is nearly always road, so a lane line must show in the
+    // nearest near_support_m of the visible view.
     int r_bottom = -1;
     for (int r = rows - 1; r >= 0 && r_bottom < 0; --r)
       if (cv::countNonZero(valid.row(r)) > cols / 4) r_bottom = r;
@@ -153,7 +154,8 @@ struct CameraHeightEstimator::Impl {
     const double min_near = opt.min_near_support_m / res * 2.0;
     auto near_support = [&](int i) {
       double n = 0;
-      for (int j = std::max(0, i - 2); j <= std::min(bins - 1, i + 2); ++j) n += near_prof[static_cast<size_t>(j)];
+      for (int j = std::max(0, i - 2); j <= std::min(bins - 1, i + 2); ++j)
+        n += near_prof[static_cast<size_t>(j)];
       return n;
     };
     // Peaks: local maxima over +- 0.4 m, covering min_line_fill of the searched length.
@@ -168,7 +170,8 @@ struct CameraHeightEstimator::Impl {
       if (v < min_count) continue;
       bool is_max = true;
       for (int j = i - win; j <= i + win && is_max; ++j)
-        if (best_prof[static_cast<size_t>(j)] > v || (best_prof[static_cast<size_t>(j)] == v && j < i)) is_max = false;
+        if (best_prof[static_cast<size_t>(j)] > v || (best_prof[static_cast<size_t>(j)] == v && j < i))
+          is_max = false;
       if (!is_max) continue;
       const double a = best_prof[static_cast<size_t>(i - 1)], c = best_prof[static_cast<size_t>(i + 1)];
       const double den = a - 2 * v + c;
@@ -305,7 +308,9 @@ std::optional<RoadMarkings> CameraHeightEstimator::markings() const {
   return m;
 }
 
-std::optional<double> CameraHeightEstimator::last_lane_width() const { return impl_->last; }
+std::optional<double> CameraHeightEstimator::last_lane_width() const {
+  return impl_->last;
+}
 
 std::optional<HeightEstimate> CameraHeightEstimator::result() const {
   const Impl& s = *impl_;
@@ -337,8 +342,8 @@ std::optional<HeightEstimate> CameraHeightEstimator::result() const {
   return e;
 }
 
-std::optional<HeightEstimate> estimate_camera_height(const std::vector<cv::Mat>& frames, const CameraModel& camera,
-                                                     HeightOptions opt) {
+std::optional<HeightEstimate> estimate_camera_height(const std::vector<cv::Mat>& frames,
+                                                     const CameraModel& camera, HeightOptions opt) {
   CameraHeightEstimator est(camera, opt);
   for (const cv::Mat& f : frames) est.add(f);
   return est.result();

@@ -29,8 +29,12 @@ GroundOdometry::GroundOdometry(const CameraModel& camera, OdometryOptions opt)
 GroundOdometry::~GroundOdometry() = default;
 GroundOdometry::GroundOdometry(GroundOdometry&&) noexcept = default;
 GroundOdometry& GroundOdometry::operator=(GroundOdometry&&) noexcept = default;
-int GroundOdometry::bonnet_rows() const { return impl_->tracker.bonnet_rows(); }
-const cv::Mat& GroundOdometry::last_bev() const { return impl_->tracker.last_bev(); }
+int GroundOdometry::bonnet_rows() const {
+  return impl_->tracker.bonnet_rows();
+}
+const cv::Mat& GroundOdometry::last_bev() const {
+  return impl_->tracker.last_bev();
+}
 
 EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double timestamp) {
   return add(bgr, frame, timestamp, std::nullopt);
@@ -103,7 +107,8 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
     std::vector<cv::Point2d> gp, gq;
     const auto dp = ground_pitch_offset(s.cam, ip, iq, s.opt.pair_pitch_range_deg * M_PI / 180.0,
                                         s.opt.pair_pitch_sharpness);
-    if (dp && detail::pairs_on_ground(with_pitch_roll(s.cam, s.cam.pitch() + *dp, s.cam.roll()), ip, iq, gp, gq)) {
+    if (dp &&
+        detail::pairs_on_ground(with_pitch_roll(s.cam, s.cam.pitch() + *dp, s.cam.roll()), ip, iq, gp, gq)) {
       for (size_t j = 0; j < best.size(); ++j) {
         p[static_cast<size_t>(best[j])] = gp[j];
         q[static_cast<size_t>(best[j])] = gq[j];
@@ -131,7 +136,8 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
                                s.opt.two_view_gate_sigma * std::hypot(road_sigma, out.yaw_rate_sigma);
   out.inliers = k;
   out.quality = static_cast<double>(k) / n;
-  // p = R q + t: t is where the current ego origin sits in the previous ego frame; its x is the distance driven.
+  // p = R q + t: t is where the current ego origin sits in the previous ego frame; its x is the distance
+  // driven.
   out.speed_mps = m.t.x / dt;
   out.speed_sigma = sigma / std::sqrt(static_cast<double>(k)) / dt;
   if (!known_yaw) {
@@ -147,8 +153,8 @@ EgoMotionSample GroundOdometry::add(const cv::Mat& bgr, int64_t frame, double ti
   out.measured = k >= s.opt.min_inliers && out.quality >= s.opt.min_inlier_fraction;
   if (out.measured) {
     out.speed_cue = EgoMotionSample::SpeedCue::kRoad;
-    // Agreement as the narrowed search allows: the speed's change within prior_accel_mps2 over the time between
-    // the two plus prior_relative of it, and 0.2 m over this pair.
+    // Agreement as the narrowed search allows: the speed's change within prior_accel_mps2 over the time
+    // between the two plus prior_relative of it, and 0.2 m over this pair.
     s.last_confirmed = s.last_measured_t && timestamp - *s.last_measured_t <= s.opt.prior_max_age_s &&
                        std::abs(out.speed_mps - s.last_speed) <=
                            s.opt.prior_accel_mps2 * (timestamp - *s.last_measured_t) +
@@ -187,8 +193,8 @@ std::optional<double> ground_pitch_offset(const CameraModel& camera, const std::
   constexpr double kDeg = M_PI / 180.0;
   auto residual = [&](double dp) {
     detail::Rigid2 fit;
-    const double e =
-        detail::ground_residual(with_pitch_roll(camera, camera.pitch() + dp, camera.roll()), img_p, img_q, &fit);
+    const double e = detail::ground_residual(with_pitch_roll(camera, camera.pitch() + dp, camera.roll()),
+                                             img_p, img_q, &fit);
     return e / std::max(1e-12, fit.t.dot(fit.t));  // NaN stays NaN
   };
   double best = std::numeric_limits<double>::infinity(), bp = 0;

@@ -25,7 +25,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-
 double mad_sigma(const std::vector<double>& v, double med) {
   std::vector<double> d;
   d.reserve(v.size());
@@ -43,11 +42,12 @@ struct Segment {
   cv::Point2d a, b, mid, dir;  // dir: unit vector pointing up the image (towards the vanishing point)
   cv::Vec3d line;              // normalised homogeneous line
   double length = 0;
-  int lean = 0;                // +1: x grows going up (left-side lines), -1: x shrinks
+  int lean = 0;  // +1: x grows going up (left-side lines), -1: x shrinks
 };
 
 // Least-squares point closest to weighted lines (normalised a x + b y + c = 0).
-std::optional<cv::Point2d> intersect_lines(const std::vector<cv::Vec3d>& lines, const std::vector<double>& w) {
+std::optional<cv::Point2d> intersect_lines(const std::vector<cv::Vec3d>& lines,
+                                           const std::vector<double>& w) {
   double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
   for (size_t i = 0; i < lines.size(); ++i) {
     const cv::Vec3d& l = lines[i];
@@ -139,7 +139,8 @@ std::optional<cv::Point2d> road_vanishing_point(const cv::Mat& gray, const Horiz
   return refined;
 }
 
-// Focus of expansion of the flow prev -> cur (work pixels), or nullopt when the flow is not a clean expansion.
+// Focus of expansion of the flow prev -> cur (work pixels), or nullopt when the flow is not a clean
+// expansion.
 std::optional<cv::Point2d> focus_of_expansion(const std::vector<cv::Point2f>& p0,
                                               const std::vector<cv::Point2f>& p1, cv::Size size,
                                               const HorizonOptions& o) {
@@ -188,7 +189,8 @@ std::optional<cv::Point2d> focus_of_expansion(const std::vector<cv::Point2f>& p0
     if (!inlier(i, best)) continue;
     lines.push_back(line_of(i));
     const cv::Point2f d = p1[i] - p0[i];
-    weights.push_back(std::min(10.0, static_cast<double>(std::hypot(d.x, d.y))));  // long flow: better direction
+    weights.push_back(
+        std::min(10.0, static_cast<double>(std::hypot(d.x, d.y))));  // long flow: better direction
   }
   auto refined = intersect_lines(lines, weights);
   return refined ? refined : std::optional<cv::Point2d>(best);
@@ -206,8 +208,9 @@ HorizonEstimator::HorizonEstimator(const CameraModel& intrinsics, HorizonOptions
     : cam_(intrinsics), opt_(opt) {
   // The ground cue tracks the road in a bird's-eye view of a level camera; the view need not be metric.
   const double hcam = intrinsics.height_above_ground() > 0 ? intrinsics.height_above_ground() : 1.5;
-  const CameraModel nominal = CameraModel::pinhole(intrinsics.width, intrinsics.height, intrinsics.fx, intrinsics.fy,
-                                                   intrinsics.cx, intrinsics.cy, hcam, 0.0, intrinsics.t_ego_cam[0], 0.0);
+  const CameraModel nominal =
+      CameraModel::pinhole(intrinsics.width, intrinsics.height, intrinsics.fx, intrinsics.fy, intrinsics.cx,
+                           intrinsics.cy, hcam, 0.0, intrinsics.t_ego_cam[0], 0.0);
   ground_ = std::make_shared<Ground>(nominal, OdometryOptions{});
   scale_ = intrinsics.width > opt_.work_width ? static_cast<double>(opt_.work_width) / intrinsics.width : 1.0;
   work_cam_ = intrinsics.scaled_to(static_cast<int>(std::lround(intrinsics.width * scale_)),
@@ -280,7 +283,8 @@ void HorizonEstimator::add(const cv::Mat& bgr, double timestamp) {
       for (const Sample& s : samples_)
         if (s.cue != Sample::kHomography) rows.push_back(s.y * scale_);
       double floor_row = 0.5 * gray.rows;
-      if (!rows.empty()) floor_row = std::clamp(detail::median(rows) + 0.06 * gray.rows, 0.3 * gray.rows, 0.8 * gray.rows);
+      if (!rows.empty())
+        floor_row = std::clamp(detail::median(rows) + 0.06 * gray.rows, 0.3 * gray.rows, 0.8 * gray.rows);
       std::vector<cv::Point2f> ra, rb;
       for (size_t i = 0; i < a.size(); ++i) {
         if (a[i].y > floor_row && b[i].y > floor_row) {
@@ -326,7 +330,8 @@ void HorizonEstimator::add(const cv::Mat& bgr, double timestamp) {
 void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double dt) {
   const std::vector<detail::GroundMatch> m = ground_->tracker.add(bgr, dt);
   if (static_cast<int>(m.size()) < opt_.ground_min_matches) return;
-  // Inliers of the rigid motion at the nominal (level) pitch, with a loose threshold since the pitch is unknown.
+  // Inliers of the rigid motion at the nominal (level) pitch, with a loose threshold since the pitch is
+  // unknown.
   std::vector<cv::Point2d> p, q;
   for (const auto& g : m) {
     p.push_back(g.p);
@@ -336,7 +341,8 @@ void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double d
   const detail::Rigid2 nominal = detail::ransac_rigid(p, q, 0.4, 300, in);
   if (static_cast<int>(in.size()) < opt_.ground_min_matches) return;
   if (std::hypot(nominal.t.x, nominal.t.y) < opt_.ground_min_travel_m) return;
-  std::vector<cv::Point2d> ip, iq;  // the inliers' image points, put on the road at each candidate pitch and roll
+  std::vector<cv::Point2d> ip,
+      iq;  // the inliers' image points, put on the road at each candidate pitch and roll
   for (int i : in) {
     ip.push_back(m[static_cast<size_t>(i)].img_p);
     iq.push_back(m[static_cast<size_t>(i)].img_q);
@@ -346,7 +352,8 @@ void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double d
     return CameraModel::pinhole(base.width, base.height, base.fx, base.fy, base.cx, base.cy,
                                 base.height_above_ground(), pitch, base.t_ego_cam[0], roll);
   };
-  auto search = [&](double p0, double p1, double pstep, double r0, double r1, double rstep, double& bp, double& br) {
+  auto search = [&](double p0, double p1, double pstep, double r0, double r1, double rstep, double& bp,
+                    double& br) {
     double best = kInf;
     for (double pitch = p0; pitch <= p1 + 1e-12; pitch += pstep) {
       for (double roll = r0; roll <= r1 + 1e-12; roll += rstep) {
@@ -363,7 +370,8 @@ void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double d
   const double pr = opt_.ground_pitch_range_deg * kDeg, rr = opt_.ground_roll_range_deg * kDeg;
   double bp = 0, br = 0;
   if (!std::isfinite(search(-pr, pr, 0.25 * kDeg, -rr, rr, 0.5 * kDeg, bp, br))) return;
-  double best = search(bp - 0.3 * kDeg, bp + 0.3 * kDeg, 0.025 * kDeg, br - 0.6 * kDeg, br + 0.6 * kDeg, 0.1 * kDeg, bp, br);
+  double best = search(bp - 0.3 * kDeg, bp + 0.3 * kDeg, 0.025 * kDeg, br - 0.6 * kDeg, br + 0.6 * kDeg,
+                       0.1 * kDeg, bp, br);
   // A flat residual (too little depth range, points not on the ground) does not pin the pitch down.
   const double lo = detail::ground_residual(cam_at(bp - kDeg, br), ip, iq);
   const double hi = detail::ground_residual(cam_at(bp + kDeg, br), ip, iq);
@@ -405,7 +413,8 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
       std::vector<double> in;
       for (double r : rolls)
         if (std::abs(r - m) <= std::max(3 * sig, 0.2 * kDeg)) in.push_back(r);
-      const double se = 1.2533 * sig / std::sqrt(static_cast<double>(in.size()));  // standard error of a median
+      const double se =
+          1.2533 * sig / std::sqrt(static_cast<double>(in.size()));  // standard error of a median
       if (static_cast<int>(in.size()) >= opt_.min_roll_samples && se < opt_.max_roll_error_deg * kDeg) {
         roll = detail::median(in);
         est.roll_sigma_rad = std::max(se, 1e-4);
@@ -456,7 +465,8 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   }
   if (!roll_known) {
     est.notes.push_back(
-        "roll not observable from this clip (no consistent road-plane normal and the horizon points do not spread "
+        "roll not observable from this clip (no consistent road-plane normal and the horizon points do not "
+        "spread "
         "across the image): roll reported as 0");
   }
 
@@ -520,7 +530,8 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
     if (cue_rows[c].size() < 3) continue;
     const double d = detail::median(cue_rows[c]) - centre;
     if (std::abs(d) > 0.5 * gate) {
-      est.notes.push_back(std::string(names[c]) + " rows sit " + std::to_string(static_cast<int>(std::lround(d))) +
+      est.notes.push_back(std::string(names[c]) + " rows sit " +
+                          std::to_string(static_cast<int>(std::lround(d))) +
                           " px from the combined horizon (road slope, curve or turning bias)");
     }
   }

@@ -19,7 +19,8 @@ std::optional<double> lever_arm_chord(double turn, double heading, double lever_
   // The camera's move d = c u(turn/2) + L (cos turn - 1, sin turn) is parallel to u(heading):
   // c sin(heading - turn/2) = L (sin turn cos heading + (1 - cos turn) sin heading).
   const double den = std::sin(heading - 0.5 * turn);
-  const double num = lever_m * (std::sin(turn) * std::cos(heading) + (1.0 - std::cos(turn)) * std::sin(heading));
+  const double num =
+      lever_m * (std::sin(turn) * std::cos(heading) + (1.0 - std::cos(turn)) * std::sin(heading));
   if (!(std::abs(den) > 1e-9) || !std::isfinite(num)) return std::nullopt;
   const double c = num / den;
   if (!(c > 0) || !std::isfinite(c)) return std::nullopt;
@@ -38,7 +39,9 @@ void LeverArmScale::observe(const EgoMotionSample& s) {
   if (std::abs(s.two_view->yaw) < opt_.straight_turn_deg * kDeg) straight_.push_back(s.two_view->heading);
 }
 
-double LeverArmScale::bias() const { return from_straight_pairs() ? detail::median(straight_) : opt_.prior_bias; }
+double LeverArmScale::bias() const {
+  return from_straight_pairs() ? detail::median(straight_) : opt_.prior_bias;
+}
 
 double LeverArmScale::bias_sigma() const {
   if (!from_straight_pairs()) return opt_.prior_bias_sigma_deg * kDeg;

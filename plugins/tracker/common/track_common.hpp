@@ -17,7 +17,6 @@ inline cv::Point2f centre(const cv::Rect2f& b) {
   return {b.x + 0.5f * b.width, b.y + 0.5f * b.height};
 }
 
-
 // Velocity of a box centre in px/s from the displacement between successive *matched* observations divided by
 // their timestamp difference (so a gap of several frames is one long step, not several zero steps), smoothed
 // exponentially: v = alpha * v_step + (1 - alpha) * v. The first step initialises v directly, so constant

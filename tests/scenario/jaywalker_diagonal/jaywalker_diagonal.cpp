@@ -17,8 +17,9 @@ class JaywalkerDiagonal : public hf::hazard::KindTemplate<JaywalkerDiagonal> {
     hf::HazardKindInfo k;
     k.kind = "jaywalker_diagonal";
     k.summary = "a person crosses diagonally";
-    k.play_out = "steps off the kerb on `side` at x = initial_distance_m and walks at speed_mps along heading_deg, "
-                 "a diagonal towards the other side (for example -45 from the left, 45 from the right).";
+    k.play_out =
+        "steps off the kerb on `side` at x = initial_distance_m and walks at speed_mps along heading_deg, "
+        "a diagonal towards the other side (for example -45 from the left, 45 from the right).";
     k.object_classes = {"person"};
     k.needs = {hf::scene_condition::kSidewalks};
     return k;

@@ -1,6 +1,6 @@
-// oncoming_overtaker hazard template (a test plugin): an oncoming vehicle swerves into the ego lane to overtake.
-// One file, built like a third party's plugin, that takes part in the prompt, the offline planner, the docs and
-// the tests without a line elsewhere.
+// oncoming_overtaker hazard template (a test plugin): an oncoming vehicle swerves into the ego lane to
+// overtake. One file, built like a third party's plugin, that takes part in the prompt, the offline planner,
+// the docs and the tests without a line elsewhere.
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -13,14 +13,15 @@ namespace example {
 
 using hf::hazard::num;
 
-// Kind hazard_template, name oncoming_overtaker. The vehicle drives towards the ego in the oncoming lane next to
-// the ego's traffic (on `side`, which must be where oncoming traffic passes) at speed_mps, first seen far ahead;
-// after extra.swerve_after_s it changes into the ego lane (minimum-jerk shift within the class's lateral limits)
-// and keeps coming, so the gap closes at the ego's speed plus its own. Params: the shared template params.
+// Kind hazard_template, name oncoming_overtaker. The vehicle drives towards the ego in the oncoming lane next
+// to the ego's traffic (on `side`, which must be where oncoming traffic passes) at speed_mps, first seen far
+// ahead; after extra.swerve_after_s it changes into the ego lane (minimum-jerk shift within the class's
+// lateral limits) and keeps coming, so the gap closes at the ego's speed plus its own. Params: the shared
+// template params.
 class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
  public:
-  // It comes from far ahead, where a recorded path's turns, a lane to the side, are tighter than a vehicle may take
-  // at its speed: it is planned against a straight ego by default.
+  // It comes from far ahead, where a recorded path's turns, a lane to the side, are tighter than a vehicle
+  // may take at its speed: it is planned against a straight ego by default.
   static hf::ComponentInfo describe() {
     hf::ComponentInfo i = base_info(info());
     for (hf::ParamSpec& p : i.params)
@@ -33,9 +34,12 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     k.kind = "oncoming_overtaker";
     k.summary = "an oncoming vehicle swerves into the ego lane to overtake, head-on";
     k.play_out =
-        "drives towards the ego (heading_deg 180) at speed_mps in the oncoming lane next to the ego's traffic "
-        "(side and lateral_offset_m on the side oncoming traffic passes, about one lane width), first seen far "
-        "ahead (initial_distance_m 40-110 m); after extra.swerve_after_s seconds it changes into the ego lane and "
+        "drives towards the ego (heading_deg 180) at speed_mps in the oncoming lane next to the ego's "
+        "traffic "
+        "(side and lateral_offset_m on the side oncoming traffic passes, about one lane width), first seen "
+        "far "
+        "ahead (initial_distance_m 40-110 m); after extra.swerve_after_s seconds it changes into the ego "
+        "lane and "
         "keeps coming, so the gap closes at the ego speed plus speed_mps.";
     k.object_classes = {"car", "truck", "bus"};
     k.needs = {hf::scene_condition::kOncomingLane};
@@ -45,9 +49,9 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     return k;
   }
 
-  // A car (2 in 4 draws), truck or bus at least 40 m ahead in the oncoming lane (up to 20 m beyond the nearest
-  // start that leaves it time to swerve) at 5-10 m/s, an urban overtaking speed, swerving so that it enters the ego
-  // path when the TTC is 1.1-1.5 x the target.
+  // A car (2 in 4 draws), truck or bus at least 40 m ahead in the oncoming lane (up to 20 m beyond the
+  // nearest start that leaves it time to swerve) at 5-10 m/s, an urban overtaking speed, swerving so that it
+  // enters the ego path when the TTC is 1.1-1.5 x the target.
   hf::HazardProposal propose(const hf::ProposalRequest& req, hf::RandomDraw& d) const override {
     const auto sc = hf::hazard::ProposalScene::of(req, *this);
     const int side = sc.road.oncoming_side();
@@ -64,14 +68,16 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     // The share of the lane change after which it is in the ego path.
     const double inside = 1.0 - sc.path_half(size.width) / std::abs(y0);
     double lo = 0, hi = 1;
-    for (int i = 0; i < 50; ++i) (hf::hazard::min_jerk_shift(1.0, 1.0, (lo + hi) / 2).p < inside ? lo : hi) = (lo + hi) / 2;
+    for (int i = 0; i < 50; ++i)
+      (hf::hazard::min_jerk_shift(1.0, 1.0, (lo + hi) / 2).p < inside ? lo : hi) = (lo + hi) / 2;
     const double to_path = hi * lane;
     const double ttc_in = d.uniform(1.1, 1.5) * sc.target;  // the TTC when it enters the ego path
     const double front = sc.ego_front + size.length / 2.0;
-    // First seen at 40 m or more; driving on for a moment before it swerves; the TTC at aim x target before the
-    // horizon's end.
+    // First seen at 40 m or more; driving on for a moment before it swerves; the TTC at aim x target before
+    // the horizon's end.
     const double near = std::max(40.0, front + closing * (0.2 + ttc_in + to_path));
-    const double far = std::min({110.0, near + 20.0, front + closing * (sc.horizon - 0.5 + req.aim * sc.target)});
+    const double far =
+        std::min({110.0, near + 20.0, front + closing * (sc.horizon - 0.5 + req.aim * sc.target)});
     if (near > far)
       return {nullptr, "it cannot come from " + hf::hazard::fmt1(near) + " m within the horizon"};
     const double x0 = d.uniform(near, far);
@@ -81,20 +87,22 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
         "oncoming_overtaker", cls, x0, y0, side_name, v, 180.0,
         "comes towards the ego in the oncoming lane and swerves into the ego lane to overtake", sc.target);
     spec["extra"]["swerve_after_s"] = hf::hazard::round_to(swerve, 0.05);
-    spec["rationale"] = "An oncoming " + cls + " " + hf::hazard::fmt1(x0) + " m ahead at " + hf::hazard::fmt1(v) +
-                        " m/s pulls out to overtake into the ego lane; closing at " + hf::hazard::fmt1(closing) +
-                        " m/s the TTC falls below the target.";
+    spec["rationale"] = "An oncoming " + cls + " " + hf::hazard::fmt1(x0) + " m ahead at " +
+                        hf::hazard::fmt1(v) + " m/s pulls out to overtake into the ego lane; closing at " +
+                        hf::hazard::fmt1(closing) + " m/s the TTC falls below the target.";
     return {spec, {}};
   }
 
  protected:
-  hf::hazard::Design design(const hf::hazard::PlanRequest& req, std::vector<std::string>& reasons) const override {
+  hf::hazard::Design design(const hf::hazard::PlanRequest& req,
+                            std::vector<std::string>& reasons) const override {
     const hf::HazardSpec& spec = req.spec;
     const int side = req.side_sign();
     const int oncoming = req.road.oncoming_side();
     if (side != oncoming || req.road.oncoming_lanes_on(oncoming) == 0) {
       reasons.push_back("side '" + spec.side + "' carries no oncoming traffic (oncoming_lanes " +
-                        std::to_string(req.road.oncoming_lanes) + ", traffic keeps " + req.road.driving_side + ")");
+                        std::to_string(req.road.oncoming_lanes) + ", traffic keeps " + req.road.driving_side +
+                        ")");
       return {};
     }
     const double y0 = spec.lateral_offset_m;
@@ -103,7 +111,8 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     const double v = spec.speed_mps;
     if (v < 1.0) reasons.push_back("speed_mps " + num(v) + " is too slow to overtake (at least 1 m/s)");
     if (std::abs(std::abs(spec.heading_deg) - 180.0) > 10.0)
-      reasons.push_back("heading_deg " + num(spec.heading_deg) + " does not come towards the ego (about 180)");
+      reasons.push_back("heading_deg " + num(spec.heading_deg) +
+                        " does not come towards the ego (about 180)");
     double swerve = 0;
     if (spec.extra.contains("swerve_after_s")) {
       if (!spec.extra["swerve_after_s"].is_number()) {
@@ -133,7 +142,8 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
   }
 
  private:
-  // The shortest lane change within the lateral limits, stretched until the turn rate is within its limit too.
+  // The shortest lane change within the lateral limits, stretched until the turn rate is within its limit
+  // too.
   static double lane_change(double width, double v, const hf::hazard::KinematicLimits& lim) {
     double dur = hf::hazard::min_jerk_duration(width, lim.max_lateral_speed_mps, lim.max_lateral_accel_mps2,
                                                0.6 * lim.max_jerk_mps3);

@@ -21,7 +21,9 @@ namespace {
 using namespace hf;
 using namespace hf::render;
 
-CameraModel camera() { return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.02, 1.5); }
+CameraModel camera() {
+  return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.02, 1.5);
+}
 
 // A road-like frame: noise texture (the compositing cost does not depend on content).
 const cv::Mat& background() {
@@ -99,10 +101,14 @@ void run_frames(benchmark::State& state, const std::shared_ptr<const HazardTraje
   state.counters["realism_ms"] = benchmark::Counter(1e3 * realism_s / static_cast<double>(timed));
 }
 
-void BM_PassThrough(benchmark::State& state) { run_frames(state, nullptr); }
+void BM_PassThrough(benchmark::State& state) {
+  run_frames(state, nullptr);
+}
 BENCHMARK(BM_PassThrough)->Unit(benchmark::kMillisecond);
 
-void BM_Car(benchmark::State& state) { run_frames(state, weaving("car", static_cast<double>(state.range(0)))); }
+void BM_Car(benchmark::State& state) {
+  run_frames(state, weaving("car", static_cast<double>(state.range(0))));
+}
 BENCHMARK(BM_Car)->Arg(8)->Arg(15)->Arg(30)->Arg(60)->Unit(benchmark::kMillisecond);
 
 // The same without keeping the silhouette to the projected box: what that step costs.
@@ -111,7 +117,8 @@ void BM_CarUnclipped(benchmark::State& state) {
 }
 BENCHMARK(BM_CarUnclipped)->Arg(8)->Arg(15)->Unit(benchmark::kMillisecond);
 
-// The same with the realism measurement of the drawn car (hazardforge/realism) on: its cost on top of drawing.
+// The same with the realism measurement of the drawn car (hazardforge/realism) on: its cost on top of
+// drawing.
 void BM_CarRealism(benchmark::State& state) {
   run_frames(state, weaving("car", static_cast<double>(state.range(0))), true);
 }

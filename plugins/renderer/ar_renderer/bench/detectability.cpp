@@ -112,7 +112,8 @@ int main(int argc, char** argv) {
             const double half_depth = t.size_lwh[0] / 2 * std::abs(std::cos(headings[h])) +
                                       t.size_lwh[1] / 2 * std::abs(std::sin(headings[h]));
             const double x = f.camera.t_ego_cam[0] + dist + half_depth;
-            t.points = {{f.timestamp - 1, x, 0.5, headings[h], 0, 0}, {f.timestamp + 1, x, 0.5, headings[h], 0, 0}};
+            t.points = {{f.timestamp - 1, x, 0.5, headings[h], 0, 0},
+                        {f.timestamp + 1, x, 0.5, headings[h], 0, 0}};
             RendererOptions o;
             o.ego.mode = EgoMotionMode::kPoses;
             HazardRenderer r(o, lib);
@@ -141,8 +142,8 @@ int main(int argc, char** argv) {
               cv::rectangle(img, res.hazard.box, cv::Scalar(0, 255, 0), 2);
               if (best > 0) {
                 cv::rectangle(img, best_box, cv::Scalar(0, 0, 255), 2);
-                cv::putText(img, best_label, best_box.tl() + cv::Point2f(4, 24), cv::FONT_HERSHEY_SIMPLEX, 0.9,
-                            cv::Scalar(0, 0, 255), 2);
+                cv::putText(img, best_label, best_box.tl() + cv::Point2f(4, 24), cv::FONT_HERSHEY_SIMPLEX,
+                            0.9, cv::Scalar(0, 0, 255), 2);
               }
               char name[96];
               std::snprintf(name, sizeof name, "f%03lld_%s_%s_%02.0fm.png", static_cast<long long>(f.index),
@@ -159,7 +160,8 @@ int main(int argc, char** argv) {
       std::cerr << "frame " << f.index << " done\n";
     }
     std::printf(
-        "| class | heading | camera to near face | insertions | found (IoU >= 0.5) | labelled as its class | mean best IoU "
+        "| class | heading | camera to near face | insertions | found (IoU >= 0.5) | labelled as its class | "
+        "mean best IoU "
         "|\n|---|---|---:|---:|---:|---:|---:|\n");
     int tried = 0, found = 0, exact = 0;
     for (const auto& [k, c] : table) {

@@ -1,5 +1,5 @@
-// Building blocks for a template's proposals (HazardTemplate::propose): the scene as closed-form planning reads
-// it, and the checks and JSON every kind's proposals share.
+// Building blocks for a template's proposals (HazardTemplate::propose): the scene as closed-form planning
+// reads it, and the checks and JSON every kind's proposals share.
 #pragma once
 
 #include <optional>
@@ -51,8 +51,8 @@ struct ProposalScene {
     return ego.is_recorded() ? ego.s_at(t1) - ego.s_at(t0) : ego_speed * (t1 - t0);
   }
   // A tracked object with a distance: position of its centre (x along ego x from the rear axle, y left),
-  // footprint (measured, else its class's prior, else a car's), whether it is in the ego path and its absolute
-  // speed along the ego heading if known.
+  // footprint (measured, else its class's prior, else a car's), whether it is in the ego path and its
+  // absolute speed along the ego heading if known.
   struct Obj {
     int64_t track_id;
     std::string label;
@@ -90,7 +90,8 @@ double round_to(double v, double step);
 std::string fmt1(double v);
 
 // The spec JSON every proposal starts from (the reply schema's fields, extra empty).
-Json proposal_spec(const std::string& kind, const std::string& cls, double x, double y, const std::string& side,
-                   double speed, double heading, const std::string& motion, double target);
+Json proposal_spec(const std::string& kind, const std::string& cls, double x, double y,
+                   const std::string& side, double speed, double heading, const std::string& motion,
+                   double target);
 
 }  // namespace hf::hazard
