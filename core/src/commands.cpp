@@ -1,6 +1,7 @@
 // run / validate / plugins / inspect / graph / eval: thin layers over the host facade.
 #include "hazardforge/core/commands.hpp"
 #include "hazardforge/json_text.hpp"
+#include "hazardforge/number_text.hpp"
 #include "hazardforge/redact.hpp"
 
 #include <algorithm>
@@ -17,12 +18,6 @@ void print_load_errors(const std::vector<std::string>& errors) {
   for (const auto& e : errors) std::cerr << "error: " << e << "\n";
 }
 
-std::string num(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
-
 std::string param_line(const ParamSpec& p) {
   std::ostringstream os;
   os << p.name << " (" << param_type_name(p.type);
@@ -32,7 +27,8 @@ std::string param_line(const ParamSpec& p) {
     os << ", default " << hf::json_text(p.default_value);
   if (p.min || p.max) {
     os << ", range ";
-    os << (p.min ? num(*p.min) : std::string("-inf")) << ".." << (p.max ? num(*p.max) : std::string("inf"));
+    os << (p.min ? general_text(*p.min) : std::string("-inf")) << ".."
+       << (p.max ? general_text(*p.max) : std::string("inf"));
   }
   if (!p.choices.empty()) {
     os << ", one of";
@@ -99,7 +95,7 @@ std::string describe_component(const RegisteredComponent& c, bool md) {
         std::string range;
         if (p.min || p.max) {
           std::ostringstream r;
-          r << (p.min ? num(*p.min) : "") << " .. " << (p.max ? num(*p.max) : "");
+          r << (p.min ? general_text(*p.min) : "") << " .. " << (p.max ? general_text(*p.max) : "");
           range = r.str();
         }
         for (const auto& ch : p.choices) range += (range.empty() ? "" : ", ") + ch;

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "hazardforge/geometry.hpp"
+#include "hazardforge/number_text.hpp"
 
 namespace hf {
 
@@ -194,16 +195,10 @@ std::string nearest_name(const std::string& name, const std::vector<std::string>
 
 namespace {
 
-std::string fmt_num(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
-
 std::string range_text(const ParamSpec& s) {
-  if (s.min && s.max) return "[" + fmt_num(*s.min) + ", " + fmt_num(*s.max) + "]";
-  if (s.min) return ">= " + fmt_num(*s.min);
-  if (s.max) return "<= " + fmt_num(*s.max);
+  if (s.min && s.max) return "[" + general_text(*s.min) + ", " + general_text(*s.max) + "]";
+  if (s.min) return ">= " + general_text(*s.min);
+  if (s.max) return "<= " + general_text(*s.max);
   return "";
 }
 
@@ -288,7 +283,7 @@ Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, con
     auto check_range = [&](double x) {
       if ((s.min && x < *s.min) || (s.max && x > *s.max)) {
         err(s.name,
-            what + ": parameter '" + s.name + "' = " + fmt_num(x) + " is out of range " + range_text(s));
+            what + ": parameter '" + s.name + "' = " + general_text(x) + " is out of range " + range_text(s));
         return false;
       }
       return true;

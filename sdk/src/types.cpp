@@ -1,6 +1,7 @@
 // Camera geometry and the JSON forms of the SDK payload types.
 #include "hazardforge/types.hpp"
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/error.hpp"
 
 #include <algorithm>
@@ -114,7 +115,7 @@ EgoTrackSample EgoTrack::at(double t) const {
   const EgoTrackSample& b = *it;
   const EgoTrackSample& a = *(it - 1);
   const double u = (t - a.t) / (b.t - a.t);
-  double dyaw = std::remainder(b.yaw - a.yaw, 2 * CV_PI);
+  double dyaw = angle_diff(b.yaw, a.yaw);
   EgoTrackSample r;
   r.t = t;
   r.x = a.x + u * (b.x - a.x);
@@ -142,7 +143,7 @@ std::optional<TrajectoryPoint> HazardTrajectory::at(double t) const {
   p.t = t;
   p.x = a.x + u * (b.x - a.x);
   p.y = a.y + u * (b.y - a.y);
-  double dh = std::remainder(b.heading - a.heading, 2 * CV_PI);
+  double dh = angle_diff(b.heading, a.heading);
   p.heading = a.heading + u * dh;
   p.speed = a.speed + u * (b.speed - a.speed);
   p.accel = a.accel + u * (b.accel - a.accel);
@@ -158,7 +159,7 @@ std::optional<TrajectoryPoint> HazardTrajectory::continued_at(double t) const {
   for (size_t k = points.size() - 1; k > 0 && last.t - points[k - 1].t <= 1.0 + 1e-9; --k) {
     const TrajectoryPoint& a = points[k - 1];
     const TrajectoryPoint& b = points[k];
-    turn += std::remainder(b.heading - a.heading, 2 * CV_PI);
+    turn += angle_diff(b.heading, a.heading);
     dist += std::hypot(b.x - a.x, b.y - a.y);
   }
   const double curvature = dist >= 0.5 ? turn / dist : 0.0;

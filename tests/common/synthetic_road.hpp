@@ -10,13 +10,12 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/types.hpp"
 
 namespace hf::test::road {
 
 using hf::CameraModel;
-
-constexpr double kDeg = M_PI / 180.0;
 
 // A straight road along the world x axis: asphalt noise (features of ~10 cm), dashed lane lines (3 m dash, 9
 // m gap) at +-1.75 m and +-5.25 m, solid edge lines at +-7 m, kerb-side grass beyond. Stored as a texture

@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "cut_in_template.hpp"
+#include "hazardforge/angles.hpp"
 #include "hazardforge/hazard/ego_path.hpp"
 #include "hazardforge/registry.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
@@ -20,7 +21,6 @@ namespace {
 
 using hazard::EgoPath;
 using hazard::EgoTrackSample;
-constexpr double kPi = std::numbers::pi;
 
 // A drive along a circle of radius r (positive = turning left) at speed v, sampled at 2 Hz like nuScenes
 // keyframes, in a world frame where it starts at (100, 50) heading 30 degrees.

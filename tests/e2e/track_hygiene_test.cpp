@@ -45,7 +45,7 @@ struct Findings {
 
 // Reads the estimator's ObjectStates of every line of the run's frames.jsonl (one line per frame, a key per
 // input stream).
-Findings inspect(const fs::path& records, const hazard::LimitsTable& limits) {
+Findings inspect(const fs::path& records, const LimitsTable& limits) {
   Findings f;
   std::ifstream in(records);
   std::string line;
@@ -101,8 +101,7 @@ TEST_P(TrackHygiene, NoImpossibleSpeedsAndNoDuplicateVehicleTracks) {
                                    test::quote(test::source_dir() / "configs" / config) + " -o " +
                                    test::quote(out / "run") + " -q");
   ASSERT_EQ(r.code, 0) << r.out;
-  const hazard::LimitsTable limits =
-      hazard::LimitsTable::load((test::source_dir() / "share/hazard_limits.yaml").string());
+  const LimitsTable limits = LimitsTable::load((test::source_dir() / "share/hazard_limits.yaml").string());
   const Findings f = inspect(out / "run/frames.jsonl", limits);
   std::cout << config << ": " << f.frames << " frames, " << f.states << " object states, " << f.with_velocity
             << " with a velocity\n";

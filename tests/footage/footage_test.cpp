@@ -27,12 +27,14 @@
 namespace {
 
 using hf::CameraModel;
+using hf::kRadPerDeg;
 using namespace hf::footage;
 
 using namespace hf::test::road;
 
 CameraModel test_camera(double pitch_deg, double roll_deg) {
-  return CameraModel::pinhole(800, 450, 720, 720, 400, 225, 1.5, pitch_deg * kDeg, 1.5, roll_deg * kDeg);
+  return CameraModel::pinhole(800, 450, 720, 720, 400, 225, 1.5, pitch_deg * kRadPerDeg, 1.5,
+                              roll_deg * kRadPerDeg);
 }
 
 TEST(Horizon, PitchAndRollOfARenderedDriveWithinTolerance) {
@@ -49,8 +51,8 @@ TEST(Horizon, PitchAndRollOfARenderedDriveWithinTolerance) {
   ASSERT_TRUE(r.has_value());
   const double true_row = *truth.horizon_y(truth.cx);
   EXPECT_NEAR(r->horizon_y, true_row, 3.0) << r->method;
-  EXPECT_NEAR(r->pitch_rad / kDeg, 3.0, 0.3);
-  EXPECT_NEAR(r->roll_rad / kDeg, 1.5, 0.5) << "roll must be estimated on a clip that shows it";
+  EXPECT_NEAR(r->pitch_rad / kRadPerDeg, 3.0, 0.3);
+  EXPECT_NEAR(r->roll_rad / kRadPerDeg, 1.5, 0.5) << "roll must be estimated on a clip that shows it";
   EXPECT_GT(r->confidence, 0.3);
   EXPECT_GE(r->frames_used, 10);
   EXPECT_FALSE(r->method.empty());
@@ -79,8 +81,8 @@ TEST(Attitude, EachFramesPitchAndRollDeviationOfANoddingCamera) {
   double worst_pitch = 0, worst_roll = 0, ss_pitch = 0;
   for (size_t k = 0; k < out.size(); ++k) {
     measured += out[k].measured ? 1 : 0;
-    const double ep = out[k].pitch_rad / kDeg - pitch_dev(t_of[k]);
-    const double er = out[k].roll_rad / kDeg - roll_dev(t_of[k]);
+    const double ep = out[k].pitch_rad / kRadPerDeg - pitch_dev(t_of[k]);
+    const double er = out[k].roll_rad / kRadPerDeg - roll_dev(t_of[k]);
     ss_pitch += ep * ep;
     // Within a second of the clip's ends the slow attitude sees only one side (and takes part of the swing).
     if (t_of[k] < 0.25 || t_of[k] > 1.7) continue;
@@ -93,8 +95,8 @@ TEST(Attitude, EachFramesPitchAndRollDeviationOfANoddingCamera) {
   EXPECT_LT(std::sqrt(ss_pitch / out.size()), 0.1) << "deg rms over the whole clip";
   // The frame's camera follows: its horizon row moves with the deviation.
   const CameraModel c = with_attitude(test_camera(3.0, 0.0), out[10]);
-  EXPECT_NEAR(c.pitch() / kDeg, 3.0 + out[10].pitch_rad / kDeg, 1e-9);
-  EXPECT_NEAR(c.roll() / kDeg, out[10].roll_rad / kDeg, 1e-9);
+  EXPECT_NEAR(c.pitch() / kRadPerDeg, 3.0 + out[10].pitch_rad / kRadPerDeg, 1e-9);
+  EXPECT_NEAR(c.roll() / kRadPerDeg, out[10].roll_rad / kRadPerDeg, 1e-9);
 }
 
 // A steady camera gives no deviation, and a clip without texture near the horizon measures nothing.
@@ -103,8 +105,8 @@ TEST(Attitude, ASteadyCameraAndAFeaturelessClipGiveNoDeviation) {
   for (int i = 0; i < 20; ++i)
     steady.add(render_with_walls(test_camera(3.0, 0.0), pose_at(0.04 * i, 12.0, 0.0, {0, 0.3, 0})), 0.04 * i);
   for (const auto& s : steady.result()) {
-    EXPECT_LT(std::abs(s.pitch_rad / kDeg), 0.05);
-    EXPECT_LT(std::abs(s.roll_rad / kDeg), 0.05);
+    EXPECT_LT(std::abs(s.pitch_rad / kRadPerDeg), 0.05);
+    EXPECT_LT(std::abs(s.roll_rad / kRadPerDeg), 0.05);
   }
   // Keyframes half a second apart are not compared.
   AttitudeTracker keyframes(test_camera(3.0, 0.0));
@@ -149,7 +151,8 @@ TEST(Attitude, HeadingStepOfATurningDriveAtVideoRate) {
         ++turns;
         // The camera 1.5 m ahead of the axle steps sideways as it turns: the walls 11 m to the side shift by
         // up to 15 % more than the turn alone moves them.
-        EXPECT_NEAR(turn->yaw / kDeg, yaw_rate / fps / kDeg, 0.03 + 0.2 * std::abs(yaw_rate / fps / kDeg))
+        EXPECT_NEAR(turn->yaw / kRadPerDeg, yaw_rate / fps / kRadPerDeg,
+                    0.03 + 0.2 * std::abs(yaw_rate / fps / kRadPerDeg))
             << "rate " << yaw_rate << " frame " << i;
         EXPECT_GT(turn->yaw_sigma, 0.0);
         EXPECT_LT(std::abs(turn->yaw - yaw_rate / fps), 4 * turn->yaw_sigma)
@@ -162,12 +165,12 @@ TEST(Attitude, HeadingStepOfATurningDriveAtVideoRate) {
     for (size_t i = 1; i < raw.size(); ++i) {
       if (!raw[i].yaw_measured) continue;
       ++yaw_measured;
-      EXPECT_NEAR(raw[i].yaw_rate, yaw_rate, 0.75 * kDeg + 0.2 * std::abs(yaw_rate))
+      EXPECT_NEAR(raw[i].yaw_rate, yaw_rate, 0.75 * kRadPerDeg + 0.2 * std::abs(yaw_rate))
           << "rate " << yaw_rate << " frame " << i;
     }
     EXPECT_GE(yaw_measured, 17) << "rate " << yaw_rate;
     for (const auto& s : smooth_ego_motion(raw))
-      EXPECT_NEAR(s.yaw_rate, yaw_rate, 0.5 * kDeg + 0.2 * std::abs(yaw_rate)) << "rate " << yaw_rate;
+      EXPECT_NEAR(s.yaw_rate, yaw_rate, 0.5 * kRadPerDeg + 0.2 * std::abs(yaw_rate)) << "rate " << yaw_rate;
   }
 }
 
@@ -178,8 +181,8 @@ TEST(Horizon, StraightDriveGivesTheHorizonRow) {
   const auto r = est.result();
   ASSERT_TRUE(r.has_value());
   EXPECT_NEAR(r->horizon_y, *truth.horizon_y(truth.cx), 3.0);
-  EXPECT_NEAR(r->pitch_rad / kDeg, 3.0, 0.3);
-  EXPECT_NEAR(r->roll_rad / kDeg, 0.0, 0.5);
+  EXPECT_NEAR(r->pitch_rad / kRadPerDeg, 3.0, 0.3);
+  EXPECT_NEAR(r->roll_rad / kRadPerDeg, 0.0, 0.5);
 }
 
 TEST(Horizon, UniformAndSkyOnlyClipsGiveNoEstimate) {
@@ -231,9 +234,10 @@ TEST(GroundOdometry, TenFramesPerSecondTurning) {
 // pitched `true_deg`, before and after the ego drove `d` m (turning 3 deg when it moves), with 0.3 px noise;
 // the camera assumed at `assumed_deg`.
 std::optional<double> pitch_offset_of_a_pair(double true_deg, double assumed_deg, double d = 2.0) {
-  const CameraModel truth = CameraModel::pinhole(1280, 720, 1000, 1000, 640, 360, 1.5, true_deg * kDeg, 1.5);
-  const CameraModel assumed = with_pitch_roll(truth, assumed_deg * kDeg, 0.0);
-  const double yaw = d > 0 ? 3.0 * kDeg : 0.0;
+  const CameraModel truth =
+      CameraModel::pinhole(1280, 720, 1000, 1000, 640, 360, 1.5, true_deg * kRadPerDeg, 1.5);
+  const CameraModel assumed = with_pitch_roll(truth, assumed_deg * kRadPerDeg, 0.0);
+  const double yaw = d > 0 ? 3.0 * kRadPerDeg : 0.0;
   const double tx = d * std::cos(0.5 * yaw), ty = d * std::sin(0.5 * yaw), c = std::cos(yaw),
                s = std::sin(yaw);
   std::mt19937 rng(7);
@@ -248,19 +252,19 @@ std::optional<double> pitch_offset_of_a_pair(double true_deg, double assumed_deg
       a.emplace_back(pa->x + noise(rng), pa->y + noise(rng));
       b.emplace_back(pb->x + noise(rng), pb->y + noise(rng));
     }
-  return ground_pitch_offset(assumed, a, b, 8.0 * kDeg);
+  return ground_pitch_offset(assumed, a, b, 8.0 * kRadPerDeg);
 }
 
 TEST(GroundPitch, ThePitchThatMakesThePairsRoadMotionRigid) {
   const auto off = pitch_offset_of_a_pair(3.0, 1.0);
   ASSERT_TRUE(off.has_value());
-  EXPECT_NEAR(*off / kDeg, 2.0, 0.1);
+  EXPECT_NEAR(*off / kRadPerDeg, 2.0, 0.1);
   const auto none = pitch_offset_of_a_pair(3.0, 3.0);
   ASSERT_TRUE(none.has_value());
-  EXPECT_NEAR(*none / kDeg, 0.0, 0.1);
+  EXPECT_NEAR(*none / kRadPerDeg, 0.0, 0.1);
   const auto up = pitch_offset_of_a_pair(-1.0, 2.0);
   ASSERT_TRUE(up.has_value());
-  EXPECT_NEAR(*up / kDeg, -3.0, 0.1);
+  EXPECT_NEAR(*up / kRadPerDeg, -3.0, 0.1);
   // Standing still, every pitch fits the (absent) motion alike: nothing pins it down.
   EXPECT_FALSE(pitch_offset_of_a_pair(3.0, 1.0, 0.0).has_value());
 }
@@ -285,7 +289,7 @@ TEST(GroundPitch, KeyframesSeenWithAPitchTheClipsCameraDoesNotKnow) {
       err.push_back(std::abs(r.speed_mps - speed) / speed);
       if (r.ground_pitch_offset) {
         ++with_pitch;
-        EXPECT_NEAR(*r.ground_pitch_offset / kDeg, 1.5, 0.35) << "frame " << i;
+        EXPECT_NEAR(*r.ground_pitch_offset / kRadPerDeg, 1.5, 0.35) << "frame " << i;
       }
     }
     ASSERT_GE(measured, 5) << "pair_pitch " << pair_pitch;
@@ -361,7 +365,7 @@ TEST(TwoViewRotation, HeadingChangeOfATurningDrive) {
       }
       if (!r) continue;  // a decomposition it does not trust (translation not along the axis) is refused
       ++measured;
-      EXPECT_NEAR(r->yaw, 0.25 * dt, 0.3 * kDeg) << "dt " << dt << " frame " << i;
+      EXPECT_NEAR(r->yaw, 0.25 * dt, 0.3 * kRadPerDeg) << "dt " << dt << " frame " << i;
     }
     // 2.5 m between keyframes fixes the geometry every time; 0.5 m at 10 fps nearly every time.
     EXPECT_GE(measured, dt > 0.2 ? 4 : 3) << "dt " << dt;
@@ -384,9 +388,9 @@ TEST(TwoViewRotation, PitchChangeBetweenViews) {
       if (i == 0 || !r) continue;
       ++measured;
       const double change = level ? 0.0 : pitch_deg[i] - pitch_deg[i - 1];
-      EXPECT_NEAR(r->pitch / kDeg, change, 0.15) << "frame " << i << (level ? " (level)" : "");
+      EXPECT_NEAR(r->pitch / kRadPerDeg, change, 0.15) << "frame " << i << (level ? " (level)" : "");
       EXPECT_GT(r->pitch_sigma, 0.0);
-      EXPECT_NEAR(r->yaw, 0.1 * 0.5, 0.3 * kDeg) << "frame " << i;
+      EXPECT_NEAR(r->yaw, 0.1 * 0.5, 0.3 * kRadPerDeg) << "frame " << i;
     }
     EXPECT_GE(measured, 4) << (level ? "level" : "pitching");
   }
@@ -408,7 +412,7 @@ TEST(GroundOdometry, KeyframesTurningBetweenBuildings) {
     // remains.
     if (!raw[i].yaw_measured) continue;
     ++yaw_measured;
-    EXPECT_NEAR(raw[i].yaw_rate, 0.2, 0.6 * kDeg / 0.5) << "frame " << i;
+    EXPECT_NEAR(raw[i].yaw_rate, 0.2, 0.6 * kRadPerDeg / 0.5) << "frame " << i;
     if (raw[i].measured) {
       EXPECT_NEAR(raw[i].speed_mps, 5.0, 0.25) << "frame " << i;
     }
@@ -429,15 +433,15 @@ TEST(LeverArm, ChordFromTheDirectionOfTravelOnAnArc) {
   };
   for (const double turn_deg : {-20.0, -10.0, -3.0, 3.0, 10.0, 20.0})
     for (const double chord : {1.0, 3.0, 8.0}) {
-      const double turn = turn_deg * kDeg;
+      const double turn = turn_deg * kRadPerDeg;
       const auto c = lever_arm_chord(turn, heading_on_arc(turn, chord), L);
       ASSERT_TRUE(c.has_value()) << turn_deg << " deg, " << chord << " m";
       EXPECT_NEAR(*c, chord, 1e-9 * chord) << turn_deg << " deg";
     }
   EXPECT_FALSE(lever_arm_chord(0.0, 0.0, L).has_value());
-  EXPECT_FALSE(lever_arm_chord(10 * kDeg, heading_on_arc(10 * kDeg, 3.0), 0.0).has_value());
+  EXPECT_FALSE(lever_arm_chord(10 * kRadPerDeg, heading_on_arc(10 * kRadPerDeg, 3.0), 0.0).has_value());
   // A direction on the inside of the chord's (turn/2) is no forward drive for a camera ahead of the axle.
-  EXPECT_FALSE(lever_arm_chord(10 * kDeg, 4 * kDeg, L).has_value());
+  EXPECT_FALSE(lever_arm_chord(10 * kRadPerDeg, 4 * kRadPerDeg, L).has_value());
 }
 
 // fuse(): a pair's geometry from a 2.5 m arc turning 10 deg over 0.5 s, a camera mounted straight (bias 0
@@ -447,10 +451,10 @@ EgoMotionSample pair_on_arc(double turn, double chord, double dt, double heading
   s.interval_s = dt;
   TwoViewMotion tv;
   tv.yaw = turn;
-  tv.yaw_sigma = 0.1 * kDeg;
+  tv.yaw_sigma = 0.1 * kRadPerDeg;
   tv.heading = std::atan2(chord * std::sin(turn / 2) + lever * std::sin(turn),
                           chord * std::cos(turn / 2) + lever * (std::cos(turn) - 1));
-  tv.heading_sigma = heading_sigma_deg * kDeg;
+  tv.heading_sigma = heading_sigma_deg * kRadPerDeg;
   s.two_view = tv;
   return s;
 }
@@ -458,10 +462,11 @@ EgoMotionSample pair_on_arc(double turn, double chord, double dt, double heading
 TEST(LeverArm, FusesWithTheRoadViewOrReplacesAConfidentWrongOne) {
   LeverArmOptions opt;
   LeverArmScale scale(1.5, opt);
-  for (int i = 0; i < 3; ++i) scale.observe(pair_on_arc(0.1 * kDeg, 2.5, 0.5, 0.25, 1.5));
+  for (int i = 0; i < 3; ++i) scale.observe(pair_on_arc(0.1 * kRadPerDeg, 2.5, 0.5, 0.25, 1.5));
   ASSERT_TRUE(scale.from_straight_pairs());
-  EXPECT_NEAR(scale.bias(), 0.0, 0.15 * kDeg);  // a 0.1 deg turn leans the camera's path by about 0.1 deg
-  const double turn = 10 * kDeg, chord = 2.5, dt = 0.5;
+  EXPECT_NEAR(scale.bias(), 0.0,
+              0.15 * kRadPerDeg);  // a 0.1 deg turn leans the camera's path by about 0.1 deg
+  const double turn = 10 * kRadPerDeg, chord = 2.5, dt = 0.5;
   const double speed = chord * (turn / 2) / std::sin(turn / 2) / dt;  // the arc over the interval
   // No road reading: the lever arm's alone.
   EgoMotionSample s = scale.fuse(pair_on_arc(turn, chord, dt, 0.25, 1.5));
@@ -501,7 +506,7 @@ TEST(LeverArm, FusesWithTheRoadViewOrReplacesAConfidentWrongOne) {
   EXPECT_EQ(s.speed_cue, EgoMotionSample::SpeedCue::kRoad);
   EXPECT_DOUBLE_EQ(s.speed_mps, 1.5 * speed);
   // A gentle turn (1 deg) gives no distance; the sample passes unchanged.
-  s = scale.fuse(pair_on_arc(1 * kDeg, chord, dt, 0.25, 1.5));
+  s = scale.fuse(pair_on_arc(1 * kRadPerDeg, chord, dt, 0.25, 1.5));
   EXPECT_FALSE(s.lever_speed_mps.has_value());
   EXPECT_FALSE(s.measured);
 }
@@ -509,19 +514,20 @@ TEST(LeverArm, FusesWithTheRoadViewOrReplacesAConfidentWrongOne) {
 // Without straight pairs the mounting yaw is the prior, and its sigma loosens every distance: a camera turned
 // 1 deg to the left, told so by the prior, reads the arc; told nothing, it reads the bend off by more.
 TEST(LeverArm, MountingYawFromThePriorWithoutStraightPairs) {
-  const double turn = -10 * kDeg, chord = 2.5, dt = 0.5;
+  const double turn = -10 * kRadPerDeg, chord = 2.5, dt = 0.5;
   const double speed = chord * (std::abs(turn) / 2) / std::sin(std::abs(turn) / 2) / dt;
   EgoMotionSample s = pair_on_arc(turn, chord, dt, 0.25, 1.5);
-  s.two_view->heading += 1 * kDeg;
+  s.two_view->heading += 1 * kRadPerDeg;
   LeverArmOptions told;
-  told.prior_bias = 1 * kDeg;
+  told.prior_bias = 1 * kRadPerDeg;
   told.prior_bias_sigma_deg = 0.1;
   const auto a = LeverArmScale(1.5, told).fuse(s);
   ASSERT_TRUE(a.lever_speed_mps.has_value());
   EXPECT_NEAR(*a.lever_speed_mps, speed, 0.02 * speed);
   // The prior from the lane lines' column: 1 deg right of the principal point is a travel 1 deg to the right.
   const CameraModel cam = test_camera(0.0, 0.0);
-  EXPECT_NEAR(with_travel_column({}, cam, cam.cx + cam.fx * std::tan(1 * kDeg)).prior_bias, -1 * kDeg, 1e-9);
+  EXPECT_NEAR(with_travel_column({}, cam, cam.cx + cam.fx * std::tan(1 * kRadPerDeg)).prior_bias,
+              -1 * kRadPerDeg, 1e-9);
   EXPECT_EQ(with_travel_column(told, cam, std::numeric_limits<double>::quiet_NaN()).prior_bias,
             told.prior_bias);
   const LeverArmScale untold(1.5);
@@ -549,7 +555,7 @@ TEST(LeverArm, KeyframesThroughABendBetweenBuildings) {
   }
   const LeverArmScale scale = apply_lever_arm(raw, cam.cam_to_ego({0, 0, 0})[0]);
   EXPECT_GE(scale.straight_pairs(), 3);
-  EXPECT_NEAR(scale.bias(), 0.0, 0.3 * kDeg);
+  EXPECT_NEAR(scale.bias(), 0.0, 0.3 * kRadPerDeg);
   // Each reading within its own sigma (the direction's from interleaved inlier subsets; on these walls the
   // direction scatters by up to 2 deg in the bend, 20-30 % of the distance), and what the fusion leaves
   // within 10 % of the truth: a loose reading does not replace the road view's good one.
@@ -862,7 +868,7 @@ TEST(EgoMotionSmoother, AStoppedCarDoesNotTurn) {
     EXPECT_LE(std::abs(out[i].yaw_rate), 0.2 * out[i].speed_mps + 1e-12) << i;
     turned += 0.1 * out[i].yaw_rate;
   }
-  EXPECT_LT(std::abs(turned) / kDeg, 0.02);
+  EXPECT_LT(std::abs(turned) / kRadPerDeg, 0.02);
   SmoothOptions unlimited;
   unlimited.max_curvature = 0;
   EXPECT_NEAR(smooth_ego_motion(raw, unlimited)[60].yaw_rate, -0.005, 0.002);
@@ -895,7 +901,7 @@ PointPair synthetic_views(double f, double yaw_deg, double forward_m, unsigned s
   std::normal_distribution<double> noise(0.0, 0.3);
   const cv::Matx33d K(f, 0, 640, 0, f, 360, 0, 0, 1);
   // World: x right, y down, z ahead (level). A left turn shows what was ahead to the right.
-  const double yaw = yaw_deg * kDeg, p = pitch_deg * kDeg;
+  const double yaw = yaw_deg * kRadPerDeg, p = pitch_deg * kRadPerDeg;
   const cv::Matx33d Ryaw(std::cos(yaw), 0, std::sin(yaw), 0, 1, 0, -std::sin(yaw), 0, std::cos(yaw));
   const cv::Matx33d Rp(1, 0, 0, 0, std::cos(p), -std::sin(p), 0, std::sin(p), std::cos(p));
   const cv::Vec3d Cb(-std::sin(yaw / 2) * forward_m, 0, std::cos(yaw / 2) * forward_m);
@@ -1022,7 +1028,7 @@ TEST(TwoViewCalibration, NuScenesKeyframes) {
 
 // The epipoles as a horizon cue: with them the estimator's horizon is the true one also from views alone.
 TEST(Horizon, EpipolesAreAHorizonCue) {
-  const CameraModel cam = CameraModel::pinhole(800, 450, 560, 560, 400, 225, 1.5, 2.0 * kDeg, 1.5, 0.0);
+  const CameraModel cam = CameraModel::pinhole(800, 450, 560, 560, 400, 225, 1.5, 2.0 * kRadPerDeg, 1.5, 0.0);
   HorizonEstimator h(cam);
   for (int i = 0; i < 12; ++i)
     h.add_epipole({380.0 + 3.0 * i, *cam.horizon_y(380.0 + 3.0 * i) + (i % 2 ? 1.5 : -1.5)}, i);
@@ -1031,5 +1037,5 @@ TEST(Horizon, EpipolesAreAHorizonCue) {
   EXPECT_EQ(est->epipoles, 12);
   EXPECT_NE(est->method.find("epipole"), std::string::npos);
   EXPECT_NEAR(est->horizon_y, *cam.horizon_y(cam.cx), 1.6);
-  EXPECT_NEAR(est->pitch_rad, 2.0 * kDeg, 0.2 * kDeg);
+  EXPECT_NEAR(est->pitch_rad, 2.0 * kRadPerDeg, 0.2 * kRadPerDeg);
 }

@@ -15,7 +15,7 @@ namespace {
 class Feasibility : public ::testing::Test {
  protected:
   void SetUp() override {
-    limits_ = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
+    limits_ = LimitsTable::load(LimitsTable::default_path());
     cfg_.limits = &limits_;
     cfg_.sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
     cfg_.sidewalks = true;
@@ -47,7 +47,7 @@ class Feasibility : public ::testing::Test {
     return check_feasibility(s, scene_, cfg_, nullptr);
   }
 
-  hazard::LimitsTable limits_;
+  LimitsTable limits_;
   FeasibilityConfig cfg_;
   SceneContext scene_;
 };

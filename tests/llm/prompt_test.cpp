@@ -46,7 +46,7 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
   Frame f = test::make_frame(6, 3.0, s.description);
   ObjectStates st = test::make_states(6, 3.0);
   RiskAssessment r = test::make_risk(6, true);
-  hazard::LimitsTable limits = hazard::LimitsTable::load(hazard::LimitsTable::default_path());
+  LimitsTable limits = LimitsTable::load(LimitsTable::default_path());
   ClassPriors sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
   s.kinds = {PedestrianCrossingTemplate::info(), SuddenStopTemplate::info()};
   s.rules.asset_classes = {"bus", "car", "person", "truck"};

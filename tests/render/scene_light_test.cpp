@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ar_renderer.hpp"
+#include "hazardforge/angles.hpp"
 #include "hazardforge/geometry.hpp"
 #include "render_fixtures.hpp"
 #include "scene_light.hpp"
@@ -17,8 +18,6 @@ namespace {
 using namespace hf;
 using namespace hf::render;
 using hf::test::test_camera;
-
-constexpr double kDeg = CV_PI / 180.0;
 
 struct Car {
   double x, y;  // footprint centre, ego frame
@@ -109,7 +108,7 @@ const std::vector<Car> kStreets[3] = {{{12, 4.0}, {20, -4.0}, {35, 0.5}},
 TEST(SceneLight, FindsTheDirectionLengthAndDarknessOfASunShadow) {
   const CameraModel cam = test_camera();
   for (const double phi_deg : {90.0, -60.0, 150.0}) {
-    const cv::Vec2d dir(std::cos(phi_deg * kDeg), std::sin(phi_deg * kDeg));
+    const cv::Vec2d dir(std::cos(phi_deg * kRadPerDeg), std::sin(phi_deg * kRadPerDeg));
     const double reach = 1.2;  // m beyond the footprint: a 1.5 m car in a sun 51 degrees high
     const auto sun = sun_shadow(cam, dir, reach, 0.5);
     SceneLightEstimator est;
@@ -122,7 +121,8 @@ TEST(SceneLight, FindsTheDirectionLengthAndDarknessOfASunShadow) {
                                    << light.samples << " views, consistency " << light.consistency;
     // A shadow pointing away from the camera is partly hidden behind its car: the visible part pulls the
     // estimate towards the side (150 degrees reads 120-170 per car).
-    EXPECT_LT(std::abs(std::remainder(light.azimuth - phi_deg * kDeg, 2 * CV_PI)), 30 * kDeg) << phi_deg;
+    EXPECT_LT(std::abs(std::remainder(light.azimuth - phi_deg * kRadPerDeg, 2 * CV_PI)), 30 * kRadPerDeg)
+        << phi_deg;
     EXPECT_NEAR(light.darkness, 0.5, 0.12) << phi_deg;
     // The reach is read in 0.3 m steps along the shadow's direction from an edge placed across the line of
     // sight: 0.63 m/m at 90 and -60 degrees, 0.43 at 150 (towards the camera), against 0.8.
@@ -147,7 +147,8 @@ TEST(SceneLight, TheRoadUnderACarsOverhangIsNoSunShadow) {
   const SceneLight light = est.estimate(), wrong = naive.estimate();
   EXPECT_FALSE(light.directional) << light.directional_samples << " of " << light.samples << " views";
   ASSERT_TRUE(wrong.directional);
-  EXPECT_GT(std::abs(std::remainder(wrong.azimuth, 2 * CV_PI)), 120 * kDeg) << wrong.azimuth / kDeg;
+  EXPECT_GT(std::abs(std::remainder(wrong.azimuth, 2 * CV_PI)), 120 * kRadPerDeg)
+      << wrong.azimuth / kRadPerDeg;
 }
 
 TEST(SceneLight, OvercastLightIsDiffuseWithTheDarknessBesideTheVehicle) {
@@ -181,7 +182,7 @@ TEST(SceneLight, DirectionsFollowTheWorldWhileTheEgoTurns) {
   // The same sun seen from an ego that has turned by 30 degrees: in the ego frame the shadows point 30
   // degrees the other way; with the ego's heading passed in, the estimate stays where the sun is.
   const CameraModel cam = test_camera();
-  const double world_phi = 100 * kDeg, heading = 30 * kDeg;
+  const double world_phi = 100 * kRadPerDeg, heading = 30 * kRadPerDeg;
   const cv::Vec2d dir(std::cos(world_phi - heading), std::sin(world_phi - heading));
   const auto sun = sun_shadow(cam, dir, 1.0, 0.55);
   SceneLightEstimator est;
@@ -191,7 +192,7 @@ TEST(SceneLight, DirectionsFollowTheWorldWhileTheEgoTurns) {
   }
   const SceneLight light = est.estimate();
   ASSERT_TRUE(light.directional);
-  EXPECT_LT(std::abs(std::remainder(light.azimuth - world_phi, 2 * CV_PI)), 25 * kDeg);
+  EXPECT_LT(std::abs(std::remainder(light.azimuth - world_phi, 2 * CV_PI)), 25 * kRadPerDeg);
 }
 
 TEST(SceneLight, AShadowBehindTheCarsIsNotSeen) {

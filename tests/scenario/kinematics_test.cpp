@@ -112,12 +112,5 @@ TEST(LimitsTable, BadFieldIsReportedWithFileAndLine) {
   }
 }
 
-TEST(Num, CompactNumbersForMessages) {
-  EXPECT_EQ(num(12.0), "12");
-  EXPECT_EQ(num(1.256), "1.26");
-  EXPECT_EQ(num(-0.001), "0");
-  EXPECT_EQ(num(kInf), "inf");
-}
-
 }  // namespace
 }  // namespace hf::hazard

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/hazard/ego_path.hpp"
 #include "resimulation.hpp"
 #include "scenario_support.hpp"
@@ -24,7 +25,6 @@ namespace {
 namespace fs = std::filesystem;
 using resim::resimulate;
 using resim::Result;
-constexpr double kPi = std::numbers::pi;
 
 // ---- Cases
 // ---------------------------------------------------------------------------------------------------

@@ -16,12 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/types.hpp"
 
 namespace hf::resim {
 
 namespace fs = std::filesystem;
-constexpr double kPi = std::numbers::pi;
 
 // ---- XML access
 // ----------------------------------------------------------------------------------------------

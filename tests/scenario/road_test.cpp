@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/road/opendrive.hpp"
 #include "hazardforge/road/reference_line.hpp"
 #include "xml_files.hpp"
@@ -13,8 +14,6 @@ namespace {
 
 using road::PathPoint;
 using road::ReferenceLine;
-
-constexpr double kPi = std::numbers::pi;
 
 // Points every `step` metres along a path given by its curvature as a function of arc length (exact
 // integration of heading, fine Euler steps for position).
@@ -88,7 +87,7 @@ TEST(RoadFit, SBendWithinTwoCentimetres) {
   // Heading is continuous across the pieces (G1).
   for (size_t k = 1; k < line.geometries().size(); ++k) {
     const double s = line.geometries()[k].s;
-    EXPECT_NEAR(std::remainder(line.at(s - 0.01).hdg - line.at(s + 0.01).hdg, 2 * kPi), 0, 0.005);
+    EXPECT_NEAR(angle_diff(line.at(s - 0.01).hdg, line.at(s + 0.01).hdg), 0, 0.005);
   }
   EXPECT_GE(line.geometries().size(), 3u);
 }

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/registry.hpp"
 #include "hazardforge/types.hpp"
 
@@ -67,7 +68,7 @@ inline Peaks peaks(const std::vector<TrajectoryPoint>& p) {
     k.jerk = std::max(k.jerk, std::hypot(jx, jy));
   }
   for (size_t i = 0; i + 1 < p.size(); ++i) {
-    const double dh = std::remainder(p[i + 1].heading - p[i].heading, 2 * M_PI);
+    const double dh = angle_diff(p[i + 1].heading, p[i].heading);
     k.yaw_rate_dps = std::max(k.yaw_rate_dps, std::abs(dh) / dt * 180 / M_PI);
     k.lateral_speed = std::max(k.lateral_speed, std::abs(p[i + 1].y - p[i].y) / dt);
     k.speed = std::max(k.speed, std::hypot(p[i + 1].x - p[i].x, p[i + 1].y - p[i].y) / dt);

@@ -48,7 +48,7 @@ HazardSpec cut_in(double x0, double speed, double target) {
   return s;
 }
 
-void expect_within_limits(const HazardTrajectory& tr, const hazard::KinematicLimits& lim) {
+void expect_within_limits(const HazardTrajectory& tr, const KinematicLimits& lim) {
   const test::Peaks k = test::peaks(tr.points);
   const double tol = 1.02;  // sampling error of finite differences
   EXPECT_LE(k.accel, std::max(lim.max_accel_mps2, lim.max_decel_mps2) * tol);
@@ -255,7 +255,7 @@ TEST(CutIn, OvertakesAndCutsInAtTheTargetTtcInsideTheStoppingDistance) {
   const hazard::PlanOutcome o = tpl->evaluate(cut_in(-3, 26, 1.2), scene);
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
   const HazardTrajectory& tr = o.trajectory;
-  const hazard::KinematicLimits& lim = tpl->limits().at("car");
+  const KinematicLimits& lim = tpl->limits().at("car");
   expect_within_limits(tr, lim);
   EXPECT_LE(test::peaks(tr.points).lateral_speed, lim.max_lateral_speed_mps * 1.02);
 

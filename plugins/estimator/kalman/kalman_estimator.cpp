@@ -5,6 +5,9 @@
 #include <cmath>
 #include <filesystem>
 
+#include <hazardforge/angles.hpp>
+#include <hazardforge/number_text.hpp>
+
 namespace hf {
 
 namespace {
@@ -23,7 +26,6 @@ bool cut_below_picture(const CameraModel& cam, const estimation::TrackFilter& f,
   const auto px = cam.project_ego(cv::Vec3d(x[0], x[1], 0.0));
   return px && px->y > rows;
 }
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 // Heading change and translation of the ego from the previous to the current frame, in the previous frame.
 estimation::EgoDelta delta_from_poses(const cv::Matx44d& prev, const cv::Matx44d& cur) {
@@ -157,8 +159,8 @@ void KalmanEstimator::open(StageContext& ctx) {
   priors_ = ClassPriors::load(sizes.string());
   ctx.record_resource(sizes);
   std::filesystem::path limits = p.get_path("limits");
-  if (limits.empty()) limits = hazard::LimitsTable::default_path();
-  limits_ = hazard::LimitsTable::load(limits.string());
+  if (limits.empty()) limits = LimitsTable::default_path();
+  limits_ = LimitsTable::load(limits.string());
   ctx.record_resource(limits);
   cfg_.height_rel_sd = p.get_double("height_rel_sd");
   cfg_.box_jitter_px = p.get_double("box_jitter_px");
@@ -188,15 +190,14 @@ void KalmanEstimator::open(StageContext& ctx) {
 }
 
 void KalmanEstimator::finish(StageContext& ctx, Outputs& /*out*/) {
-  using hazard::num;
-  std::string msg = "noise learnt from the recording: box edge jitter " + num(box_jitter_px(), 2) +
-                    " px (stated " + num(cfg_.box_jitter_px, 2) + ", " + std::to_string(jitter_.size()) +
+  std::string msg = "noise learnt from the recording: box edge jitter " + num_text(box_jitter_px(), 2) +
+                    " px (stated " + num_text(cfg_.box_jitter_px, 2) + ", " + std::to_string(jitter_.size()) +
                     " box triples)";
   if (last_camera_)
-    msg += ", ground-contact noise as a pitch " + num(pitch_jitter_deg(*last_camera_), 2) +
-           " deg (body pitch, slopes, occluded box bottoms; stated " + num(cfg_.pitch_jitter_deg, 2) + ", " +
-           std::to_string(pitch_rows_.size()) + " ground/pinhole residuals, lag correlation " +
-           num(std::clamp(lag_products_.correlation(), 0.0, 0.9), 2) + ")";
+    msg += ", ground-contact noise as a pitch " + num_text(pitch_jitter_deg(*last_camera_), 2) +
+           " deg (body pitch, slopes, occluded box bottoms; stated " + num_text(cfg_.pitch_jitter_deg, 2) +
+           ", " + std::to_string(pitch_rows_.size()) + " ground/pinhole residuals, lag correlation " +
+           num_text(std::clamp(lag_products_.correlation(), 0.0, 0.9), 2) + ")";
   ctx.log(LogLevel::kInfo, msg);
 }
 
@@ -231,7 +232,7 @@ estimation::RangeAlignment KalmanEstimator::new_alignment(const CameraModel& cam
   // depth by tan(pitch) / hc. Scale: the class height's spread and a road surface off the ego's plane (dz /
   // hc).
   const double hc = std::max(cam.height_above_ground(), 0.1);
-  const double offset_sd = std::tan(cfg_.pitch_sd_deg * kDeg) / hc;
+  const double offset_sd = std::tan(cfg_.pitch_sd_deg * kRadPerDeg) / hc;
   const double g = cfg_.ground_height_sd / hc;
   return estimation::RangeAlignment(offset_sd, std::sqrt(cfg_.height_rel_sd * cfg_.height_rel_sd + g * g));
 }
@@ -321,7 +322,7 @@ double KalmanEstimator::pitch_jitter_deg(const CameraModel& cam) const {
   if (pitch_rows_.size() == 0) return prior;
   // The residuals' spread in rows, less the part the boxes' own noise explains.
   const double measured2 = std::max(0.0, std::pow(pitch_rows_.sigma(), 2) - noise_rows2_);
-  const double prior_rows = cam.fy * std::tan(prior * kDeg);
+  const double prior_rows = cam.fy * std::tan(prior * kRadPerDeg);
   const double n = static_cast<double>(pitch_rows_.size());
   // Persistent noise: an AR(1) process with lag correlation phi has (1 + phi) / (1 - phi) times the variance
   // of white noise when averaged over many frames.
@@ -329,7 +330,7 @@ double KalmanEstimator::pitch_jitter_deg(const CameraModel& cam) const {
   const double effective2 = measured2 * (1.0 + phi) / (1.0 - phi);
   const double rows =
       estimation::RobustSpread::blend(prior_rows, kPriorSamples, std::max(std::sqrt(effective2), 0.05), n);
-  return std::atan(rows / cam.fy) / kDeg;
+  return std::atan(rows / cam.fy) / kRadPerDeg;
 }
 
 RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& box, unsigned truncated,
@@ -358,12 +359,12 @@ RangeCue KalmanEstimator::range_cue(const CameraModel& cam, const cv::Rect2f& bo
       const double gap_px = cam.fy * hc / std::max(z, 1e-6);
       if (z > 0.5 && gap_px >= c.min_horizon_gap_px && hc > 0) {
         const double k = z * z / (cam.fy * hc);
-        const double pitch_px = cam.fy * std::tan(c.pitch_sd_deg * kDeg);
+        const double pitch_px = cam.fy * std::tan(c.pitch_sd_deg * kRadPerDeg);
         const double var = k * k * (j2 + pitch_px * pitch_px) + std::pow(z * c.ground_height_sd / hc, 2);
         r.ground_depth = z;
         r.ground_var = var;
         // From frame to frame the row also moves with the body's pitch (bumps, braking).
-        const double jitter_px = cam.fy * std::tan(c.pitch_jitter_deg * kDeg);
+        const double jitter_px = cam.fy * std::tan(c.pitch_jitter_deg * kRadPerDeg);
         r.ground_noise_var = k * k * (j2 + jitter_px * jitter_px);
       }
     }
@@ -492,11 +493,11 @@ std::string KalmanEstimator::size_class(const TrackMemory& mem, const std::strin
   else
     pick = cand[static_cast<size_t>(std::max_element(lp.begin(), lp.end()) - lp.begin())].first;
   if (why && pick != voted) {
-    using hazard::num;
     *why = "labelled '" + voted + "' by the detector, sized as '" + pick +
            "': its ground-contact range puts " + "its whole boxes at a median height of " +
-           num(std::exp(m), 2) + " m (" + std::to_string(mem.log_height.size()) + " boxes; '" + voted + "' " +
-           num(priors_.at(voted).height, 2) + " m, '" + pick + "' " + num(priors_.at(pick).height, 2) + " m)";
+           num_text(std::exp(m), 2) + " m (" + std::to_string(mem.log_height.size()) + " boxes; '" + voted +
+           "' " + num_text(priors_.at(voted).height, 2) + " m, '" + pick + "' " +
+           num_text(priors_.at(pick).height, 2) + " m)";
   }
   return pick;
 }
@@ -587,7 +588,7 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
     if (found == tracks_.end()) {
       estimation::TrackFilterConfig fc;
       if (limits_.has(tr.label)) {
-        const hazard::KinematicLimits& L = limits_.at(tr.label);
+        const KinematicLimits& L = limits_.at(tr.label);
         fc.max_speed_mps = L.max_speed_mps;
         fc.accel_sd = cfg_.accel_sd_fraction * L.max_accel_mps2;
         fc.init_velocity_sd = std::min(L.max_speed_mps / 3.0, 15.0);
@@ -617,7 +618,7 @@ ObjectStates KalmanEstimator::estimate(StageContext& ctx, const Tracks& tracks, 
         mem.alignment.rescale_pinhole(k);
       }
       if (limits_.has(sized_as)) {
-        const hazard::KinematicLimits& L = limits_.at(sized_as);
+        const KinematicLimits& L = limits_.at(sized_as);
         f.set_class_limits(L.max_speed_mps, cfg_.accel_sd_fraction * L.max_accel_mps2);
       }
       if (!why.empty())

@@ -14,7 +14,7 @@
 #include <hazardforge/estimation/robust_spread.hpp>
 #include <hazardforge/estimation/track_filter.hpp>
 #include <hazardforge/geometry.hpp>
-#include <hazardforge/hazard/kinematics.hpp>
+#include <hazardforge/road_user_limits.hpp>
 #include <hazardforge/stage.hpp>
 
 namespace hf {
@@ -122,7 +122,7 @@ class KalmanEstimator : public Estimator {
   void learn_jitter(TrackMemory& mem, const Track& tr, unsigned truncated, double t);
   Config cfg_;
   ClassPriors priors_;
-  hazard::LimitsTable limits_;
+  LimitsTable limits_;
   std::map<int64_t, TrackMemory> tracks_;
   estimation::KeypointScaleTracker keypoints_;
   estimation::RobustSpread jitter_;          // box edge jitter samples (px)

@@ -6,17 +6,14 @@
 #include <cmath>
 #include <string>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/error.hpp"
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/output_path.hpp"
 
 namespace hf::filter {
 
-namespace {
-
-constexpr double kDeg = 180.0 / M_PI;
-
-}  // namespace
+namespace {}  // namespace
 
 ComponentInfo GroundOdometryStage::describe() {
   ComponentInfo i;
@@ -87,8 +84,8 @@ void GroundOdometryStage::process(StageContext& ctx, const Inputs& in, Outputs& 
       ++measured_;
       line["raw_speed_mps"] = s.speed_mps;
       line["raw_speed_from"] = footage::speed_cue_name(s.speed_cue);
-      line["raw_yaw_rate_dps"] = s.yaw_rate * kDeg;
-      if (s.ground_pitch_offset) line["road_pitch_offset_deg"] = *s.ground_pitch_offset * kDeg;
+      line["raw_yaw_rate_dps"] = s.yaw_rate * kDegPerRad;
+      if (s.ground_pitch_offset) line["road_pitch_offset_deg"] = *s.ground_pitch_offset * kDegPerRad;
       // A front camera's ego does not drive backwards (the kit's smoother holds the same floor).
       double v = std::max(0.0, s.speed_mps), w = s.yaw_rate;
       if (speed_) {
@@ -103,7 +100,7 @@ void GroundOdometryStage::process(StageContext& ctx, const Inputs& in, Outputs& 
       yaw_rate_ = f.ego.yaw_rate;
     } else if (s.yaw_measured && speed_) {
       // The whole picture's turn alone: the speed is held, the turn follows.
-      line["raw_yaw_rate_dps"] = s.yaw_rate * kDeg;
+      line["raw_yaw_rate_dps"] = s.yaw_rate * kDegPerRad;
       yaw_rate_ = smoothing_ * yaw_rate_.value_or(s.yaw_rate) + (1.0 - smoothing_) * s.yaw_rate;
     }
     if (s.measured || !f.ego.speed_mps) {
@@ -122,7 +119,7 @@ void GroundOdometryStage::process(StageContext& ctx, const Inputs& in, Outputs& 
     }
   }
   line["speed_mps"] = o.ego.speed_mps ? Json(*o.ego.speed_mps) : Json();
-  line["yaw_rate_dps"] = o.ego.yaw_rate ? Json(*o.ego.yaw_rate * kDeg) : Json();
+  line["yaw_rate_dps"] = o.ego.yaw_rate ? Json(*o.ego.yaw_rate * kDegPerRad) : Json();
   line["source"] = o.ego.source.empty() ? "unknown" : o.ego.source;
   if (log_.is_open()) log_.write(json_text(line) + "\n");
   out.emit("frames", std::move(o));

@@ -18,7 +18,7 @@
 namespace hf::llm_hazard {
 
 struct FeasibilityConfig {
-  const hazard::LimitsTable* limits = nullptr;  // the table the hazard templates plan with
+  const LimitsTable* limits = nullptr;  // the table the hazard templates plan with
   ClassPriors sizes;
   hazard::TtcConventions ttc;  // in-path corridor and gap conventions, shared with the templates
   hazard::RoadModel road;      // lanes either side of the ego lane, shared with the templates
@@ -74,8 +74,5 @@ std::string unmet_condition(const std::string& condition, const FeasibilityConfi
 // Every unmet condition of `needs`, as "<what it means>: <why not>".
 std::vector<std::string> unmet_needs(const std::vector<std::string>& needs, const FeasibilityConfig& cfg,
                                      const SceneContext& scene);
-
-// Numbers in messages: at most two decimals, no trailing zeros ("5.5", "3", "-0.25").
-std::string num(double v);
 
 }  // namespace hf::llm_hazard

@@ -83,7 +83,7 @@ class LlmHazardGenerator : public Stage {
   std::optional<SchemaValidator> spec_validator_;
   std::optional<PromptTemplate> prompt_;
   std::optional<PromptTemplate> retry_prompt_;
-  hazard::LimitsTable limits_;
+  LimitsTable limits_;
   ClassPriors sizes_;
   hazard::RoadModel road_;            // as stated (params, scene block)
   hazard::RoadModel templates_road_;  // the templates' (resolve_road's for_templates)

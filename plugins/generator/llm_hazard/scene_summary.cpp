@@ -9,6 +9,7 @@
 
 #include <hazardforge/hazard/kinematics.hpp>
 #include <hazardforge/hazard/proposal.hpp>
+#include <hazardforge/number_text.hpp>
 
 namespace hf::llm_hazard {
 
@@ -57,12 +58,12 @@ std::string describe_lanes(const hazard::RoadModel& road) {
     if (oncoming > 0) out += (out.empty() ? "" : ", then ") + count(oncoming, "with oncoming traffic");
     return out;
   };
-  return "traffic keeps " + road.driving_side + "; lanes " + num(road.lane_width) +
+  return "traffic keeps " + road.driving_side + "; lanes " + num_text(road.lane_width) +
          " m wide; left of the ego lane: " + side(1) + "; right of it: " + side(-1);
 }
 
 std::string fmt_opt(const std::optional<double>& v, const std::string& unit) {
-  return v && std::isfinite(*v) ? num(*v) + unit : "unknown";
+  return v && std::isfinite(*v) ? num_text(*v) + unit : "unknown";
 }
 
 std::string yes_no(const Resolved& r) {
@@ -166,7 +167,7 @@ ResolvedRoad resolve_road(const hazard::RoadModel& stated, const RoadMarkings* m
   const std::string side_name = oncoming.side > 0 ? "left" : "right";
   const std::string evidence = seen ? "a " + oncoming.label + " coming towards the ego " + side_name +
                                           " of its lane (track " + std::to_string(oncoming.track) +
-                                          ", followed for " + num(oncoming.seconds) + " s)"
+                                          ", followed for " + num_text(oncoming.seconds) + " s)"
                                     : std::string();
   if (stated.driving_side_stated) {
     out.driving_side_why = "stated";
@@ -178,7 +179,8 @@ ResolvedRoad resolve_road(const hazard::RoadModel& stated, const RoadMarkings* m
     base.driving_side = oncoming.side > 0 ? "right" : "left";
     out.driving_side_why = "auto: the recording shows " + evidence;
   } else {
-    out.driving_side_why = "default: no oncoming traffic followed for " + num(seen_s) + " s in the recording";
+    out.driving_side_why =
+        "default: no oncoming traffic followed for " + num_text(seen_s) + " s in the recording";
   }
   out.road = base.with_markings(markings);
   out.for_templates = base;
@@ -212,7 +214,7 @@ std::string dataset_description(const Frame& frame) {
   return {};
 }
 
-FeasibilityConfig feasibility_config(const SceneSettings& s, const hazard::LimitsTable& limits,
+FeasibilityConfig feasibility_config(const SceneSettings& s, const LimitsTable& limits,
                                      const ClassPriors& sizes, double trigger_time_s,
                                      std::optional<double> ego_yaw_rate) {
   FeasibilityConfig fc;
@@ -277,7 +279,7 @@ std::string describe_kinds(const std::vector<HazardKindInfo>& kinds, const Feasi
 
 SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                              const std::vector<const RiskAssessment*>& risks, const SceneSettings& s,
-                             const hazard::LimitsTable& limits, const ClassPriors& sizes) {
+                             const LimitsTable& limits, const ClassPriors& sizes) {
   SceneSummary out;
 
   // Per-object TTC from the first seconds-valued metric, so the prompt can say which object is closest in
@@ -313,10 +315,10 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
               {"ttc_s", opt(ttc)}};
     if (o.velocity_rel) j["velocity_rel"] = {(*o.velocity_rel)[0], (*o.velocity_rel)[1]};
     objects.push_back(std::move(j));
-    object_lines += "- track " + std::to_string(o.track_id) + ": " + o.label + ", x " + num(x) + " m, y " +
-                    num(o.lateral_m) + " m, speed " + fmt_opt(o.speed_mps, " m/s") +
+    object_lines += "- track " + std::to_string(o.track_id) + ": " + o.label + ", x " + num_text(x) +
+                    " m, y " + num_text(o.lateral_m) + " m, speed " + fmt_opt(o.speed_mps, " m/s") +
                     (o.in_path ? ", in the ego path" : "") +
-                    (ttc && std::isfinite(*ttc) ? ", TTC " + num(*ttc) + " s" : "") + "\n";
+                    (ttc && std::isfinite(*ttc) ? ", TTC " + num_text(*ttc) + " s" : "") + "\n";
   }
   if (object_lines.empty()) object_lines = "- none\n";
   if (!object_lines.empty()) object_lines.pop_back();
@@ -331,7 +333,7 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                     {"scene_value", finite_or_null(r->scene_value)},
                     {"threshold", r->threshold},
                     {"label", to_string(r->label)}});
-    risk_summary += (risk_summary.empty() ? "" : "; ") + r->metric + " " + num(r->scene_value) + " " +
+    risk_summary += (risk_summary.empty() ? "" : "; ") + r->metric + " " + num_text(r->scene_value) + " " +
                     r->unit + " (" + to_string(r->label) + ")";
     if (r->unit == "s" && r->lower_is_riskier) scene_ttc = std::min(scene_ttc, r->scene_value);
   }
@@ -343,13 +345,13 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
   std::string limit_lines;
   Json limits_json = Json::object();
   for (const std::string& name : limits.classes()) {
-    const hazard::KinematicLimits& c = limits.at(name);
+    const KinematicLimits& c = limits.at(name);
     limits_json[name] = {{"max_speed_mps", c.max_speed_mps},
                          {"max_accel_mps2", c.max_accel_mps2},
                          {"max_decel_mps2", c.max_decel_mps2},
                          {"max_lateral_speed_mps", c.max_lateral_speed_mps}};
-    limit_lines += "- " + name + ": speed <= " + num(c.max_speed_mps) +
-                   " m/s, braking <= " + num(c.max_decel_mps2) + " m/s^2\n";
+    limit_lines += "- " + name + ": speed <= " + num_text(c.max_speed_mps) +
+                   " m/s, braking <= " + num_text(c.max_decel_mps2) + " m/s^2\n";
   }
   if (!limit_lines.empty()) limit_lines.pop_back();
 
@@ -412,20 +414,20 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                         : yes_no(s.sidewalks)},
       {"intersection", yes_no(s.intersection)},
       {"multi_lane", yes_no(s.multi_lane)},
-      {"timestamp_s", num(frame.timestamp)},
+      {"timestamp_s", num_text(frame.timestamp)},
       {"frame_index", std::to_string(frame.index)},
-      {"ego_speed_mps", num(s.ego_speed_mps)},
-      {"scene_ttc_s", num(scene_ttc)},
-      {"threshold_s", num(s.threshold_s)},
+      {"ego_speed_mps", num_text(s.ego_speed_mps)},
+      {"scene_ttc_s", num_text(scene_ttc)},
+      {"threshold_s", num_text(s.threshold_s)},
       {"risk_summary", risk_summary.empty() ? "none" : risk_summary},
       {"objects", object_lines},
       {"limits", limit_lines},
       {"allowed_kinds", kinds},
-      {"target_ttc_s", num(s.target_ttc_s)},
-      {"ego_front_m", num(s.ttc.ego_front)},
-      {"lane_width_m", num(s.road.lane_width)},
-      {"road_edge_left_m", num(s.road.edge(1))},
-      {"road_edge_right_m", num(s.road.edge(-1))},
+      {"target_ttc_s", num_text(s.target_ttc_s)},
+      {"ego_front_m", num_text(s.ttc.ego_front)},
+      {"lane_width_m", num_text(s.road.lane_width)},
+      {"road_edge_left_m", num_text(s.road.edge(1))},
+      {"road_edge_right_m", num_text(s.road.edge(-1))},
       {"lanes", describe_lanes(s.road)},
       {"feedback", s.feedback.prompt_text()},
       {"object_classes", classes.empty() ? "any class with kinematic limits" : classes},
@@ -434,7 +436,7 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
            ? "The object must come into view plausibly: from beyond the image border (beside or behind the "
              "ego), "
              "from behind a detected object, or far enough away to be small when first seen (at most " +
-                 num(s.rules.entry_max_height * frame.camera.height) + " px of the " +
+                 num_text(s.rules.entry_max_height * frame.camera.height) + " px of the " +
                  std::to_string(frame.camera.height) +
                  " px image height) — never popping up on the road close ahead."
            : "The object may already be in view when it appears (it appears with the first frames of the "

@@ -120,7 +120,7 @@ struct SceneSummary {
 };
 
 // The feasibility configuration of the scene these settings describe (limits and sizes must outlive it).
-FeasibilityConfig feasibility_config(const SceneSettings& settings, const hazard::LimitsTable& limits,
+FeasibilityConfig feasibility_config(const SceneSettings& settings, const LimitsTable& limits,
                                      const ClassPriors& sizes, double trigger_time_s,
                                      std::optional<double> ego_yaw_rate);
 
@@ -134,6 +134,6 @@ std::string describe_kinds(const std::vector<HazardKindInfo>& kinds, const Feasi
 
 SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                              const std::vector<const RiskAssessment*>& risks, const SceneSettings& settings,
-                             const hazard::LimitsTable& limits, const ClassPriors& sizes);
+                             const LimitsTable& limits, const ClassPriors& sizes);
 
 }  // namespace hf::llm_hazard

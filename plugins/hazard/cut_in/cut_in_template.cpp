@@ -6,10 +6,9 @@
 #include <numbers>
 
 #include "hazardforge/hazard/proposal.hpp"
+#include "hazardforge/number_text.hpp"
 
 namespace hf {
-
-using hazard::num;
 
 namespace {
 // The class's jerk limit shared between braking and the lane change: |(0.8, 0.6)| = 1.
@@ -65,7 +64,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
                                      std::vector<std::string>& reasons) const {
   const HazardSpec& spec = req.spec;
   const Params& p = req.params;
-  const hazard::KinematicLimits& lim = req.limits;
+  const KinematicLimits& lim = req.limits;
   const double len = req.size_lwh[0], wid = req.size_lwh[1];
   const int side = req.side_sign();
   if (side == 0) {
@@ -78,21 +77,21 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
       std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * req.road.lane_width;
   const double half = req.path_half_width(wid);
   if (std::abs(y0) < half)
-    reasons.push_back("the start point y=" + num(y0) + " m is already in the ego path (|y| < " + num(half) +
-                      " m)");
+    reasons.push_back("the start point y=" + num_text(y0) + " m is already in the ego path (|y| < " +
+                      num_text(half) + " m)");
   const double edge = req.road.edge(side);
   if (std::abs(y0) + wid / 2 > edge)
-    reasons.push_back("the start point y=" + num(y0) + " m is off the road (the road edge on the " +
-                      side_name + " is at " + num(edge) + " m with lanes_" + side_name + "=" +
+    reasons.push_back("the start point y=" + num_text(y0) + " m is off the road (the road edge on the " +
+                      side_name + " is at " + num_text(edge) + " m with lanes_" + side_name + "=" +
                       std::to_string(side > 0 ? req.road.lanes_left : req.road.lanes_right) + ")");
   const double x0 = spec.initial_distance_m;
   const hazard::BoxView start = hazard::view_of(req.scene.camera, req.ego, x0, y0, 0.0, req.size_lwh);
   if (start.in_front && start.inside_fraction > 0.999)
-    reasons.push_back("the vehicle starts fully in view (x=" + num(x0) + " m, y=" + num(y0) +
+    reasons.push_back("the vehicle starts fully in view (x=" + num_text(x0) + " m, y=" + num_text(y0) +
                       " m): a cut-in starts beside or behind the ego, out of view or at the image edge");
   const double ve = req.ego_speed, v0 = spec.speed_mps;
   if (v0 <= ve)
-    reasons.push_back("speed_mps " + num(v0) + " does not exceed the ego speed " + num(ve) +
+    reasons.push_back("speed_mps " + num_text(v0) + " does not exceed the ego speed " + num_text(ve) +
                       " m/s: a cut-in vehicle must overtake");
   double v1 = std::max(0.0, ve - p.get_double("closing_speed_mps"));
   if (spec.extra.contains("final_speed_mps")) {
@@ -102,9 +101,9 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
     }
     v1 = spec.extra["final_speed_mps"].get<double>();
   }
-  if (v1 < 0) reasons.push_back("extra.final_speed_mps " + num(v1) + " is negative");
+  if (v1 < 0) reasons.push_back("extra.final_speed_mps " + num_text(v1) + " is negative");
   if (v1 >= ve)
-    reasons.push_back("the final speed " + num(v1) + " m/s is not below the ego speed " + num(ve) +
+    reasons.push_back("the final speed " + num_text(v1) + " m/s is not below the ego speed " + num_text(ve) +
                       " m/s: the cut-in would never close in");
   if (!reasons.empty()) return {};
 
@@ -116,9 +115,9 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
   const double reaction = p.get_double("ego_reaction_s"), ego_decel = p.get_double("ego_max_decel_mps2");
   const double stopping = ve * reaction + ve * ve / (2 * ego_decel);
   if (gap_end >= stopping)
-    reasons.push_back("the cut-in would end " + num(gap_end) +
-                      " m ahead, beyond the ego's stopping distance " + num(stopping) + " m (reaction " +
-                      num(reaction) + " s, braking " + num(ego_decel) + " m/s^2)");
+    reasons.push_back("the cut-in would end " + num_text(gap_end) +
+                      " m ahead, beyond the ego's stopping distance " + num_text(stopping) + " m (reaction " +
+                      num_text(reaction) + " s, braking " + num_text(ego_decel) + " m/s^2)");
 
   // Solve the overtaking time t_b so the braking ends exactly gap_end ahead of the ego. The gap at the end
   // grows with t_b while the vehicle outpaces the ego (v0 > ego speed), so bisection finds it; on a
@@ -135,8 +134,8 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
     double lo = 0, hi = std::max(1.0, req.duration);
     for (int i = 0; i < 8 && end_gap(hi) < 0; ++i) hi *= 2;
     if (end_gap(hi) < 0) {
-      reasons.push_back("at " + num(v0) + " m/s the vehicle never gets " + num(gap_end) +
-                        " m ahead of the ego (which reaches " + num(req.ego.at(hi).speed) +
+      reasons.push_back("at " + num_text(v0) + " m/s the vehicle never gets " + num_text(gap_end) +
+                        " m ahead of the ego (which reaches " + num_text(req.ego.at(hi).speed) +
                         " m/s): it cannot overtake");
       return {};
     }
@@ -147,9 +146,9 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
     t_brake = (lo + hi) / 2;
   }
   if (t_brake < 0)
-    reasons.push_back("the vehicle cannot end " + num(gap_end) + " m in front of the ego: from x=" + num(x0) +
-                      " m at " + num(v0) + " m/s it would have to start braking " + num(-t_brake) +
-                      " s before the hazard starts");
+    reasons.push_back("the vehicle cannot end " + num_text(gap_end) + " m in front of the ego: from x=" +
+                      num_text(x0) + " m at " + num_text(v0) + " m/s it would have to start braking " +
+                      num_text(-t_brake) + " s before the hazard starts");
   if (!reasons.empty()) return {};
   const hazard::SpeedProfile profile =
       hazard::SpeedProfile(v0).hold(t_brake).change_speed(v1, decel, jerk_long);
@@ -174,8 +173,8 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
       hazard::min_jerk_duration(y0, lim.max_lateral_speed_mps, lim.max_lateral_accel_mps2, jerk_lat);
   double lane_dur = std::max(shortest, p.get_double("lane_change_s"));
   if (p.get_double("lane_change_s") > 0 && p.get_double("lane_change_s") < shortest)
-    reasons.push_back("lane_change_s " + num(p.get_double("lane_change_s")) + " is shorter than the " +
-                      num(shortest) + " s the " + lim.object_class + " lateral limits allow");
+    reasons.push_back("lane_change_s " + num_text(p.get_double("lane_change_s")) + " is shorter than the " +
+                      num_text(shortest) + " s the " + lim.object_class + " lateral limits allow");
   for (int iter = 0; iter < 40; ++iter) {
     const auto m = motion_with(t_end - lane_dur, lane_dur);
     double peak = 0, prev = 0;
@@ -192,8 +191,8 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
   }
   const double lane_start = t_end - lane_dur;
   if (lane_start < 0)
-    reasons.push_back("the lane change needs " + num(lane_dur) +
-                      " s but the vehicle reaches its cut-in point " + num(t_end) +
+    reasons.push_back("the lane change needs " + num_text(lane_dur) +
+                      " s but the vehicle reaches its cut-in point " + num_text(t_end) +
                       " s after the hazard starts: start it further behind");
   if (!reasons.empty()) return {};
   const hazard::MotionFn motion = motion_with(lane_start, lane_dur);
@@ -207,11 +206,11 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
   const double t_enter = hi;
   const double gap_enter = req.gap(motion(t_enter).x, len, t_enter);
   if (gap_enter <= 0)
-    reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num(gap_enter) +
-                      " m at " + num(t_enter) + " s): it has not passed yet");
+    reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num_text(gap_enter) +
+                      " m at " + num_text(t_enter) + " s): it has not passed yet");
   const hazard::ObjectMotion end = motion(t_end);
   if (!hazard::view_from_anchor(req, end.x, end.y, 0.0, req.size_lwh).centre_inside)
-    reasons.push_back("the cut-in point (x=" + num(end.x) + " m at " + num(t_end) +
+    reasons.push_back("the cut-in point (x=" + num_text(end.x) + " m at " + num_text(t_end) +
                       " s) is out of the camera's view");
   if (!reasons.empty()) return {};
 
@@ -254,7 +253,6 @@ bool CutInTemplate::enters_from_border(const ProposalRequest& request, const std
 // (the ego below 5 m/s: a queue) a vehicle from the next lane squeezes into the gap ahead of the ego and
 // stops there.
 HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
-  using hazard::fmt1;
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
   if (!sc.multi_lane) return {nullptr, "the road has a single lane"};
   if (sc.ego_speed < 1.0) return {nullptr, "the ego is (nearly) standing: nothing cuts in ahead of it"};
@@ -265,7 +263,7 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
       hazard::draw_class(sc, {{"car", 3}, {"motorcycle", 1}, {"truck", 1}}, d, &no_class);
   if (!drawn) return {nullptr, no_class};
   const std::string cls = *drawn;
-  const hazard::KinematicLimits& lim = sc.limits.at(cls);
+  const KinematicLimits& lim = sc.limits.at(cls);
   const hazard::Footprint size = sc.size(cls);
   // A side has room when its adjacent lane exists and goes the ego's way.
   auto room = [&](int side) {
@@ -312,7 +310,7 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
   };
   auto fits = [](double x) { return x >= -25.0 && x <= 3.0; };
   auto no_start = [&](double x) {
-    return HazardProposal{nullptr, "no start beside or behind the ego fits (x " + fmt1(x) + " m)"};
+    return HazardProposal{nullptr, "no start beside or behind the ego fits (x " + fixed_text(x, 1) + " m)"};
   };
   double x0 = start_x(0.0);
   // A horizon too short for the whole manoeuvre: when allowed, it is already under way when it appears and
@@ -338,8 +336,8 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
     under_way = manoeuvre - end;
     x0 = start_x(-under_way);
     if (under_way > sc.max_under_way)
-      return {nullptr, "the cut-in would have to be under way for " + fmt1(under_way) +
-                           " s (max_under_way_s " + fmt1(sc.max_under_way) + ")"};
+      return {nullptr, "the cut-in would have to be under way for " + fixed_text(under_way, 1) +
+                           " s (max_under_way_s " + fixed_text(sc.max_under_way, 1) + ")"};
   }
   if (!fits(x0)) return no_start(x0);
   if (under_way == 0)
@@ -350,15 +348,16 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
   spec["deceleration_mps2"] = decel;
   spec["extra"]["final_speed_mps"] = v1;
   spec["rationale"] =
-      queue ? "In slow traffic a " + cls + " in the " + side + " lane, moving at " + fmt1(v0) +
-                  " m/s, squeezes into the gap ahead of the ego, slowing to " + fmt1(v1) + " m/s, about " +
-                  fmt1(gap_end) + " m ahead; TTC near " + fmt1(ttc) + " s."
-            : "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " + fmt1(v0) +
-                  " m/s and cuts in ahead of the ego, braking to " + fmt1(v1) + " m/s; it ends about " +
-                  fmt1(gap_end) + " m ahead, TTC near " + fmt1(ttc) + " s.";
+      queue ? "In slow traffic a " + cls + " in the " + side + " lane, moving at " + fixed_text(v0, 1) +
+                  " m/s, squeezes into the gap ahead of the ego, slowing to " + fixed_text(v1, 1) +
+                  " m/s, about " + fixed_text(gap_end, 1) + " m ahead; TTC near " + fixed_text(ttc, 1) + " s."
+            : "On a multi-lane road a " + cls + " overtakes in the " + side + " lane at " +
+                  fixed_text(v0, 1) + " m/s and cuts in ahead of the ego, braking to " + fixed_text(v1, 1) +
+                  " m/s; it ends about " + fixed_text(gap_end, 1) + " m ahead, TTC near " +
+                  fixed_text(ttc, 1) + " s.";
   if (under_way > 0) {
     spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
-    spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fmt1(under_way) +
+    spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fixed_text(under_way, 1) +
                         " s into the manoeuvre, already changing lanes beside-ahead of the ego.";
   }
   return {spec, {}};

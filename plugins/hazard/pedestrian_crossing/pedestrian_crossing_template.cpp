@@ -7,10 +7,9 @@
 #include <numbers>
 
 #include "hazardforge/hazard/proposal.hpp"
+#include "hazardforge/number_text.hpp"
 
 namespace hf {
-
-using hazard::num;
 
 HazardKindInfo PedestrianCrossingTemplate::info() {
   HazardKindInfo k;
@@ -65,26 +64,27 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
       std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * (edge + req.road.kerb_offset);
   const int dir = -side;  // walks towards the other side
   if (std::abs(y_kerb) < edge)
-    reasons.push_back("the start point y=" + num(y_kerb) + " m is on the road (the road edge on the " +
-                      side_name + " is at " + num(edge) + " m): a crossing pedestrian starts on the kerb");
+    reasons.push_back("the start point y=" + num_text(y_kerb) + " m is on the road (the road edge on the " +
+                      side_name + " is at " + num_text(edge) +
+                      " m): a crossing pedestrian starts on the kerb");
   if (spec.heading_deg != 0 && std::abs(spec.heading_deg - dir * 90.0) > 45.0)
-    reasons.push_back("heading_deg " + num(spec.heading_deg) + " does not cross the road from the " +
-                      side_name + " (expected about " + num(dir * 90.0) + ")");
+    reasons.push_back("heading_deg " + num_text(spec.heading_deg) + " does not cross the road from the " +
+                      side_name + " (expected about " + num_text(dir * 90.0) + ")");
   const double v = spec.speed_mps;
-  if (v < 0.5) reasons.push_back("speed_mps " + num(v) + " is too slow to cross (at least 0.5 m/s)");
+  if (v < 0.5) reasons.push_back("speed_mps " + num_text(v) + " is too slow to cross (at least 0.5 m/s)");
   const double ve = req.ego_speed;
   if (ve <= req.ttc.min_closing)
-    reasons.push_back("the ego is not moving (" + num(ve) + " m/s): a crossing cannot close in on it");
+    reasons.push_back("the ego is not moving (" + num_text(ve) + " m/s): a crossing cannot close in on it");
   const double x = spec.initial_distance_m;
   const double gap0 = req.gap(x, len, 0.0);
   if (gap0 <= 0)
-    reasons.push_back("initial_distance_m " + num(x) +
-                      " puts the crossing behind the ego's front bumper (gap " + num(gap0) + " m)");
+    reasons.push_back("initial_distance_m " + num_text(x) +
+                      " puts the crossing behind the ego's front bumper (gap " + num_text(gap0) + " m)");
   if (!reasons.empty()) return {};
 
   const std::optional<double> arrive = req.ego.time_at(gap0);  // the ego's front reaches the crossing line
   if (!arrive) {
-    reasons.push_back("the ego never reaches the crossing line " + num(gap0) +
+    reasons.push_back("the ego never reaches the crossing line " + num_text(gap0) +
                       " m ahead of its front bumper (its planned motion stops before)");
     return {};
   }
@@ -93,9 +93,9 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
   const bool stop = req.params.get_bool("stop_in_path");
   const double stop_offset = req.params.get_double("stop_offset_m");
   if (stop && std::abs(stop_offset) >= half) {
-    reasons.push_back("stop_offset_m " + num(stop_offset) +
-                      " is outside the ego path (|offset| must be below " + num(half) + " m for a " +
-                      num(wid) + " m wide person)");
+    reasons.push_back("stop_offset_m " + num_text(stop_offset) +
+                      " is outside the ego path (|offset| must be below " + num_text(half) + " m for a " +
+                      num_text(wid) + " m wide person)");
     return {};
   }
   // Distance walked from the kerb: across the road, or to the stop point.
@@ -120,7 +120,7 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
     }
     v_peak = lo;
     if (v_peak < 0.5) {
-      reasons.push_back("the stop point is only " + num(d_walk) + " m from the kerb: too short a walk");
+      reasons.push_back("the stop point is only " + num_text(d_walk) + " m from the kerb: too short a walk");
       return {};
     }
   }
@@ -133,14 +133,16 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
     const double enter_at = t_arrive - target;  // TTC = t_arrive - t while in the path
     const double t_in = *walk_time(d_in);       // the path is entered before any stop point inside it
     if (!stop && target > *walk_time(d_out) - t_in) {
-      reasons.push_back("target_ttc_s " + num(target) + " is unreachable: at " + num(v) +
+      reasons.push_back("target_ttc_s " + num_text(target) + " is unreachable: at " + num_text(v) +
                         " m/s the person crosses "
                         "the ego path in " +
-                        num(*walk_time(d_out) - t_in) + " s, so it leaves the path before the ego arrives");
+                        num_text(*walk_time(d_out) - t_in) +
+                        " s, so it leaves the path before the ego arrives");
     } else if (t_in > enter_at) {
-      reasons.push_back("target_ttc_s " + num(target) + " is unreachable: the person needs " + num(t_in) +
-                        " s to walk from the kerb into the ego path but would have to be in it after " +
-                        num(enter_at) + " s (the ego reaches the crossing point in " + num(t_arrive) + " s)");
+      reasons.push_back(
+          "target_ttc_s " + num_text(target) + " is unreachable: the person needs " + num_text(t_in) +
+          " s to walk from the kerb into the ego path but would have to be in it after " +
+          num_text(enter_at) + " s (the ego reaches the crossing point in " + num_text(t_arrive) + " s)");
     }
     wait = enter_at - t_in;
   } else {
@@ -148,8 +150,8 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
     wait = t_arrive - to_centre;
     if (wait < 0)
       reasons.push_back("the person cannot reach the " + std::string(stop ? "stop point" : "lane centre") +
-                        " before the ego: walking from the kerb takes " + num(to_centre) +
-                        " s, the ego reaches the crossing point in " + num(t_arrive) + " s");
+                        " before the ego: walking from the kerb takes " + num_text(to_centre) +
+                        " s, the ego reaches the crossing point in " + num_text(t_arrive) + " s");
   }
   if (!reasons.empty()) return {};
   enter = wait + *walk_time(d_in);
@@ -189,7 +191,6 @@ double walk_time(double d, double v, double accel) {
 
 // Waits on the kerb, walks across; the ego arrives `enter + target` after the start.
 HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
-  using hazard::fmt1;
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
   const double aim = request.aim;
   if (!sc.sidewalks && !sc.on_shoulder) return {nullptr, "the scene has no sidewalks"};
@@ -197,7 +198,7 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
   const std::optional<std::string> drawn = hazard::draw_class(sc, {{"person", 1}}, d, &no_class);
   if (!drawn) return {nullptr, no_class};
   const std::string cls = *drawn;
-  const hazard::KinematicLimits& lim = sc.limits.at(cls);
+  const KinematicLimits& lim = sc.limits.at(cls);
   const hazard::Footprint size = sc.size(cls);
   const bool left = d.coin();
   const int sign = left ? 1 : -1;
@@ -219,8 +220,8 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
     if (sc.max_under_way <= 0) return {nullptr, "walking into the ego path takes longer than the horizon"};
     under_way = enter - d.uniform(0.3, 0.5) * sc.horizon;
     if (under_way > sc.max_under_way)
-      return {nullptr, "the walk would have to be under way for " + fmt1(under_way) + " s (max_under_way_s " +
-                           fmt1(sc.max_under_way) + ")"};
+      return {nullptr, "the walk would have to be under way for " + fixed_text(under_way, 1) +
+                           " s (max_under_way_s " + fixed_text(sc.max_under_way, 1) + ")"};
   }
   // Placed where the ego's front is when the person has been in its path for `ttc`: along the ego's planned
   // motion (a recorded queue slows, a constant-speed ego does not), from the walk's start, `under_way` s
@@ -235,12 +236,13 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
   const double x_enter = x0 - sc.ego_travel(-under_way, enter - under_way);
   if (!sc.visible(x_enter, sign * sc.path_half(size.width), sc.sizes.at(cls).height / 2.0))
     return {nullptr, "the person would step into the ego path " +
-                         fmt1(x_enter - sc.ego_front - size.length / 2.0) + " m ahead of the ego (at " +
-                         fmt1(sc.ego_speed_at(enter - under_way)) +
+                         fixed_text(x_enter - sc.ego_front - size.length / 2.0, 1) +
+                         " m ahead of the ego (at " + fixed_text(sc.ego_speed_at(enter - under_way), 1) +
                          " m/s then), where not even its upper half is in the picture"};
   if (x0 > 120.0) return {nullptr, "the crossing would be more than 120 m ahead"};
   if (!sc.visible(x_seen, y0))
-    return {nullptr, "the kerb point (" + fmt1(x_seen) + ", " + fmt1(y0) + ") m is outside the camera view"};
+    return {nullptr, "the kerb point (" + fixed_text(x_seen, 1) + ", " + fixed_text(y0, 1) +
+                         ") m is outside the camera view"};
   if (std::string p = sc.overlap_problem(x_seen, y0, size); !p.empty()) return {nullptr, p};
   const std::string from = left ? "left" : "right";
   Json spec = hazard::proposal_spec(
@@ -253,14 +255,16 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
                      "broken-down vehicle on the " +
                          from + " shoulder steps into the road ";
   spec["rationale"] =
-      where + fmt1(x0) + " m ahead and crossing at " + fmt1(speed) + " m/s is realistic; with the ego at " +
-      fmt1(sc.ego_speed) + " m/s now" +
-      (sc.ego.is_recorded() ? " (" + fmt1(sc.ego_speed_at(arrive)) + " m/s as recorded then)" : "") +
-      " they are in its path about " + fmt1(enter) + " s later, TTC near " + fmt1(ttc) + " s.";
+      where + fixed_text(x0, 1) + " m ahead and crossing at " + fixed_text(speed, 1) +
+      " m/s is realistic; with the ego at " + fixed_text(sc.ego_speed, 1) + " m/s now" +
+      (sc.ego.is_recorded() ? " (" + fixed_text(sc.ego_speed_at(arrive), 1) + " m/s as recorded then)" : "") +
+      " they are in its path about " + fixed_text(enter, 1) + " s later, TTC near " + fixed_text(ttc, 1) +
+      " s.";
   if (under_way > 0) {
     spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
-    spec["rationale"] = spec["rationale"].get<std::string>() + " The hazard appears " + fmt1(under_way) +
-                        " s after the start, " + fmt1(x_seen) + " m ahead, as the person sets off.";
+    spec["rationale"] = spec["rationale"].get<std::string>() + " The hazard appears " +
+                        fixed_text(under_way, 1) + " s after the start, " + fixed_text(x_seen, 1) +
+                        " m ahead, as the person sets off.";
   }
   return {spec, {}};
 }

@@ -6,10 +6,9 @@
 #include <cmath>
 
 #include "hazardforge/hazard/proposal.hpp"
+#include "hazardforge/number_text.hpp"
 
 namespace hf {
-
-using hazard::num;
 
 HazardKindInfo SuddenStopTemplate::info() {
   HazardKindInfo k;
@@ -79,7 +78,7 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
       if (s.track_id == static_cast<int64_t>(*track)) found = &s;
     }
     if (!found) {
-      reasons.push_back("extra.track_id " + num(*track, 0) + " is not among the tracked objects (" +
+      reasons.push_back("extra.track_id " + num_text(*track, 0) + " is not among the tracked objects (" +
                         (ids.empty() ? std::string("none are tracked") : "tracked: " + ids) + ")");
       return {};
     }
@@ -101,28 +100,28 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
     else if (found->speed_mps)
       v0 = *found->speed_mps;
   }
-  const std::string who = track ? "tracked object " + num(*track, 0) : std::string("the lead vehicle");
+  const std::string who = track ? "tracked object " + num_text(*track, 0) : std::string("the lead vehicle");
   if (v0 < 0.5)
-    reasons.push_back(who + " moves at " + num(v0) +
+    reasons.push_back(who + " moves at " + num_text(v0) +
                       " m/s: a sudden stop needs a moving lead (at least 0.5 m/s)");
   if (v0 > req.limits.max_speed_mps)
-    reasons.push_back(who + " moves at " + num(v0) + " m/s, above the " + req.limits.object_class +
-                      " limit of " + num(req.limits.max_speed_mps) + " m/s");
+    reasons.push_back(who + " moves at " + num_text(v0) + " m/s, above the " + req.limits.object_class +
+                      " limit of " + num_text(req.limits.max_speed_mps) + " m/s");
   if (!spec.deceleration_mps2)
     reasons.push_back("deceleration_mps2 is missing: sudden_stop needs the braking deceleration");
   const double half = req.path_half_width(size[1]);
   if (std::abs(y0) >= half)
-    reasons.push_back(who + " at y=" + num(y0) + " m is not in the ego path (|y| must be below " + num(half) +
-                      " m)");
+    reasons.push_back(who + " at y=" + num_text(y0) + " m is not in the ego path (|y| must be below " +
+                      num_text(half) + " m)");
   const double gap0 = req.gap(x0, size[0], 0.0);
   if (gap0 <= 0)
-    reasons.push_back(who + " at x=" + num(x0) + " m is not ahead of the ego's front bumper (gap " +
-                      num(gap0) + " m)");
+    reasons.push_back(who + " at x=" + num_text(x0) + " m is not ahead of the ego's front bumper (gap " +
+                      num_text(gap0) + " m)");
   if (!reasons.empty()) return {};
 
   const double delay = delay_extra.value_or(req.params.get_double("brake_delay_s"));
   if (delay < 0) {
-    reasons.push_back("extra.brake_delay_s " + num(delay) + " is negative");
+    reasons.push_back("extra.brake_delay_s " + num_text(delay) + " is negative");
     return {};
   }
   const hazard::SpeedProfile profile = hazard::SpeedProfile(v0).hold(delay).change_speed(
@@ -170,10 +169,10 @@ double time_to_ttc(double gap0, const hazard::ProposalScene& sc, double v0, doub
 std::string insert_problem(const hazard::ProposalScene& sc, const hazard::ProposalScene::Obj* lead, double x0,
                            double y0, const hazard::Footprint& size) {
   if (lead && x0 + size.length / 2.0 + 2.0 > lead->x - lead->length / 2.0)
-    return "no room to insert a lead vehicle before the " + lead->label + " at " + hazard::fmt1(lead->x) +
+    return "no room to insert a lead vehicle before the " + lead->label + " at " + fixed_text(lead->x, 1) +
            " m";
   if (!sc.visible(x0, y0))
-    return "the start point (" + hazard::fmt1(x0) + ", " + hazard::fmt1(y0) +
+    return "the start point (" + fixed_text(x0, 1) + ", " + fixed_text(y0, 1) +
            ") m is outside the camera view";
   return sc.overlap_problem(x0, y0, size);
 }
@@ -187,7 +186,6 @@ bool is_vehicle(const std::string& c) {
 
 // A tracked lead in the ego path brakes, or an inserted one if there is room.
 HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
-  using hazard::fmt1;
   using hazard::round_to;
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
   const std::string kind = kind_info().kind;
@@ -221,11 +219,11 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double brake_after = after_delay ? delay : 0.0;
     const bool brakes_in_time = after_delay || in_time(0.0);
     if (!brakes_in_time)
-      lead_problem = "the " + lead->label + " (track " + std::to_string(lead->track_id) + ") " + fmt1(gap) +
-                     " m ahead at " + fmt1(*lead->speed) + " m/s cannot bring the TTC to " + fmt1(ttc) +
-                     " s by braking within the " + fmt1(sc.horizon) + " s horizon (the ego at " +
-                     fmt1(sc.ego_speed) + " m/s now" + (sc.ego.is_recorded() ? ", as recorded after" : "") +
-                     ")";
+      lead_problem = "the " + lead->label + " (track " + std::to_string(lead->track_id) + ") " +
+                     fixed_text(gap, 1) + " m ahead at " + fixed_text(*lead->speed, 1) +
+                     " m/s cannot bring the TTC to " + fixed_text(ttc, 1) + " s by braking within the " +
+                     fixed_text(sc.horizon, 1) + " s horizon (the ego at " + fixed_text(sc.ego_speed, 1) +
+                     " m/s now" + (sc.ego.is_recorded() ? ", as recorded after" : "") + ")";
     if (brakes_in_time) {
       Json spec = hazard::proposal_spec(kind, lead->label, lead->x, lead->y, "center", *lead->speed, 0.0,
                                         "the tracked lead brakes hard in the ego lane", sc.target);
@@ -234,9 +232,10 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
       spec["extra"]["brake_delay_s"] = brake_after;
       spec["extra"]["track_id"] = lead->track_id;
       spec["rationale"] = "The " + lead->label + " (track " + std::to_string(lead->track_id) + ") " +
-                          fmt1(lead->x) + " m ahead in the ego lane brakes at " + fmt1(decel) +
-                          " m/s^2 after " + fmt1(brake_after) + " s; the ego, at " + fmt1(sc.ego_speed) +
-                          " m/s now, closes in to a TTC near " + fmt1(ttc) + " s.";
+                          fixed_text(lead->x, 1) + " m ahead in the ego lane brakes at " +
+                          fixed_text(decel, 1) + " m/s^2 after " + fixed_text(brake_after, 1) +
+                          " s; the ego, at " + fixed_text(sc.ego_speed, 1) +
+                          " m/s now, closes in to a TTC near " + fixed_text(ttc, 1) + " s.";
       return {spec, {}};
     }
   }
@@ -267,8 +266,8 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
       return refuse("the lead would have braked from above its limit");
     const double t = time_to_ttc(gap_now, sc, v_start, b > 0 ? -b : delay, decel, ttc, sc.horizon);
     if (t > sc.horizon - std::min(0.7, 0.3 * sc.horizon))
-      return refuse("a lead first seen small (from " + fmt1(small_from) + " m) cannot bring the TTC to " +
-                    fmt1(ttc) + " s within the horizon");
+      return refuse("a lead first seen small (from " + fixed_text(small_from, 1) +
+                    " m) cannot bring the TTC to " + fixed_text(ttc, 1) + " s within the horizon");
     if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse(p);
     // The spec states the manoeuvre's start: b s before, the gap was larger by what the ego closed since.
     const double gap_start = gap_now + sc.ego_speed * b - (v_start * b - decel * b * b / 2.0);
@@ -276,11 +275,12 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
                                       "drives slower ahead in the ego lane, then brakes hard", sc.target);
     spec["deceleration_mps2"] = decel;
     spec["extra"]["brake_delay_s"] = b > 0 ? 0.0 : delay;
-    spec["rationale"] =
-        "A " + cls + " " + fmt1(x0) + " m ahead in the ego lane at " + fmt1(v_now) +
-        " m/s, slower than the ego, brakes at " + fmt1(decel) + " m/s^2" +
-        (b > 0 ? " (braking for " + fmt1(b) + " s when it appears)" : " after " + fmt1(delay) + " s") +
-        "; the TTC falls to about " + fmt1(ttc) + " s.";
+    spec["rationale"] = "A " + cls + " " + fixed_text(x0, 1) + " m ahead in the ego lane at " +
+                        fixed_text(v_now, 1) + " m/s, slower than the ego, brakes at " +
+                        fixed_text(decel, 1) + " m/s^2" +
+                        (b > 0 ? " (braking for " + fixed_text(b, 1) + " s when it appears)"
+                               : " after " + fixed_text(delay, 1) + " s") +
+                        "; the TTC falls to about " + fixed_text(ttc, 1) + " s.";
     if (b > 0) spec["extra"]["under_way_s"] = round_to(b, 0.05);
     return {spec, {}};
   }
@@ -302,10 +302,11 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     spec["deceleration_mps2"] = decel;
     spec["extra"]["brake_delay_s"] = 0.0;
     spec["extra"]["under_way_s"] = round_to(b, 0.05);
-    spec["rationale"] = "A " + cls + " following " + fmt1(gap_start) + " m ahead of the ego at the same " +
-                        fmt1(speed) + " m/s has been braking at " + fmt1(decel) + " m/s^2 for " + fmt1(b) +
-                        " s when it appears " + fmt1(gap_now) + " m ahead; the TTC falls to about " +
-                        fmt1(ttc) + " s " + fmt1(t_hit) + " s later.";
+    spec["rationale"] =
+        "A " + cls + " following " + fixed_text(gap_start, 1) + " m ahead of the ego at the same " +
+        fixed_text(speed, 1) + " m/s has been braking at " + fixed_text(decel, 1) + " m/s^2 for " +
+        fixed_text(b, 1) + " s when it appears " + fixed_text(gap_now, 1) +
+        " m ahead; the TTC falls to about " + fixed_text(ttc, 1) + " s " + fixed_text(t_hit, 1) + " s later.";
     return {spec, {}};
   }
   // Same speed as the ego: the gap holds until braking starts, then TTC = gap / closing falls.
@@ -321,9 +322,9 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
                                     "drives ahead in the ego lane, then brakes hard", sc.target);
   spec["deceleration_mps2"] = decel;
   spec["extra"]["brake_delay_s"] = delay;
-  spec["rationale"] = "A " + cls + " driving " + fmt1(gap) + " m ahead of the ego at the same " +
-                      fmt1(speed) + " m/s brakes at " + fmt1(decel) + " m/s^2 after " + fmt1(delay) +
-                      " s; the TTC falls to about " + fmt1(ttc) + " s.";
+  spec["rationale"] = "A " + cls + " driving " + fixed_text(gap, 1) + " m ahead of the ego at the same " +
+                      fixed_text(speed, 1) + " m/s brakes at " + fixed_text(decel, 1) + " m/s^2 after " +
+                      fixed_text(delay, 1) + " s; the TTC falls to about " + fixed_text(ttc, 1) + " s.";
   return {spec, {}};
 }
 

@@ -10,6 +10,7 @@
 #include <random>
 
 #include <hazardforge/error.hpp>
+#include "hazardforge/number_text.hpp"
 
 namespace hf::llm {
 
@@ -27,12 +28,6 @@ class Draw : public RandomDraw {
  private:
   std::mt19937_64 gen_;
 };
-
-std::string fmt(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f", v);
-  return buf;
-}
 
 std::string join(const std::vector<std::string>& v, const std::string& sep) {
   std::string out;
@@ -304,8 +299,8 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
   std::optional<Json> chosen;
   size_t candidates = 0;
   if (ego_speed < kMinEgoSpeed) {
-    problems.push_back("the ego speed " + fmt(ego_speed) + " m/s is below " + fmt(kMinEgoSpeed) +
-                       " m/s, so no inserted object closes in on it");
+    problems.push_back("the ego speed " + fixed_text(ego_speed, 1) + " m/s is below " +
+                       fixed_text(kMinEgoSpeed, 1) + " m/s, so no inserted object closes in on it");
   } else {
     Draw draw(seed);
     Selection sel(request, *request.hazards, draw, candidates_, aim, fb.failed, fb.more_visible);

@@ -5,6 +5,7 @@
 
 #include <hazardforge/atomic_file.hpp>
 #include <hazardforge/json_text.hpp>
+#include <hazardforge/number_text.hpp>
 #include <hazardforge/output_path.hpp>
 #include "hazardforge/hazard/kinematics.hpp"
 
@@ -70,7 +71,7 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (key == last_spec_ || frame.timestamp + 1e-9 < spec->start_time_s) return;
   last_spec_ = key;
   const std::string where =
-      "frame " + std::to_string(frame.index) + " (t=" + hazard::num(frame.timestamp, 3) + " s)";
+      "frame " + std::to_string(frame.index) + " (t=" + num_text(frame.timestamp, 3) + " s)";
 
   std::vector<std::string> names = ctx.components().component_names(kind::kHazardTemplate);
   std::sort(names.begin(), names.end());
@@ -147,7 +148,7 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   write_file_atomic(ctx.output_dir() / name, json_text(j, 2) + "\n");
   ctx.log(LogLevel::kInfo, "planned '" + spec->kind + "' at " + where + ": " +
                                std::to_string(traj.points.size()) + " samples, intended minimum TTC " +
-                               hazard::num(traj.intended_min_ttc_s) + " s");
+                               num_text(traj.intended_min_ttc_s) + " s");
   out.emit("trajectory", std::move(traj));
 }
 

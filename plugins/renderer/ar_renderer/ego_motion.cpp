@@ -7,6 +7,7 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/error.hpp"
 
 namespace hf::render {
@@ -156,7 +157,7 @@ void EgoTrajectory::update(const Frame& f) {
   if (f.ego.yaw_rate)
     yaw_rate_ = f.ego.yaw_rate;
   else if (have_prev_ && dt > 1e-6)
-    yaw_rate_ = std::remainder(yaw_of(current_) - yaw_of(prev_pose), 2 * CV_PI) / dt;
+    yaw_rate_ = angle_diff(yaw_of(current_), yaw_of(prev_pose)) / dt;
   history_[t] = current_;
   prev_speed_ = f.ego.speed_mps;
   prev_yaw_rate_ = f.ego.yaw_rate;

@@ -1,6 +1,8 @@
 // The scene's light from the shadows beside the recording's vehicles (see scene_light.hpp).
 #include "scene_light.hpp"
 
+#include "hazardforge/angles.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -120,9 +122,7 @@ void SceneLightEstimator::add(const cv::Mat& bgr, const CameraModel& cam,
     // The shadow reaches as far as its band stays at least half as dark as at its darkest, along the ray
     // nearest the dark sector's centre (the darkest ray may graze a long flank's shadow).
     const int along =
-        static_cast<int>(
-            std::lround(std::remainder(std::atan2(cy, cx) - alpha, 2 * CV_PI) / (2 * CV_PI / K)) + K) %
-        K;
+        static_cast<int>(std::lround(angle_diff(std::atan2(cy, cx), alpha) / (2 * CV_PI / K)) + K) % K;
     const auto& b = near[static_cast<size_t>(dark[static_cast<size_t>(along)] > -1.0 ? along : best)];
     double peak = 0, last = 0;
     for (size_t j = 0; j < b.size(); ++j)

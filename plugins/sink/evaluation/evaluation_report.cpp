@@ -2,6 +2,7 @@
 #include "evaluation_report.hpp"
 
 #include "hazardforge/markup.hpp"
+#include "hazardforge/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -115,16 +116,11 @@ struct Confusion {
   }
 };
 
-std::string fmt(double v, int decimals) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(decimals) << v;
-  return s.str();
-}
 std::string pct(const Json& v) {
-  return v.is_number() ? fmt(100.0 * v.get<double>(), 1) + " %" : "n/a";
+  return v.is_number() ? fixed_text(100.0 * v.get<double>(), 1) + " %" : "n/a";
 }
 std::string secs(const Json& v) {
-  return v.is_number() ? fmt(v.get<double>(), 2) + " s" : "n/a";
+  return v.is_number() ? fixed_text(v.get<double>(), 2) + " s" : "n/a";
 }
 std::string num(const Json& v) {
   if (v.is_number_integer()) return std::to_string(v.get<long long>());
@@ -588,7 +584,7 @@ std::string svg_plot(const std::string& scene, const std::vector<const FrameReco
     << "' fill='#fff' stroke='#999'/>\n";
   for (double v = 0; v <= ymax + 1e-9; v += 2.0)
     s << "<text x='" << L - 6 << "' y='" << Y(v) + 4 << "' font-size='11' text-anchor='end'>"
-      << (std::abs(v - ymax) < 1e-9 ? "\u2265" : "") << fmt(v, 0) << "</text>\n";
+      << (std::abs(v - ymax) < 1e-9 ? "\u2265" : "") << fixed_text(v, 0) << "</text>\n";
   for (double th : report.at("protocol").at("thresholds").get<std::vector<double>>())
     s << "<line x1='" << L << "' x2='" << W - R << "' y1='" << Y(th) << "' y2='" << Y(th)
       << "' stroke='#bbb' stroke-dasharray='4 3'/><text x='" << W - R + 3 << "' y='" << Y(th) + 4
@@ -597,7 +593,7 @@ std::string svg_plot(const std::string& scene, const std::vector<const FrameReco
   for (int k = 0; k <= ticks; ++k) {
     const double t = t0 + (t1 - t0) * k / ticks;
     s << "<text x='" << X(t) << "' y='" << H - B + 15 << "' font-size='11' text-anchor='middle'>"
-      << fmt(t - t0, 1) << "</text>\n";
+      << fixed_text(t - t0, 1) << "</text>\n";
   }
   s << "<text x='" << (L + W - R) / 2 << "' y='" << H - 5
     << "' font-size='11' text-anchor='middle'>time since scene start (s)</text>\n";

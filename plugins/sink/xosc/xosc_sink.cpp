@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include <hazardforge/atomic_file.hpp>
+#include <hazardforge/number_text.hpp>
 #include <hazardforge/output_path.hpp>
 #include "hazardforge/geometry.hpp"
 #include "hazardforge/hazard/template_base.hpp"
@@ -30,7 +31,7 @@ road::LaneLayout scene_lanes(const HazardSpec& spec, double* kerb_offset) {
     if (!sc.contains(key)) return fallback;
     const Json& v = sc[key];
     if (!v.is_number() || v.get<double>() < lo || v.get<double>() > hi)
-      throw Error(where + "." + key + " must be a number in [" + hazard::num(lo) + ", " + hazard::num(hi) +
+      throw Error(where + "." + key + " must be a number in [" + num_text(lo) + ", " + num_text(hi) +
                   "], got " + v.dump());
     return v.get<double>();
   };
@@ -142,7 +143,7 @@ void XoscSink::open(StageContext& ctx) {
   if (ego_name_.empty() || hazard_name_.empty() || ego_name_ == hazard_name_)
     throw Error("node '" + ctx.node_id() + "': ego_name and hazard_name must be non-empty and differ");
   const std::string limits = p.get_path("limits").string();
-  limits_ = hazard::LimitsTable::load(limits.empty() ? hazard::LimitsTable::default_path() : limits);
+  limits_ = LimitsTable::load(limits.empty() ? LimitsTable::default_path() : limits);
   const std::string sizes = p.get_path("class_sizes").string();
   const ClassSize car =
       ClassPriors::load(sizes.empty() ? share_dir() + "/class_sizes.yaml" : sizes).at("car");
@@ -176,7 +177,7 @@ void XoscSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
       opt.T_world_anchor = f->ego.T_world_ego;
     else if (coordinates_ == "world")
       throw Error("xosc: coordinates 'world' needs the ego pose of the anchor frame (t=" +
-                  hazard::num(traj->anchor_time, 3) + " s)" +
+                  num_text(traj->anchor_time, 3) + " s)" +
                   (at_anchor ? "; frame " + std::to_string(f->index) + " carries none"
                              : "; connect the frames input"));
   }
@@ -213,9 +214,9 @@ void XoscSink::process(StageContext& ctx, const Inputs& in, Outputs& /*out*/) {
   ctx.log(LogLevel::kInfo,
           "wrote " + xosc_name.string() + " and " + xodr_name.string() + " (" + traj->kind + ", " +
               (opt.T_world_anchor ? "world" : "anchor") + " coordinates): " + s.trigger + " " +
-              hazard::num(s.trigger_value) + " starts the hazard at t=" + hazard::num(s.trigger_time) +
-              " s, plan minimum TTC " + hazard::num(s.plan_min_ttc) +
-              " s at t=" + hazard::num(s.critical_time) + " s, stop at " + hazard::num(s.stop_time) + " s");
+              num_text(s.trigger_value) + " starts the hazard at t=" + num_text(s.trigger_time) +
+              " s, plan minimum TTC " + num_text(s.plan_min_ttc) + " s at t=" + num_text(s.critical_time) +
+              " s, stop at " + num_text(s.stop_time) + " s");
 }
 
 }  // namespace hf

@@ -27,7 +27,7 @@ class XoscSink : public Stage {
   double lead_in_ = 3, after_ = 3;
   bool catalog_written_ = false;
   std::string author_, description_, ego_name_, hazard_name_;
-  hazard::LimitsTable limits_;
+  LimitsTable limits_;
   cv::Vec3d ego_size_{4.5, 1.85, 1.52};
   double ego_front_ = 3.4;
   const void* last_ = nullptr;

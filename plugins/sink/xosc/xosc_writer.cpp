@@ -8,6 +8,8 @@
 #include <utility>
 #include <vector>
 
+#include "hazardforge/angles.hpp"
+#include "hazardforge/number_text.hpp"
 #include "hazardforge/road/reference_line.hpp"
 
 namespace hf {
@@ -16,8 +18,6 @@ namespace {
 
 using road::XmlAttrs;
 using road::XmlWriter;
-
-constexpr double kPi = std::numbers::pi;
 
 std::string d(double v, int decimals = 4) {
   return road::xml_num(v, decimals);
@@ -134,7 +134,7 @@ class Plan {
     TrajectoryPoint p = a;
     p.t = t;
     p.x += u * (b.x - a.x), p.y += u * (b.y - a.y);
-    p.heading += u * std::remainder(b.heading - a.heading, 2 * kPi);
+    p.heading += u * angle_diff(b.heading, a.heading);
     p.speed += u * (b.speed - a.speed);
     return p;
   }
@@ -143,7 +143,7 @@ class Plan {
     const double c = std::cos(yaw_), s = std::sin(yaw_);
     return {tx_ + c * x - s * y, ty_ + s * x + c * y};
   }
-  double world_heading(double h) const { return std::remainder(h + yaw_, 2 * kPi); }
+  double world_heading(double h) const { return wrap_angle(h + yaw_); }
 
   // Fits the road to the ego's path over [t0, t1] (stream time), continued straight beyond both ends so that
   // a slower or faster ego, and the hazard before its start, still find road.
@@ -370,8 +370,7 @@ int lanes_between(int from, int to) {
 // ----------------------------------------------------------------------------------------------
 
 void vehicle(XmlWriter& x, const std::string& name, const std::string& category, const std::string& model3d,
-             const cv::Vec3d& size, double bbox_center_x, double wheelbase,
-             const hazard::KinematicLimits& lim,
+             const cv::Vec3d& size, double bbox_center_x, double wheelbase, const KinematicLimits& lim,
              const std::vector<std::pair<std::string, std::string>>& properties) {
   x.open("Vehicle", {{"name", name}, {"vehicleCategory", category}, {"model3d", model3d}});
   x.open("BoundingBox");
@@ -769,13 +768,12 @@ XoscExport export_scenario(const HazardTrajectory& traj, const XoscOptions& opt)
     // The spec's rationale stays in the hazard's hazard_spec property: its numbers are the generator's
     // intent, the header's are the plan's.
     description = "HazardForge " + traj.kind + " (" + traj.object_class + ")";
-    description += ". Plan: minimum TTC " + hazard::num(plan_min, 2) +
-                   " s at t=" + hazard::num(sum.critical_time, 2) +
-                   " s; the ego starts the hazard at t=" + hazard::num(sum.trigger_time, 2) + " s by " +
-                   sum.trigger + " " + hazard::num(sum.trigger_value, 2) + " (TriggerValue) after a " +
-                   hazard::num(sum.trigger_time, 1) + " s lead-in; ends when the ego has driven " +
-                   hazard::num(sum.stop_distance, 1) +
-                   " m (StopDistance), at a collision, or at t=" + hazard::num(sum.stop_time, 2) + " s.";
+    description +=
+        ". Plan: minimum TTC " + num_text(plan_min, 2) + " s at t=" + num_text(sum.critical_time, 2) +
+        " s; the ego starts the hazard at t=" + num_text(sum.trigger_time, 2) + " s by " + sum.trigger + " " +
+        num_text(sum.trigger_value, 2) + " (TriggerValue) after a " + num_text(sum.trigger_time, 1) +
+        " s lead-in; ends when the ego has driven " + num_text(sum.stop_distance, 1) +
+        " m (StopDistance), at a collision, or at t=" + num_text(sum.stop_time, 2) + " s.";
   }
 
   XmlWriter x;

@@ -22,8 +22,8 @@ struct XoscOptions {
   // scenario's poses are yaw-only at z = 0. Without it the anchor frame is the scenario's world frame.
   std::optional<cv::Matx44d> T_world_anchor;
   // Performance of the ego and of a hazard vehicle; the sink fills both from hazard_limits.yaml.
-  hazard::KinematicLimits ego_limits{"car", 60, 5, 10, 20, 4, 2, 45};
-  hazard::KinematicLimits hazard_limits{"car", 60, 5, 10, 20, 4, 2, 45};
+  KinematicLimits ego_limits{"car", 60, 5, 10, 20, 4, 2, 45};
+  KinematicLimits hazard_limits{"car", 60, 5, 10, 20, 4, 2, 45};
   cv::Vec3d ego_size_lwh{4.5, 1.85, 1.52};
   double ego_front = 3.4;  // rear axle (ego origin) to front bumper, m
   // The recorded ego path around the anchor time (tau = 0 at the anchor). Without it the plan's own ego

@@ -1,6 +1,7 @@
 // NuScenesSource: keyframes, camera calibration, ego motion and annotations from the nuScenes tables.
 #include "nuscenes_source.hpp"
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/image_file.hpp"
 
 #include <algorithm>
@@ -283,8 +284,7 @@ void NuScenesSource::open(StageContext& ctx) {
         k.ego.velocity_world = *v;
         k.ego.speed_mps = cv::norm(*v);
       }
-      if (auto w =
-              central(yaw, pose_ts, i, [](double b, double a) { return std::remainder(b - a, 2 * CV_PI); }))
+      if (auto w = central(yaw, pose_ts, i, [](double b, double a) { return angle_diff(b, a); }))
         k.ego.yaw_rate = *w;
 
       if (!with_ann) continue;

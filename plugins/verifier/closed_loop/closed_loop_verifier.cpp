@@ -8,13 +8,12 @@
 #include <hazardforge/atomic_file.hpp>
 #include <hazardforge/geometry.hpp>
 #include <hazardforge/json_text.hpp>
+#include <hazardforge/number_text.hpp>
 #include <hazardforge/output_path.hpp>
 #include "hazardforge/hazard/kinematics.hpp"
 #include "hazardforge/realism/compare.hpp"
 
 namespace hf {
-
-using hazard::num;
 
 namespace {
 
@@ -328,9 +327,9 @@ void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& o
     else if (!rec["hazard_is_critical"].get<bool>())
       rec["attribution"] = "spurious: the inserted object is not the critical track";
     else
-      rec["attribution"] = "spurious: the hazard's planned TTC " + num(inst->intended_ttc_s) +
-                           " s is not below the threshold " + num(threshold) + " s + " +
-                           num(planned_tolerance_) + " s";
+      rec["attribution"] = "spurious: the hazard's planned TTC " + num_text(inst->intended_ttc_s) +
+                           " s is not below the threshold " + num_text(threshold) + " s + " +
+                           num_text(planned_tolerance_) + " s";
   }
 
   if (counted) {
@@ -442,22 +441,24 @@ Json ClosedLoopVerifier::summary() const {
   } else if (visible_ == 0) {
     reasons.push_back("the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
   } else if (counted_ == 0) {
-    reasons.push_back("the inserted object is never at least " + num(min_visible_share_) +
-                      " in view (min_visible_share): at most " + num(best_share_) + " of it is seen in its " +
-                      std::to_string(visible_) + " visible frames, too little to expect a detection");
+    reasons.push_back("the inserted object is never at least " + num_text(min_visible_share_) +
+                      " in view (min_visible_share): at most " + num_text(best_share_) +
+                      " of it is seen in its " + std::to_string(visible_) +
+                      " visible frames, too little to expect a detection");
   } else if (rate < min_rate_) {
-    reasons.push_back("re-detection rate " + num(rate) + " is below min_redetection_rate " + num(min_rate_) +
-                      " (" + std::to_string(redetected_) + " of " + std::to_string(counted_) +
-                      " visible frames with IoU >= " + num(min_iou_) +
+    reasons.push_back("re-detection rate " + num_text(rate) + " is below min_redetection_rate " +
+                      num_text(min_rate_) + " (" + std::to_string(redetected_) + " of " +
+                      std::to_string(counted_) + " visible frames with IoU >= " + num_text(min_iou_) +
                       (partly > 0 ? "; " + std::to_string(partly) + " more with less than " +
-                                        num(min_visible_share_) + " of it in view are not counted"
+                                        num_text(min_visible_share_) + " of it in view are not counted"
                                   : std::string()) +
                       ")");
   }
   if (require_unsafe_ && !first_unsafe_frame_ && visible_ > 0) {
-    std::string why = !saw_risk_                   ? "no risk assessment arrived"
-                      : chosen_ttc_metric_.empty() ? "no TTC metric among the risk streams"
-                                                   : "minimum scene TTC " + num(achieved_min_ttc_) + " s";
+    std::string why = !saw_risk_ ? "no risk assessment arrived"
+                      : chosen_ttc_metric_.empty()
+                          ? "no TTC metric among the risk streams"
+                          : "minimum scene TTC " + num_text(achieved_min_ttc_) + " s";
     reasons.push_back("the scene never becomes Unsafe while the hazard is visible (" + why + ")");
   }
   if (require_critical_ && visible_ > 0 && first_unsafe_frame_ && !first_unsafe_critical_frame_) {
@@ -472,25 +473,25 @@ Json ClosedLoopVerifier::summary() const {
     reasons.push_back(
         "the scene never becomes Unsafe while the hazard is visible, so the inserted object is never "
         "the cause (minimum scene TTC " +
-        num(achieved_min_ttc_) + " s)");
+        num_text(achieved_min_ttc_) + " s)");
   if (planned_takeover_ && !taken_track_ && visible_ > 0)
     reasons.push_back(
         "the hazard takes over track " + std::to_string(*planned_takeover_) +
         ", but the renderer never removed the real one: it stays in the video beside the hazard");
   if (taken_track_ && taken_worst_ > max_takeover_uncovered_)
     reasons.push_back("the taken-over real object (track " + std::to_string(*taken_track_) +
-                      ") is not hidden by the hazard drawn in its place: " + num(taken_worst_) +
+                      ") is not hidden by the hazard drawn in its place: " + num_text(taken_worst_) +
                       " of its box shows the inpainted fill at frame " + std::to_string(taken_worst_frame_) +
-                      " (max_takeover_uncovered " + num(max_takeover_uncovered_) + ")");
+                      " (max_takeover_uncovered " + num_text(max_takeover_uncovered_) + ")");
   const double ttc_err = std::abs(achieved_min_ttc_ - intended);
   if (max_ttc_error_ >= 0 && visible_ > 0) {
     if (!std::isfinite(achieved_min_ttc_) || !std::isfinite(intended))
-      reasons.push_back("cannot compare TTC: achieved minimum " + num(achieved_min_ttc_) + " s, intended " +
-                        num(intended) + " s");
+      reasons.push_back("cannot compare TTC: achieved minimum " + num_text(achieved_min_ttc_) +
+                        " s, intended " + num_text(intended) + " s");
     else if (ttc_err > max_ttc_error_)
-      reasons.push_back("achieved minimum TTC " + num(achieved_min_ttc_) + " s is " + num(ttc_err) +
-                        " s away from the intended " + num(intended) + " s (max_ttc_error_s " +
-                        num(max_ttc_error_) + ")");
+      reasons.push_back("achieved minimum TTC " + num_text(achieved_min_ttc_) + " s is " + num_text(ttc_err) +
+                        " s away from the intended " + num_text(intended) + " s (max_ttc_error_s " +
+                        num_text(max_ttc_error_) + ")");
   }
   Json j;
   j["passed"] = reasons.empty();

@@ -3,6 +3,7 @@
 #include <numbers>
 
 #include "hazardforge/hazard/template_base.hpp"
+#include "hazardforge/number_text.hpp"
 #include "hazardforge/plugin.hpp"
 
 namespace example {
@@ -34,7 +35,7 @@ class JaywalkerDiagonal : public hf::hazard::KindTemplate<JaywalkerDiagonal> {
     if (side == 0) {
       reasons.push_back("side must be 'left' or 'right'");
     } else if (across < 0.34 || std::abs(std::cos(h)) < 0.34) {  // 20 degrees off both axes at least
-      reasons.push_back("heading_deg " + hf::hazard::num(req.spec.heading_deg) +
+      reasons.push_back("heading_deg " + hf::num_text(req.spec.heading_deg) +
                         " is not a diagonal across the road from the " + req.spec.side);
     }
     if (!reasons.empty()) return {};

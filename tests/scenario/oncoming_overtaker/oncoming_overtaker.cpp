@@ -7,11 +7,12 @@
 
 #include "hazardforge/hazard/proposal.hpp"
 #include "hazardforge/hazard/template_base.hpp"
+#include "hazardforge/number_text.hpp"
 #include "hazardforge/plugin.hpp"
 
 namespace example {
 
-using hf::hazard::num;
+using hf::num_text;
 
 // Kind hazard_template, name oncoming_overtaker. The vehicle drives towards the ego in the oncoming lane next
 // to the ego's traffic (on `side`, which must be where oncoming traffic passes) at speed_mps, first seen far
@@ -59,7 +60,7 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     static const char* kClasses[] = {"car", "car", "truck", "bus"};
     const std::string cls = kClasses[d.index(4)];
     if (!req.class_allowed(cls) || !sc.limits.has(cls)) return {nullptr, "no '" + cls + "' here"};
-    const hf::hazard::KinematicLimits& lim = sc.limits.at(cls);
+    const hf::KinematicLimits& lim = sc.limits.at(cls);
     const hf::hazard::Footprint size = sc.size(cls);
     const double v = d.uniform(5.0, std::min(10.0, lim.max_speed_mps));
     const double closing = sc.ego_speed + v;
@@ -79,7 +80,7 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     const double far =
         std::min({110.0, near + 20.0, front + closing * (sc.horizon - 0.5 + req.aim * sc.target)});
     if (near > far)
-      return {nullptr, "it cannot come from " + hf::hazard::fmt1(near) + " m within the horizon"};
+      return {nullptr, "it cannot come from " + hf::fixed_text(near, 1) + " m within the horizon"};
     const double x0 = d.uniform(near, far);
     const double swerve = (x0 - front) / closing - ttc_in - to_path;
     const std::string side_name = side > 0 ? "left" : "right";
@@ -87,9 +88,9 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
         "oncoming_overtaker", cls, x0, y0, side_name, v, 180.0,
         "comes towards the ego in the oncoming lane and swerves into the ego lane to overtake", sc.target);
     spec["extra"]["swerve_after_s"] = hf::hazard::round_to(swerve, 0.05);
-    spec["rationale"] = "An oncoming " + cls + " " + hf::hazard::fmt1(x0) + " m ahead at " +
-                        hf::hazard::fmt1(v) + " m/s pulls out to overtake into the ego lane; closing at " +
-                        hf::hazard::fmt1(closing) + " m/s the TTC falls below the target.";
+    spec["rationale"] = "An oncoming " + cls + " " + hf::fixed_text(x0, 1) + " m ahead at " +
+                        hf::fixed_text(v, 1) + " m/s pulls out to overtake into the ego lane; closing at " +
+                        hf::fixed_text(closing, 1) + " m/s the TTC falls below the target.";
     return {spec, {}};
   }
 
@@ -107,11 +108,11 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     }
     const double y0 = spec.lateral_offset_m;
     if (req.road.same_direction_at(y0) || req.road.lane_at(y0) == 0)
-      reasons.push_back("the start y=" + num(y0) + " m is not in an oncoming lane");
+      reasons.push_back("the start y=" + num_text(y0) + " m is not in an oncoming lane");
     const double v = spec.speed_mps;
-    if (v < 1.0) reasons.push_back("speed_mps " + num(v) + " is too slow to overtake (at least 1 m/s)");
+    if (v < 1.0) reasons.push_back("speed_mps " + num_text(v) + " is too slow to overtake (at least 1 m/s)");
     if (std::abs(std::abs(spec.heading_deg) - 180.0) > 10.0)
-      reasons.push_back("heading_deg " + num(spec.heading_deg) +
+      reasons.push_back("heading_deg " + num_text(spec.heading_deg) +
                         " does not come towards the ego (about 180)");
     double swerve = 0;
     if (spec.extra.contains("swerve_after_s")) {
@@ -121,9 +122,10 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
       }
       swerve = spec.extra["swerve_after_s"].get<double>();
     }
-    if (swerve < 0) reasons.push_back("extra.swerve_after_s " + num(swerve) + " is negative");
+    if (swerve < 0) reasons.push_back("extra.swerve_after_s " + num_text(swerve) + " is negative");
     if (req.gap(spec.initial_distance_m, req.size_lwh[0], 0.0) <= 0)
-      reasons.push_back("initial_distance_m " + num(spec.initial_distance_m) + " is not ahead of the ego");
+      reasons.push_back("initial_distance_m " + num_text(spec.initial_distance_m) +
+                        " is not ahead of the ego");
     if (!reasons.empty()) return {};
     const double lane = lane_change(std::abs(y0), v, req.limits);
     const double x0 = spec.initial_distance_m;
@@ -144,7 +146,7 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
  private:
   // The shortest lane change within the lateral limits, stretched until the turn rate is within its limit
   // too.
-  static double lane_change(double width, double v, const hf::hazard::KinematicLimits& lim) {
+  static double lane_change(double width, double v, const hf::KinematicLimits& lim) {
     double dur = hf::hazard::min_jerk_duration(width, lim.max_lateral_speed_mps, lim.max_lateral_accel_mps2,
                                                0.6 * lim.max_jerk_mps3);
     for (int i = 0; i < 40; ++i) {
