@@ -4,7 +4,7 @@
 
 #include "hazard_schema.hpp"
 #include "hazardforge/json_text.hpp"
-#include "llm_json.hpp"
+#include "hazardforge/llm/json.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const hf::llm_hazard::SchemaValidator* validator = [] {

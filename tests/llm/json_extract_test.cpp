@@ -1,8 +1,8 @@
 // JSON extraction from model replies: bare, prose, fences, and the messages for replies that hold no object.
 #include <gtest/gtest.h>
 
-#include "llm_hash.hpp"
-#include "llm_json.hpp"
+#include "hazardforge/llm/hash.hpp"
+#include "hazardforge/llm/json.hpp"
 
 namespace hf::llm {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "asset_library.hpp"
+#include "hazardforge/assets/asset_library.hpp"
 #include "hazardforge/hazard/kinematics.hpp"
 #include "llm_test_support.hpp"
 #include "scene_rules.hpp"

@@ -8,7 +8,7 @@
 
 #include "centroid_tracker.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
-#include "hungarian.hpp"
+#include "hazardforge/tracking/hungarian.hpp"
 #include "sort_tracker.hpp"
 
 namespace hf {

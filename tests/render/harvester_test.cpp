@@ -10,7 +10,7 @@
 
 #include "ar_renderer.hpp"
 #include "asset_harvester.hpp"
-#include "box_geometry.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "render_fixtures.hpp"
 #include "temp_dir.hpp"

@@ -8,8 +8,8 @@
 #include <iostream>
 
 #include "ar_renderer.hpp"
-#include "box_geometry.hpp"
 #include "ego_motion.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 #include "render_fixtures.hpp"
 
 #include <opencv2/imgcodecs.hpp>

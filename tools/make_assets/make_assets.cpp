@@ -17,8 +17,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "asset_library.hpp"
-#include "box_geometry.hpp"
+#include "hazardforge/assets/asset_library.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 #include "hazardforge/error.hpp"
 
 namespace {
@@ -794,7 +794,7 @@ int run(const fs::path& out_dir, int vehicle_height, const std::string& only) {
     // Sixteen viewpoints, 22.5 degrees apart, so the renderer's nearest picture is never more than 11.25
     // degrees off: the eight named views plus one between each pair.
     for (int k = 0; k < 16; ++k) {
-      const double az = hr::wrap_deg(22.5 * k);
+      const double az = hf::wrap_deg(22.5 * k);
       // In-between viewpoints take the name of their three-quarter neighbour (odd view index), symmetrically.
       const int bin = k % 2 ? ((k / 2) % 2 ? k / 2 : (k / 2 + 1) % 8) : k / 2;
       const std::string view = hr::view_names()[static_cast<size_t>(bin)];

@@ -9,11 +9,12 @@
 #include <hazardforge/atomic_file.hpp>
 #include <hazardforge/error.hpp>
 #include <hazardforge/json_text.hpp>
+#include <hazardforge/number_text.hpp>
 #include <hazardforge/output_path.hpp>
 #include <hazardforge/run_signals.hpp>
 
-#include "llm_hash.hpp"
-#include "llm_json.hpp"
+#include "hazardforge/llm/hash.hpp"
+#include "hazardforge/llm/json.hpp"
 
 namespace hf::llm_hazard {
 
@@ -440,7 +441,7 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   spec_validator_.emplace(spec_schema_);
   prompt_ = PromptTemplate::load(share_file(p, "prompt_template", "prompts/hazard_generation.md"));
   retry_prompt_ = PromptTemplate::load(share_file(p, "retry_template", "prompts/hazard_retry.md"));
-  limits_ = hazard::LimitsTable::load(limits_file);
+  limits_ = LimitsTable::load(limits_file);
   sizes_ = ClassPriors::load(sizes_file);
   for (const std::string& f : {schema_file, prompt_->name(), retry_prompt_->name(), limits_file})
     ctx.record_resource(f);
@@ -495,8 +496,8 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
   std::string unsafe;
   for (const RiskAssessment* r : risks)
     if (r->label == SafetyLabel::kUnsafe)
-      unsafe += (unsafe.empty() ? "" : ", ") + r->metric + " = " + num(r->scene_value) + " " + r->unit +
-                " (threshold " + num(r->threshold) + ")";
+      unsafe += (unsafe.empty() ? "" : ", ") + r->metric + " = " + num_text(r->scene_value) + " " + r->unit +
+                " (threshold " + num_text(r->threshold) + ")";
   if (!unsafe.empty()) {
     if (trigger_ == "frame") {
       ctx.log(LogLevel::kWarning, "frame " + std::to_string(frame.index) + " is Unsafe (" + unsafe +
@@ -526,7 +527,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     }
     next_try_s_ = frame.timestamp + every;
     ctx.log(LogLevel::kWarning, "frame " + std::to_string(frame.index) + ": " + e.what() +
-                                    "; trying a Safe frame from t = " + num(next_try_s_) + " s on");
+                                    "; trying a Safe frame from t = " + num_text(next_try_s_) + " s on");
     return;
   }
   done_ = true;
@@ -568,9 +569,10 @@ bool LlmHazardGenerator::turns_too_much(StageContext& ctx, const Frame& frame) {
     if (end - s.t < need_left - 1e-9) break;  // later samples leave even less
     if (turn_deg(track, s.t, end, horizon) <= max_turn) {
       if (!warned_turn_)
-        ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + ": the ego path turns " +
-                                     num(here) + " deg over the horizon (max_turn_deg " + num(max_turn) +
-                                     "); waiting for the straighter stretch from t = " + num(s.t) + " s");
+        ctx.log(LogLevel::kInfo,
+                "frame " + std::to_string(frame.index) + ": the ego path turns " + num_text(here) +
+                    " deg over the horizon (max_turn_deg " + num_text(max_turn) +
+                    "); waiting for the straighter stretch from t = " + num_text(s.t) + " s");
       warned_turn_ = true;
       straight_from_ = s.t;
       return true;
@@ -637,9 +639,9 @@ std::optional<HazardSpec> LlmHazardGenerator::generate_shortening(
     } catch (const NoHazardFits& e) {
       if (!first) first = e;
       if (p.get_double("horizon_s") > 0 || shortest <= 0 || horizon_s_ - 1.0 < shortest - 1e-9) throw *first;
-      ctx.log(LogLevel::kWarning, "frame " + std::to_string(frame.index) + ", horizon " + num(horizon_s_) +
-                                      " s: " + e.what() + "; trying a horizon of " + num(horizon_s_ - 1.0) +
-                                      " s");
+      ctx.log(LogLevel::kWarning, "frame " + std::to_string(frame.index) + ", horizon " +
+                                      num_text(horizon_s_) + " s: " + e.what() + "; trying a horizon of " +
+                                      num_text(horizon_s_ - 1.0) + " s");
     }
   }
 }
@@ -670,7 +672,7 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
           longest = id, longest_s = span.second - span.first, whole = seen == &recording_people_;
     if (longest >= 0 && longest_s >= seen_s - 1e-9)
       s.sidewalks = {true, "auto: the recording shows people (person track " + std::to_string(longest) +
-                               " followed for " + num(longest_s) + " s" +
+                               " followed for " + num_text(longest_s) + " s" +
                                (whole ? " in " + p.get_path("recording_states").filename().string() : "") +
                                ")"};
   }
@@ -724,7 +726,7 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
       s.multi_lane = {true,
                       "auto: the recording shows a " + seen.label + " travelling the ego's way in the lane " +
                           (seen.side > 0 ? "left" : "right") + " of it (track " + std::to_string(seen.track) +
-                          ", followed for " + num(seen.seconds) + " s" +
+                          ", followed for " + num_text(seen.seconds) + " s" +
                           (whole ? " in " + p.get_path("recording_states").filename().string() : "") + ")"};
   }
   s.allowed_kinds = allowed_kinds_;
@@ -738,8 +740,8 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   s.ttc_tolerance_s = p.get_double("ttc_tolerance_s");
   s.threshold_s = risk_threshold(risks, frame.index);
   if (s.target_ttc_s >= s.threshold_s)
-    throw Error("target_ttc_s = " + num(s.target_ttc_s) + " is not below the risk threshold " +
-                num(s.threshold_s) + " s, so no hazard could make the scene Unsafe");
+    throw Error("target_ttc_s = " + num_text(s.target_ttc_s) + " is not below the risk threshold " +
+                num_text(s.threshold_s) + " s, so no hazard could make the scene Unsafe");
   s.ego_speed_mps = ego_speed(frame, states);
   if (s.ego_speed_mps < 0) s.ego_speed_mps = p.get_double("ego_speed_mps");
   if (s.ego_speed_mps < 0)
@@ -756,12 +758,12 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
       max_under_way_s_ = under_way;
       make_templates(ctx, ctx.components().component_names(kind::kHazardTemplate));
     }
-    ctx.log(LogLevel::kInfo,
-            "horizon " + num(horizon_s_) + " s: " +
-                (horizon < left - 1e-9 ? "shortened from the " + num(left) + " s" : std::string("what is")) +
-                " left of the clip after frame " + std::to_string(frame.index) +
-                " (at least 1 s, at most 6 s); hazards may be under way for up to " + num(max_under_way_s_) +
-                " s when they appear");
+    ctx.log(LogLevel::kInfo, "horizon " + num_text(horizon_s_) + " s: " +
+                                 (horizon < left - 1e-9 ? "shortened from the " + num_text(left) + " s"
+                                                        : std::string("what is")) +
+                                 " left of the clip after frame " + std::to_string(frame.index) +
+                                 " (at least 1 s, at most 6 s); hazards may be under way for up to " +
+                                 num_text(max_under_way_s_) + " s when they appear");
   }
   s.horizon_s = horizon_s_;
   s.sidewalk_width_m = p.get_double("sidewalk_width_m");

@@ -7,20 +7,20 @@
 #include <filesystem>
 #include <set>
 
+#include <hazardforge/angles.hpp>
 #include <hazardforge/error.hpp>
 #include <hazardforge/hazard/kinematics.hpp>
 #include <hazardforge/json_text.hpp>
+#include <hazardforge/number_text.hpp>
 
-#include "asset_library.hpp"
 #include "feasibility.hpp"
+#include "hazardforge/assets/asset_library.hpp"
 
 namespace hf::llm_hazard {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-bool is_vehicle(const std::string& cls) {
+bool is_vehicle_or_bicycle(const std::string& cls) {
   return cls == "car" || cls == "truck" || cls == "bus" || cls == "motorcycle" || cls == "bicycle";
 }
 
@@ -66,7 +66,7 @@ RoadPose road_pose(const std::vector<TrajectoryPoint>& ego, double x, double y, 
   }
   RoadPose p;
   p.d = -(x - best->x) * std::sin(best->heading) + (y - best->y) * std::cos(best->heading);
-  p.rel_heading = std::remainder(heading - best->heading, 2 * kPi);
+  p.rel_heading = angle_diff(heading, best->heading);
   return p;
 }
 
@@ -175,7 +175,7 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
     // tracked lateral speed is mostly box noise (a truck beside the ego, cut off by the image border, reads
     // 1-2.5 m/s towards the ego lane on the KITTI raw clip), which a constant-velocity prediction would turn
     // into a collision with anything planned in the next lane. People keep their velocity.
-    const bool in_lane = is_vehicle(o.label);
+    const bool in_lane = is_vehicle_or_bicycle(o.label);
     const double oh = cv::norm(v) > 0.5 ? std::atan2(v[1], v[0]) : 0.0;
     // distance_m reaches the face the camera sees; the footprint is placed by its centre, half its length on.
     const double x0 = o.distance_m + rules.distance_origin_x + ol / 2.0, y0 = o.lateral_m;
@@ -198,10 +198,10 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
       const double apart = side_by_side ? sideways : std::hypot(p.x - other.x, p.y - other.y);
       if (!hit || (recorded_gap && apart >= *recorded_gap - 0.1)) continue;
       errs.push_back("the planned path of the " + cls + " runs into the tracked " + o.label + " (track " +
-                     std::to_string(o.track_id) + ", predicted at constant velocity): " + num(dt) +
-                     " s after it appears the " + cls + " would be at (x " + num(p.x) + ", y " + num(p.y) +
-                     ") m and the " + o.label + " at (x " + num(other.x) + ", y " + num(other.y) +
-                     ") m. Place it where its path stays clear of the tracked objects");
+                     std::to_string(o.track_id) + ", predicted at constant velocity): " + num_text(dt) +
+                     " s after it appears the " + cls + " would be at (x " + num_text(p.x) + ", y " +
+                     num_text(p.y) + ") m and the " + o.label + " at (x " + num_text(other.x) + ", y " +
+                     num_text(other.y) + ") m. Place it where its path stays clear of the tracked objects");
       break;
     }
   }
@@ -211,11 +211,11 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
   const int side = start.d >= 0 ? 1 : -1;
 
   // A vehicle starts in a lane in its traffic's direction.
-  if (is_vehicle(cls) && std::abs(road.lane_at(start.d)) <= road.lanes(side)) {
+  if (is_vehicle_or_bicycle(cls) && std::abs(road.lane_at(start.d)) <= road.lanes(side)) {
     const bool with_ego = std::cos(start.rel_heading) > 0;
     const bool lane_with_ego = road.same_direction_at(start.d);
     if (with_ego != lane_with_ego)
-      errs.push_back("the " + cls + " starts at y " + num(start.d) + " m in a lane " +
+      errs.push_back("the " + cls + " starts at y " + num_text(start.d) + " m in a lane " +
                      (lane_with_ego ? "going the ego's way" : "with oncoming traffic") + " (lanes_left " +
                      std::to_string(road.lanes_left) + ", lanes_right " + std::to_string(road.lanes_right) +
                      ", oncoming_lanes " + std::to_string(road.oncoming_lanes) + ", traffic keeps " +
@@ -244,13 +244,13 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
       const bool hidden = covered_fraction(view.box, nearer) >= 0.5;
       if (!entering && !off_road && !small && !hidden)
         errs.push_back(
-            "the " + cls + " would pop up on the road " + num(p.x) + " m ahead: when it is first seen (" +
-            num(p.t - tr.anchor_time) + " s after it appears) its box is fully in view, " +
-            hazard::num(view.box.height, 0) +
+            "the " + cls + " would pop up on the road " + num_text(p.x) +
+            " m ahead: when it is first seen (" + num_text(p.t - tr.anchor_time) +
+            " s after it appears) its box is fully in view, " + num_text(view.box.height, 0) +
             " px tall, and no tracked object hides it. Let it enter from "
             "beyond the image border, from behind a nearer tracked object, or far enough to be first "
             "seen small (at most " +
-            hazard::num(max_px, 0) + " px tall, " + num(100 * rules.entry_max_height) +
+            num_text(max_px, 0) + " px tall, " + num_text(100 * rules.entry_max_height) +
             " % of the image height)");
       break;
     }

@@ -7,7 +7,9 @@
 #include <limits>
 #include <numbers>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/hazard/kinematics.hpp"
+#include "hazardforge/number_text.hpp"
 
 namespace hf::hazard {
 
@@ -15,10 +17,6 @@ namespace {
 
 constexpr double kDenseStep = 0.01;    // s between the path's dense samples
 constexpr double kMovingSpeed = 0.05;  // m/s; slower than this the heading is held, not derived
-
-double wrap(double a) {
-  return std::remainder(a, 2 * std::numbers::pi);
-}
 
 // Second derivatives of the natural cubic spline through (t, v) (tridiagonal system, Thomas algorithm: a
 // dozen lines, no library needed for it).
@@ -71,8 +69,9 @@ EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double ancho
     throw Error(where + ": ego_track has " + std::to_string(track.size()) +
                 " sample(s); a recorded path needs at least two");
   if (anchor_time < track.front().t - 1e-6 || anchor_time > track.back().t + 1e-6)
-    throw Error(where + ": the anchor time " + num(anchor_time, 3) + " s is outside the ego_track's span [" +
-                num(track.front().t, 3) + ", " + num(track.back().t, 3) + "] s");
+    throw Error(where + ": the anchor time " + num_text(anchor_time, 3) +
+                " s is outside the ego_track's span [" + num_text(track.front().t, 3) + ", " +
+                num_text(track.back().t, 3) + "] s");
   std::vector<double> t, x, y;
   for (const auto& s : track) t.push_back(s.t), x.push_back(s.x), y.push_back(s.y);
   const std::vector<double> mx = natural_spline(t, x), my = natural_spline(t, y);
@@ -82,7 +81,7 @@ EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double ancho
   size_t i = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), ta) - t.begin());
   i = std::clamp<size_t>(i, 1, t.size() - 1) - 1;
   const double u = (ta - t[i]) / (t[i + 1] - t[i]);
-  const double yaw0 = track[i].yaw + u * wrap(track[i + 1].yaw - track[i].yaw);
+  const double yaw0 = track[i].yaw + u * wrap_angle(track[i + 1].yaw - track[i].yaw);
   const double x0 = eval_spline(t, x, mx, ta), y0 = eval_spline(t, y, my, ta);
   const double c = std::cos(yaw0), s = std::sin(yaw0);
 
@@ -157,7 +156,7 @@ EgoPath EgoPath::recorded(const std::vector<EgoTrackSample>& track, double ancho
       // Standing: keep the heading it had (or the recorded yaw before it ever moved).
       size_t j = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), tk[k]) - t.begin());
       j = std::clamp<size_t>(j, 1, t.size()) - 1;
-      nd.heading = held.value_or(wrap(track[j].yaw - yaw0));
+      nd.heading = held.value_or(wrap_angle(track[j].yaw - yaw0));
     }
     if (!p.nodes_.empty()) {
       const Node& prev = p.nodes_.back();
@@ -198,7 +197,7 @@ EgoPath::Node EgoPath::at_time(double tau) const {
   n.s = a.s + u * (b.s - a.s);
   n.x = a.x + u * (b.x - a.x);
   n.y = a.y + u * (b.y - a.y);
-  n.heading = a.heading + u * wrap(b.heading - a.heading);
+  n.heading = a.heading + u * wrap_angle(b.heading - a.heading);
   n.speed = a.speed + u * (b.speed - a.speed);
   n.accel = a.accel + u * (b.accel - a.accel);
   n.curvature = a.curvature + u * (b.curvature - a.curvature);
@@ -215,7 +214,7 @@ TrajectoryPoint EgoPath::at(double tau) const {
   const Node n = at_time(tau);
   p.x = n.x;
   p.y = n.y;
-  p.heading = wrap(n.heading);
+  p.heading = wrap_angle(n.heading);
   p.speed = n.speed;
   p.accel = n.accel;
   return p;
@@ -231,7 +230,7 @@ EgoPath EgoPath::seen_from(double tau) const {
     const double dx = n.x - o.x, dy = n.y - o.y;
     n.x = c * dx + s * dy;
     n.y = -s * dx + c * dy;
-    n.heading = wrap(n.heading - o.heading);
+    n.heading = wrap_angle(n.heading - o.heading);
     n.s -= o.s;
   }
   return p;
@@ -271,7 +270,7 @@ EgoPath::Pose EgoPath::point(double s) const {
     Pose q;
     q.x = n.x + ds * std::cos(n.heading);
     q.y = n.y + ds * std::sin(n.heading);
-    q.heading = wrap(n.heading);
+    q.heading = wrap_angle(n.heading);
     return q;
   };
   if (s <= nodes_.front().s) return along(nodes_.front(), s - nodes_.front().s);
@@ -283,7 +282,7 @@ EgoPath::Pose EgoPath::point(double s) const {
   const double u = b.s > a.s ? (s - a.s) / (b.s - a.s) : 1.0;
   p.x = a.x + u * (b.x - a.x);
   p.y = a.y + u * (b.y - a.y);
-  p.heading = wrap(a.heading + u * wrap(b.heading - a.heading));
+  p.heading = wrap_angle(a.heading + u * wrap_angle(b.heading - a.heading));
   p.curvature = a.curvature + u * (b.curvature - a.curvature);
   return p;
 }
@@ -332,7 +331,7 @@ EgoPath::Mapped EgoPath::map(double s, double d, double ds, double dd,
   const double along = (1 - p.curvature * d) * ds;
   m.vx = c * along - sn * dd;
   m.vy = sn * along + c * dd;
-  if (rel_heading) m.heading = wrap(*rel_heading + p.heading);
+  if (rel_heading) m.heading = wrap_angle(*rel_heading + p.heading);
   return m;
 }
 

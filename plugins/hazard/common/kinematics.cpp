@@ -9,78 +9,12 @@
 #include <cstdio>
 #include <fstream>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/geometry.hpp"
+#include "hazardforge/number_text.hpp"
 #include "hazardforge/yaml_json.hpp"
 
 namespace hf::hazard {
-
-// ---- Limits
-// ------------------------------------------------------------------------------------------------------
-
-namespace {
-struct LimitField {
-  const char* name;
-  double KinematicLimits::*member;
-};
-constexpr LimitField kLimitFields[] = {
-    {"max_speed_mps", &KinematicLimits::max_speed_mps},
-    {"max_accel_mps2", &KinematicLimits::max_accel_mps2},
-    {"max_decel_mps2", &KinematicLimits::max_decel_mps2},
-    {"max_jerk_mps3", &KinematicLimits::max_jerk_mps3},
-    {"max_lateral_accel_mps2", &KinematicLimits::max_lateral_accel_mps2},
-    {"max_lateral_speed_mps", &KinematicLimits::max_lateral_speed_mps},
-    {"max_yaw_rate_dps", &KinematicLimits::max_yaw_rate_dps},
-};
-}  // namespace
-
-LimitsTable LimitsTable::load(const std::string& path) {
-  YamlDocument doc = load_yaml_file(path);
-  LimitsTable table;
-  table.file_ = path;
-  if (!doc.value.is_object()) throw Error(doc.at(""), "hazard limits must be a mapping of class -> limits");
-  for (auto it = doc.value.begin(); it != doc.value.end(); ++it) {
-    const std::string ptr = "/" + it.key();
-    if (!it->is_object()) throw Error(doc.at(ptr), "class '" + it.key() + "' needs a mapping of limits");
-    KinematicLimits l;
-    l.object_class = it.key();
-    for (const LimitField& f : kLimitFields) {
-      if (!it->contains(f.name) || !(*it)[f.name].is_number() || (*it)[f.name].get<double>() <= 0)
-        throw Error(doc.at(ptr + "/" + f.name),
-                    "class '" + it.key() + "': '" + f.name + "' must be a positive number");
-      l.*f.member = (*it)[f.name].get<double>();
-    }
-    for (auto k = it->begin(); k != it->end(); ++k) {
-      bool known = false;
-      for (const LimitField& f : kLimitFields) known = known || k.key() == f.name;
-      if (!known)
-        throw Error(doc.at(ptr + "/" + k.key() + "#key"),
-                    "class '" + it.key() + "': unknown limit '" + k.key() + "'");
-    }
-    table.limits_[l.object_class] = l;
-  }
-  return table;
-}
-
-std::string LimitsTable::default_path() {
-  return share_dir() + "/hazard_limits.yaml";
-}
-
-const KinematicLimits& LimitsTable::at(const std::string& object_class) const {
-  auto it = limits_.find(object_class);
-  if (it == limits_.end()) {
-    std::string known;
-    for (const auto& c : classes()) known += (known.empty() ? "" : ", ") + c;
-    throw Error("object_class '" + object_class + "' has no kinematic limits in " +
-                (file_.empty() ? std::string("the limits table") : file_) + " (known: " + known + ")");
-  }
-  return it->second;
-}
-
-std::vector<std::string> LimitsTable::classes() const {
-  std::vector<std::string> v;
-  for (const auto& [k, l] : limits_) v.push_back(k);
-  return v;
-}
 
 // ---- Speed profiles
 // ----------------------------------------------------------------------------------------------
@@ -233,8 +167,9 @@ std::vector<TtcSample> ttc_series(const std::vector<TrajectoryPoint>& ego,
   out.reserve(obj.size());
   for (size_t i = 0; i < obj.size(); ++i) {
     if (std::abs(ego[i].t - obj[i].t) > 1e-6)
-      throw Error("TTC of two trajectories: sample " + std::to_string(i) + " is at t=" + num(obj[i].t, 3) +
-                  " s for the object but t=" + num(ego[i].t, 3) + " s for the ego");
+      throw Error("TTC of two trajectories: sample " + std::to_string(i) +
+                  " is at t=" + num_text(obj[i].t, 3) + " s for the object but t=" + num_text(ego[i].t, 3) +
+                  " s for the ego");
     out.push_back(
         ttc_at(ego[i], obj[i], size_lwh, conv, conv.corridor.path_for(ego[i].speed, yaw_rate_at(ego, i))));
   }
@@ -246,7 +181,7 @@ std::optional<double> yaw_rate_at(const std::vector<TrajectoryPoint>& ego, size_
   const size_t a = i == 0 ? 0 : i - 1, b = i + 1 >= ego.size() ? ego.size() - 1 : i + 1;
   const double dt = ego[b].t - ego[a].t;
   if (!(dt > 0)) return std::nullopt;
-  return std::remainder(ego[b].heading - ego[a].heading, 2 * CV_PI) / dt;
+  return angle_diff(ego[b].heading, ego[a].heading) / dt;
 }
 
 double min_ttc(const std::vector<TtcSample>& series) {
@@ -288,8 +223,7 @@ MotionStats measure(const std::vector<TrajectoryPoint>& p) {
     st.max_jerk = std::max(st.max_jerk, cv::norm(j) / (dt * dt * dt));
   }
   for (size_t k = 0; k + 1 < n; ++k)
-    st.max_yaw_rate =
-        std::max(st.max_yaw_rate, std::abs(std::remainder(p[k + 1].heading - p[k].heading, 2 * CV_PI)) / dt);
+    st.max_yaw_rate = std::max(st.max_yaw_rate, std::abs(angle_diff(p[k + 1].heading, p[k].heading)) / dt);
   return st;
 }
 
@@ -298,43 +232,29 @@ std::vector<std::string> exceeded_limits(const MotionStats& s, const KinematicLi
   const std::string& c = l.object_class;
   auto over = [&](double v, double lim) { return v > lim * (1 + tol) + 1e-6; };
   if (over(s.max_speed, l.max_speed_mps))
-    r.push_back("peak speed " + num(s.max_speed) + " m/s exceeds the " + c + " limit of " +
-                num(l.max_speed_mps) + " m/s");
+    r.push_back("peak speed " + num_text(s.max_speed) + " m/s exceeds the " + c + " limit of " +
+                num_text(l.max_speed_mps) + " m/s");
   if (over(s.max_long_accel, l.max_accel_mps2))
-    r.push_back("peak acceleration " + num(s.max_long_accel) + " m/s^2 exceeds the " + c + " limit of " +
-                num(l.max_accel_mps2) + " m/s^2");
+    r.push_back("peak acceleration " + num_text(s.max_long_accel) + " m/s^2 exceeds the " + c + " limit of " +
+                num_text(l.max_accel_mps2) + " m/s^2");
   if (over(s.max_long_decel, l.max_decel_mps2))
-    r.push_back("peak deceleration " + num(s.max_long_decel) + " m/s^2 exceeds the " + c + " limit of " +
-                num(l.max_decel_mps2) + " m/s^2");
+    r.push_back("peak deceleration " + num_text(s.max_long_decel) + " m/s^2 exceeds the " + c + " limit of " +
+                num_text(l.max_decel_mps2) + " m/s^2");
   if (over(s.max_lat_accel, l.max_lateral_accel_mps2))
-    r.push_back("peak lateral acceleration " + num(s.max_lat_accel) + " m/s^2 exceeds the " + c +
-                " limit of " + num(l.max_lateral_accel_mps2) + " m/s^2");
+    r.push_back("peak lateral acceleration " + num_text(s.max_lat_accel) + " m/s^2 exceeds the " + c +
+                " limit of " + num_text(l.max_lateral_accel_mps2) + " m/s^2");
   if (over(s.max_jerk, l.max_jerk_mps3))
-    r.push_back("peak jerk " + num(s.max_jerk) + " m/s^3 exceeds the " + c + " limit of " +
-                num(l.max_jerk_mps3) + " m/s^3");
+    r.push_back("peak jerk " + num_text(s.max_jerk) + " m/s^3 exceeds the " + c + " limit of " +
+                num_text(l.max_jerk_mps3) + " m/s^3");
   const double yaw_dps = s.max_yaw_rate * 180.0 / CV_PI;
   if (over(yaw_dps, l.max_yaw_rate_dps))
-    r.push_back("peak turn rate " + num(yaw_dps, 1) + " deg/s exceeds the " + c + " limit of " +
-                num(l.max_yaw_rate_dps, 1) + " deg/s");
+    r.push_back("peak turn rate " + num_text(yaw_dps, 1) + " deg/s exceeds the " + c + " limit of " +
+                num_text(l.max_yaw_rate_dps, 1) + " deg/s");
   return r;
 }
 
 // ---- Small utilities
 // ---------------------------------------------------------------------------------------------
-
-std::string num(double v, int decimals) {
-  if (std::isnan(v)) return "nan";
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  std::string s = buf;
-  if (s.find('.') != std::string::npos) {
-    while (s.back() == '0') s.pop_back();
-    if (s.back() == '.') s.pop_back();
-  }
-  if (s == "-0") s = "0";
-  return s;
-}
 
 std::optional<cv::Vec2d> ground_velocity(const ObjectState& o, double ego_speed_mps, double chi2) {
   std::optional<cv::Vec2d> v;

@@ -1,5 +1,6 @@
 // The scene a template's proposals are planned in, and the checks and JSON they share.
 #include "hazardforge/hazard/proposal.hpp"
+#include "hazardforge/number_text.hpp"
 
 #include <algorithm>
 
@@ -33,7 +34,8 @@ std::string ProposalScene::overlap_problem(double x, double y, const Footprint& 
   for (const Obj& o : objects)
     if (o.track_id != except && std::abs(o.x - x) < (o.length + me.length) / 2.0 + 1.0 &&
         std::abs(o.y - y) < (o.width + me.width) / 2.0 + 0.5)
-      return "start point (" + fmt1(x) + ", " + fmt1(y) + ") m is next to the detected " + o.label;
+      return "start point (" + fixed_text(x, 1) + ", " + fixed_text(y, 1) + ") m is next to the detected " +
+             o.label;
   return {};
 }
 
@@ -111,12 +113,6 @@ std::optional<std::string> draw_class(const ProposalScene& sc,
 
 double round_to(double v, double step) {
   return std::round(v / step) * step;
-}
-
-std::string fmt1(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f", v);
-  return buf;
 }
 
 Json proposal_spec(const std::string& kind, const std::string& cls, double x, double y,

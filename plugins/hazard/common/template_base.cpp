@@ -1,6 +1,7 @@
 // Shared hazard-template pipeline: spec checks, ego plan (recorded track or constant speed), sampling in road
 // coordinates, contact cut-off, TTC, limits.
 #include "hazardforge/hazard/template_base.hpp"
+#include "hazardforge/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -241,7 +242,7 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   if (!scene.ego_speed_mps)
     reasons.push_back("the scene has no ego speed");
   else if (*scene.ego_speed_mps < 0)
-    reasons.push_back("ego speed " + num(*scene.ego_speed_mps) + " m/s is negative");
+    reasons.push_back("ego speed " + num_text(*scene.ego_speed_mps) + " m/s is negative");
   const auto allowed = allowed_classes();
   if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), cls) == allowed.end()) {
     std::string list;
@@ -259,19 +260,19 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   if (!reasons.empty()) return out;
 
   const KinematicLimits& lim = limits_.at(cls);
-  if (spec.speed_mps < 0) reasons.push_back("speed_mps " + num(spec.speed_mps) + " is negative");
+  if (spec.speed_mps < 0) reasons.push_back("speed_mps " + num_text(spec.speed_mps) + " is negative");
   if (spec.speed_mps > lim.max_speed_mps)
-    reasons.push_back("speed_mps " + num(spec.speed_mps) + " exceeds the " + cls + " limit of " +
-                      num(lim.max_speed_mps) + " m/s");
+    reasons.push_back("speed_mps " + num_text(spec.speed_mps) + " exceeds the " + cls + " limit of " +
+                      num_text(lim.max_speed_mps) + " m/s");
   if (spec.deceleration_mps2) {
     if (*spec.deceleration_mps2 <= 0)
-      reasons.push_back("deceleration_mps2 " + num(*spec.deceleration_mps2) + " must be positive");
+      reasons.push_back("deceleration_mps2 " + num_text(*spec.deceleration_mps2) + " must be positive");
     else if (*spec.deceleration_mps2 > lim.max_decel_mps2)
-      reasons.push_back("deceleration_mps2 " + num(*spec.deceleration_mps2) + " exceeds the " + cls +
-                        " limit of " + num(lim.max_decel_mps2) + " m/s^2");
+      reasons.push_back("deceleration_mps2 " + num_text(*spec.deceleration_mps2) + " exceeds the " + cls +
+                        " limit of " + num_text(lim.max_decel_mps2) + " m/s^2");
   }
   if (spec.target_ttc_s && *spec.target_ttc_s <= 0)
-    reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " must be positive");
+    reasons.push_back("target_ttc_s " + num_text(*spec.target_ttc_s) + " must be positive");
   // How long the manoeuvre has been under way when the hazard appears (0 = it starts now).
   double under_way = 0;
   if (spec.extra.is_object() && spec.extra.contains("under_way_s") && !spec.extra["under_way_s"].is_null()) {
@@ -281,10 +282,10 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
     } else {
       under_way = u.get<double>();
       if (under_way < 0)
-        reasons.push_back("extra.under_way_s " + num(under_way) + " is negative");
+        reasons.push_back("extra.under_way_s " + num_text(under_way) + " is negative");
       else if (under_way > max_under_way_s_ + 1e-9)
-        reasons.push_back("extra.under_way_s " + num(under_way) + " s exceeds max_under_way_s " +
-                          num(max_under_way_s_) +
+        reasons.push_back("extra.under_way_s " + num_text(under_way) + " s exceeds max_under_way_s " +
+                          num_text(max_under_way_s_) +
                           " s (raise the template param to plan hazards already under way when they appear)");
     }
   }
@@ -305,7 +306,7 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   EgoPath design_ego = ego;
   if (ego_plan_ != "constant_speed" && has_track) {
     ego = EgoPath::recorded(scene.ego_track->samples, scene.timestamp,
-                            "scene at t=" + num(scene.timestamp, 3) + " s", ego_smoothing_s_);
+                            "scene at t=" + num_text(scene.timestamp, 3) + " s", ego_smoothing_s_);
     // The same path seen from where the ego was then — before the recording began, back along its first
     // heading at its first speed (the recording says nothing else about that time), as proposals assume.
     design_ego = under_way > 0 ? ego.seen_from(-under_way) : ego;
@@ -382,7 +383,7 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   for (size_t k = 0; k < out.ttc.size(); ++k) {
     if (out.ttc[k].in_path && out.ttc[k].gap <= 0) {
       if (k < 2) {
-        reasons.push_back("the object touches the ego at the start (gap " + num(out.ttc[k].gap) + " m)");
+        reasons.push_back("the object touches the ego at the start (gap " + num_text(out.ttc[k].gap) + " m)");
         return out;
       }
       out.notes["contact_time_s"] = tr.points[k].t;
@@ -421,15 +422,15 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   if (start_must_be_visible()) {
     const TrajectoryPoint& p0 = tr.points.front();
     if (!view_of(scene.camera, p0.x, p0.y, p0.heading, tr.size_lwh).centre_inside)
-      reasons.push_back("the start point (x=" + num(p0.x) + " m, y=" + num(p0.y) +
+      reasons.push_back("the start point (x=" + num_text(p0.x) + " m, y=" + num_text(p0.y) +
                         " m) is out of the camera's view");
   }
   if (spec.target_ttc_s && tr.intended_min_ttc_s > *spec.target_ttc_s + 0.05) {
     const double window = tr.points.back().t - tr.points.front().t;
-    reasons.push_back("target_ttc_s " + num(*spec.target_ttc_s) + " is not reached within the " +
-                      num(window) + " s plan (planned minimum TTC " +
+    reasons.push_back("target_ttc_s " + num_text(*spec.target_ttc_s) + " is not reached within the " +
+                      num_text(window) + " s plan (planned minimum TTC " +
                       (std::isfinite(tr.intended_min_ttc_s)
-                           ? num(tr.intended_min_ttc_s) + " s)"
+                           ? num_text(tr.intended_min_ttc_s) + " s)"
                            : std::string("infinite: the object never closes in "
                                          "on the ego path)")));
   }
@@ -441,7 +442,7 @@ EgoPath TemplateBase::planned_ego(const SceneContext& scene) const {
   if (ego_plan_ != "constant_speed" && has_track && scene.timestamp >= scene.ego_track->samples.front().t &&
       scene.timestamp <= scene.ego_track->samples.back().t)
     return EgoPath::recorded(scene.ego_track->samples, scene.timestamp,
-                             "scene at t=" + num(scene.timestamp, 3) + " s", ego_smoothing_s_);
+                             "scene at t=" + num_text(scene.timestamp, 3) + " s", ego_smoothing_s_);
   return EgoPath::straight(scene.ego_speed_mps.value_or(0.0));
 }
 

@@ -1,5 +1,5 @@
 // SHA-256 through OpenSSL's EVP interface.
-#include "llm_hash.hpp"
+#include "hazardforge/llm/hash.hpp"
 
 #include <openssl/evp.h>
 

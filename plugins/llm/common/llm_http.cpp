@@ -1,5 +1,5 @@
 // libcurl-backed JSON POST shared by the ollama and openai providers.
-#include "llm_http.hpp"
+#include "hazardforge/llm/http.hpp"
 
 #include <curl/curl.h>
 

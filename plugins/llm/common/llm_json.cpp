@@ -1,5 +1,5 @@
 // JSON object extraction from free-form model replies (bare JSON, prose around it, ``` fences).
-#include "llm_json.hpp"
+#include "hazardforge/llm/json.hpp"
 
 #include <algorithm>
 #include <optional>

@@ -5,7 +5,7 @@
 
 #include <hazardforge/stage.hpp>
 
-#include "llm_http.hpp"
+#include "hazardforge/llm/http.hpp"
 
 namespace hf::llm {
 

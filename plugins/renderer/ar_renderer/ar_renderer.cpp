@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/photo.hpp>
 
-#include "box_geometry.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 #include "hazardforge/error.hpp"
 #include "hazardforge/geometry.hpp"
 #include "hazardforge/realism/compare.hpp"

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "asset_library.hpp"
 #include "compositor.hpp"
 #include "ego_motion.hpp"
+#include "hazardforge/assets/asset_library.hpp"
 #include "hazardforge/geometry.hpp"
 #include "hazardforge/stage.hpp"
 #include "scene_light.hpp"

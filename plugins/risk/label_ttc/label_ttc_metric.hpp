@@ -2,7 +2,7 @@
 // labels).
 #pragma once
 
-#include "ground_truth_metric.hpp"
+#include "hazardforge/risk/ground_truth_protocol.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf {

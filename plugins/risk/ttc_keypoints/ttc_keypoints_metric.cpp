@@ -4,7 +4,7 @@
 #include <cmath>
 #include <set>
 
-#include "common/closing_speed.hpp"
+#include "hazardforge/risk/closing_speed.hpp"
 
 namespace hf {
 

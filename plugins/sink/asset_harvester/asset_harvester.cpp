@@ -8,7 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "box_geometry.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 #include "hazardforge/error.hpp"
 #include "hazardforge/realism/matting.hpp"
 

@@ -7,7 +7,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "asset_library.hpp"
+#include "hazardforge/assets/asset_library.hpp"
 #include "hazardforge/stage.hpp"
 
 namespace hf::render {

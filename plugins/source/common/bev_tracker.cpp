@@ -10,12 +10,12 @@
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+#include "hazardforge/angles.hpp"
 
 namespace hf::footage::detail {
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 constexpr int kWorkWidth = 960;  // source frames are reduced to this width before warping (anti-aliasing)
 
 }  // namespace
@@ -198,7 +198,7 @@ void BevTracker::build_maps() {
   map_y_.create(rows, cols, CV_32F);
   valid_ = cv::Mat::zeros(rows, cols, CV_8U);
   const double bottom = cam_.height - std::max(bonnet_rows_, 0) - 2.0;
-  const double min_depression = opt_.horizon_margin_deg * kDeg;
+  const double min_depression = opt_.horizon_margin_deg * kRadPerDeg;
   const double hcam = cam_.height_above_ground();
   for (int r = 0; r < rows; ++r) {
     const double fwd = opt_.far_m - (r + 0.5) * res;
@@ -364,7 +364,7 @@ cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur
     }
     return best;
   };
-  const double yaw_max = std::max(2.0 * kDeg, opt_.max_yaw_rate * dt);
+  const double yaw_max = std::max(2.0 * kRadPerDeg, opt_.max_yaw_rate * dt);
   const double d_max = std::min(opt_.max_speed_mps * dt + 0.3, 0.7 * (opt_.far_m - opt_.near_m));
   double d_lo = -0.5, d_hi = d_max;
   if (prior_speed) {
@@ -374,16 +374,17 @@ cv::Matx23d BevTracker::coarse_alignment(const cv::Mat& prev, const cv::Mat& cur
     d_lo = std::max(d_lo, centre - margin);
     d_hi = std::min(d_hi, centre + margin);
   }
-  double y_lo = -yaw_max, y_hi = yaw_max, y_step = 1.0 * kDeg;
+  double y_lo = -yaw_max, y_hi = yaw_max, y_step = 1.0 * kRadPerDeg;
   if (known_yaw) {
-    y_lo = *known_yaw - 1.5 * kDeg;
-    y_hi = *known_yaw + 1.5 * kDeg;
-    y_step = 0.5 * kDeg;
+    y_lo = *known_yaw - 1.5 * kRadPerDeg;
+    y_hi = *known_yaw + 1.5 * kRadPerDeg;
+    y_step = 0.5 * kRadPerDeg;
   }
   double d = 0, yaw = 0;
   const double coarse = search(4.0, d_lo, d_hi, 0.2, y_lo, y_hi, y_step, d, yaw);
   if (coarse > -1)
-    search(2.0, d - 0.2, d + 0.2, 0.05, yaw - 1.0 * kDeg, yaw + 1.0 * kDeg, 0.25 * kDeg, d, yaw);
+    search(2.0, d - 0.2, d + 0.2, 0.05, yaw - 1.0 * kRadPerDeg, yaw + 1.0 * kRadPerDeg, 0.25 * kRadPerDeg, d,
+           yaw);
   last_coarse_yaw_ = coarse > -1 ? std::optional<double>(yaw) : std::nullopt;
   cv::Mat inv;
   cv::invertAffineTransform(cv::Mat(motion_to_pixels(d, yaw, 1.0)), inv);

@@ -9,12 +9,12 @@
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
+#include "hazardforge/angles.hpp"
 
 namespace hf::footage {
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 constexpr int kWorkWidth = 960;
 
 }  // namespace
@@ -65,7 +65,7 @@ struct CameraHeightEstimator::Impl {
         const auto px = cam.project_ego(cv::Vec3d(cam.t_ego_cam[0] + fwd, cam.t_ego_cam[1] + lat, 0.0));
         float mx = -1, my = -1;
         if (px && px->x >= 1 && px->x < cam.width - 2 && px->y >= 1 && px->y < bottom &&
-            std::atan2(hcam, std::hypot(fwd, lat)) > opt.horizon_margin_deg * kDeg) {
+            std::atan2(hcam, std::hypot(fwd, lat)) > opt.horizon_margin_deg * kRadPerDeg) {
           mx = static_cast<float>(px->x * scale);
           my = static_cast<float>(px->y * scale);
           valid.at<uchar>(r, c) = 255;
@@ -116,7 +116,7 @@ struct CameraHeightEstimator::Impl {
     double best_score = -1, best_tan = 0;
     std::vector<double> best_prof;
     for (double hd = -opt.max_heading_deg; hd <= opt.max_heading_deg + 1e-9; hd += 0.5) {
-      const double tn = std::tan(hd * kDeg);
+      const double tn = std::tan(hd * kRadPerDeg);
       std::vector<double> prof(static_cast<size_t>(bins), 0.0);
       // Lateral offset measured along the row at the camera (row index of the camera = far_m / res).
       const double r_cam = opt.far_m / res;

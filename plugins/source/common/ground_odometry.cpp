@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "bev_tracker.hpp"
+#include "hazardforge/angles.hpp"
 #include "hazardforge/footage/attitude.hpp"
 #include "hazardforge/footage/ego_motion.hpp"
 #include "hazardforge/footage/two_view.hpp"
@@ -190,7 +191,6 @@ std::optional<double> ground_pitch_offset(const CameraModel& camera, const std::
                                           const std::vector<cv::Point2d>& img_q, double range_rad,
                                           double sharpness) {
   if (img_p.size() != img_q.size() || img_p.size() < 3) return std::nullopt;
-  constexpr double kDeg = M_PI / 180.0;
   auto residual = [&](double dp) {
     detail::Rigid2 fit;
     const double e = detail::ground_residual(with_pitch_roll(camera, camera.pitch() + dp, camera.roll()),
@@ -207,12 +207,12 @@ std::optional<double> ground_pitch_offset(const CameraModel& camera, const std::
       }
     }
   };
-  scan(-range_rad, range_rad, 0.25 * kDeg);
+  scan(-range_rad, range_rad, 0.25 * kRadPerDeg);
   if (!std::isfinite(best)) return std::nullopt;
   const double coarse = bp;
-  scan(coarse - 0.3 * kDeg, coarse + 0.3 * kDeg, 0.025 * kDeg);
-  if (bp <= -range_rad + 0.1 * kDeg || bp >= range_rad - 0.1 * kDeg) return std::nullopt;
-  const double lo = residual(bp - kDeg), hi = residual(bp + kDeg);
+  scan(coarse - 0.3 * kRadPerDeg, coarse + 0.3 * kRadPerDeg, 0.025 * kRadPerDeg);
+  if (bp <= -range_rad + 0.1 * kRadPerDeg || bp >= range_rad - 0.1 * kRadPerDeg) return std::nullopt;
+  const double lo = residual(bp - kRadPerDeg), hi = residual(bp + kRadPerDeg);
   const double side = std::min(std::isfinite(lo) ? lo : std::numeric_limits<double>::infinity(),
                                std::isfinite(hi) ? hi : std::numeric_limits<double>::infinity());
   if (!(side > sharpness * best)) return std::nullopt;

@@ -6,6 +6,7 @@
 #include "median.hpp"
 
 #include "bev_tracker.hpp"
+#include "hazardforge/angles.hpp"
 #include "hazardforge/footage/attitude.hpp"
 
 #include <algorithm>
@@ -22,7 +23,6 @@ namespace hf::footage {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kDeg = M_PI / 180.0;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 double mad_sigma(const std::vector<double>& v, double med) {
@@ -72,7 +72,7 @@ std::optional<cv::Point2d> road_vanishing_point(const cv::Mat& gray, const Horiz
   cv::Canny(blurred, edges, 60, 150);
   std::vector<cv::Vec4i> raw;
   const double min_len = o.min_segment_fraction * w;
-  cv::HoughLinesP(edges, raw, 1, kDeg, 25, min_len, 4);
+  cv::HoughLinesP(edges, raw, 1, kRadPerDeg, 25, min_len, 4);
   std::vector<Segment> segs;
   for (const cv::Vec4i& r : raw) {
     Segment s;
@@ -82,7 +82,7 @@ std::optional<cv::Point2d> road_vanishing_point(const cv::Mat& gray, const Horiz
     const cv::Point2d d = s.b - s.a;
     s.length = std::hypot(d.x, d.y);
     if (s.length < min_len) continue;
-    const double angle = std::atan2(std::abs(d.y), std::abs(d.x)) / kDeg;
+    const double angle = std::atan2(std::abs(d.y), std::abs(d.x)) / kRadPerDeg;
     if (angle < o.min_segment_angle_deg || angle > o.max_segment_angle_deg) continue;
     s.dir = d / s.length;
     s.mid = 0.5 * (s.a + s.b);
@@ -94,7 +94,7 @@ std::optional<cv::Point2d> road_vanishing_point(const cv::Mat& gray, const Horiz
   if (static_cast<int>(segs.size()) < o.vp_min_support) return std::nullopt;
   std::sort(segs.begin(), segs.end(), [](const Segment& x, const Segment& y) { return x.length > y.length; });
   if (segs.size() > 80) segs.resize(80);
-  const double tol = std::sin(o.vp_angle_tol_deg * kDeg);
+  const double tol = std::sin(o.vp_angle_tol_deg * kRadPerDeg);
   auto supports = [&](const Segment& s, const cv::Point2d& vp) {
     const cv::Point2d v = vp - s.mid;
     const double n = std::hypot(v.x, v.y);
@@ -154,7 +154,7 @@ std::optional<cv::Point2d> focus_of_expansion(const std::vector<cv::Point2f>& p0
     const cv::Vec3d l = cv::Vec3d(p0[i].x, p0[i].y, 1).cross(cv::Vec3d(p1[i].x, p1[i].y, 1));
     return cv::Vec3d(l / std::hypot(l[0], l[1]));
   };
-  const double tol = std::sin(o.foe_angle_tol_deg * kDeg);
+  const double tol = std::sin(o.foe_angle_tol_deg * kRadPerDeg);
   auto inlier = [&](int i, const cv::Point2d& f) {
     const cv::Point2d d(p1[i].x - p0[i].x, p1[i].y - p0[i].y);
     const cv::Point2d r(p0[i].x - f.x, p0[i].y - f.y);  // from the FOE out to the point
@@ -313,7 +313,7 @@ void HorizonEstimator::add(const cv::Mat& bgr, double timestamp) {
           }
           const double tn = cv::norm(best_t);
           // The road normal is nearly the camera's -y; the motion is mostly along the optical axis.
-          if (best_cos > std::cos(20 * kDeg) && tn > opt_.homography_min_translation &&
+          if (best_cos > std::cos(20 * kRadPerDeg) && tn > opt_.homography_min_translation &&
               std::abs(best_t[2]) > 0.8 * tn && best_n[1] < -1e-6) {
             Sample s{Sample::kHomography, 0, 0, 0, 0, frame};
             s.row_at_cx = cam_.cy - cam_.fy * best_n[2] / best_n[1];
@@ -367,16 +367,17 @@ void HorizonEstimator::ground_motion_cue(const cv::Mat& bgr, int frame, double d
     }
     return best;
   };
-  const double pr = opt_.ground_pitch_range_deg * kDeg, rr = opt_.ground_roll_range_deg * kDeg;
+  const double pr = opt_.ground_pitch_range_deg * kRadPerDeg, rr = opt_.ground_roll_range_deg * kRadPerDeg;
   double bp = 0, br = 0;
-  if (!std::isfinite(search(-pr, pr, 0.25 * kDeg, -rr, rr, 0.5 * kDeg, bp, br))) return;
-  double best = search(bp - 0.3 * kDeg, bp + 0.3 * kDeg, 0.025 * kDeg, br - 0.6 * kDeg, br + 0.6 * kDeg,
-                       0.1 * kDeg, bp, br);
+  if (!std::isfinite(search(-pr, pr, 0.25 * kRadPerDeg, -rr, rr, 0.5 * kRadPerDeg, bp, br))) return;
+  double best = search(bp - 0.3 * kRadPerDeg, bp + 0.3 * kRadPerDeg, 0.025 * kRadPerDeg,
+                       br - 0.6 * kRadPerDeg, br + 0.6 * kRadPerDeg, 0.1 * kRadPerDeg, bp, br);
   // A flat residual (too little depth range, points not on the ground) does not pin the pitch down.
-  const double lo = detail::ground_residual(cam_at(bp - kDeg, br), ip, iq);
-  const double hi = detail::ground_residual(cam_at(bp + kDeg, br), ip, iq);
+  const double lo = detail::ground_residual(cam_at(bp - kRadPerDeg, br), ip, iq);
+  const double hi = detail::ground_residual(cam_at(bp + kRadPerDeg, br), ip, iq);
   const double side = std::min(std::isfinite(lo) ? lo : kInf, std::isfinite(hi) ? hi : kInf);
-  if (!(side > opt_.ground_sharpness * best) || bp <= -pr + 0.1 * kDeg || bp >= pr - 0.1 * kDeg) return;
+  if (!(side > opt_.ground_sharpness * best) || bp <= -pr + 0.1 * kRadPerDeg || bp >= pr - 0.1 * kRadPerDeg)
+    return;
   Sample s{Sample::kGroundMotion, 0, 0, 0, br, frame};
   s.row_at_cx = cam_.cy - cam_.fy * std::tan(bp) / std::cos(br);
   samples_.push_back(s);
@@ -405,17 +406,17 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
   }
   double roll = 0;
   bool roll_known = false;
-  const double max_sigma = opt_.max_roll_sigma_deg * kDeg;
+  const double max_sigma = opt_.max_roll_sigma_deg * kRadPerDeg;
   if (static_cast<int>(rolls.size()) >= opt_.min_roll_samples) {
     const double m = detail::median(rolls);
     const double sig = mad_sigma(rolls, m);
     if (sig < max_sigma) {
       std::vector<double> in;
       for (double r : rolls)
-        if (std::abs(r - m) <= std::max(3 * sig, 0.2 * kDeg)) in.push_back(r);
+        if (std::abs(r - m) <= std::max(3 * sig, 0.2 * kRadPerDeg)) in.push_back(r);
       const double se =
           1.2533 * sig / std::sqrt(static_cast<double>(in.size()));  // standard error of a median
-      if (static_cast<int>(in.size()) >= opt_.min_roll_samples && se < opt_.max_roll_error_deg * kDeg) {
+      if (static_cast<int>(in.size()) >= opt_.min_roll_samples && se < opt_.max_roll_error_deg * kRadPerDeg) {
         roll = detail::median(in);
         est.roll_sigma_rad = std::max(se, 1e-4);
         roll_known = true;
@@ -455,7 +456,7 @@ std::optional<HorizonEstimate> HorizonEstimator::result() const {
         const double se_b = std::sqrt(res / std::max(1, n - 2) / sxx2);
         const double r = std::atan(-b * cam_.fx / cam_.fy);
         const double se_r = se_b * cam_.fx / cam_.fy;
-        if (se_r < opt_.max_roll_error_deg * kDeg) {
+        if (se_r < opt_.max_roll_error_deg * kRadPerDeg) {
           roll = r;
           est.roll_sigma_rad = se_r;
           roll_known = true;

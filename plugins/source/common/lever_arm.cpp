@@ -5,15 +5,12 @@
 #include <cmath>
 #include <limits>
 
+#include "hazardforge/angles.hpp"
 #include "median.hpp"
 
 namespace hf::footage {
 
-namespace {
-
-constexpr double kDeg = M_PI / 180.0;
-
-}  // namespace
+namespace {}  // namespace
 
 std::optional<double> lever_arm_chord(double turn, double heading, double lever_m) {
   // The camera's move d = c u(turn/2) + L (cos turn - 1, sin turn) is parallel to u(heading):
@@ -36,7 +33,8 @@ LeverArmScale::LeverArmScale(double lever_m, LeverArmOptions opt) : lever_m_(lev
 
 void LeverArmScale::observe(const EgoMotionSample& s) {
   if (!s.two_view || !std::isfinite(s.two_view->heading_sigma)) return;
-  if (std::abs(s.two_view->yaw) < opt_.straight_turn_deg * kDeg) straight_.push_back(s.two_view->heading);
+  if (std::abs(s.two_view->yaw) < opt_.straight_turn_deg * kRadPerDeg)
+    straight_.push_back(s.two_view->heading);
 }
 
 double LeverArmScale::bias() const {
@@ -44,7 +42,7 @@ double LeverArmScale::bias() const {
 }
 
 double LeverArmScale::bias_sigma() const {
-  if (!from_straight_pairs()) return opt_.prior_bias_sigma_deg * kDeg;
+  if (!from_straight_pairs()) return opt_.prior_bias_sigma_deg * kRadPerDeg;
   // The median's sigma from the pairs' spread (MAD), as of a normal sample.
   const double m = detail::median(straight_);
   std::vector<double> dev;
@@ -57,7 +55,7 @@ EgoMotionSample LeverArmScale::fuse(EgoMotionSample s) const {
   if (!s.two_view || !(lever_m_ > 0) || !std::isfinite(s.two_view->heading_sigma)) return s;
   const double turn = s.two_view->yaw;
   const double interval = s.interval_s;
-  if (std::abs(turn) < opt_.min_turn_deg * kDeg || !(interval > 1e-6)) return s;
+  if (std::abs(turn) < opt_.min_turn_deg * kRadPerDeg || !(interval > 1e-6)) return s;
   const double heading = s.two_view->heading - bias();
   const auto c = lever_arm_chord(turn, heading, lever_m_);
   if (!c) return s;

@@ -6,7 +6,8 @@
 #include <limits>
 #include <tuple>
 
-#include "hungarian.hpp"
+#include "hazardforge/angles.hpp"
+#include "hazardforge/tracking/hungarian.hpp"
 
 namespace hf {
 
@@ -99,8 +100,7 @@ Tracks CentroidTracker::step(const Detections& dets, const Frame& frame) {
     heading = 0.0;
   }
   if (cfg_.compensate_turn && heading && heading_ && frame.camera.valid()) {
-    double turn = *heading - *heading_;
-    turn = std::remainder(turn, 2.0 * M_PI);
+    const double turn = angle_diff(*heading, *heading_);
     const cv::Size sz = image_size_of(dets, frame);
     const CameraModel cam =
         sz.area() > 0 && (sz.width != frame.camera.width || sz.height != frame.camera.height)

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-#include "hungarian.hpp"
+#include "hazardforge/tracking/hungarian.hpp"
 
 namespace hf {
 

@@ -9,7 +9,7 @@
 
 #include <hazardforge/stage.hpp>
 
-#include "track_common.hpp"
+#include "hazardforge/tracking/track_common.hpp"
 
 namespace hf {
 

@@ -86,8 +86,6 @@ std::optional<std::string> draw_class(const ProposalScene& sc,
 
 // Rounds to a multiple of `step` (the precision a proposal states its numbers with).
 double round_to(double v, double step);
-// One decimal, for rationales.
-std::string fmt1(double v);
 
 // The spec JSON every proposal starts from (the reply schema's fields, extra empty).
 Json proposal_spec(const std::string& kind, const std::string& cls, double x, double y,

@@ -1,21 +1,21 @@
 // Oriented 3D boxes of road users: corners, projection into a camera, and which side of the object a camera
 // sees.
-#include "box_geometry.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include <opencv2/calib3d.hpp>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/error.hpp"
 
 namespace hf::render {
 
 namespace {
-constexpr double kDeg = 180.0 / CV_PI;
 // A face takes a picture when the camera sees it within 67.5 degrees of its normal: one face for head-on
 // views, two for three-quarter views.
-const double kFaceVisibleCos = std::cos(67.5 / kDeg);
+const double kFaceVisibleCos = std::cos(67.5 / kDegPerRad);
 }  // namespace
 
 BoxCorners box_corners(double x, double y, double yaw, const cv::Vec3d& s, double z_bottom) {
@@ -61,19 +61,12 @@ double face_azimuth_deg(Face f) {
   return 0.0;
 }
 
-double wrap_deg(double a) {
-  a = std::fmod(a, 360.0);
-  if (a <= -180.0) a += 360.0;
-  if (a > 180.0) a -= 360.0;
-  return a;
-}
-
 double angle_diff_deg(double a, double b) {
   return std::abs(wrap_deg(a - b));
 }
 
 double camera_azimuth_deg(const cv::Vec3d& cam, double ox, double oy, double yaw) {
-  return wrap_deg(std::atan2(cam[1] - oy, cam[0] - ox) * kDeg - yaw * kDeg);
+  return wrap_deg(std::atan2(cam[1] - oy, cam[0] - ox) * kDegPerRad - yaw * kDegPerRad);
 }
 
 const std::vector<std::string>& view_names() {
@@ -106,7 +99,7 @@ std::string view_for_azimuth(double az) {
 std::vector<Face> visible_faces(double az) {
   std::vector<Face> out;
   for (Face f : {Face::kFront, Face::kLeft, Face::kRear, Face::kRight})
-    if (std::cos((az - face_azimuth_deg(f)) / kDeg) > kFaceVisibleCos) out.push_back(f);
+    if (std::cos((az - face_azimuth_deg(f)) / kDegPerRad) > kFaceVisibleCos) out.push_back(f);
   return out;
 }
 

@@ -8,7 +8,7 @@
 #include <hazardforge/error.hpp>
 #include <hazardforge/types.hpp>
 
-#include "llm_json.hpp"
+#include "hazardforge/llm/json.hpp"
 
 namespace hf::llm {
 

@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "hazardforge/angles.hpp"
 #include "hazardforge/types.hpp"
 
 namespace hf::render {
@@ -54,8 +55,6 @@ std::array<double, 4> face_shares(const std::array<cv::Point2d, 8>& px);
 // Corner indices of some faces, without repeats, ascending.
 std::vector<int> corners_of(const std::vector<Face>& faces);
 
-// Wraps an angle in degrees to (-180, 180].
-double wrap_deg(double a);
 double angle_diff_deg(double a, double b);  // |a - b| on the circle, in [0, 180]
 
 // Pixel of an ego-frame point with the camera's distortion applied (nullopt behind the camera).

@@ -1,6 +1,6 @@
 // Appearance assets: reading and writing assets.yaml, preparing sprites for warping, and choosing one per
 // view.
-#include "asset_library.hpp"
+#include "hazardforge/assets/asset_library.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -14,9 +14,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "box_geometry.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 #include "hazardforge/atomic_file.hpp"
 #include "hazardforge/error.hpp"
+#include "hazardforge/number_text.hpp"
 #include "hazardforge/yaml_json.hpp"
 
 namespace hf::render {
@@ -64,18 +65,6 @@ class IndexReader {
  private:
   const YamlDocument& doc_;
 };
-
-std::string fmt(double v, int prec) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", prec, v);
-  std::string s = buf;
-  if (s == "-0" || s.rfind("-0.", 0) == 0) {
-    // "-0.00" reads badly and differs between platforms; print zero plainly.
-    bool zero = s.find_first_not_of("-0.") == std::string::npos;
-    if (zero) s = s.substr(1);
-  }
-  return s;
-}
 
 std::string quoted(const std::string& s) {
   std::string out = "\"";
@@ -196,15 +185,15 @@ void save_asset_index(const fs::path& dir, const AssetIndex& index, const std::s
     os << "  - file: " << quoted(s.file) << "\n";
     os << "    class: " << s.object_class << "\n";
     os << "    view: " << s.view << "\n";
-    os << "    azimuth_deg: " << fmt(s.azimuth_deg, 1) << "\n";
-    os << "    size_lwh: [" << fmt(s.size_lwh[0], 3) << ", " << fmt(s.size_lwh[1], 3) << ", "
-       << fmt(s.size_lwh[2], 3) << "]\n";
+    os << "    azimuth_deg: " << fixed_text(s.azimuth_deg, 1) << "\n";
+    os << "    size_lwh: [" << fixed_text(s.size_lwh[0], 3) << ", " << fixed_text(s.size_lwh[1], 3) << ", "
+       << fixed_text(s.size_lwh[2], 3) << "]\n";
     os << "    image_size: [" << s.image_size.width << ", " << s.image_size.height << "]\n";
-    os << "    anchor_px: [" << fmt(s.anchor_px.x, 2) << ", " << fmt(s.anchor_px.y, 2) << "]\n";
+    os << "    anchor_px: [" << fixed_text(s.anchor_px.x, 2) << ", " << fixed_text(s.anchor_px.y, 2) << "]\n";
     os << "    box_corners_px: [";
     for (int k = 0; k < 8; ++k)
-      os << (k ? ", " : "") << "[" << fmt(s.box_corners_px[k].x, 2) << ", " << fmt(s.box_corners_px[k].y, 2)
-         << "]";
+      os << (k ? ", " : "") << "[" << fixed_text(s.box_corners_px[k].x, 2) << ", "
+         << fixed_text(s.box_corners_px[k].y, 2) << "]";
     os << "]\n";
     if (!s.source.empty()) os << "    source: " << s.source << "\n";
     if (!s.instance.empty()) os << "    instance: " << quoted(s.instance) << "\n";

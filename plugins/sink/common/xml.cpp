@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "hazardforge/hazard/kinematics.hpp"
+#include "hazardforge/number_text.hpp"
 
 namespace hf::road {
 
@@ -11,7 +11,7 @@ std::string xml_num(double v, int decimals) {
   // XML Schema's spelling of the non-finite doubles; finite ones take the project's one number format.
   if (std::isnan(v)) return "NaN";
   if (std::isinf(v)) return v > 0 ? "INF" : "-INF";
-  return hazard::num(v, decimals);
+  return num_text(v, decimals);
 }
 
 void XmlWriter::open(const std::string& tag, const XmlAttrs& attrs) {

@@ -1,6 +1,8 @@
 // Reference-line fitting (lines and G1 Hermite paramPoly3 pieces within a tolerance) and the s/t mapping.
 #include "hazardforge/road/reference_line.hpp"
 
+#include "hazardforge/angles.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -14,10 +16,6 @@ namespace {
 constexpr double kDenseStep = 0.05;  // m between the dense samples used for length, evaluation, projection
 constexpr double kMinLine = 5.0;     // m; shorter straight runs are left to the curve pieces
 
-double wrap(double a) {
-  return std::remainder(a, 2 * std::numbers::pi);
-}
-
 struct Pose {
   double x, y, h;
 };
@@ -29,7 +27,7 @@ Geometry hermite(const Pose& a, const Pose& b) {
   g.x = a.x, g.y = a.y, g.hdg = a.h;
   const double c = std::cos(a.h), s = std::sin(a.h);
   const double ue = c * (b.x - a.x) + s * (b.y - a.y), ve = -s * (b.x - a.x) + c * (b.y - a.y);
-  const double dh = wrap(b.h - a.h);
+  const double dh = wrap_angle(b.h - a.h);
   const double L = std::hypot(ue, ve);
   const double t1u = L * std::cos(dh), t1v = L * std::sin(dh);
   g.bu = L, g.bv = 0;
@@ -99,8 +97,8 @@ ReferenceLine ReferenceLine::fit(const std::vector<PathPoint>& path, double tole
   }
   // A chord's direction is the tangent at its middle; at the ends, extrapolate from the last two chords.
   if (n >= 3) {
-    h[0] = chord(0, 1) - 0.5 * wrap(chord(1, 2) - chord(0, 1));
-    h[n - 1] = chord(n - 2, n - 1) + 0.5 * wrap(chord(n - 2, n - 1) - chord(n - 3, n - 2));
+    h[0] = chord(0, 1) - 0.5 * wrap_angle(chord(1, 2) - chord(0, 1));
+    h[n - 1] = chord(n - 2, n - 1) + 0.5 * wrap_angle(chord(n - 2, n - 1) - chord(n - 3, n - 2));
   }
 
   ReferenceLine line;
@@ -113,7 +111,7 @@ ReferenceLine ReferenceLine::fit(const std::vector<PathPoint>& path, double tole
     Geometry g = hermite(cur, {pts[j].x, pts[j].y, h[j]});
     const double approx = s[j] - s[i0];
     const bool straight = std::abs(g.bv) < 1e-12 && std::abs(g.cv) < 1e-3 * tolerance &&
-                          std::abs(g.dv) < 1e-3 * tolerance && std::abs(wrap(h[j] - cur.h)) < 1e-6;
+                          std::abs(g.dv) < 1e-3 * tolerance && std::abs(wrap_angle(h[j] - cur.h)) < 1e-6;
     if (straight) {
       g = Geometry{};
       g.x = cur.x, g.y = cur.y, g.hdg = cur.h, g.line = true;
@@ -136,7 +134,7 @@ ReferenceLine ReferenceLine::fit(const std::vector<PathPoint>& path, double tole
       if (std::abs(off) > tolerance / 4 ||
           c * (pts[k].x - cur.x) + sn * (pts[k].y - cur.y) > max_piece + 1e-6)
         break;
-      if (std::abs(wrap(h[k] - cur.h)) < 1e-3) last = k;
+      if (std::abs(wrap_angle(h[k] - cur.h)) < 1e-3) last = k;
     }
     return last;
   };
@@ -211,7 +209,7 @@ void ReferenceLine::densify() {
         const PathPoint d = poly_tangent(g, static_cast<double>(k) / n);
         hdg = g.hdg + std::atan2(d.y, d.x);
       }
-      dense_.push_back({s, pts[k].x, pts[k].y, wrap(hdg)});
+      dense_.push_back({s, pts[k].x, pts[k].y, wrap_angle(hdg)});
     }
   }
 }
@@ -229,7 +227,7 @@ RoadPose ReferenceLine::at(double s) const {
   const Sample& b = *it;
   const Sample& a = *(it - 1);
   const double u = b.s > a.s ? (s - a.s) / (b.s - a.s) : 0.0;
-  return {a.x + u * (b.x - a.x), a.y + u * (b.y - a.y), wrap(a.hdg + u * wrap(b.hdg - a.hdg))};
+  return {a.x + u * (b.x - a.x), a.y + u * (b.y - a.y), wrap_angle(a.hdg + u * wrap_angle(b.hdg - a.hdg))};
 }
 
 PathPoint ReferenceLine::to_xy(double s, double t) const {
