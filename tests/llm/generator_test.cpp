@@ -8,7 +8,7 @@
 #include <set>
 #include <thread>
 
-#include "llm_hash.hpp"
+#include "hazardforge/llm/hash.hpp"
 #include "llm_test_support.hpp"
 #include "temp_dir.hpp"
 
@@ -17,21 +17,14 @@ namespace {
 
 using test::ScriptedServer;
 
-const char* kDescription = "Busy city street, peds on the sidewalk, two lanes each way";
+using test::kDescription;
 
 std::string ollama_yaml(const std::string& url, const std::string& extra = "") {
   return "provider: {name: ollama, host: '" + url + "', read_timeout_s: 2}\nseed: 7\ntemperature: 0\n" +
          extra;
 }
 
-std::string run_error(testing::StageRunner& r) {
-  try {
-    r.run();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::run_error;
 
 // A small third-party template: cargo lying on the road, which must not move.
 class FallenCargoTemplate : public HazardTemplate {

@@ -7,8 +7,8 @@
 #include <future>
 #include <thread>
 
-#include "llm_http.hpp"
-#include "llm_json.hpp"
+#include "hazardforge/llm/http.hpp"
+#include "hazardforge/llm/json.hpp"
 #include "llm_test_support.hpp"
 
 namespace hf {
@@ -16,16 +16,9 @@ namespace {
 
 using test::ScriptedServer;
 
-const char* kDescription = "Busy city street, peds on the sidewalk, two lanes each way";
+using test::kDescription;
 
-std::string run_error(testing::StageRunner& r) {
-  try {
-    r.run();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::run_error;
 
 std::string slurp(const std::filesystem::path& p) {
   std::ifstream in(p, std::ios::binary);

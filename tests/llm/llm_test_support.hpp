@@ -28,6 +28,19 @@
 
 namespace hf::test {
 
+// The scene description the generator tests state.
+inline constexpr const char* kDescription = "Busy city street, peds on the sidewalk, two lanes each way";
+
+// The error a run ends with, or "(no error)".
+inline std::string run_error(testing::StageRunner& r) {
+  try {
+    r.run();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
 // nuScenes-like front camera: 1600x900, f = 1266 px, 1.5 m high, 1.5 m ahead of the rear axle, level.
 inline CameraModel test_camera() {
   return CameraModel::pinhole(1600, 900, 1266, 1266, 800, 450, 1.5, 0.0, 1.5);
@@ -136,7 +149,7 @@ class OfflineScene {
   OfflineScene(llm_hazard::SceneSettings s, const Frame& frame, const ObjectStates& states,
                const RiskAssessment& risk, void (*more)(Registrar&) = nullptr)
       : settings_(std::move(s)),
-        limits_(hazard::LimitsTable::load(hazard::LimitsTable::default_path())),
+        limits_(LimitsTable::load(LimitsTable::default_path())),
         sizes_(ClassPriors::load(share_dir() + "/class_sizes.yaml")) {
     registry_.add<PedestrianCrossingTemplate>();
     registry_.add<CutInTemplate>();
@@ -183,7 +196,7 @@ class OfflineScene {
 
  private:
   llm_hazard::SceneSettings settings_;
-  hazard::LimitsTable limits_;
+  LimitsTable limits_;
   ClassPriors sizes_;
   ComponentRegistry registry_;
   std::map<std::string, std::unique_ptr<HazardTemplate>> templates_;

@@ -12,9 +12,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "asset_library.hpp"
-#include "box_geometry.hpp"
+#include "hazardforge/assets/asset_library.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 #include "hazardforge/geometry.hpp"
+#include "render_fixtures.hpp"
 #include "temp_dir.hpp"
 
 namespace hf::render {
@@ -22,12 +23,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path default_dir() {
-  return fs::path(share_dir()) / "assets";
-}
-
 TEST(DefaultAssets, EveryClassHasSixteenViewsWithAlphaAndGeometry) {
-  const AssetIndex idx = load_asset_index(default_dir());
+  const AssetIndex idx = load_asset_index(test::default_asset_dir());
   std::map<std::string, std::set<long>> views;
   for (const AssetSpec& s : idx.assets) {
     SCOPED_TRACE(s.file);
@@ -35,7 +32,7 @@ TEST(DefaultAssets, EveryClassHasSixteenViewsWithAlphaAndGeometry) {
     EXPECT_EQ(view_for_azimuth(s.azimuth_deg) == s.view ||
                   angle_diff_deg(view_azimuth_deg(s.view), s.azimuth_deg) <= 22.5,
               true);
-    const cv::Mat img = cv::imread((default_dir() / s.file).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat img = cv::imread((test::default_asset_dir() / s.file).string(), cv::IMREAD_UNCHANGED);
     ASSERT_EQ(img.type(), CV_8UC4);
     EXPECT_EQ(img.size(), s.image_size);
     std::vector<cv::Mat> ch;
@@ -64,7 +61,7 @@ TEST(DefaultAssets, CommittedPicturesAreTheGeneratorsOutput) {
   const std::string cmd = std::string(HF_MAKE_ASSETS) + " --out " + out.string() + " > /dev/null";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   const AssetIndex fresh = load_asset_index(out);
-  const AssetIndex committed = load_asset_index(default_dir());
+  const AssetIndex committed = load_asset_index(test::default_asset_dir());
   std::map<std::string, AssetSpec> by_file;
   for (const auto& s : committed.assets) by_file[s.file] = s;
   ASSERT_EQ(fresh.assets.size(), 96u);  // sixteen views of each class, the car in three colours
@@ -75,7 +72,7 @@ TEST(DefaultAssets, CommittedPicturesAreTheGeneratorsOutput) {
   std::set<std::string> generated;
   for (const AssetSpec& s : fresh.assets) generated.insert(s.file);
   std::vector<std::string> stray;
-  for (const auto& e : fs::directory_iterator(default_dir()))
+  for (const auto& e : fs::directory_iterator(test::default_asset_dir()))
     if (e.path().extension() == ".png" && !generated.count(e.path().filename().string()))
       stray.push_back(e.path().filename().string());
   EXPECT_TRUE(stray.empty()) << stray.size() << " picture(s) not made by the generator, e.g. "
@@ -88,7 +85,7 @@ TEST(DefaultAssets, CommittedPicturesAreTheGeneratorsOutput) {
     EXPECT_EQ(c.image_size, s.image_size);
     for (int k = 0; k < 8; ++k) EXPECT_NEAR(cv::norm(c.box_corners_px[k] - s.box_corners_px[k]), 0.0, 0.01);
     const cv::Mat a = cv::imread((out / s.file).string(), cv::IMREAD_UNCHANGED);
-    const cv::Mat b = cv::imread((default_dir() / s.file).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat b = cv::imread((test::default_asset_dir() / s.file).string(), cv::IMREAD_UNCHANGED);
     ASSERT_EQ(a.size(), b.size());
     cv::Mat d;
     cv::absdiff(a, b, d);
@@ -114,7 +111,7 @@ TEST(AssetIndex, MalformedEntriesNameTheFileLineAndField) {
 }
 
 TEST(AssetLibrary, UnknownClassNamesTheClassesAvailable) {
-  const AssetLibrary lib = AssetLibrary::load(default_dir());
+  const AssetLibrary lib = AssetLibrary::load(test::default_asset_dir());
   try {
     lib.select("tram", 0.0, "", 30.0);
     FAIL() << "expected an error";

@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "ar_renderer.hpp"
-#include "box_geometry.hpp"
+#include "hazardforge/assets/box_geometry.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
 #include "render_fixtures.hpp"
 #include "temp_dir.hpp"
@@ -21,10 +21,6 @@ namespace fs = std::filesystem;
 using hf::test::make_frame;
 using hf::test::static_object;
 using hf::test::test_camera;
-
-fs::path default_dir() {
-  return fs::path(share_dir()) / "assets";
-}
 
 RendererOptions options(bool shadow = false) {
   RendererOptions o;
@@ -116,13 +112,14 @@ void expect_alpha_respected(const cv::Mat& before, const HazardRenderer::Result&
 TEST(Composite, DefaultAssetsRespectAlpha) {
   const cv::Mat img = hf::test::textured_image();
   for (const char* cls : {"car", "person", "truck", "bus"}) {
-    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r(options(),
+                     std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     auto traj = std::make_shared<const HazardTrajectory>(
         static_object(cls, 18.0, 1.0, 0.7, 0.0, 1.0, 0.0,
                       std::string(cls) == "person" ? cv::Vec3d(0.5, 0.6, 1.7) : cv::Vec3d(4.5, 1.85, 1.52)));
     auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
     SCOPED_TRACE(cls);
-    EXPECT_NE(res.asset_file.find(default_dir().string()), std::string::npos);
+    EXPECT_NE(res.asset_file.find(test::default_asset_dir().string()), std::string::npos);
     expect_alpha_respected(img, res);
   }
 }
@@ -131,7 +128,7 @@ TEST(Composite, HarvestedAssetsRespectAlphaAndOverrideDefaults) {
   const hf::test::TempDir tmp;
   const fs::path dir = make_harvested_folder(tmp / "assets");
   const cv::Mat img = hf::test::textured_image();
-  auto lib = std::make_shared<const AssetLibrary>(AssetLibrary::load(dir, default_dir()));
+  auto lib = std::make_shared<const AssetLibrary>(AssetLibrary::load(dir, test::default_asset_dir()));
   HazardRenderer r(options(), lib);
   // A car driving away 14 m ahead: the harvested rear view is used (primary folder), not the default one.
   auto traj = std::make_shared<const HazardTrajectory>(
@@ -144,7 +141,7 @@ TEST(Composite, HarvestedAssetsRespectAlphaAndOverrideDefaults) {
   auto person = std::make_shared<const HazardTrajectory>(
       static_object("person", 12.0, 0.0, 1.57, 0.0, 1.0, 0.0, cv::Vec3d(0.5, 0.6, 1.7)));
   auto res2 = r2.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), person, {});
-  EXPECT_NE(res2.asset_file.find(default_dir().string()), std::string::npos);
+  EXPECT_NE(res2.asset_file.find(test::default_asset_dir().string()), std::string::npos);
   expect_alpha_respected(img, res2);
 }
 
@@ -154,7 +151,8 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   auto traj = std::make_shared<const HazardTrajectory>(
       static_object("car", 20.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
   // The hazard's box without occluders.
-  HazardRenderer free_r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  HazardRenderer free_r(options(),
+                        std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
   const auto free = free_r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj, {});
   const cv::Rect2f hb = free.hazard.box;
   ASSERT_GT(hb.area(), 1000);
@@ -163,7 +161,8 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   // bottom edge lower in the image than the hazard's).
   const double near_bottom = cam.project_ego({1.5 + 9.0, 0, 0})->y;
   const cv::Rect2f near_box(hb.x - 20, static_cast<float>(near_bottom) - 160, hb.width / 2 + 20, 160);
-  HazardRenderer r(options(true), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  HazardRenderer r(options(true),
+                   std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
   const auto occ = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj,
                             {{near_box, 0.9f, std::nullopt, "car", 0, 0, -1, std::nullopt}});
   // Every pixel of the nearer object's box is untouched (the hazard and its shadow are behind it).
@@ -179,7 +178,8 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
   // The same box standing farther away (bottom edge above the hazard's) is drawn over.
   const double far_bottom = cam.project_ego({1.5 + 40.0, 0, 0})->y;
   const cv::Rect2f far_box(hb.x - 20, static_cast<float>(far_bottom) - 160, hb.width / 2 + 20, 160);
-  HazardRenderer r3(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  HazardRenderer r3(options(),
+                    std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
   const auto behind = r3.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), traj,
                                 {{far_box, 0.9f, std::nullopt, "car", 0, 0, -1, std::nullopt}});
   EXPECT_NEAR(behind.hazard.occluded_fraction, 0.0, 1e-9);
@@ -189,7 +189,7 @@ TEST(Composite, NearerBoxOccludesAndFartherBoxDoesNot) {
 // car drawn by a camera whose picture is 800 px wider on the left, which sees all of it), and the box of what
 // is drawn ends at the border, inside the projected box.
 TEST(Composite, TheShareOfTheSilhouetteInsideThePictureIsReported) {
-  const auto lib = std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir()));
+  const auto lib = std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir()));
   // 12.5 m ahead of the camera the picture's left edge is 800 / 1266 * 12.5 = 7.9 m to the left.
   auto traj = std::make_shared<const HazardTrajectory>(
       static_object("car", 14.0, 7.9, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
@@ -280,7 +280,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   auto plain = std::make_shared<const HazardTrajectory>(plan);
   plan.spec.extra = {{"track_id", 3}};
   auto taking = std::make_shared<const HazardTrajectory>(plan);
-  HazardRenderer probe(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  HazardRenderer probe(options(),
+                       std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
   const cv::Rect2f hb = probe.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), plain, {}).hazard.box;
   ASSERT_GT(hb.area(), 1000);
   auto is_blue = [](const cv::Mat& m) {
@@ -292,7 +293,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     cv::Mat frame = img.clone();
     cv::rectangle(frame, cv::Rect(real), cv::Scalar(255, 0, 0),
                   cv::FILLED);  // the real object: saturated blue
-    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r(options(),
+                     std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     // As an occluder it stands nearer (bottom edge lower than the hazard's): it would hide a plain hazard.
     return r.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), t,
                     {{real, 0.9f, std::nullopt, "car", 0, 0, 3, std::nullopt}});
@@ -316,7 +318,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   // The hazard keeps to the real object's lane: measured 0.6 m to the left of the plan, it is drawn there.
   {
     cv::Mat frame = img.clone();
-    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r(options(),
+                     std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     const auto left = r.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), taking,
                                {{same, 0.9f, std::nullopt, "car", 0, 0, 3, 0.6}});
     ASSERT_TRUE(left.hazard.taken_over.has_value());
@@ -333,7 +336,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
                      {1.0, 21.5, 0.0, 0.0, 0.0, -4.0},
                      {3.0, 21.5, 0.0, 0.0, 0.0, 0.0}};
     auto braking = std::make_shared<const HazardTrajectory>(brakes);
-    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r(options(),
+                     std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     auto at = [&](int index, double t, double real_lateral) {
       return r.render(make_frame(index, t, img.clone(), cam, cv::Matx44d::eye()), braking,
                       {{same, 0.9f, std::nullopt, "car", 0, 0, 3, real_lateral}});
@@ -353,7 +357,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   {
     cv::Mat frame = img.clone();
     cv::rectangle(frame, cv::Rect(same), cv::Scalar(255, 0, 0), cv::FILLED);
-    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r(options(),
+                     std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     r.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), taking,
              {{same, 0.9f, std::nullopt, "car", 0, 0, 3, std::nullopt}});
     const auto later = r.render(make_frame(3, 2.0, frame, cam, cv::Matx44d::eye()), taking,
@@ -361,7 +366,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
     EXPECT_TRUE(later.hazard.visible);
     EXPECT_TRUE(later.hazard.taken_over.has_value());
     EXPECT_EQ(is_blue(later.frame.image), 0);
-    HazardRenderer r2(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r2(options(),
+                      std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     r2.render(make_frame(0, 0.0, frame, cam, cv::Matx44d::eye()), plain, {});
     const auto stays = r2.render(make_frame(3, 2.0, frame, cam, cv::Matx44d::eye()), plain, {});
     EXPECT_TRUE(stays.hazard.visible);
@@ -370,7 +376,8 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   }
   // A track the renderer never sees is not removed, and it says so once.
   {
-    HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r(options(),
+                     std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     const auto alone = r.render(make_frame(0, 0.0, img, cam, cv::Matx44d::eye()), taking, {});
     EXPECT_FALSE(alone.hazard.taken_over.has_value());
     r.render(make_frame(1, 0.1, img, cam, cv::Matx44d::eye()), taking, {});
@@ -400,7 +407,8 @@ TEST(Composite, PastItsPlanTheHazardCarriesOnUntilTheEgoReachesIt) {
   walk.points = {{0.0, 15.0, -1.5, CV_PI / 2, 1.5, 0.0}, {1.0, 15.0, 0.0, CV_PI / 2, 1.5, 0.0}};
   auto traj = std::make_shared<const HazardTrajectory>(walk);
   const auto pose = [](double x) { return cv::Matx44d(1, 0, 0, x, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1); };
-  HazardRenderer r(options(), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  HazardRenderer r(options(),
+                   std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
   const auto end = r.render(make_frame(0, 1.0, img, cam, pose(0)), traj, {});
   ASSERT_TRUE(end.hazard.visible);
   // Half a second on: 0.75 m further left (further left in the picture), the ego 2 m nearer.
@@ -418,7 +426,8 @@ TEST(Composite, ContactShadowDarkensTheRoadBesideTheObject) {
   const cv::Mat img(900, 1600, CV_8UC3, cv::Scalar(120, 120, 120));
   auto traj = std::make_shared<const HazardTrajectory>(
       static_object("car", 12.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
-  HazardRenderer r(options(true), std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  HazardRenderer r(options(true),
+                   std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
   const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
   // Just below the rear bumper's ground line, outside the object, the road is darker than before.
   const cv::Point2d below = *test_camera().project_ego({12.0 - 2.25 - 0.05, 0.0, 0.0});
@@ -433,7 +442,7 @@ TEST(Composite, HarmonisationMovesLightnessTowardsTheSurroundings) {
     RendererOptions o = options();
     o.composite.harmonize_luma = luma;
     o.composite.feather_px = 0;
-    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     const cv::Mat img(900, 1600, CV_8UC3, cv::Scalar(grey, grey, grey));
     auto traj = std::make_shared<const HazardTrajectory>(
         static_object("car", 15.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
@@ -599,7 +608,7 @@ TEST(Composite, PictureIsBlurredToTheFramesOwnSharpness) {
     o.composite.match_sharpness = match;
     o.composite.grain = false;
     o.composite.shadow = false;
-    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
     const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
     EXPECT_TRUE(res.hazard.appearance.has_value());
     return res.hazard.appearance ? res.hazard.appearance->sharpness : kNaN;
@@ -719,7 +728,8 @@ HazardRenderer grain_renderer() {
   RendererOptions o;
   o.ego.mode = EgoMotionMode::kPoses;
   o.composite.shadow = false;
-  return HazardRenderer(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(default_dir())));
+  return HazardRenderer(o,
+                        std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
 }
 std::shared_ptr<const HazardTrajectory> car_standing_at(double x) {
   return std::make_shared<const HazardTrajectory>(

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <random>
@@ -10,9 +11,15 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "hazardforge/geometry.hpp"
 #include "hazardforge/types.hpp"
 
 namespace hf::test {
+
+// The default appearance assets shipped in share/assets.
+inline std::filesystem::path default_asset_dir() {
+  return std::filesystem::path(share_dir()) / "assets";
+}
 
 // A nuScenes-like front camera: 1600x900, f = 1266 px, 1.5 m high, level, 1.5 m ahead of the rear axle.
 inline CameraModel test_camera(double pitch = 0.0) {

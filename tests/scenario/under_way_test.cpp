@@ -10,7 +10,7 @@ namespace {
 using test::make_template;
 using test::test_scene;
 
-HazardSpec lead_stop(double distance, double speed, double decel) {
+HazardSpec lead_stop_braking_at_once(double distance, double speed, double decel) {
   HazardSpec s;
   s.kind = "sudden_stop";
   s.object_class = "car";
@@ -24,7 +24,7 @@ HazardSpec lead_stop(double distance, double speed, double decel) {
 
 TEST(UnderWay, RefusedUnlessTheTemplateAllowsIt) {
   auto tpl = make_template("sudden_stop", {{"duration_s", 3.0}});
-  HazardSpec s = lead_stop(30, 15, 6);
+  HazardSpec s = lead_stop_braking_at_once(30, 15, 6);
   s.extra["under_way_s"] = 0.5;
   EXPECT_EQ(
       tpl->check(s, test_scene(15.0)),
@@ -41,9 +41,9 @@ TEST(UnderWay, ALeadAlreadyBrakingIsTheSameManoeuvreSampledLater) {
   // start (A) and as a hazard that appears 0.5 s into it (B): B is A from 0.5 s on, with the road x seen
   // from where the ego is then (7.5 m further on).
   auto tpl = make_template("sudden_stop", {{"duration_s", 5.0}, {"max_under_way_s", 1.0}});
-  const hazard::PlanOutcome a = tpl->evaluate(lead_stop(30, 15, 6), test_scene(15.0));
+  const hazard::PlanOutcome a = tpl->evaluate(lead_stop_braking_at_once(30, 15, 6), test_scene(15.0));
   ASSERT_TRUE(a.reasons.empty()) << a.reasons.front();
-  HazardSpec s = lead_stop(30, 15, 6);
+  HazardSpec s = lead_stop_braking_at_once(30, 15, 6);
   s.extra["under_way_s"] = 0.5;
   const hazard::PlanOutcome b = tpl->evaluate(s, test_scene(15.0));
   ASSERT_TRUE(b.reasons.empty()) << b.reasons.front();
