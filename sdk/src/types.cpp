@@ -126,6 +126,19 @@ EgoTrackSample EgoTrack::at(double t) const {
   return r;
 }
 
+double EgoTrack::heading_change(double t0, double t1) const {
+  if (samples.size() < 2) return 0.0;
+  if (t1 < t0) return -heading_change(t1, t0);
+  double turn = 0.0, yaw = at(t0).yaw;
+  for (const EgoTrackSample& s : samples) {
+    if (s.t <= t0) continue;
+    if (s.t >= t1) break;
+    turn += angle_diff(s.yaw, yaw);
+    yaw = s.yaw;
+  }
+  return turn + angle_diff(at(t1).yaw, yaw);
+}
+
 const char* to_string(SafetyLabel l) {
   return l == SafetyLabel::kUnsafe ? "Unsafe" : "Safe";
 }

@@ -1,10 +1,11 @@
-// The SDK's number-to-text rules and angle helpers.
+// The SDK's number-to-text rules, angle helpers and the ego track's heading change.
 #include <gtest/gtest.h>
 
 #include <limits>
 
 #include "hazardforge/angles.hpp"
 #include "hazardforge/number_text.hpp"
+#include "hazardforge/types.hpp"
 
 namespace hf {
 namespace {
@@ -47,6 +48,32 @@ TEST(Angles, WrapAndDifferenceTakeTheShorterWayRound) {
   EXPECT_DOUBLE_EQ(wrap_deg(-180), 180);
   EXPECT_DOUBLE_EQ(wrap_deg(540), 180);
   EXPECT_DOUBLE_EQ(wrap_deg(-30), -30);
+}
+
+EgoTrack track_with_yaws(const std::vector<double>& yaw_deg) {
+  EgoTrack tr;
+  for (size_t i = 0; i < yaw_deg.size(); ++i) {
+    EgoTrackSample s;
+    s.t = 0.5 * static_cast<double>(i);
+    s.yaw = deg_to_rad(yaw_deg[i]);
+    tr.samples.push_back(s);
+  }
+  return tr;
+}
+
+TEST(EgoTrack, AHeadingCrossingPlusMinus180IsNoTurn) {
+  // Headings as a dataset stores them, in [-180, 180]: a gentle left bend from 170 to -170 deg is 20 deg.
+  const EgoTrack tr = track_with_yaws({170, 175, 179, -177, -172, -170});
+  EXPECT_NEAR(rad_to_deg(tr.heading_change(0.0, 2.5)), 20.0, 1e-9);
+  EXPECT_NEAR(rad_to_deg(tr.heading_change(2.5, 0.0)), -20.0, 1e-9);
+  // Between samples the heading is interpolated the shorter way round.
+  EXPECT_NEAR(rad_to_deg(tr.heading_change(1.0, 1.25)), 2.0, 1e-9);
+}
+
+TEST(EgoTrack, ABendOfMoreThanHalfATurnCountsInFull) {
+  const EgoTrack tr = track_with_yaws({0, 60, 120, 180, -120, -60, 0, 30});
+  EXPECT_NEAR(rad_to_deg(tr.heading_change(0.0, 3.5)), 390.0, 1e-9);
+  EXPECT_NEAR(rad_to_deg(tr.heading_change(-1.0, 0.0)), 0.0, 1e-9);  // clamped to the samples
 }
 
 }  // namespace

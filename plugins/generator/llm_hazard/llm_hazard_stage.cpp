@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 
+#include <hazardforge/angles.hpp>
 #include <hazardforge/atomic_file.hpp>
 #include <hazardforge/error.hpp>
 #include <hazardforge/json_text.hpp>
@@ -545,7 +546,7 @@ namespace {
 // most 6 s, or the stated horizon), degrees.
 double turn_deg(const EgoTrack& track, double t, double end, double horizon_s) {
   const double h = horizon_s > 0 ? horizon_s : clip_horizon(end, t);
-  return std::abs(track.at(std::min(t + h, end)).yaw - track.at(t).yaw) * 180.0 / M_PI;
+  return rad_to_deg(std::abs(track.heading_change(t, std::min(t + h, end))));
 }
 
 }  // namespace

@@ -19,9 +19,11 @@
 // measured from (distance_origin_x, moved from ProposalRequest), so the planner's templates read it too.
 // 6.1: annotation_image_box, the image rectangle of an annotated 3D box. 7.0: AppearanceStats says where a
 // real reference's box came from (source: detection or annotation). 8.0: HazardInstance (v4) says what a
-// camera sees of the hazard: its drawn silhouette's box and the share of it inside the picture.
+// camera sees of the hazard: its drawn silhouette's box and the share of it inside the picture. 8.1: the
+// road-user limits table (LimitsTable, from the hazard kit), EgoTrack::heading_change, angles.hpp and
+// number_text.hpp.
 #define HF_SDK_ABI_MAJOR 8
-#define HF_SDK_ABI_MINOR 0
+#define HF_SDK_ABI_MINOR 1
 #define HF_SDK_VERSION "0.1.0"
 
 #define HF_STR_INNER(x) #x

@@ -91,6 +91,10 @@ struct EgoTrack {
   void validate(const std::string& where) const;
   // Linear interpolation of position, heading (unwrapped), speed and yaw rate; clamped at the ends.
   EgoTrackSample at(double t) const;
+  // The heading change (rad, positive = left) from t0 to t1 (clamped to the samples): the turns between
+  // neighbouring samples added up, so a heading crossing +-180 deg is no turn and a bend of more than
+  // 180 deg counts in full. Negative when t1 < t0 reverses a left turn.
+  double heading_change(double t0, double t1) const;
 };
 
 // One side of the ego lane as the footage's lane markings show it.
