@@ -130,10 +130,16 @@ void copy_locations(const LocationMap& from, const std::string& from_ptr, Locati
   }
 }
 
+// Includes expanded in one config, at most: a subgraph included from two places is expanded twice, so files
+// that each include the next twice would otherwise multiply without end.
+constexpr int kMaxIncludes = 1000;
+
 // Replaces every `- include: FILE` entry of doc's nodes by the subgraph's nodes, renamed with the entry's prefix
 // and with its inputs bound; keeps every location (nodes from a subgraph point into the subgraph file).
-void expand_includes(YamlDocument& doc, const std::filesystem::path& dir, std::vector<std::filesystem::path>& stack,
-                     std::vector<Diagnostic>& diags) {
+// `includes` counts the includes expanded so far, over the whole config.
+void expand_includes(YamlDocument& doc, const std::filesystem::path& dir,
+                     std::vector<std::filesystem::path>& stack, std::vector<Diagnostic>& diags,
+                     int& includes) {
   Json& nodes = doc.value["nodes"];
   if (!nodes.is_array()) return;
   bool any = false;
@@ -165,6 +171,13 @@ void expand_includes(YamlDocument& doc, const std::filesystem::path& dir, std::v
     std::filesystem::path file = entry["include"].get<std::string>();
     if (file.is_relative()) file = dir / file;
     file = file.lexically_normal();
+    if (includes > kMaxIncludes) continue;  // reported once, where the limit was passed
+    if (++includes > kMaxIncludes) {
+      error(doc.at(base + "/include"), "more than " + std::to_string(kMaxIncludes) +
+                                           " subgraph includes in all (each place that includes a subgraph "
+                                           "expands it again, and so do the subgraphs it includes)");
+      continue;
+    }
     if (std::find(stack.begin(), stack.end(), file) != stack.end()) {
       error(doc.at(base + "/include"), "subgraph '" + file.string() + "' includes itself");
       continue;
@@ -194,7 +207,7 @@ void expand_includes(YamlDocument& doc, const std::filesystem::path& dir, std::v
                                                               (near.empty() ? "" : "; did you mean '" + near + "'?"));
       }
     stack.push_back(file);
-    expand_includes(sub, file.parent_path(), stack, diags);
+    expand_includes(sub, file.parent_path(), stack, diags, includes);
     stack.pop_back();
     // Declared inputs and their bindings.
     std::set<std::string> declared;
@@ -316,7 +329,8 @@ GraphConfig load_graph_config(const std::filesystem::path& file, const std::vect
     throw DiagnosticError({{Severity::kError, cfg.doc.at(""), "a graph config is a mapping with 'nodes'"}});
   }
   std::vector<std::filesystem::path> stack = {std::filesystem::absolute(file).lexically_normal()};
-  expand_includes(cfg.doc, cfg.dir, stack, diags);
+  int includes = 0;
+  expand_includes(cfg.doc, cfg.dir, stack, diags, includes);
   for (const std::string& o : overrides) apply_override(cfg, o, diags);
   const std::map<std::string, std::string> vars = {{"CONFIG_DIR", cfg.dir.string()}};
   expand_strings(cfg.doc.value, "", cfg.doc, vars, diags);

@@ -6,7 +6,6 @@
 #include <fstream>
 #include <limits>
 #include <regex>
-#include <sstream>
 #include <vector>
 
 namespace hf {
@@ -44,9 +43,37 @@ Json scalar(const YAML::Node& n) {
   return s;
 }
 
-Json convert(const YAML::Node& n, const std::string& ptr, const std::string& file, LocationMap& locs) {
+// yaml-cpp shares an anchored node among its aliases; converting copies it once per alias, so nested aliases
+// ("billion laughs": ten anchors of ten aliases each, 10^10 values) would take all memory. A text of N bytes
+// states fewer than N values and N bytes of keys and scalars itself; what conversion makes beyond that,
+// aliases made, and that is bounded.
+struct Expansion {
+  std::string file;
+  size_t max_values = 0, max_bytes = 0;
+  size_t values = 0, bytes = 0;
+};
+
+constexpr size_t kMaxAliasValues = 100000;
+constexpr size_t kMaxAliasBytes = 10 * 1000 * 1000;
+
+void count(const YAML::Node& n, size_t bytes, Expansion& ex) {
+  ++ex.values;
+  ex.bytes += bytes;
+  if (ex.values > ex.max_values || ex.bytes > ex.max_bytes) {
+    const YAML::Mark m = n.Mark();
+    throw Error(SourceLocation{ex.file, m.line + 1, m.column + 1},
+                "YAML aliases expand to more than " + std::to_string(kMaxAliasValues) + " values or " +
+                    std::to_string(kMaxAliasBytes) +
+                    " bytes beyond what the text states (nested aliases multiply; this anchor's copies among "
+                    "them): write the values out or use fewer levels of aliases");
+  }
+}
+
+Json convert(const YAML::Node& n, const std::string& ptr, const std::string& file, LocationMap& locs,
+             Expansion& ex) {
   const YAML::Mark m = n.Mark();
   locs[ptr] = SourceLocation{file, m.line + 1, m.column + 1};
+  count(n, n.IsScalar() ? n.Scalar().size() : 0, ex);
   switch (n.Type()) {
     case YAML::NodeType::Null:
     case YAML::NodeType::Undefined: return nullptr;
@@ -54,7 +81,7 @@ Json convert(const YAML::Node& n, const std::string& ptr, const std::string& fil
     case YAML::NodeType::Sequence: {
       Json a = Json::array();
       size_t i = 0;
-      for (const YAML::Node& e : n) a.push_back(convert(e, ptr + "/" + std::to_string(i++), file, locs));
+      for (const YAML::Node& e : n) a.push_back(convert(e, ptr + "/" + std::to_string(i++), file, locs, ex));
       return a;
     }
     case YAML::NodeType::Map: {
@@ -82,7 +109,8 @@ Json convert(const YAML::Node& n, const std::string& ptr, const std::string& fil
         const std::string child = ptr + "/" + escape_pointer_token(key);
         locs[child + "#key"] = at;
         if (o.contains(key)) throw Error(at, "duplicate key '" + key + "'");
-        o[key] = convert(kv.second, child, file, locs);
+        ex.bytes += key.size();
+        o[key] = convert(kv.second, child, file, locs, ex);
         // A null value has no useful mark of its own: point at its key.
         if (kv.second.IsNull()) locs[child] = locs[child + "#key"];
       }
@@ -91,10 +119,11 @@ Json convert(const YAML::Node& n, const std::string& ptr, const std::string& fil
         for (const auto& kv : m) {
           const std::string key = kv.first.as<std::string>();
           if (o.contains(key)) continue;  // stated here, or by an earlier anchor of the list
+          ex.bytes += key.size();
           const std::string child = ptr + "/" + escape_pointer_token(key);
           const YAML::Mark km = kv.first.Mark();
           locs[child + "#key"] = SourceLocation{file, km.line + 1, km.column + 1};
-          o[key] = convert(kv.second, child, file, locs);
+          o[key] = convert(kv.second, child, file, locs, ex);
           if (kv.second.IsNull()) locs[child] = locs[child + "#key"];
         }
       return o;
@@ -121,7 +150,11 @@ YamlDocument parse_yaml(const std::string& text, const std::string& file_name) {
   YamlDocument doc;
   try {
     YAML::Node root = YAML::Load(text);
-    doc.value = convert(root, "", file_name, doc.locations);
+    Expansion ex;
+    ex.file = file_name;
+    ex.max_values = text.size() + kMaxAliasValues;
+    ex.max_bytes = text.size() + kMaxAliasBytes;
+    doc.value = convert(root, "", file_name, doc.locations, ex);
   } catch (const YAML::Exception& e) {
     throw Error(SourceLocation{file_name, e.mark.line + 1, e.mark.column + 1}, e.msg);
   }
@@ -131,9 +164,17 @@ YamlDocument parse_yaml(const std::string& text, const std::string& file_name) {
 YamlDocument load_yaml_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": error: cannot open file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parse_yaml(ss.str(), path);
+  // Read in pieces up to the limit: a device (/dev/zero) or a huge file is refused, not read into memory.
+  std::string text;
+  char buf[65536];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    text.append(buf, static_cast<size_t>(in.gcount()));
+    if (text.size() > kMaxYamlFileBytes)
+      throw Error(path + ": error: larger than " + std::to_string(kMaxYamlFileBytes) +
+                  " bytes, more than a YAML config holds; is it the file you meant?");
+  }
+  if (in.bad()) throw Error(path + ": error: cannot read file");
+  return parse_yaml(text, path);
 }
 
 }  // namespace hf

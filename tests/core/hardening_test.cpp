@@ -333,3 +333,77 @@ TEST(Hardening, AFullDiskFailsTheRunWithWholeLinesAndNoTemporaries) {
 }
 
 }  // namespace
+
+namespace {
+
+// Ten anchors of ten aliases each ("billion laughs"): 10^10 values once every alias is copied. The shell
+// caps the address space, so a conversion that copies them fails fast instead of taking the machine's memory.
+std::string laughs() {
+  std::string y = "  a: &a [lol, lol, lol, lol, lol, lol, lol, lol, lol, lol]\n";
+  for (char c = 'b'; c <= 'j'; ++c) {
+    y += std::string("  ") + c + ": &" + c + " [";
+    for (int i = 0; i < 10; ++i) y += std::string(i ? ", " : "") + "*" + static_cast<char>(c - 1);
+    y += "]\n";
+  }
+  return y;
+}
+
+const std::string kMemoryCap = "ulimit -v 3000000; ";
+
+TEST(Hardening, YamlAliasesExpandingWithoutLimitAreRefusedNamingFileAndLine) {
+  Scene s;
+  { std::ofstream(s.config, std::ios::app) << "unused:\n" << laughs(); }
+  for (const std::string& cmd : {std::string("validate"), std::string("run -q -o ") + quote(s.run)}) {
+    const auto c = hf::test::run_command(kMemoryCap + HF_EXE + " " + cmd + " " + quote(s.config));
+    EXPECT_EQ(c.code, 1) << cmd << "\n" << c.out;
+    EXPECT_TRUE(has(c.out, s.config.string() + ":")) << c.out;
+    EXPECT_TRUE(has(c.out, "YAML aliases expand to more than")) << c.out;
+    EXPECT_FALSE(has(c.out, "bad_alloc")) << c.out;
+  }
+  EXPECT_FALSE(fs::exists(s.run));
+}
+
+TEST(Hardening, YamlAliasesInASetValueAreBoundedToo) {
+  Scene s;
+  std::string value = "[";
+  const std::string bomb = laughs();
+  // The same anchors as one flow sequence: "[&a [lol, ...], &b [*a, ...], ...]".
+  std::istringstream lines(bomb);
+  bool first = true;
+  for (std::string line; std::getline(lines, line);) {
+    value += (first ? "" : ", ") + line.substr(line.find('&'));
+    first = false;
+  }
+  value += "]";
+  const auto c = hf::test::run_command(kMemoryCap + HF_EXE + " validate " + quote(s.config) +
+                                       " --set 'sink.file=" + value + "'");
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, "--set sink.file=")) << c.out;
+  EXPECT_TRUE(has(c.out, "YAML aliases expand to more than")) << c.out;
+}
+
+TEST(Hardening, AnIncludeOfAnEndlessFileIsRefusedNamingIt) {
+  Scene s;
+  { std::ofstream(s.config, std::ios::app) << "  - include: /dev/zero\n"; }
+  const auto c = hf::test::run_command(kMemoryCap + HF_EXE + " validate " + quote(s.config));
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, "/dev/zero: error: larger than")) << c.out;
+}
+
+// f0 includes f1 twice, f1 includes f2 twice, ...: 2^16 copies of f16 if every include were expanded.
+TEST(Hardening, AnIncludeDiamondIsBounded) {
+  Scene s;
+  for (int i = 0; i < 16; ++i)
+    std::ofstream(s.dir / ("f" + std::to_string(i) + ".yaml"))
+        << "nodes:\n  - include: f" << i + 1 << ".yaml\n    prefix: l_\n  - include: f" << i + 1
+        << ".yaml\n    prefix: r_\n";
+  std::ofstream(s.dir / "f16.yaml") << "nodes:\n  - id: s\n    stage: image_sequence\n"
+                                    << "    params: {path: images, hfov_deg: 60}\n";
+  { std::ofstream(s.config, std::ios::app) << "  - include: f0.yaml\n"; }
+  const auto c = hf::test::run_command(kMemoryCap + HF_EXE + " validate " + quote(s.config));
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, "subgraph includes")) << c.out;
+  EXPECT_TRUE(has(c.out, (s.dir / "f").string())) << c.out;
+}
+
+}  // namespace

@@ -91,6 +91,31 @@ TEST(Yaml, DuplicateKeyRejected) {
   EXPECT_THROW(parse_yaml("a: 1\na: 2\n", "dup.yaml"), Error);
 }
 
+// Six nested anchors of ten aliases each copy a million values: more than a config's aliases may expand to.
+TEST(Yaml, AliasExpansionIsBoundedAndNamesWhereItHappens) {
+  std::string y =
+      "ok: &ok {a: 1}\nuse: {<<: *ok, b: 2}\nlaughs:\n  a: &a [lol, lol, lol, lol, lol, lol, lol, lol, lol, "
+      "lol]\n";
+  for (char c = 'b'; c <= 'f'; ++c) {
+    y += std::string("  ") + c + ": &" + c + " [";
+    for (int i = 0; i < 10; ++i) y += std::string(i ? ", " : "") + "*" + static_cast<char>(c - 1);
+    y += "]\n";
+  }
+  try {
+    parse_yaml(y, "bomb.yaml");
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("bomb.yaml:", 0), 0u) << what;
+    EXPECT_NE(what.find("YAML aliases expand to more than 100000 values"), std::string::npos) << what;
+  }
+  // A few aliases and merge keys stay fine.
+  const YamlDocument doc =
+      parse_yaml("ok: &ok {a: 1}\nuse: {<<: *ok, b: 2}\nlist: [*ok, *ok]\n", "fine.yaml");
+  EXPECT_EQ(doc.value["use"], (Json{{"a", 1}, {"b", 2}}));
+  EXPECT_EQ(doc.value["list"].size(), 2u);
+}
+
 TEST(Nearest, SuggestsCloseNamesOnly) {
   EXPECT_EQ(nearest_name("DETECTION", {"detections", "frames"}), "detections");
   EXPECT_EQ(nearest_name("zzzzzz", {"detections", "frames"}), "");

@@ -22,8 +22,12 @@ struct YamlDocument {
 };
 
 // Scalars become bool / integer / double / string the way YAML 1.2 core schema reads them; "~"/null -> null.
-// Throws hf::Error "file:line:col: error: ..." on a YAML syntax error.
+// Throws hf::Error "file:line:col: error: ..." on a YAML syntax error, and when aliases expand to more than
+// 100,000 values or 10 MB (nested aliases, "billion laughs").
+
 YamlDocument parse_yaml(const std::string& text, const std::string& file_name);
+// A file larger than kMaxYamlFileBytes is refused ("PATH: error: larger than ...") before it is all read.
+inline constexpr size_t kMaxYamlFileBytes = 64 * 1024 * 1024;
 YamlDocument load_yaml_file(const std::string& path);
 
 }  // namespace hf
