@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -142,10 +143,85 @@ bool folder_empty(const std::filesystem::path& dir) {
   return std::filesystem::directory_iterator(dir, ec) == std::filesystem::directory_iterator();
 }
 
-// Makes `dir` ready for a run as `use` allows; throws hf::Error with what to do otherwise.
-void claim_run_folder(const std::filesystem::path& dir, FolderUse use, const Json& config) {
+// Every entry below `dir`, relative, folders with a trailing '/'; symlinks are entries, never followed.
+std::set<std::string> entries_below(const std::filesystem::path& dir) {
+  std::set<std::string> out;
   std::error_code ec;
-  if (!std::filesystem::exists(dir, ec) || folder_empty(dir)) return;
+  for (auto it = std::filesystem::recursive_directory_iterator(dir, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec)) {
+    const std::string rel = it->path().lexically_relative(dir).generic_string();
+    out.insert(it->is_directory(ec) && !it->is_symlink(ec) ? rel + "/" : rel);
+  }
+  return out;
+}
+
+std::vector<std::string> string_list(const Json& j) {
+  std::vector<std::string> out;
+  if (j.is_array())
+    for (const Json& e : j)
+      if (e.is_string()) out.push_back(e.get<std::string>());
+  return out;
+}
+
+// An entry as the manifest lists it: a path component with "user:pass@" or "?query" (a URL given as a file
+// name) has them replaced by "***" as URLs elsewhere in the manifest have. --overwrite matches entries in
+// this form.
+std::string listed(const std::string& rel) {
+  std::string out, part;
+  for (size_t i = 0; i <= rel.size(); ++i) {
+    if (i < rel.size() && rel[i] != '/') {
+      part += rel[i];
+      continue;
+    }
+    if (const size_t at = part.rfind('@'); at != std::string::npos) part = "***" + part.substr(at);
+    if (const size_t q = part.find('?'); q != std::string::npos) part = part.substr(0, q + 1) + "***";
+    out += part + (i < rel.size() ? "/" : "");
+    part.clear();
+  }
+  return out;
+}
+
+std::vector<std::string> listed(const std::vector<std::string>& entries) {
+  std::vector<std::string> out;
+  for (const std::string& e : entries) out.push_back(listed(e));
+  return out;
+}
+
+// What only HazardForge's own manifest holds: a web app's or another tool's manifest.json is not a run.
+bool is_run_manifest(const Json& m) {
+  return m.is_object() && m.contains("hazardforge_version") && m["hazardforge_version"].is_string() &&
+         m.contains("abi_tag") && m["abi_tag"].is_string() && m.contains("status") &&
+         m["status"].is_string() && m.contains("started_at") && m["started_at"].is_string();
+}
+
+// Removes `rel` below `dir` when it names an entry there without leaving it (no "..", no absolute path, no
+// symlinked folder on the way); a folder only when it is empty.
+void remove_run_entry(const std::filesystem::path& dir, const std::string& rel) {
+  namespace fs = std::filesystem;
+  const bool folder = !rel.empty() && rel.back() == '/';
+  const fs::path p = fs::path(folder ? rel.substr(0, rel.size() - 1) : rel).lexically_normal();
+  if (p.empty() || p.is_absolute()) return;
+  fs::path at = dir;
+  for (auto it = p.begin(); it != p.end(); ++it) {
+    if (*it == ".." || *it == ".") return;
+    at /= *it;
+    std::error_code ec;
+    if (std::next(it) != p.end() && !fs::is_directory(fs::symlink_status(at, ec))) return;
+  }
+  std::error_code ec;
+  if (folder) {
+    if (fs::is_directory(fs::symlink_status(at, ec)) && folder_empty(at)) fs::remove(at, ec);
+  } else {
+    fs::remove(at, ec);
+  }
+}
+
+// Makes `dir` ready for a run as `use` allows and returns the entries in it that the run does not own (the
+// user's files, kept by --overwrite); throws hf::Error with what to do otherwise.
+std::vector<std::string> claim_run_folder(const std::filesystem::path& dir, FolderUse use,
+                                          const Json& config) {
+  std::error_code ec;
+  if (!std::filesystem::exists(dir, ec) || folder_empty(dir)) return {};
   const std::string d = dir.string();
   const auto manifest_file = dir / "manifest.json";
   if (!std::filesystem::is_regular_file(manifest_file, ec))
@@ -159,7 +235,25 @@ void claim_run_folder(const std::filesystem::path& dir, FolderUse use, const Jso
   } catch (const std::exception& e) {
     throw Error(manifest_file.string() + ": unreadable manifest of an earlier run: " + e.what());
   }
-  const std::string status = old.value("status", std::string("unknown"));
+  if (!is_run_manifest(old))
+    throw Error(
+        manifest_file.string() +
+        ": not a HazardForge run manifest (it lacks 'hazardforge_version', 'abi_tag', 'status' or "
+        "'started_at'), so the folder holds something else; a run folder belongs to one run: choose a "
+        "new or empty folder");
+  const std::string status = old["status"].get<std::string>();
+  // The earlier run's own entries: listed by a run that ended; a run that never ended (killed) owns all but
+  // what it found there.
+  const std::set<std::string> present = entries_below(dir);
+  const bool ended = old.contains("outputs");
+  const std::vector<std::string> listing = string_list(old.value(ended ? "outputs" : "kept", Json::array()));
+  const std::set<std::string> in_listing(listing.begin(), listing.end());
+  std::set<std::string> owned;
+  for (const std::string& e : present)
+    if (e == "manifest.json" || in_listing.count(listed(e)) == (ended ? 1u : 0u)) owned.insert(e);
+  std::vector<std::string> kept;
+  for (const std::string& e : present)
+    if (!owned.count(e)) kept.push_back(e);
   switch (use) {
     case FolderUse::kNew:
       throw Error(d + ": the output folder already holds a run (status '" + status +
@@ -172,12 +266,22 @@ void claim_run_folder(const std::filesystem::path& dir, FolderUse use, const Jso
         throw Error(d + ": --resume needs the same config, but the earlier run's config differs at '" +
                     (where.empty() ? std::string("/") : where) + "'; use --overwrite or a new folder");
       }
-      return;
+      return kept;
     }
-    case FolderUse::kOverwrite:
-      for (const auto& e : std::filesystem::directory_iterator(dir)) std::filesystem::remove_all(e.path());
-      return;
+    case FolderUse::kOverwrite: {
+      // Files first, then the run's folders deepest first, each only if nothing of the user's is left in it.
+      std::vector<std::string> files, folders;
+      for (const std::string& e : owned) (e.back() == '/' ? folders : files).push_back(e);
+      std::sort(folders.begin(), folders.end(),
+                [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
+      for (const std::string& e : files) remove_run_entry(dir, e);
+      for (const std::string& e : folders) remove_run_entry(dir, e);
+      std::vector<std::string> left;
+      for (const std::string& e : entries_below(dir)) left.push_back(e);
+      return left;
+    }
   }
+  return {};
 }
 
 }  // namespace
@@ -200,8 +304,9 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   o.output_dir = req.output_dir.empty()
                      ? std::filesystem::path("runs") / (safe_path_component(graph.name) + "-" + utc_stamp())
                      : req.output_dir;
+  std::vector<std::string> kept;  // what the folder held that this run did not write
   try {
-    claim_run_folder(o.output_dir, req.folder_use, cfg.doc.value);
+    kept = claim_run_folder(o.output_dir, req.folder_use, cfg.doc.value);
     std::error_code ec;
     std::filesystem::create_directories(o.output_dir, ec);
     if (ec) throw Error(o.output_dir.string() + ": cannot create output folder: " + ec.message());
@@ -211,6 +316,8 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
     return o;
   }
   ManifestInput mi{req.argv, &graph, &cfg, &host.loader().plugins(), iso8601_now()};
+  const std::vector<std::string> kept_listed = listed(kept);
+  mi.kept = &kept_listed;
   const auto manifest_path = o.output_dir / "manifest.json";
   try {
     write_file_atomic(manifest_path, json_text(make_manifest(mi, "running", nullptr, ""), 2));
@@ -253,6 +360,12 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
   } catch (const std::exception& e) {
     r.errors.push_back(e.what());
   }
+  // The run's own entries, so that --overwrite removes these and nothing else.
+  std::vector<std::string> outputs = {"manifest.json"};
+  const std::set<std::string> not_ours(kept.begin(), kept.end());
+  for (const std::string& e : entries_below(o.output_dir))
+    if (e != "manifest.json" && !not_ours.count(e)) outputs.push_back(listed(e));
+  mi.outputs = &outputs;
   try {
     write_file_atomic(manifest_path,
                       json_text(make_manifest(mi, r.ok() ? status : "failed", &r, iso8601_now()), 2));

@@ -147,6 +147,8 @@ Json make_manifest(const ManifestInput& in, const std::string& status, const Run
     if (const char* e = std::getenv(v)) env[v] = e;
   env["HAZARDFORGE_SHARED (resolved)"] = shared_root();
   m["environment"] = env;
+  if (in.kept) m["kept"] = *in.kept;
+  if (in.outputs) m["outputs"] = *in.outputs;
   if (result) {
     Json res = Json::array();
     for (const auto& p : result->resources) {

@@ -130,17 +130,6 @@ TEST(Hardening, ANonEmptyFolderWithoutARunIsRefused) {
   EXPECT_TRUE(fs::exists(s.run / "notes.txt"));
 }
 
-TEST(Hardening, OverwriteClearsTheEarlierRun) {
-  Scene s;
-  ASSERT_EQ(s.run_cli().code, 0);
-  { std::ofstream(s.run / "stale_from_first_run.json") << "{}"; }
-  const auto c = s.run_cli("--overwrite --set source.max_frames=2");
-  EXPECT_EQ(c.code, 0) << c.out;
-  EXPECT_FALSE(fs::exists(s.run / "stale_from_first_run.json"));
-  EXPECT_EQ(s.manifest()["frames"], 2);
-  EXPECT_EQ(s.manifest()["status"], "completed");
-}
-
 TEST(Hardening, ResumeNeedsTheSameConfig) {
   Scene s;
   ASSERT_EQ(s.run_cli().code, 0);
@@ -404,6 +393,47 @@ TEST(Hardening, AnIncludeDiamondIsBounded) {
   EXPECT_EQ(c.code, 1) << c.out;
   EXPECT_TRUE(has(c.out, "subgraph includes")) << c.out;
   EXPECT_TRUE(has(c.out, (s.dir / "f").string())) << c.out;
+}
+
+}  // namespace
+
+namespace {
+
+// A folder that is not a run of ours, though it has a manifest.json (a web app's): --overwrite leaves it
+// alone.
+TEST(Hardening, OverwriteRefusesAFolderWhoseManifestIsNotARunManifest) {
+  Scene s;
+  fs::create_directories(s.run / "icons");
+  { std::ofstream(s.run / "manifest.json") << R"({"name": "app", "start_url": "/", "status": "x"})"; }
+  { std::ofstream(s.run / "index.html") << "<html></html>"; }
+  { std::ofstream(s.run / "icons" / "a.png") << "png"; }
+  const auto c = s.run_cli("--overwrite");
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, (s.run / "manifest.json").string() + ": not a HazardForge run manifest")) << c.out;
+  EXPECT_EQ(files_below(s.run),
+            (std::vector<std::string>{"icons", "icons/a.png", "index.html", "manifest.json"}));
+}
+
+// --overwrite removes what the earlier run wrote and keeps what the user put into its folder since.
+TEST(Hardening, OverwriteRemovesOnlyTheEarlierRunsFiles) {
+  Scene s("sub/frames.jsonl");
+  ASSERT_EQ(s.run_cli().code, 0);
+  { std::ofstream(s.run / "notes.txt") << "mine"; }
+  { std::ofstream(s.run / "sub" / "mine.txt") << "mine too"; }
+  const auto c = s.run_cli("--overwrite --set sink.file=other.jsonl --set source.max_frames=2");
+  EXPECT_EQ(c.code, 0) << c.out;
+  EXPECT_FALSE(fs::exists(s.run / "sub" / "frames.jsonl"));
+  EXPECT_TRUE(fs::exists(s.run / "notes.txt"));
+  EXPECT_TRUE(fs::exists(s.run / "sub" / "mine.txt"));
+  EXPECT_EQ(s.manifest()["frames"], 2);
+  EXPECT_EQ(s.manifest()["status"], "completed");
+  // The user's files stay theirs on the next --overwrite too; the run's own go.
+  const auto again = s.run_cli("--overwrite");
+  EXPECT_EQ(again.code, 0) << again.out;
+  EXPECT_FALSE(fs::exists(s.run / "other.jsonl"));
+  EXPECT_TRUE(fs::exists(s.run / "notes.txt"));
+  EXPECT_TRUE(fs::exists(s.run / "sub" / "mine.txt"));
+  EXPECT_TRUE(fs::exists(s.run / "sub" / "frames.jsonl"));
 }
 
 }  // namespace

@@ -22,6 +22,10 @@ struct ManifestInput {
   const GraphConfig* config = nullptr;
   const std::vector<LoadedPlugin>* plugins = nullptr;
   std::string started_at;
+  // The run folder's entries (relative, folders ending in '/'): those it held that the run did not write,
+  // and, once the run has ended, those the run wrote. --overwrite removes the outputs and keeps the rest.
+  const std::vector<std::string>* kept = nullptr;
+  const std::vector<std::string>* outputs = nullptr;
 };
 
 // status: "running", "completed", "incomplete" (a stage used its input only in part, as allowed),
