@@ -186,6 +186,80 @@ TEST(LlmLimits, CredentialsAreRedactedFromTransportErrors) {
   EXPECT_NE(e.find("openai: POST http://***@127.0.0.1:"), std::string::npos) << e;
 }
 
+// A server that echoes the request's Authorization header, in a reply the generator accepts and beside it.
+void then_echoing_auth(ScriptedServer& srv, bool openai) {
+  srv.then([openai](const httplib::Request& req, httplib::Response& res) {
+    const std::string auth = req.get_header_value("Authorization");
+    Json reply = test::valid_reply();
+    reply["rationale"] = "you sent " + auth;
+    const Json message = {{"role", "assistant"}, {"content", reply.dump()}};
+    const Json body = openai ? Json{{"model", "m"},
+                                    {"choices", {{{"index", 0}, {"message", message}}}},
+                                    {"echo", {{"authorization", auth}}}}
+                             : Json{{"model", "m"}, {"message", message}, {"done", true}, {"echo", auth}};
+    res.set_content(body.dump(), "application/json");
+  });
+}
+
+// Every file the stage wrote, and the spec it sent on (what the host's sinks put into hazards.jsonl).
+std::string everything_written(testing::StageRunner& r) {
+  std::string all;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(r.output_dir()))
+    if (e.is_regular_file()) all += slurp(e.path()) + "\n";
+  for (const HazardSpec& s : r.collect<HazardSpec>("hazard")) all += Json(s).dump() + "\n";
+  for (const std::string& line : r.log()) all += line + "\n";
+  return all;
+}
+
+TEST(LlmLimits, AnApiKeyEchoedByTheServerNeverReachesTheRecordsOrTheSpec) {
+  ScriptedServer srv("/v1/chat/completions");
+  then_echoing_auth(srv, true);
+  ::setenv("HF_TEST_ECHO_KEY", "sk-echo-5f3a9c71", 1);
+  auto r = test::make_runner("provider: {name: openai, base_url: '" + srv.url() +
+                             "/v1', api_key_env: HF_TEST_ECHO_KEY}\n");
+  test::push_scene(r, 6, kDescription);
+  r.run();
+  ::unsetenv("HF_TEST_ECHO_KEY");
+  ASSERT_EQ(srv.auth_headers().at(0), "Bearer sk-echo-5f3a9c71");  // the server did get the key
+  ASSERT_EQ(r.outputs("hazard").size(), 1u);
+  const std::string all = everything_written(r);
+  EXPECT_EQ(all.find("sk-echo-5f3a9c71"), std::string::npos) << all;
+  EXPECT_NE(all.find("you sent Bearer ***"), std::string::npos) << all;
+}
+
+TEST(LlmLimits, AnApiKeyEchoedInAnErrorNeverReachesTheErrorOrTheRecords) {
+  ScriptedServer srv("/v1/chat/completions");
+  srv.then([](const httplib::Request& req, httplib::Response& res) {
+    res.status = 401;
+    res.set_content(Json{{"error", {{"message", "invalid " + req.get_header_value("Authorization")}}}}.dump(),
+                    "application/json");
+  });
+  ::setenv("HF_TEST_ECHO_KEY", "sk-echo-5f3a9c71", 1);
+  auto r = test::make_runner("provider: {name: openai, base_url: '" + srv.url() +
+                             "/v1', api_key_env: HF_TEST_ECHO_KEY}\n");
+  test::push_scene(r, 6, kDescription);
+  const std::string e = run_error(r);
+  ::unsetenv("HF_TEST_ECHO_KEY");
+  EXPECT_EQ(e, "openai: POST " + srv.url() + "/v1/chat/completions returned HTTP 401: invalid Bearer ***");
+  const std::string all = everything_written(r);
+  EXPECT_EQ(all.find("sk-echo-5f3a9c71"), std::string::npos) << all;
+}
+
+TEST(LlmLimits, BasicCredentialsEchoedByTheServerNeverReachTheRecordsOrTheSpec) {
+  ScriptedServer srv("/api/chat");
+  then_echoing_auth(srv, false);
+  const std::string host = "http://alice:s3cret@127.0.0.1:" + std::to_string(srv.port());
+  auto r = test::make_runner("provider: {name: ollama, host: '" + host + "'}\n");
+  test::push_scene(r, 6, kDescription);
+  r.run();
+  ASSERT_EQ(srv.auth_headers().at(0), "Basic YWxpY2U6czNjcmV0");  // base64 of alice:s3cret
+  ASSERT_EQ(r.outputs("hazard").size(), 1u);
+  const std::string all = everything_written(r);
+  EXPECT_EQ(all.find("YWxpY2U6czNjcmV0"), std::string::npos) << all;
+  EXPECT_EQ(all.find("s3cret"), std::string::npos) << all;
+  EXPECT_NE(all.find("you sent Basic ***"), std::string::npos) << all;
+}
+
 TEST(LlmLimits, RepliesThatAreNotUtf8AreRecordedAndSentBack) {
   ScriptedServer srv("/api/chat");
   srv.then([](const httplib::Request&, httplib::Response& res) {

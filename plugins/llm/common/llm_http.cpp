@@ -4,6 +4,7 @@
 #include <curl/curl.h>
 
 #include <algorithm>
+#include <cctype>
 #include <memory>
 #include <mutex>
 
@@ -52,11 +53,94 @@ long to_ms(double seconds) {
   return seconds <= 0 ? 0L : static_cast<long>(seconds * 1000.0 + 0.5);
 }
 
+std::string percent_decoded(const std::string& s) {
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+      out += static_cast<char>(std::stoi(s.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += s[i];
+    }
+  }
+  return out;
+}
+
+std::string base64(const std::string& s) {
+  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < s.size(); i += 3) {
+    const unsigned v = static_cast<unsigned char>(s[i]) << 16 | static_cast<unsigned char>(s[i + 1]) << 8 |
+                       static_cast<unsigned char>(s[i + 2]);
+    for (int k = 18; k >= 0; k -= 6) out += kAlphabet[(v >> k) & 63];
+  }
+  if (i < s.size()) {
+    unsigned v = static_cast<unsigned char>(s[i]) << 16;
+    if (i + 1 < s.size()) v |= static_cast<unsigned char>(s[i + 1]) << 8;
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += i + 1 < s.size() ? kAlphabet[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
 }  // namespace
+
+void Secrets::add(const std::string& value) {
+  if (value.size() < 4 || std::find(values_.begin(), values_.end(), value) != values_.end()) return;
+  values_.push_back(value);
+  std::stable_sort(values_.begin(), values_.end(),
+                   [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
+}
+
+void Secrets::add_url_credentials(const std::string& url) {
+  const size_t sep = url.find("://");
+  const size_t start = sep == std::string::npos ? 0 : sep + 3;
+  const size_t end = url.find_first_of("/?#", start);
+  const std::string authority = url.substr(start, end == std::string::npos ? std::string::npos : end - start);
+  const size_t at = authority.rfind('@');
+  if (at == std::string::npos) return;
+  const std::string userinfo = authority.substr(0, at);
+  const std::string decoded = percent_decoded(userinfo);
+  const size_t colon = userinfo.find(':');
+  if (colon != std::string::npos) {
+    add(userinfo.substr(colon + 1));
+    add(percent_decoded(userinfo.substr(colon + 1)));
+  }
+  add(userinfo);
+  add(decoded);
+  add(base64(colon == std::string::npos ? decoded + ":" : decoded));  // what libcurl sends as Basic
+}
+
+std::string Secrets::scrub(std::string text) const {
+  for (const std::string& v : values_)
+    for (size_t p = text.find(v); p != std::string::npos; p = text.find(v, p + 3))
+      text.replace(p, v.size(), "***");
+  return text;
+}
+
+Json Secrets::scrub(const Json& j) const {
+  if (values_.empty()) return j;
+  if (j.is_string()) return scrub(j.get<std::string>());
+  if (j.is_array()) {
+    Json a = Json::array();
+    for (const Json& e : j) a.push_back(scrub(e));
+    return a;
+  }
+  if (j.is_object()) {
+    Json o = Json::object();
+    for (auto it = j.begin(); it != j.end(); ++it) o[scrub(it.key())] = scrub(it.value());
+    return o;
+  }
+  return j;
+}
 
 HttpResponse post_json(const std::string& who, const std::string& url, const Json& body,
                        const std::vector<std::string>& headers, const HttpTimeouts& timeouts,
-                       const HttpLimits& limits) {
+                       const HttpLimits& limits, const Secrets& secrets) {
   init_curl_once();
   std::unique_ptr<CURL, void (*)(CURL*)> curl(curl_easy_init(), curl_easy_cleanup);
   if (!curl) throw Error(who + ": POST " + redact_urls(url) + " failed: curl_easy_init returned null");
@@ -65,7 +149,7 @@ HttpResponse post_json(const std::string& who, const std::string& url, const Jso
   for (const std::string& h : headers) list = curl_slist_append(list, h.c_str());
   std::unique_ptr<curl_slist, void (*)(curl_slist*)> header_list(list, curl_slist_free_all);
 
-  const std::string payload = json_text(body);
+  const std::string payload = json_text(secrets.scrub(body));
   HttpResponse res;
   CURL* c = curl.get();
   curl_easy_setopt(c, CURLOPT_URL, url.c_str());
@@ -97,6 +181,7 @@ HttpResponse post_json(const std::string& who, const std::string& url, const Jso
   if (rc == CURLE_ABORTED_BY_CALLBACK) throw Error(post + " cancelled: the run is stopping");
   if (rc != CURLE_OK) throw Error(post + " failed: " + curl_easy_strerror(rc));
   curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &res.status);
+  res.body = secrets.scrub(std::move(res.body));
   return res;
 }
 

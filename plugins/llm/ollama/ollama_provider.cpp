@@ -39,6 +39,8 @@ void OllamaProvider::open(const Params& p) {
   keep_alive_ = p.get_string("keep_alive");
   timeouts_ = {p.get_double("connect_timeout_s"), p.get_double("read_timeout_s")};
   max_reply_bytes_ = static_cast<size_t>(p.get_int("max_reply_bytes"));
+  secrets_ = Secrets();
+  secrets_.add_url_credentials(base_url_);
 }
 
 std::string OllamaProvider::describe_backend() const {
@@ -57,11 +59,12 @@ LlmReply OllamaProvider::complete(const LlmRequest& r) {
   if (!keep_alive_.empty()) body["keep_alive"] = keep_alive_;
 
   auto t0 = std::chrono::steady_clock::now();
-  HttpResponse res = post_json("ollama", endpoint_, body, {}, timeouts_, {max_reply_bytes_});
+  HttpResponse res = post_json("ollama", endpoint_, body, {}, timeouts_, {max_reply_bytes_}, secrets_);
   LlmReply reply;
   reply.latency_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (res.status != 200) throw Error(http_status_error("ollama", endpoint_, res.status, res.body));
-  reply.raw = parse_response("ollama", endpoint_, res.body);
+  // The body is scrubbed as text; its strings once more after parsing, for a secret written with escapes.
+  reply.raw = secrets_.scrub(parse_response("ollama", endpoint_, res.body));
   const Json& j = reply.raw;
   if (!j.is_object() || !j.contains("message") || !j["message"].is_object() ||
       !j["message"].contains("content") || !j["message"]["content"].is_string())

@@ -12,7 +12,8 @@ namespace hf::llm {
 // OllamaProvider (llm_provider "ollama"). POSTs {model, messages, format: <schema>, stream: false,
 // options: {temperature, seed, num_predict}} to <host>/api/chat and returns message.content.
 // Params: host (empty = $OLLAMA_HOST, else http://127.0.0.1:11434), model (llama3), connect_timeout_s,
-// read_timeout_s, keep_alive.
+// read_timeout_s, keep_alive. Credentials in the host URL (user:password@, sent as Basic authorization) are
+// scrubbed from everything the provider returns or throws (a server may echo them).
 class OllamaProvider : public LlmProvider {
  public:
   static ComponentInfo describe();
@@ -29,6 +30,7 @@ class OllamaProvider : public LlmProvider {
   std::string keep_alive_;
   HttpTimeouts timeouts_;
   size_t max_reply_bytes_ = 1000000;
+  Secrets secrets_;  // user:password in the host URL and their Basic form, scrubbed from all it returns
 };
 
 }  // namespace hf::llm

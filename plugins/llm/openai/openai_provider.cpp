@@ -42,6 +42,8 @@ void OpenAiProvider::open(const Params& p) {
   schema_name_ = p.get_string("schema_name");
   timeouts_ = {p.get_double("connect_timeout_s"), p.get_double("read_timeout_s")};
   max_reply_bytes_ = static_cast<size_t>(p.get_int("max_reply_bytes"));
+  url_secrets_ = Secrets();
+  url_secrets_.add_url_credentials(base_url_);
 }
 
 std::string OpenAiProvider::describe_backend() const {
@@ -61,15 +63,19 @@ LlmReply OpenAiProvider::complete(const LlmRequest& r) {
     body["response_format"] = {{"type", "json_object"}};
 
   std::vector<std::string> headers;
-  if (const char* key = std::getenv(api_key_env_.c_str()); key && *key)
+  Secrets secrets = url_secrets_;
+  if (const char* key = std::getenv(api_key_env_.c_str()); key && *key) {
     headers.push_back(std::string("Authorization: Bearer ") + key);
+    secrets.add(key);
+  }
 
   auto t0 = std::chrono::steady_clock::now();
-  HttpResponse res = post_json("openai", endpoint_, body, headers, timeouts_, {max_reply_bytes_});
+  HttpResponse res = post_json("openai", endpoint_, body, headers, timeouts_, {max_reply_bytes_}, secrets);
   LlmReply reply;
   reply.latency_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (res.status != 200) throw Error(http_status_error("openai", endpoint_, res.status, res.body));
-  reply.raw = parse_response("openai", endpoint_, res.body);
+  // The body is scrubbed as text; its strings once more after parsing, for a secret written with escapes.
+  reply.raw = secrets.scrub(parse_response("openai", endpoint_, res.body));
   const Json& j = reply.raw;
   const Json::json_pointer content_ptr("/choices/0/message/content");
   if (!j.is_object() || !j.contains(content_ptr) || !j.at(content_ptr).is_string()) {

@@ -14,7 +14,8 @@ namespace hf::llm {
 // response_format is {type: json_schema, json_schema: {name, schema, strict: true}}, or {type: json_object}
 // with param response_format = json_object for servers without schema support. The API key is read from the
 // environment variable named by api_key_env (never from the config); unset = no Authorization header, which
-// local servers accept.
+// local servers accept. The key and any user:password in base_url are scrubbed from everything the provider
+// returns or throws (a server may echo them).
 class OpenAiProvider : public LlmProvider {
  public:
   static ComponentInfo describe();
@@ -31,6 +32,7 @@ class OpenAiProvider : public LlmProvider {
   std::string schema_name_;
   HttpTimeouts timeouts_;
   size_t max_reply_bytes_ = 1000000;
+  Secrets url_secrets_;  // user:password in base_url; the key is added per call (read from the environment)
 };
 
 }  // namespace hf::llm

@@ -23,6 +23,22 @@ struct HttpLimits {
   size_t max_body_bytes = 1000000;
 };
 
+// Values a provider knows to be secret: its API key, the user:password of its server URL and the Basic
+// authorization that libcurl makes of them (base64). scrub() replaces each in a text or in every string of a
+// JSON document by "***", so a server that echoes the request's Authorization header (in an error, in its
+// reply) puts nothing secret into messages, call records or specs. Values shorter than 4 characters are not
+// searched for on their own (they would match ordinary text); as part of user:password they are.
+class Secrets {
+ public:
+  void add(const std::string& value);
+  void add_url_credentials(const std::string& url);
+  std::string scrub(std::string text) const;
+  Json scrub(const Json& j) const;
+
+ private:
+  std::vector<std::string> values_;  // longest first, so a value containing another is replaced whole
+};
+
 struct HttpResponse {
   long status = 0;
   std::string body;
@@ -34,10 +50,11 @@ struct HttpResponse {
 // statuses are returned, not thrown: the caller knows how its server words errors (see http_status_error).
 // A body over the limit fails with "<who>: POST <url> failed: the response is larger than max_reply_bytes =
 // N"; a call cancelled through a CancellationScope on this thread (polled about once a second) with
-// "<who>: POST <url> cancelled: the run is stopping". URLs in messages are redacted.
+// "<who>: POST <url> cancelled: the run is stopping". URLs in messages are redacted; `secrets` are scrubbed
+// from the body before it is sent (a secret never goes out as text) and from the response body.
 HttpResponse post_json(const std::string& who, const std::string& url, const Json& body,
                        const std::vector<std::string>& headers, const HttpTimeouts& timeouts,
-                       const HttpLimits& limits = {});
+                       const HttpLimits& limits = {}, const Secrets& secrets = Secrets());
 
 // "<who>: POST <url> returned HTTP <status>: <detail>", detail taken from an {"error": ...} body
 // (string or {"message": ...}) when there is one, else the start of the body.
