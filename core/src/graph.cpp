@@ -24,19 +24,43 @@ std::string ptr_token(const std::string& s) {
   return out;
 }
 
+// The variables a config names as holding a secret (api_key_env: NAME, at any depth).
+void secret_variables(const Json& j, std::set<std::string>& names) {
+  if (j.is_array()) {
+    for (const Json& e : j) secret_variables(e, names);
+  } else if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      if (it.key() == "api_key_env" && it.value().is_string()) names.insert(it.value().get<std::string>());
+      secret_variables(it.value(), names);
+    }
+  }
+}
+
 void expand_strings(Json& j, const std::string& ptr, const YamlDocument& doc,
-                    const std::map<std::string, std::string>& vars, std::vector<Diagnostic>& diags) {
+                    const std::map<std::string, std::string>& vars, const std::set<std::string>& secrets,
+                    std::vector<Diagnostic>& diags) {
   if (j.is_string()) {
+    const std::string& text = j.get_ref<const std::string&>();
+    for (const std::string& name : secrets)
+      if (text.find("${" + name + "}") != std::string::npos ||
+          text.find("${" + name + ":-") != std::string::npos) {
+        diags.push_back({Severity::kError, doc.at(ptr),
+                         "${" + name +
+                             "} is not expanded: the config names it as api_key_env, a secret that "
+                             "only the provider reads"});
+        return;
+      }
     try {
-      j = expand_vars(j.get<std::string>(), vars);
+      j = expand_vars(text, vars);
     } catch (const Error& e) {
       diags.push_back({Severity::kError, doc.at(ptr), e.what()});
     }
   } else if (j.is_array()) {
-    for (size_t i = 0; i < j.size(); ++i) expand_strings(j[i], ptr + "/" + std::to_string(i), doc, vars, diags);
+    for (size_t i = 0; i < j.size(); ++i)
+      expand_strings(j[i], ptr + "/" + std::to_string(i), doc, vars, secrets, diags);
   } else if (j.is_object()) {
     for (auto it = j.begin(); it != j.end(); ++it)
-      expand_strings(it.value(), ptr + "/" + ptr_token(it.key()), doc, vars, diags);
+      expand_strings(it.value(), ptr + "/" + ptr_token(it.key()), doc, vars, secrets, diags);
   }
 }
 
@@ -333,7 +357,9 @@ GraphConfig load_graph_config(const std::filesystem::path& file, const std::vect
   expand_includes(cfg.doc, cfg.dir, stack, diags, includes);
   for (const std::string& o : overrides) apply_override(cfg, o, diags);
   const std::map<std::string, std::string> vars = {{"CONFIG_DIR", cfg.dir.string()}};
-  expand_strings(cfg.doc.value, "", cfg.doc, vars, diags);
+  std::set<std::string> secrets;
+  secret_variables(cfg.doc.value, secrets);
+  expand_strings(cfg.doc.value, "", cfg.doc, vars, secrets, diags);
   if (cfg.doc.value.contains("plugin_paths")) {
     const Json& pp = cfg.doc.value["plugin_paths"];
     if (!pp.is_array()) {

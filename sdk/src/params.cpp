@@ -5,8 +5,10 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <set>
 #include <sstream>
 
 #include "hazardforge/geometry.hpp"
@@ -347,6 +349,28 @@ std::string shared_root() {
   return {};
 }
 
+namespace {
+
+// The word of a variable name that marks it as a secret, upper-cased; empty when there is none.
+std::string secret_word(const std::string& name) {
+  static const std::set<std::string> kSecretWords = {
+      "KEY",  "KEYS",   "APIKEY",  "TOKEN", "TOKENS", "SECRET", "SECRETS",    "PASSWORD",
+      "PASS", "PASSWD", "PRIVATE", "AUTH",  "CRED",   "CREDS",  "CREDENTIAL", "CREDENTIALS"};
+  std::string word;
+  for (size_t i = 0; i <= name.size(); ++i) {
+    const char c = i < name.size() ? name[i] : '_';
+    if (std::isalpha(static_cast<unsigned char>(c))) {
+      word += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    } else {
+      if (kSecretWords.count(word)) return word;
+      word.clear();
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
 std::string expand_vars(const std::string& text, const std::map<std::string, std::string>& vars) {
   std::string out;
   size_t i = 0;
@@ -367,6 +391,10 @@ std::string expand_vars(const std::string& text, const std::map<std::string, std
       if (auto it = vars.find(name); it != vars.end()) {
         value = it->second;
         found = true;
+      } else if (const std::string word = secret_word(name); !word.empty()) {
+        throw Error("${" + name + "} is not expanded: its name marks a secret ('" + word +
+                    "'); a secret is read only by the component that needs it (the openai provider's "
+                    "api_key_env), never written into a config, its manifest or a prompt");
       } else if (const char* env = std::getenv(name.c_str()); env && *env) {
         value = env;
         found = true;

@@ -437,3 +437,19 @@ TEST(Hardening, OverwriteRemovesOnlyTheEarlierRunsFiles) {
 }
 
 }  // namespace
+
+namespace {
+
+// A secret's variable is never expanded into a config, where it would reach the manifest and an LLM prompt.
+TEST(Hardening, VariablesNamingSecretsAreNotExpandedIntoTheConfig) {
+  Scene s("${HF_TEST_API_KEY}.jsonl");
+  const auto c = hf::test::run_command("HF_TEST_API_KEY=sk-live-0123 " + std::string(HF_EXE) + " run -q " +
+                                       quote(s.config) + " -o " + quote(s.run));
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, s.config.string() + ":9:")) << c.out;
+  EXPECT_TRUE(has(c.out, "${HF_TEST_API_KEY} is not expanded")) << c.out;
+  EXPECT_FALSE(has(c.out, "sk-live-0123")) << c.out;
+  EXPECT_FALSE(fs::exists(s.run / "sk-live-0123.jsonl"));
+}
+
+}  // namespace

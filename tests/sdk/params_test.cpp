@@ -1,6 +1,8 @@
 // Parameter validation and YAML location tracking.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include "hazardforge/params.hpp"
 #include "hazardforge/yaml_json.hpp"
 
@@ -114,6 +116,26 @@ TEST(Yaml, AliasExpansionIsBoundedAndNamesWhereItHappens) {
       parse_yaml("ok: &ok {a: 1}\nuse: {<<: *ok, b: 2}\nlist: [*ok, *ok]\n", "fine.yaml");
   EXPECT_EQ(doc.value["use"], (Json{{"a", 1}, {"b", 2}}));
   EXPECT_EQ(doc.value["list"].size(), 2u);
+}
+
+// A variable whose name marks a secret is refused: expanded, its value would reach the manifest and, in a
+// scene text, the LLM prompt and its records.
+TEST(Vars, VariablesNamingSecretsAreNotExpanded) {
+  ::setenv("HF_TEST_SERVICE_TOKEN", "t0k3n-value", 1);
+  ::setenv("HF_TEST_PLAIN_DIR", "/data", 1);
+  EXPECT_EQ(expand_vars("${HF_TEST_PLAIN_DIR}/x"), "/data/x");
+  try {
+    expand_vars("scene ${HF_TEST_SERVICE_TOKEN}");
+    FAIL() << "expanded";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("${HF_TEST_SERVICE_TOKEN} is not expanded"), std::string::npos) << what;
+    EXPECT_EQ(what.find("t0k3n-value"), std::string::npos) << what;
+  }
+  // Named by the caller (e.g. CONFIG_DIR), a variable is the caller's business.
+  EXPECT_EQ(expand_vars("${MY_KEY_DIR}", {{"MY_KEY_DIR", "/k"}}), "/k");
+  ::unsetenv("HF_TEST_SERVICE_TOKEN");
+  ::unsetenv("HF_TEST_PLAIN_DIR");
 }
 
 TEST(Nearest, SuggestsCloseNamesOnly) {

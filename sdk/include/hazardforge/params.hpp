@@ -100,7 +100,10 @@ Json validate_params(const std::vector<ParamSpec>& specs, const Json& given, con
                      std::vector<Diagnostic>& diags);
 
 // Expands ${VAR} and ${VAR:-default} from `vars`, then the environment. HAZARDFORGE_SHARED and HAZARDFORGE_SHARE
-// are always defined (see shared_root() / share_dir()). Throws hf::Error naming an undefined variable.
+// are always defined (see shared_root() / share_dir()). Throws hf::Error naming an undefined variable, and
+// one not in `vars` whose name marks a secret: a word of it (split at every character that is not a letter)
+// is KEY, TOKEN, SECRET, PASSWORD, PASS, PASSWD, AUTH, CRED, CREDENTIAL, PRIVATE, APIKEY or a plural of them
+// ("OPENAI_API_KEY" is refused, "MONKEY_DIR" is not): its value would reach manifests and prompts.
 std::string expand_vars(const std::string& text, const std::map<std::string, std::string>& vars = {});
 
 // The shared data folder (data/, models/, schemas/): $HAZARDFORGE_SHARED, else the first folder named `shared`
