@@ -3,8 +3,12 @@
 // generate -> plan -> render -> verify attempts over the windows and seeds, feeding every failed attempt's
 // reasons back to the generator, until one is verified or the pair's budget is spent. Attempts are child
 // processes restricted to their window's frames; each writes attempt.json when it is done, so a campaign run
-// again continues where it stopped and repeats nothing.
+// again continues where it stopped and repeats nothing. An attempt dies with its campaign and holds a lock
+// beside its folder while it lives, so a campaign run again never collides with one still running.
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -769,6 +773,32 @@ fs::path publish(const Json& e, const fs::path& out) {
   return dst;
 }
 
+// The lock an attempt's process holds for as long as it lives (inherited from the campaign, which closes its
+// own copy): "<attempt folder>.lock", holding the attempt's pid.
+fs::path attempt_lock(const Planned& a) {
+  return a.dir.string() + ".lock";
+}
+
+// Waits until no process of an earlier campaign (killed while the attempt ran) still holds the attempt's
+// lock, then removes the lock.
+void wait_for_survivor(const Planned& a, const fs::path& out, bool quiet) {
+  const fs::path lock = attempt_lock(a);
+  const int fd = ::open(lock.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return;
+  if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    char pid[32] = {};
+    if (::read(fd, pid, sizeof pid - 1) < 0) pid[0] = '\0';
+    if (!quiet)
+      std::cerr << "campaign: attempt " << fs::relative(a.dir, out).string() << " (pid " << pid
+                << ") of an earlier campaign is still running; waiting for it to end\n";
+    while (flock(fd, LOCK_EX) != 0 && errno == EINTR) {
+    }
+  }
+  ::close(fd);
+  std::error_code ec;
+  fs::remove(lock, ec);
+}
+
 // ---- reports ----------------------------------------------------------------------------------------------------
 
 Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) {
@@ -945,6 +975,14 @@ void write_reports(const CampaignSpec& s, const fs::path& out, const std::vector
 
 }  // namespace
 
+std::optional<int> finished_run_exit_code(const fs::path& run) {
+  const Json m = read_json(run / "manifest.json");
+  const std::string status = m.is_object() ? m.value("status", "") : "";
+  if (status == "completed" || status == "incomplete") return 0;
+  if (status == "failed") return 1;
+  return std::nullopt;
+}
+
 int cmd_campaign(Host& host, const CampaignOptions& o) {
   CampaignSpec spec;
   try {
@@ -999,13 +1037,29 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
         p.kind = k;
         p.rec_index = i;
         p.recording_states = sc.states;
-        // Finished attempts of an earlier invocation: kept, never repeated.
+        // Finished attempts of an earlier invocation: kept, never repeated. One whose campaign was killed
+        // before it could record it is waited for if it still runs, and read back from its folder if its run
+        // ended on its own.
         for (int n = 1;; ++n) {
           std::string why;
           auto next = plan_next(p, windows[r.name], spec, out, &why);
           if (!next) break;
-          const Json done = read_json(next->dir / "attempt.json");
-          if (!done.is_object()) break;
+          Json done = read_json(next->dir / "attempt.json");
+          if (!done.is_object()) {
+            wait_for_survivor(*next, out, o.quiet);
+            const std::optional<int> code = finished_run_exit_code(next->dir);
+            if (!code) break;
+            std::error_code ec;
+            fs::rename(next->dir.string() + ".log", next->dir / "run.log", ec);
+            ChildExit ex;
+            ex.exit_code = *code;
+            const Json m = read_json(next->dir / "manifest.json");
+            done = collect_attempt(p, *next, ex, m.value("wall_seconds", 0.0), out);
+            done["read_back"] = true;  // no CPU time: the campaign that started it did not reap it
+            if (done.value("passed", false))
+              done["scenario"] = fs::relative(publish(done, out), out).string();
+            write_file_atomic(next->dir / "attempt.json", json_text(done, 2) + "\n");
+          }
           p.attempts.push_back(done);
         }
         pairs.push_back(std::move(p));
@@ -1033,6 +1087,7 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
     p.running = false;
     std::error_code ec;
     fs::rename(a.dir.string() + ".log", a.dir / "run.log", ec);
+    fs::remove(attempt_lock(a), ec);
     if (interrupted || ex.exit_code == 130) return;  // not finished: run again next time
     Json e = collect_attempt(p, a, ex, wall, out);
     if (e.value("passed", false)) e["scenario"] = fs::relative(publish(e, out), out).string();
@@ -1075,7 +1130,24 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
         write_file_atomic(fb, json_text(feedback_of(*next_pair), 2) + "\n");
       }
       fs::create_directories(next.dir.parent_path());
-      const pid_t pid = spawn_logged(attempt_args(o, spec, *next_pair, next, fb), next.dir.string() + ".log");
+      wait_for_survivor(next, out, o.quiet);
+      const fs::path lock = attempt_lock(next);
+      const int lock_fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+      if (lock_fd < 0 || flock(lock_fd, LOCK_EX | LOCK_NB) != 0) {
+        std::cerr << "error: " << lock.string() << ": cannot lock: " << std::strerror(errno) << "\n";
+        return 1;
+      }
+      pid_t pid = 0;
+      try {
+        pid = spawn_logged(attempt_args(o, spec, *next_pair, next, fb), next.dir.string() + ".log", lock_fd);
+      } catch (const Error&) {
+        ::close(lock_fd);
+        throw;
+      }
+      const std::string pid_text = std::to_string(pid);
+      if (::write(lock_fd, pid_text.data(), pid_text.size()) < 0) {
+      }
+      ::close(lock_fd);  // the attempt holds the lock now, until it ends
       next_pair->running = true;
       running[pid] = {next_pair, next};
       started_at[pid] = std::chrono::steady_clock::now();

@@ -1,12 +1,17 @@
-// The campaign's candidate windows on scouted frames the tests make, its reason classes, and its refusals of
-// bad campaign files (through the CLI).
+// The campaign's candidate windows on scouted frames the tests make, its reason classes, its refusals of bad
+// campaign files (through the CLI) and the lifetime of its attempts' processes.
 #include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <csignal>
 #include <fstream>
 
 #include "command.hpp"
 #include "hazardforge/core/campaign.hpp"
+#include "hazardforge/core/child_process.hpp"
 #include "temp_dir.hpp"
 
 namespace hf::core {
@@ -255,6 +260,66 @@ TEST(CampaignCli, ABadCampaignFileIsRefusedNamingFileLineAndKey) {
   EXPECT_NE(r.out.find("missing.yaml not found"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("a recording needs a 'name' of letters"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(dir / "out"));  // nothing written for a refused campaign
+}
+
+// An attempt dies with the campaign that started it, however the campaign ends (SIGKILL included), so a
+// campaign run again never meets a survivor writing into the attempt's folder; and it runs in its own process
+// group, so a terminal's Ctrl-C reaches it once, forwarded by the campaign.
+TEST(CampaignAttempts, AnAttemptDiesWithItsCampaignAndHasItsOwnProcessGroup) {
+  test::TempDir dir;
+  int alive[2], report[2];  // alive: the attempt holds the write end while it lives; report: its pid
+  ASSERT_EQ(pipe(alive), 0);
+  ASSERT_EQ(pipe(report), 0);
+  const pid_t campaign = fork();
+  ASSERT_GE(campaign, 0);
+  if (campaign == 0) {
+    close(alive[0]);
+    close(report[0]);
+    pid_t attempt = 0;
+    try {
+      attempt = spawn_logged({"/bin/sleep", "600"}, dir / "attempt.log");
+    } catch (...) {
+      _exit(1);
+    }
+    if (write(report[1], &attempt, sizeof attempt) != sizeof attempt) _exit(1);
+    close(alive[1]);
+    pause();
+    _exit(0);
+  }
+  close(alive[1]);
+  close(report[1]);
+  pid_t attempt = 0;
+  ASSERT_EQ(read(report[0], &attempt, sizeof attempt), static_cast<ssize_t>(sizeof attempt));
+  close(report[0]);
+  EXPECT_EQ(getpgid(attempt), attempt);
+  ASSERT_EQ(kill(campaign, SIGKILL), 0);
+  int st = 0;
+  ASSERT_EQ(waitpid(campaign, &st, 0), campaign);
+  // End of file on `alive` once the attempt's copy of the write end is gone, i.e. once it has died. The
+  // deadline only bounds a failure; a passing run returns as soon as the attempt is gone.
+  pollfd p{alive[0], POLLIN, 0};
+  const int ready = poll(&p, 1, 60000);
+  char c = 0;
+  const bool died = ready == 1 && read(alive[0], &c, 1) == 0;
+  close(alive[0]);
+  if (!died) kill(attempt, SIGKILL);
+  EXPECT_TRUE(died) << "the attempt outlived its campaign by a minute";
+}
+
+// A campaign killed while an attempt ran reads the attempt back when its run ended on its own, and runs it
+// again only when it did not end.
+TEST(CampaignAttempts, AnAttemptThatEndedOnItsOwnIsReadBackNotRunAgain) {
+  test::TempDir dir;
+  auto with_status = [&](const std::string& status) {
+    std::ofstream(dir / "manifest.json") << Json{{"status", status}}.dump();
+    return finished_run_exit_code(dir.path());
+  };
+  EXPECT_EQ(finished_run_exit_code(dir.path()), std::nullopt);  // no manifest: never started
+  EXPECT_EQ(with_status("completed"), 0);
+  EXPECT_EQ(with_status("incomplete"), 0);
+  EXPECT_EQ(with_status("failed"), 1);
+  EXPECT_EQ(with_status("interrupted"), std::nullopt);
+  EXPECT_EQ(with_status("running"), std::nullopt);
 }
 
 }  // namespace

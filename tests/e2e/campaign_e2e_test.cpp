@@ -1,6 +1,6 @@
 // A campaign through the CLI on the real nuScenes scene: interrupted (here: stopped after one attempt) and run
-// again, it keeps every finished attempt untouched, runs only what is left, and re-runs an attempt that never
-// finished; index.json lists each attempt once.
+// again, it keeps every finished attempt untouched, runs only what is left, reads back an attempt that ended
+// unrecorded and re-runs one that never finished; index.json lists each attempt once.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -89,14 +89,34 @@ TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
   EXPECT_TRUE(fs::exists(out / "index.html"));
   EXPECT_TRUE(fs::exists(out / "summary.md"));
 
-  // An attempt that never finished (no attempt.json: the process was killed) is run again; nothing else is.
+  // An attempt whose run ended although its campaign was killed before recording it (no attempt.json, a
+  // finished manifest) is read back from its own folder, not run again.
   const fs::path b = fs::directory_iterator(out / "attempts/nus/pedestrian_crossing")->path();
+  const Json b_record = test::read_json_file(b / "attempt.json");
   fs::remove(b / "attempt.json");
+  const auto read_back = test::run_command(cmd);
+  ASSERT_EQ(read_back.code, 0) << read_back.out;
+  EXPECT_EQ(read_back.out.find("pedestrian_crossing #1"), std::string::npos) << read_back.out;
+  const Json b_again = test::read_json_file(b / "attempt.json");
+  EXPECT_TRUE(b_again.value("read_back", false));
+  EXPECT_EQ(b_again["outcome"], b_record["outcome"]);
+  EXPECT_EQ(b_again["passed"], b_record["passed"]);
+  EXPECT_EQ(b_again["reasons"], b_record["reasons"]);
+  EXPECT_EQ(test::read_json_file(out / "index.json")["attempts"].size(), 2u);
+
+  // An attempt that never finished (no attempt.json, its manifest still running: the process was killed) is
+  // run again; nothing else is.
+  fs::remove(b / "attempt.json");
+  Json m = test::read_json_file(b / "manifest.json");
+  m["status"] = "running";
+  m.erase("outputs");
+  std::ofstream(b / "manifest.json") << m.dump(2);
   const auto third = test::run_command(cmd);
   ASSERT_EQ(third.code, 0) << third.out;
   EXPECT_NE(third.out.find("pedestrian_crossing #1"), std::string::npos) << third.out;
   EXPECT_EQ(third.out.find("sudden_stop #1"), std::string::npos) << third.out;
   EXPECT_TRUE(fs::exists(b / "attempt.json"));
+  EXPECT_FALSE(test::read_json_file(b / "attempt.json").value("read_back", false));
   EXPECT_EQ(slurp(a1 / "attempt.json"), a1_record);
   EXPECT_EQ(test::read_json_file(out / "index.json")["attempts"].size(), 2u);
 

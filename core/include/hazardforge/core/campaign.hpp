@@ -116,6 +116,11 @@ struct CampaignOptions {
   const std::atomic<bool>* interrupt = nullptr;
 };
 
+// The exit code of the run in folder `run` when it ended on its own (its manifest says completed or
+// incomplete: 0, failed: 1); nothing when it was interrupted, never ended or is not there. A campaign killed
+// while an attempt ran reads a finished attempt back with it instead of running it again.
+std::optional<int> finished_run_exit_code(const std::filesystem::path& run);
+
 int cmd_campaign(Host& host, const CampaignOptions& o);
 
 }  // namespace hf::core
