@@ -5,12 +5,33 @@
 #include "hazardforge/redact.hpp"
 
 #include <algorithm>
+#include <csignal>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 
 namespace hf::core {
+
+namespace {
+
+std::atomic<bool>* g_stop_flag = nullptr;
+
+extern "C" void on_stop_signal(int sig) {
+  if (g_stop_flag) g_stop_flag->store(true);
+  std::signal(sig, SIG_DFL);  // the same signal again ends the process at once
+}
+
+}  // namespace
+
+void install_stop_signals(std::atomic<bool>* flag) {
+  g_stop_flag = flag;
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  for (int sig : {SIGINT, SIGTERM}) sigaction(sig, &sa, nullptr);
+}
 
 namespace {
 

@@ -1,7 +1,6 @@
 // The hazardforge command line: run, validate, plugins, inspect, graph, bench, calibrate, eval, experiment.
 #include <CLI/CLI.hpp>
 
-#include <csignal>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -16,11 +15,6 @@
 namespace {
 
 std::atomic<bool> g_interrupt{false};
-
-extern "C" void on_sigint(int) {
-  g_interrupt = true;
-  std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C ends the process at once
-}
 
 }  // namespace
 
@@ -152,8 +146,7 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
 
-  std::signal(SIGINT, on_sigint);
-  std::signal(SIGTERM, on_sigint);
+  install_stop_signals(&g_interrupt);
   Host host(plugin_paths);
   common.argv = args;
   common.interrupt = &g_interrupt;

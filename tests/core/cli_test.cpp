@@ -6,10 +6,12 @@
 #include <csignal>
 
 #include <array>
+#include <atomic>
 #include <cstdio>
 #include <fstream>
 
 #include "command.hpp"
+#include "hazardforge/core/commands.hpp"
 #include "hazardforge/types.hpp"
 #include "temp_dir.hpp"
 #include "test_support.hpp"
@@ -183,6 +185,37 @@ TEST(Cli, GeneratedStageReferenceCoversEveryComponent) {
   ASSERT_EQ(gen.code, 0) << gen.out;
   EXPECT_TRUE(gen.out == doc) << "docs/stages.md differs from the stages' declarations: regenerate it with "
                               << "`build/bin/hazardforge inspect --all --markdown > docs/stages.md`";
+}
+
+}  // namespace
+
+namespace {
+
+// What a signal does to a process that installed the CLI's handlers: "flag" when it set the stop flag and the
+// process went on, "killed by N" when it ended the process.
+std::string after_signals(std::initializer_list<int> signals) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    static std::atomic<bool> flag{false};
+    hf::core::install_stop_signals(&flag);
+    for (int sig : signals) raise(sig);
+    _exit(flag.load() ? 0 : 3);
+  }
+  int st = 0;
+  waitpid(pid, &st, 0);
+  if (WIFSIGNALED(st)) return "killed by " + std::to_string(WTERMSIG(st));
+  return WEXITSTATUS(st) == 0 ? "flag" : "exit " + std::to_string(WEXITSTATUS(st));
+}
+
+// SIGTERM stops a command as Ctrl-C does; a run stopped by SIGTERM still finishes (and writes its manifest)
+// when its parent command forwards a Ctrl-C as SIGINT; the same signal twice ends the process at once.
+TEST(Cli, SigtermStopsLikeCtrlCAndAForwardedCtrlCDoesNotCutTheRunShort) {
+  EXPECT_EQ(after_signals({SIGTERM}), "flag");
+  EXPECT_EQ(after_signals({SIGINT}), "flag");
+  EXPECT_EQ(after_signals({SIGTERM, SIGINT}), "flag");
+  EXPECT_EQ(after_signals({SIGINT, SIGTERM}), "flag");
+  EXPECT_EQ(after_signals({SIGTERM, SIGTERM}), "killed by " + std::to_string(SIGTERM));
+  EXPECT_EQ(after_signals({SIGINT, SIGINT}), "killed by " + std::to_string(SIGINT));
 }
 
 }  // namespace

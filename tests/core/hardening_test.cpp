@@ -1,7 +1,12 @@
 // Hostile and careless use of `hazardforge run`: output paths, run-folder ownership, invalid UTF-8, the
 // manifest.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <csignal>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
@@ -450,6 +455,41 @@ TEST(Hardening, VariablesNamingSecretsAreNotExpandedIntoTheConfig) {
   EXPECT_TRUE(has(c.out, "${HF_TEST_API_KEY} is not expanded")) << c.out;
   EXPECT_FALSE(has(c.out, "sk-live-0123")) << c.out;
   EXPECT_FALSE(fs::exists(s.run / "sk-live-0123.jsonl"));
+}
+
+}  // namespace
+
+namespace {
+
+// SIGTERM (a service manager, `timeout`, `kill`) stops a run as Ctrl-C does: what was written is kept and
+// the manifest ends "interrupted". The run is held at its sink's file, a FIFO the test opens, while the
+// signal arrives.
+TEST(Hardening, SigtermEndsARunInterruptedLikeCtrlC) {
+  Scene s;
+  ASSERT_EQ(s.run_cli().code, 0);
+  fs::remove(s.run / "frames.jsonl");
+  ASSERT_EQ(mkfifo((s.run / "frames.jsonl").c_str(), 0600), 0);
+  const std::string config = s.config.string(), run = s.run.string();
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    execl(HF_EXE, HF_EXE, "run", "-q", config.c_str(), "-o", run.c_str(), "--resume",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Opening the FIFO returns once the run's sink has opened it for writing: the run is under way.
+  const int fd = ::open((s.run / "frames.jsonl").c_str(), O_RDONLY);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(kill(pid, SIGTERM), 0);
+  char buf[4096];
+  while (::read(fd, buf, sizeof buf) > 0) {
+  }
+  ::close(fd);
+  int st = 0;
+  ASSERT_EQ(waitpid(pid, &st, 0), pid);
+  ASSERT_TRUE(WIFEXITED(st)) << "ended by signal " << WTERMSIG(st);
+  EXPECT_EQ(WEXITSTATUS(st), 130);
+  EXPECT_EQ(s.manifest()["status"], "interrupted");
 }
 
 }  // namespace

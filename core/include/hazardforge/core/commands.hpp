@@ -9,6 +9,12 @@
 
 namespace hf::core {
 
+// SIGINT (Ctrl-C) and SIGTERM (kill, timeout, a service manager, a campaign's death) both set `*flag`: the
+// command stops as for Ctrl-C, every stage finishes and the manifest says "interrupted". A second signal of
+// the same kind ends the process at once; one of the other kind does not, so a run stopped by SIGTERM still
+// finishes when its parent command forwards a Ctrl-C as SIGINT.
+void install_stop_signals(std::atomic<bool>* flag);
+
 struct CommonOptions {
   std::string config;
   std::vector<std::string> overrides;
