@@ -3,11 +3,21 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
 namespace hf::test {
+
+// A file's whole text ("" when it cannot be read).
+inline std::string read_file(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
 
 // $HAZARDFORGE_SHARED, else ../shared beside the source checkout.
 inline std::filesystem::path shared_dir() {

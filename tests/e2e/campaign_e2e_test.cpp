@@ -18,13 +18,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 // A campaign file over nuScenes scene-0916 through configs/paper.yaml with the default appearance set (no
 // harvest needed): its name, kinds and budget line, and the recording's extra overrides.
 void write_nuscenes_campaign(const fs::path& file, const std::string& head, const std::string& extra_set) {
@@ -58,7 +51,7 @@ TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
   ASSERT_EQ(std::distance(fs::directory_iterator(a), fs::directory_iterator{}), 1) << first.out;
   const fs::path a1 = fs::directory_iterator(a)->path();
   ASSERT_TRUE(fs::exists(a1 / "attempt.json")) << first.out;
-  const std::string a1_record = slurp(a1 / "attempt.json"), a1_manifest = slurp(a1 / "manifest.json");
+  const std::string a1_record = test::read_file(a1 / "attempt.json"), a1_manifest = test::read_file(a1 / "manifest.json");
   const auto scout_time = fs::last_write_time(out / "recordings/nus/scout/scout.jsonl");
   EXPECT_FALSE(fs::exists(out / "attempts/nus/pedestrian_crossing"));
 
@@ -66,8 +59,8 @@ TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
   // is kept.
   const auto second = test::run_command(cmd);
   ASSERT_EQ(second.code, 0) << second.out;
-  EXPECT_EQ(slurp(a1 / "attempt.json"), a1_record);
-  EXPECT_EQ(slurp(a1 / "manifest.json"), a1_manifest);
+  EXPECT_EQ(test::read_file(a1 / "attempt.json"), a1_record);
+  EXPECT_EQ(test::read_file(a1 / "manifest.json"), a1_manifest);
   EXPECT_EQ(fs::last_write_time(out / "recordings/nus/scout/scout.jsonl"), scout_time);
   EXPECT_EQ(second.out.find("sudden_stop #1"), std::string::npos) << second.out;
   EXPECT_NE(second.out.find("pedestrian_crossing #1"), std::string::npos) << second.out;
@@ -117,7 +110,7 @@ TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
   EXPECT_EQ(third.out.find("sudden_stop #1"), std::string::npos) << third.out;
   EXPECT_TRUE(fs::exists(b / "attempt.json"));
   EXPECT_FALSE(test::read_json_file(b / "attempt.json").value("read_back", false));
-  EXPECT_EQ(slurp(a1 / "attempt.json"), a1_record);
+  EXPECT_EQ(test::read_file(a1 / "attempt.json"), a1_record);
   EXPECT_EQ(test::read_json_file(out / "index.json")["attempts"].size(), 2u);
 
   // A different campaign file is refused for this folder: results of two campaigns never mix.

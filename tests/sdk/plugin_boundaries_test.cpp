@@ -18,13 +18,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 bool is_source(const fs::path& p) {
   const std::string e = p.extension().string();
   return e == ".cpp" || e == ".hpp" || e == ".h" || e == ".cc";
@@ -54,7 +47,7 @@ std::vector<std::string> boundary_violations(const fs::path& root) {
         if (!f.is_regular_file()) continue;
         const std::string rel = fs::relative(f.path(), root).string();
         if (is_source(f.path())) {
-          std::istringstream text(read(f.path()));
+          std::istringstream text(test::read_file(f.path()));
           std::string line;
           for (int n = 1; std::getline(text, line); ++n) {
             std::smatch m;
@@ -69,7 +62,7 @@ std::vector<std::string> boundary_violations(const fs::path& root) {
                               where + " nor a namespaced SDK or kit header (hazardforge/...)");
           }
         } else if (f.path().filename() == "CMakeLists.txt") {
-          const std::string cmake = read(f.path());
+          const std::string cmake = test::read_file(f.path());
           std::set<std::string> own_impl;  // the implementation libraries of the plugins this file declares
           const std::regex declares(R"(hazardforge_add_plugin\(\s*(hf_[a-z0-9_]+))");
           for (std::sregex_iterator it(cmake.begin(), cmake.end(), declares), end; it != end; ++it)
