@@ -23,7 +23,11 @@ function(hazardforge_add_plugin name)
   endif()
   set_target_properties(${name} PROPERTIES PREFIX "lib" CXX_VISIBILITY_PRESET hidden
     VISIBILITY_INLINES_HIDDEN ON)
-  target_link_options(${name} PRIVATE "LINKER:--no-undefined")
+  # Every symbol resolved at link time, so a missing library is a build error, not a dlopen error. Clang's
+  # sanitizers link their runtime into executables only: a sanitized build sets HAZARDFORGE_ALLOW_UNDEFINED.
+  if(NOT HAZARDFORGE_ALLOW_UNDEFINED)
+    target_link_options(${name} PRIVATE "LINKER:--no-undefined")
+  endif()
   if(HAZARDFORGE_PLUGIN_OUTPUT_DIR)
     set_target_properties(${name} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${HAZARDFORGE_PLUGIN_OUTPUT_DIR})
   endif()
