@@ -9,6 +9,15 @@
 
 #include "hazardforge/process_memory.hpp"
 
+// GCC says it builds with AddressSanitizer by __SANITIZE_ADDRESS__, clang by __has_feature.
+#if defined(__SANITIZE_ADDRESS__)
+#define HF_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define HF_TEST_ASAN 1
+#endif
+#endif
+
 namespace hf {
 namespace {
 
@@ -39,7 +48,7 @@ namespace {
 }
 
 TEST(ProcessMemory, FreedFrameBuffersAreReusedWithoutFaultingTheirPagesInAgain) {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(HF_TEST_ASAN)
   GTEST_SKIP() << "the sanitizer's allocator is not glibc's";
 #elif !defined(__GLIBC__)
   GTEST_SKIP() << "the policy is glibc's";
