@@ -129,12 +129,14 @@ EgoTrackSample EgoTrack::at(double t) const {
 double EgoTrack::heading_change(double t0, double t1) const {
   if (samples.size() < 2) return 0.0;
   if (t1 < t0) return -heading_change(t1, t0);
+  // The generator asks this for every later sample of the clip on every frame before its trigger: start at
+  // the first sample after t0 rather than walking the track from its beginning.
   double turn = 0.0, yaw = at(t0).yaw;
-  for (const EgoTrackSample& s : samples) {
-    if (s.t <= t0) continue;
-    if (s.t >= t1) break;
-    turn += angle_diff(s.yaw, yaw);
-    yaw = s.yaw;
+  auto it = std::upper_bound(samples.begin(), samples.end(), t0,
+                             [](double t, const EgoTrackSample& s) { return t < s.t; });
+  for (; it != samples.end() && it->t < t1; ++it) {
+    turn += angle_diff(it->yaw, yaw);
+    yaw = it->yaw;
   }
   return turn + angle_diff(at(t1).yaw, yaw);
 }
