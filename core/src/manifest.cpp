@@ -170,6 +170,12 @@ Json make_manifest(const ManifestInput& in, const std::string& status, const Run
     m["errors"] = result->errors;
     m["warnings"] = result->log;
     if (!result->incomplete.empty()) m["incomplete"] = result->incomplete;
+    if (!result->refusals.empty()) {
+      Json refusals = Json::array();
+      for (const NodeRefusal& r : result->refusals)
+        refusals.push_back({{"node", r.node}, {"frame", r.frame}, {"reasons", r.reasons}});
+      m["refusals"] = refusals;
+    }
     m["timing"] = timing_json(*result);
   }
   // argv, the config and messages may carry URLs with credentials (an LLM host with user:pass@).

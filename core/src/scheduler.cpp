@@ -66,6 +66,7 @@ struct Shared {
   std::vector<std::string> errors;
   std::vector<std::string> log;
   std::vector<std::string> incomplete;
+  std::vector<NodeRefusal> refusals;
   std::set<std::filesystem::path> resources;
   std::atomic<bool> abort{false};
   const RunOptions* options = nullptr;
@@ -223,6 +224,12 @@ void guarded(NodeRuntime& n, Shared& sh, const std::string& when, F&& f) {
   if (n.failed) return;
   try {
     f();
+  } catch (const NoHazardFits& e) {
+    {
+      std::lock_guard lk(sh.mu);
+      sh.refusals.push_back({n.spec->id, n.ctx.index, e.reasons()});
+    }
+    fail(n, sh, when, e.what());
   } catch (const std::exception& e) {
     fail(n, sh, when, e.what());
   } catch (...) {
@@ -453,6 +460,7 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
   result.errors = sh.errors;
   result.log = sh.log;
   result.incomplete = sh.incomplete;
+  result.refusals = sh.refusals;
   result.resources.assign(sh.resources.begin(), sh.resources.end());
   for (auto& n : nodes) {
     NodeTiming t{n->spec->id,

@@ -16,6 +16,29 @@ Component::~Component() = default;
 Stage::~Stage() = default;
 LlmProvider::~LlmProvider() = default;
 NoHazardFits::~NoHazardFits() = default;
+
+std::string refusal_text(const std::vector<Refusal>& reasons, bool with_kind) {
+  std::string out;
+  for (const Refusal& r : reasons)
+    out += (out.empty() ? "" : "; ") + (with_kind && !r.kind.empty() ? r.kind + ": " : std::string()) + r.text;
+  return out;
+}
+
+bool only_traffic(const std::vector<Refusal>& reasons) {
+  return !reasons.empty() && std::all_of(reasons.begin(), reasons.end(),
+                                         [](const Refusal& r) { return r.code == refusal::kTraffic; });
+}
+
+void to_json(nlohmann::json& j, const Refusal& r) {
+  j = {{"code", r.code}, {"text", r.text}};
+  if (!r.kind.empty()) j["kind"] = r.kind;
+}
+
+void from_json(const nlohmann::json& j, Refusal& r) {
+  r.code = j.value("code", std::string());
+  r.text = j.value("text", std::string());
+  r.kind = j.value("kind", std::string());
+}
 HazardTemplate::~HazardTemplate() = default;
 HazardCatalog::~HazardCatalog() = default;
 RandomDraw::~RandomDraw() = default;
@@ -43,7 +66,7 @@ HazardKindInfo HazardTemplate::kind_info() const {
 }
 
 HazardProposal HazardTemplate::propose(const ProposalRequest&, RandomDraw&) const {
-  return {nullptr, "hazard template '" + hazard_kind() + "' proposes no plans"};
+  return {nullptr, {refusal::kSpec, "hazard template '" + hazard_kind() + "' proposes no plans", hazard_kind()}};
 }
 
 std::string PortSpec::type_str() const {

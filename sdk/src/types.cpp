@@ -3,9 +3,11 @@
 
 #include "hazardforge/angles.hpp"
 #include "hazardforge/error.hpp"
+#include "hazardforge/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 namespace hf {
 
@@ -347,7 +349,10 @@ void to_json(Json& j, const HazardSpec& v) {
        {"rationale", v.rationale}};
   if (v.deceleration_mps2) j["deceleration_mps2"] = *v.deceleration_mps2;
   if (v.target_ttc_s) j["target_ttc_s"] = *v.target_ttc_s;
+  if (v.track_id) j["track_id"] = *v.track_id;
+  if (v.under_way_s) j["under_way_s"] = *v.under_way_s;
   if (!v.extra.empty()) j["extra"] = v.extra;
+  if (v.road) j["road"] = *v.road;
   if (!v.provenance.empty()) j["provenance"] = v.provenance;
 }
 void from_json(const Json& j, HazardSpec& v) {
@@ -361,14 +366,50 @@ void from_json(const Json& j, HazardSpec& v) {
   v.heading_deg = j.value("heading_deg", 0.0);
   v.motion = j.value("motion", std::string());
   v.start_time_s = j.value("start_time_s", 0.0);
-  if (j.contains("deceleration_mps2") && !j["deceleration_mps2"].is_null())
-    v.deceleration_mps2 = j["deceleration_mps2"].get<double>();
-  if (j.contains("target_ttc_s") && !j["target_ttc_s"].is_null())
-    v.target_ttc_s = j["target_ttc_s"].get<double>();
+  auto number = [&j](const char* key) -> std::optional<double> {
+    if (!j.contains(key) || j[key].is_null()) return std::nullopt;
+    if (!j[key].is_number()) throw Error(std::string(key) + " must be a number or null, got " + j[key].dump());
+    return j[key].get<double>();
+  };
+  v.deceleration_mps2 = number("deceleration_mps2");
+  v.target_ttc_s = number("target_ttc_s");
   v.extra = j.value("extra", Json::object());
+  if (!v.extra.is_object()) throw Error("extra must be an object, got " + v.extra.dump());
+  // Specs of schema 1.0 carried track_id and under_way_s among the kind's fields.
+  v.track_id = spec_track_id(j);
+  const Json* under_way = j.contains("under_way_s") ? &j["under_way_s"]
+                          : v.extra.contains("under_way_s") ? &v.extra["under_way_s"]
+                                                            : nullptr;
+  if (under_way && !under_way->is_null()) {
+    if (!under_way->is_number()) throw Error("under_way_s must be a number or null, got " + under_way->dump());
+    v.under_way_s = under_way->get<double>();
+  }
+  v.extra.erase("track_id");
+  v.extra.erase("under_way_s");
   v.rationale = j.value("rationale", std::string());
+  if (j.contains("road") && !j["road"].is_null()) {
+    RoadLayout road;
+    try {
+      from_json(j["road"], road);
+    } catch (const Error& e) {
+      throw Error(std::string("road.") + e.what());
+    }
+    road.validate("road");
+    v.road = std::move(road);
+  }
   v.provenance = j.value("provenance", Json::object());
 }
+std::optional<int64_t> spec_track_id(const Json& spec) {
+  if (!spec.is_object()) return std::nullopt;
+  const Json* t = spec.contains("track_id") ? &spec["track_id"] : nullptr;
+  if (!t && spec.contains("extra") && spec["extra"].is_object() && spec["extra"].contains("track_id"))
+    t = &spec["extra"]["track_id"];
+  if (!t || t->is_null()) return std::nullopt;
+  if (!t->is_number() || t->get<double>() != std::floor(t->get<double>()) || t->get<double>() < 0)
+    throw Error("track_id must be a non-negative whole number or null, got " + t->dump());
+  return static_cast<int64_t>(t->get<double>());
+}
+
 void to_json(Json& j, const TrajectoryPoint& v) {
   j = {{"t", v.t}, {"x", v.x}, {"y", v.y}, {"heading", v.heading}, {"speed", v.speed}, {"accel", v.accel}};
 }
@@ -447,10 +488,115 @@ void to_json(Json& j, const LaneMarkingSide& v) {
 void to_json(Json& j, const RoadMarkings& v) {
   j = {{"source", v.source}, {"frames", v.frames}, {"left", v.left}, {"right", v.right}, {"note", v.note}};
 }
+void to_json(Json& j, const RoadFactSource& v) {
+  j = {{"from", v.from}, {"why", v.why}};
+}
+void to_json(Json& j, const RoadLayout& v) {
+  Json sources = Json::object();
+  for (const auto& [field, src] : v.sources) sources[field] = src;
+  j = {{"lane_width_m", v.lane_width_m},
+       {"lanes_left", v.lanes_left},
+       {"lanes_right", v.lanes_right},
+       {"oncoming_lanes", v.oncoming_lanes},
+       {"driving_side", v.driving_side},
+       {"kerb_offset_m", v.kerb_offset_m},
+       {"sidewalks", v.sidewalks},
+       {"sidewalk_width_m", v.sidewalk_width_m},
+       {"pedestrians_without_sidewalks", v.pedestrians_without_sidewalks},
+       {"intersection", v.intersection},
+       {"multi_lane", v.multi_lane},
+       {"road_type", v.road_type},
+       {"environment", v.environment},
+       {"sources", sources}};
+}
+void from_json(const Json& j, RoadLayout& v) {
+  if (!j.is_object()) throw Error("a road layout must be an object, got " + j.dump());
+  auto field = [&j](const char* key, auto& out) {
+    using T = std::decay_t<decltype(out)>;
+    if (!j.contains(key)) return;
+    const Json& x = j[key];
+    const bool ok = std::is_same_v<T, bool>          ? x.is_boolean()
+                    : std::is_same_v<T, std::string> ? x.is_string()
+                    : std::is_same_v<T, int>         ? x.is_number_integer()
+                                                     : x.is_number();
+    if (!ok)
+      throw Error(std::string(key) + " must be " +
+                  (std::is_same_v<T, bool>          ? "true or false"
+                   : std::is_same_v<T, std::string> ? "a string"
+                   : std::is_same_v<T, int>         ? "a whole number"
+                                                    : "a number") +
+                  ", got " + x.dump());
+    out = x.get<T>();
+  };
+  v = RoadLayout{};
+  field("lane_width_m", v.lane_width_m);
+  field("lanes_left", v.lanes_left);
+  field("lanes_right", v.lanes_right);
+  field("oncoming_lanes", v.oncoming_lanes);
+  field("driving_side", v.driving_side);
+  field("kerb_offset_m", v.kerb_offset_m);
+  field("sidewalks", v.sidewalks);
+  field("sidewalk_width_m", v.sidewalk_width_m);
+  field("pedestrians_without_sidewalks", v.pedestrians_without_sidewalks);
+  field("intersection", v.intersection);
+  field("multi_lane", v.multi_lane);
+  field("road_type", v.road_type);
+  field("environment", v.environment);
+  if (j.contains("sources") && j["sources"].is_object())
+    for (auto it = j["sources"].begin(); it != j["sources"].end(); ++it)
+      if (it.value().is_object())
+        v.sources[it.key()] = {it.value().value("from", std::string("default")),
+                               it.value().value("why", std::string())};
+}
+void to_json(Json& j, const FrameOrigin& v) {
+  j = {{"dataset", v.dataset}, {"scene", v.scene}, {"description", v.description}};
+  j["dataset_frame"] = v.dataset_frame ? Json(*v.dataset_frame) : Json();
+}
 void to_json(Json& j, const Frame& v) {
   j = {{"index", v.index},      {"timestamp", v.timestamp}, {"source_id", v.source_id},
        {"width", v.image.cols}, {"height", v.image.rows},   {"ego_speed_mps", optd(v.ego.speed_mps)},
-       {"meta", v.meta}};
+       {"origin", v.origin},    {"meta", v.meta}};
+}
+
+int RoadLayout::lane_at(double y) const {
+  const int side = y >= 0 ? 1 : -1;
+  const double from_centre = std::abs(y) - lane_width_m / 2;
+  if (from_centre < 0) return 0;
+  const int k = std::min(lanes(side) + 1, 1 + static_cast<int>(std::floor(from_centre / lane_width_m)));
+  return side * k;
+}
+
+bool RoadLayout::same_direction_at(double y) const {
+  const int lane = lane_at(y);
+  const int side = lane >= 0 ? 1 : -1;
+  const int k = std::abs(lane);
+  return k == 0 || k > lanes(side) || k <= same_direction_lanes(side);
+}
+
+RoadFactSource RoadLayout::source(const std::string& field) const {
+  auto it = sources.find(field);
+  return it == sources.end() ? RoadFactSource{} : it->second;
+}
+
+void RoadLayout::validate(const std::string& where) const {
+  auto range = [&](const char* field, double v, double lo, double hi) {
+    if (!(v >= lo && v <= hi))
+      throw Error(where + "." + field + " must be in [" + num_text(lo) + ", " + num_text(hi) + "], got " +
+                  num_text(v));
+  };
+  range("lane_width_m", lane_width_m, 2, 6);
+  range("lanes_left", lanes_left, 0, 10);
+  range("lanes_right", lanes_right, 0, 10);
+  range("oncoming_lanes", oncoming_lanes, 0, 10);
+  range("kerb_offset_m", kerb_offset_m, 0, 5);
+  range("sidewalk_width_m", sidewalk_width_m, 0, 15);
+  if (driving_side != "right" && driving_side != "left")
+    throw Error(where + ".driving_side must be 'right' or 'left', got '" + driving_side + "'");
+  const int side = oncoming_side();
+  if (oncoming_lanes > lanes(side))
+    throw Error(where + ".oncoming_lanes " + std::to_string(oncoming_lanes) + " exceeds the " +
+                std::to_string(lanes(side)) + " lane(s) on the " + (side > 0 ? "left" : "right") +
+                ", where oncoming traffic passes when traffic keeps " + driving_side);
 }
 
 std::string frame_name(const Frame& f) {

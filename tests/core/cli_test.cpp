@@ -44,7 +44,7 @@ TEST(Cli, PluginsListsInTreePluginsWithPaths) {
 TEST(Cli, InspectDocumentsPortsAndParams) {
   Cmd c = run("inspect yolo");
   EXPECT_EQ(c.code, 0) << c.out;
-  for (const char* s : {"detector/yolo", "inputs:", "frames", "Frame v1", "outputs:", "detections",
+  for (const char* s : {"detector/yolo", "inputs:", "frames", "Frame v2", "outputs:", "detections",
                         "params:", "conf_threshold"})
     EXPECT_NE(c.out.find(s), std::string::npos) << s << "\n" << c.out;
   Cmd bad = run("inspect yoloo");

@@ -13,6 +13,7 @@
 #include "hazardforge/testing/stage_runner.hpp"
 #include "nuscenes_source.hpp"
 #include "pedestrian_crossing_template.hpp"
+#include "refusal_support.hpp"
 #include "sudden_stop_template.hpp"
 #include "test_support.hpp"
 
@@ -289,8 +290,8 @@ TEST(RecordedEgoTrack, PedestrianStopsInTheLaneAndStays) {
   // A stop point outside the path (narrower with a 0.5 m ego half-width) is refused.
   auto wide = make("pedestrian_crossing",
                    {{"stop_in_path", true}, {"stop_offset_m", 1.5}, {"corridor_half_width", 0.5}});
-  EXPECT_EQ(wide->check(spec, scene),
-            std::vector<std::string>{"stop_offset_m 1.5 is outside the ego path "
+  EXPECT_EQ(test::coded(wide->check(spec, scene)),
+            std::vector<std::string>{"spec: stop_offset_m 1.5 is outside the ego path "
                                      "(|offset| must be below 1.3 m for a 0.6 m wide "
                                      "person)"});
 }
@@ -384,7 +385,8 @@ TEST(RecordedEgoTrack, PoseNoiseIsSmoothedAwayForAnAdjacentLane) {
   spec.extra = {{"final_speed_mps", 6.0}};
   const auto raw = make("cut_in", {{"duration_s", 8.0}, {"ego_smoothing_s", 0.0}})->check(spec, scene);
   ASSERT_EQ(raw.size(), 1u);
-  EXPECT_EQ(raw[0].rfind("peak jerk ", 0), 0u) << raw[0];
+  EXPECT_EQ(raw[0].text.rfind("peak jerk ", 0), 0u) << raw[0];
+  EXPECT_EQ(raw[0].code, refusal::kClassLimit);
   const auto smooth = make("cut_in", {{"duration_s", 8.0}})->check(spec, scene);
   EXPECT_TRUE(smooth.empty()) << smooth.front();
 }
@@ -400,8 +402,8 @@ TEST(RecordedEgoTrack, RecordedPlanWithoutATrackIsRefused) {
   spec.speed_mps = 5;
   spec.deceleration_mps2 = 6;
   EXPECT_EQ(
-      tpl->check(spec, scene),
-      std::vector<std::string>{"ego_plan 'recorded' needs the recording's ego track (from dataset poses or "
+      test::coded(tpl->check(spec, scene)),
+      std::vector<std::string>{"scene_data: ego_plan 'recorded' needs the recording's ego track (from dataset poses or "
                                "estimated from the video), which this scene does not carry"});
 }
 

@@ -41,8 +41,8 @@ TEST(UdacityEndToEnd, PersonOnTheHighwayPassesVerificationInsideTheClip) {
   EXPECT_EQ(spec["object_class"], "person");
   EXPECT_EQ(spec["provenance"]["frame_index"], 1);
   EXPECT_GT(spec["lateral_offset_m"].get<double>(), 1.75);  // beyond the road edge (leftmost lane)
-  EXPECT_GT(spec["extra"]["under_way_s"].get<double>(), 0.0);
-  EXPECT_LE(spec["extra"]["under_way_s"].get<double>(), 1.0);
+  EXPECT_GT(spec["under_way_s"].get<double>(), 0.0);
+  EXPECT_LE(spec["under_way_s"].get<double>(), 1.0);
   const Json tr = read_json_file(out / "trajectory.json");
   EXPECT_TRUE(tr["planner"]["feasible"].get<bool>());
   // The ego's speed is the video's estimate (nothing states it): within 10 % of the 29.3 m/s the lane dashes'

@@ -22,7 +22,7 @@ Json run_verifier(const std::string& params, int64_t critical, std::vector<doubl
   tr.kind = "pedestrian_crossing";
   tr.object_class = "person";
   tr.intended_min_ttc_s = 0.1;
-  if (plan_takes_over_7 || !uncovered.empty()) tr.spec.extra = {{"track_id", 7}};
+  if (plan_takes_over_7 || !uncovered.empty()) tr.spec.track_id = 7;
   if (plan_end_t) tr.points = {{0.0, 10, 0, 0, 1, 0}, {*plan_end_t, 10, 0, 0, 1, 0}};
   r.push("trajectory", tr, 0.0);
   const cv::Rect2f box(100, 100, 50, 100);

@@ -126,8 +126,8 @@ TEST(KittiSource, TrackingSequenceWithSparseImages) {
   auto frames = run_source<KittiSource>("{root: '" + kTracking.string() + "', sequence: '0001'}");
   // Only frames 10, 15 and 20 of sequence 0001 have images.
   ASSERT_EQ(frames.size(), 3u);
-  EXPECT_EQ(frames[0].meta["kitti_frame"], 10);
-  EXPECT_EQ(frames[2].meta["kitti_frame"], 20);
+  EXPECT_EQ(frames[0].origin.dataset_frame, 10);
+  EXPECT_EQ(frames[2].origin.dataset_frame, 20);
   EXPECT_NEAR(frames[1].timestamp, 0.5, 1e-12);
   EXPECT_EQ(frames[0].source_id, "000010.png");
   EXPECT_GT(cv::countNonZero(frames[0].image.reshape(1)), 0);

@@ -75,7 +75,9 @@ TEST(NuScenesSource, Scene0916KeyframesIntrinsicsAndEgoMotion) {
   EXPECT_GT(axis[0], 0.999);
   EXPECT_LT(right[1], -0.999);
   EXPECT_NEAR(f0.camera.t_ego_cam[2], 1.51095763913, 1e-9);
-  EXPECT_EQ(f0.meta["scene"], "scene-0916");
+  EXPECT_EQ(f0.origin.scene, "scene-0916");
+  EXPECT_EQ(f0.origin.dataset, "nuscenes");
+  EXPECT_FALSE(f0.origin.description.empty());
   EXPECT_EQ(f0.meta["timestamp_us"], 1538984233512470);
   EXPECT_EQ(f0.source_id, sd0["filename"]);
 
@@ -383,7 +385,7 @@ TEST(NuScenesSource, SecondSceneContinuesAfterAGap) {
   auto frames = run_source<NuScenesSource>("{dataroot: '" + c.root().string() +
                                            "', annotations: false, scene_gap_s: 2}");
   ASSERT_EQ(frames.size(), 82u);
-  EXPECT_EQ(frames[41].meta["scene"], "scene-twin");
+  EXPECT_EQ(frames[41].origin.scene, "scene-twin");
   EXPECT_EQ(frames[41].meta["scene_start"], true);
   EXPECT_EQ(frames[40].meta["scene_start"], false);
   EXPECT_EQ(frames[41].index, 41);

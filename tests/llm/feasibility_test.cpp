@@ -43,8 +43,14 @@ class Feasibility : public ::testing::Test {
     s.target_ttc_s = 1.0;
     return s;
   }
+  // The reasons' texts (codes: coded()).
   std::vector<std::string> check(const HazardSpec& s) const {
-    return check_feasibility(s, scene_, cfg_, nullptr);
+    std::vector<std::string> out;
+    for (const Refusal& r : check_feasibility(s, scene_, cfg_, nullptr)) out.push_back(r.text);
+    return out;
+  }
+  std::vector<std::string> coded(const HazardSpec& s) const {
+    return test::coded(check_feasibility(s, scene_, cfg_, nullptr));
   }
 
   LimitsTable limits_;
@@ -60,10 +66,10 @@ TEST_F(Feasibility, ClassLimitsFromTheSharedTable) {
   HazardSpec s = stop();
   s.speed_mps = 70;
   s.deceleration_mps2 = 14;
-  std::vector<std::string> e = check(s);
+  std::vector<std::string> e = coded(s);
   ASSERT_GE(e.size(), 2u);
-  EXPECT_EQ(e[0], "/speed_mps = 70 is more than a car can do (at most 60 m/s)");
-  EXPECT_EQ(e[1], "/deceleration_mps2 = 14 is more than a car can brake (at most 10 m/s^2)");
+  EXPECT_EQ(e[0], "class_limit: /speed_mps = 70 is more than a car can do (at most 60 m/s)");
+  EXPECT_EQ(e[1], "class_limit: /deceleration_mps2 = 14 is more than a car can brake (at most 10 m/s^2)");
 }
 
 TEST_F(Feasibility, SceneRulesFromThePrompt) {
@@ -77,21 +83,23 @@ TEST_F(Feasibility, SceneRulesFromThePrompt) {
   p.heading_deg = 90;
   p.side = "right";
   p.lateral_offset_m = -5.5;
-  std::vector<std::string> e = check(p);
+  std::vector<std::string> e = coded(p);
   ASSERT_FALSE(e.empty());
-  EXPECT_EQ(e[0], "/object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = no)");
+  EXPECT_EQ(e[0],
+            "scene_lacks: /object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = "
+            "no)");
 
   HazardSpec c = stop();
   c.kind = "cut_in";
   c.heading_deg = 90;
-  e = check(c);
+  e = coded(c);
   ASSERT_GE(e.size(), 2u);
   EXPECT_EQ(e[0],
-            "/heading_deg = 90 makes a vehicle cross the ego path, which needs an intersection (intersection "
+            "scene_lacks: /heading_deg = 90 makes a vehicle cross the ego path, which needs an intersection (intersection "
             "= no)");
   EXPECT_EQ(
       e[1],
-      "/kind = \"cut_in\" needs a lane beside the ego lane going its way: this road has one lane in the "
+      "scene_lacks: /kind = \"cut_in\" needs a lane beside the ego lane going its way: this road has one lane in the "
       "ego's direction (multi_lane = no)");
 }
 

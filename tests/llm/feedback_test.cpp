@@ -67,7 +67,7 @@ Generated generate(const std::string& yaml, const Json& feedback = nullptr, bool
 
 std::string signature(const HazardSpec& s) {
   return s.kind + "/" + s.object_class + "/" + s.side + "/" +
-         (s.extra.contains("track_id") ? s.extra["track_id"].dump() : std::string("-"));
+         (s.track_id ? std::to_string(*s.track_id) : std::string("-"));
 }
 
 TEST(Feedback, TheFilesContract) {
@@ -158,7 +158,7 @@ TEST(Feedback, TheOfflinePlannerChangesItsChoice) {
 TEST(Feedback, AFailedTakeoverRulesOutItsTrackOnlyAtItsFrame) {
   const std::string yaml = "force_kind: sudden_stop\nseed: 1\n";
   const Generated first = generate(yaml, nullptr, true);
-  ASSERT_TRUE(first.spec.extra.contains("track_id")) << Json(first.spec).dump();
+  ASSERT_TRUE(first.spec.track_id) << Json(first.spec).dump();
   const Json failed = attempt(Json(first.spec), {"the scene never becomes Unsafe while the hazard is visible "
                                                  "(minimum scene TTC 1.94 s)"},
                               first.spec.provenance.value("frame_index", int64_t{5}));
@@ -173,8 +173,8 @@ TEST(Feedback, AFailedTakeoverRulesOutItsTrackOnlyAtItsFrame) {
   Json elsewhere = failed;
   elsewhere["trigger_frame"] = elsewhere["trigger_frame"].get<int64_t>() + 10;
   const Generated there = generate(yaml, {{"attempts", {elsewhere}}}, true);
-  ASSERT_TRUE(there.spec.extra.contains("track_id")) << Json(there.spec).dump();
-  EXPECT_EQ(there.spec.extra["track_id"], first.spec.extra["track_id"]);
+  ASSERT_TRUE(there.spec.track_id) << Json(there.spec).dump();
+  EXPECT_EQ(there.spec.track_id, first.spec.track_id);
 }
 
 // Never re-detected: of each kind's plans the largest object, then the nearest (a cut-in by a truck rather than a

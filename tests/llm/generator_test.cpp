@@ -38,9 +38,11 @@ class FallenCargoTemplate : public HazardTemplate {
   }
   void open(const Params&) override {}
   std::string hazard_kind() const override { return "fallen_cargo"; }
-  std::vector<std::string> check(const HazardSpec& spec, const SceneContext&) const override {
+  std::vector<Refusal> check(const HazardSpec& spec, const SceneContext&) const override {
     if (spec.speed_mps != 0)
-      return {"cargo lies still (speed_mps must be 0, got " + std::to_string(int(spec.speed_mps)) + ")"};
+      return {{refusal::kSpec,
+               "cargo lies still (speed_mps must be 0, got " + std::to_string(int(spec.speed_mps)) + ")",
+               "fallen_cargo"}};
     return {};
   }
   HazardTrajectory plan(const HazardSpec&, const SceneContext&) const override { return {}; }
@@ -55,16 +57,19 @@ TEST(LlmHazard, OfflineSpecAtFirstSafeFrameAfterWarmup) {
   EXPECT_DOUBLE_EQ(r.outputs("hazard")[0].timestamp(), 2.5);  // frame 5 = the first after 5 warm-up frames
   const HazardSpec& s = out[0];
   EXPECT_DOUBLE_EQ(s.start_time_s, 2.5);
-  EXPECT_EQ(s.schema_version, "1.0");
+  EXPECT_EQ(s.schema_version, "1.1");
   EXPECT_EQ(s.provenance["provider"], "offline");
   EXPECT_EQ(s.provenance["model"], "offline-planner-1");
   EXPECT_EQ(s.provenance["attempts"], 1);
   EXPECT_EQ(s.provenance["frame_index"], 5);
-  // The road the spec was made for, for exports: the road params and scene facts as the generator used them.
-  EXPECT_EQ(s.provenance["scene"]["driving_side"], "right");
-  EXPECT_EQ(s.provenance["scene"]["lanes_left"], 1);
-  EXPECT_EQ(s.provenance["scene"]["lane_width_m"], 3.5);
-  EXPECT_TRUE(s.provenance["scene"]["sidewalks"].is_boolean());
+  // The road the spec was made for, typed, for the planner and exports: the road params and scene facts as
+  // the generator settled them, each with what it rests on.
+  ASSERT_TRUE(s.road);
+  EXPECT_EQ(s.road->driving_side, "right");
+  EXPECT_EQ(s.road->lanes_left, 1);
+  EXPECT_EQ(s.road->lane_width_m, 3.5);
+  EXPECT_EQ(s.road->source("driving_side").from, "default");
+  EXPECT_FALSE(s.provenance.contains("scene"));
 
   Json file = test::read_json(r.output_dir() / "hazard_spec.json");
   EXPECT_EQ(file, Json(s));
@@ -156,7 +161,7 @@ TEST(LlmHazard, OllamaRetriesWithTheErrorsUntilValid) {
     EXPECT_EQ(g["options"]["temperature"], 0.0);
     EXPECT_EQ(g["format"]["properties"]["kind"]["enum"],
               Json::array({"pedestrian_crossing", "cut_in", "sudden_stop"}));
-    EXPECT_EQ(g["format"]["required"].size(), 13u);
+    EXPECT_EQ(g["format"]["required"].size(), 15u);
   }
   ASSERT_EQ(got[1]["messages"].size(), 3u);
   EXPECT_EQ(got[1]["messages"][1]["role"], "assistant");
@@ -236,7 +241,7 @@ TEST(LlmHazard, TheAutomaticHorizonIsShortenedWhileNoHazardFits) {
   // A reply whose walk is already under way when it appears: with the whole 6 s horizon nothing may be (the
   // clip can show all of it), with 5 s up to 1 s may.
   Json under_way = test::valid_reply();
-  under_way["extra"]["under_way_s"] = 0.2;
+  under_way["under_way_s"] = 0.2;
   for (const bool shorten : {true, false}) {
     ScriptedServer srv("/api/chat");
     srv.then_ollama(under_way.dump());
@@ -247,7 +252,7 @@ TEST(LlmHazard, TheAutomaticHorizonIsShortenedWhileNoHazardFits) {
     test::push_scene(r, 8, kDescription);
     if (!shorten) {
       const std::string e = run_error(r);
-      EXPECT_NE(e.find("extra.under_way_s 0.2 s exceeds max_under_way_s 0 s"), std::string::npos) << e;
+      EXPECT_NE(e.find("under_way_s 0.2 s exceeds max_under_way_s 0 s"), std::string::npos) << e;
       EXPECT_EQ(test::read_jsonl(r.output_dir() / "llm" / "calls.jsonl").size(), 1u);
       continue;
     }
@@ -677,7 +682,7 @@ TEST(LlmHazard, ThirdPartyKindsComeFromRegisteredTemplates) {
   cargo["side"] = "center";
   cargo["heading_deg"] = 0;
   cargo["speed_mps"] = 3;
-  cargo["extra"] = {{"under_way_s", nullptr}};  // no built-in kind is registered: their fields are unknown
+  cargo["extra"] = Json::object();  // no built-in kind is registered: their fields are unknown
   srv.then_ollama(cargo.dump());
   cargo["speed_mps"] = 0;
   srv.then_ollama(cargo.dump());

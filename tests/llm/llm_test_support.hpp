@@ -18,6 +18,8 @@
 #include <hazardforge/registry.hpp>
 #include <hazardforge/testing/stage_runner.hpp>
 
+#include "refusal_support.hpp"
+
 #include "cut_in_template.hpp"
 #include "llm_hazard_stage.hpp"
 #include "offline_planner.hpp"
@@ -52,7 +54,7 @@ inline Frame make_frame(int64_t index, double t, const std::string& description)
   f.timestamp = t;
   f.camera = test_camera();
   f.ego.speed_mps = 10.0;
-  f.meta = {{"scene_description", description}};
+  f.origin.description = description;
   return f;
 }
 
@@ -133,12 +135,9 @@ inline Json valid_reply() {
           {"start_time_s", nullptr},
           {"deceleration_mps2", nullptr},
           {"target_ttc_s", 1.0},
-          {"extra",
-           {{"crossing_from", "right"},
-            {"final_speed_mps", nullptr},
-            {"brake_delay_s", nullptr},
-            {"track_id", nullptr},
-            {"under_way_s", nullptr}}},
+          {"track_id", nullptr},
+          {"under_way_s", nullptr},
+          {"extra", {{"crossing_from", "right"}, {"final_speed_mps", nullptr}, {"brake_delay_s", nullptr}}},
           {"rationale", "sidewalks on both sides; a jogger crosses"}};
 }
 

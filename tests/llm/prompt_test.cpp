@@ -74,7 +74,7 @@ TEST(PromptTemplate, ShippedTemplateRendersTheScene) {
       std::string::npos);
   EXPECT_NE(
       prompt.find(
-          "11. A detected vehicle may itself become the hazard (extra.track_id): the renderer removes the "
+          "11. A detected vehicle may itself become the hazard (track_id): the renderer removes the "
           "real one."),
       std::string::npos);
   EXPECT_NE(prompt.find("Earlier attempts on this recording: none.\n"), std::string::npos);

@@ -67,12 +67,12 @@ TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
   hazard::RoadModel road;
   SceneRules rules;
   // The car's rear 37.75 m ahead (what distance_m measures): its centre at 40 m.
-  const auto errs =
-      check_trajectory_rules(tr, scene_with({tracked(7, "car", 37.75, -3.5, 0.0)}), road, sizes(), rules);
+  const auto errs = test::coded(
+      check_trajectory_rules(tr, scene_with({tracked(7, "car", 37.75, -3.5, 0.0)}), road, sizes(), rules));
   ASSERT_EQ(errs.size(), 1u);
   EXPECT_EQ(
       errs[0],
-      "the planned path of the person runs into the tracked car (track 7, predicted at constant velocity): "
+      "traffic: the planned path of the person runs into the tracked car (track 7, predicted at constant velocity): "
       "3.9 s after it appears the person would be at (x 40, y -2.05) m and the car at (x 40, y -3.5) m. "
       "Place "
       "it where its path stays clear of the tracked objects");
@@ -87,7 +87,7 @@ TEST(SceneRules, NoPathThroughATrackedObjectsPredictedPositions) {
       1u);
   // The object a spec takes over is the hazard itself.
   HazardTrajectory over = tr;
-  over.spec.extra = {{"track_id", 7}};
+  over.spec.track_id = 7;
   EXPECT_TRUE(
       check_trajectory_rules(over, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), road, sizes(), rules)
           .empty());
@@ -145,9 +145,9 @@ TEST(SceneRules, OnlyClassesWithAppearanceAssets) {
   rules.asset_classes = asset_classes("");
   rules.assets_where = "the default set, share/assets";
   EXPECT_EQ(
-      check_spec_rules(s, scene_with({}), rules),
+      test::coded(check_spec_rules(s, scene_with({}), rules)),
       std::vector<std::string>{
-          "/object_class = \"motorcycle\" has no appearance assets, so the renderer cannot draw it (classes "
+          "object_class: /object_class = \"motorcycle\" has no appearance assets, so the renderer cannot draw it (classes "
           "with assets: bus, car, person, truck; the default set, share/assets)"});
 }
 
@@ -183,9 +183,9 @@ TEST(SceneRules, NoCutInFromALaneWithOncomingTraffic) {
     right.push_back({-2.0 + 0.7 * k, -3.5, 0.0});
   }
   EXPECT_EQ(
-      check_trajectory_rules(trajectory("car", left, kCar), scene_with({}), road, sizes(), rules),
+      test::coded(check_trajectory_rules(trajectory("car", left, kCar), scene_with({}), road, sizes(), rules)),
       std::vector<std::string>{
-          "the car starts at y 3.5 m in a lane with oncoming traffic (lanes_left 1, lanes_right 1, "
+          "placement: the car starts at y 3.5 m in a lane with oncoming traffic (lanes_left 1, lanes_right 1, "
           "oncoming_lanes 1, traffic keeps right) but drives the ego's way, against that lane's traffic"});
   EXPECT_TRUE(
       check_trajectory_rules(trajectory("car", right, kCar), scene_with({}), road, sizes(), rules).empty());
@@ -254,8 +254,9 @@ TEST(SceneRules, CutInsComeFromTheSideTheLaneMarkingsOpen) {
     const auto specs = r.collect<HazardSpec>("hazard");
     ASSERT_EQ(specs.size(), 1u) << "seed " << seed;
     EXPECT_TRUE(specs[0].side == "right" || specs[0].lateral_offset_m < 0) << "seed " << seed;
-    EXPECT_EQ(specs[0].provenance["scene"]["lanes_left"], 0);
-    EXPECT_EQ(specs[0].provenance["scene"]["lanes_right"], 1);
+    ASSERT_TRUE(specs[0].road);
+    EXPECT_EQ(specs[0].road->lanes_left, 0);
+    EXPECT_EQ(specs[0].road->lanes_right, 1);
   }
 }
 
@@ -285,9 +286,10 @@ TEST(SceneRules, NoHazardPopsUpOnTheRoadCloseAhead) {
   auto standing = [](double x, double y) { return std::vector<cv::Vec3d>(20, cv::Vec3d(x, y, 0.0)); };
   const SceneContext empty = scene_with({});
   EXPECT_EQ(
-      check_trajectory_rules(trajectory("car", standing(20.0, 0.0), kCar), empty, road, sizes(), rules),
+      test::coded(
+          check_trajectory_rules(trajectory("car", standing(20.0, 0.0), kCar), empty, road, sizes(), rules)),
       std::vector<std::string>{
-          "the car would pop up on the road 20 m ahead: when it is first seen (0 s after it appears) its box "
+          "not_in_view: the car would pop up on the road 20 m ahead: when it is first seen (0 s after it appears) its box "
           "is "
           "fully in view, 118 px tall, and no tracked object hides it. Let it enter from beyond the image "
           "border, from behind a nearer tracked object, or far enough to be first seen small (at most 63 px "
@@ -322,7 +324,7 @@ TEST(SceneRules, ATakenOverLeadStartsWhereTheRealOneIs) {
   for (int k = 0; k <= 40; ++k)
     brake.push_back({20.0 + std::max(0.0, 4.0 * 0.05 * k - 2.0 * 0.0025 * k * k), 0.0, 0.0});
   HazardTrajectory lead = trajectory("car", brake, kCar);
-  lead.spec.extra = {{"track_id", 3}};
+  lead.spec.track_id = 3;
   const ObjectState truck = tracked(2, "truck", 20.0, -2.3, 6.0);
   EXPECT_TRUE(check_trajectory_rules(lead, scene_with({tracked(3, "car", 20.0, 0.0, 4.0), truck}), road,
                                      sizes(), rules)
@@ -337,7 +339,7 @@ TEST(SceneRules, ATakenOverLeadStartsWhereTheRealOneIs) {
   EXPECT_TRUE(check_trajectory_rules(lead, scene_with({drifting}), road, sizes(), rules).empty());
   // The same plan as a new, inserted car is refused twice: next to the truck, and popping up 20 m ahead.
   HazardTrajectory inserted = lead;
-  inserted.spec.extra = Json::object();
+  inserted.spec.track_id.reset();
   EXPECT_EQ(check_trajectory_rules(inserted, scene_with({truck}), road, sizes(), rules).size(), 2u);
 }
 
@@ -346,16 +348,16 @@ TEST(SceneRules, ATakenOverLeadStartsWhereTheRealOneIs) {
 TEST(SceneRules, TakingOverATrackedObjectIsRefusedWhereTakeoversAreOff) {
   HazardSpec s;
   s.object_class = "car";
-  s.extra = {{"track_id", 7}};
+  s.track_id = 7;
   SceneRules rules;
   EXPECT_TRUE(check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules).empty());
   rules.take_over_tracks = false;
   EXPECT_EQ(
-      check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules),
+      test::coded(check_spec_rules(s, scene_with({tracked(7, "car", 40.0, -3.5, 0.0)}), rules)),
       std::vector<std::string>{
-          "/extra/track_id = 7 takes over the tracked car, but this scene does not allow takeovers "
+          "spec: /track_id = 7 takes over the tracked car, but this scene does not allow takeovers "
           "(take_over_tracks false: the renderer would leave the real one in the video beside the inserted "
-          "one). Insert a new object instead (extra.track_id null)"});
+          "one). Insert a new object instead (track_id null)"});
 }
 
 }  // namespace

@@ -22,7 +22,7 @@ Json shipped() {
 TEST(HazardSchema, ShippedFileIsDraft07AndVersioned) {
   Json s = file_schema();
   EXPECT_EQ(s["$schema"], "http://json-schema.org/draft-07/schema#");
-  EXPECT_EQ(s["properties"]["schema_version"]["enum"], Json::array({"1.0"}));
+  EXPECT_EQ(s["properties"]["schema_version"]["enum"], Json::array({"1.0", "1.1"}));
   EXPECT_EQ(s["additionalProperties"], false);
 }
 
@@ -30,9 +30,13 @@ TEST(HazardSchema, ReplySchemaRequiresEveryFieldAndNarrowsKinds) {
   Json r = reply_schema(shipped(), {"cut_in", "sudden_stop"});
   EXPECT_FALSE(r["properties"].contains("provenance"));
   EXPECT_FALSE(r["properties"].contains("schema_version"));
+  EXPECT_FALSE(r["properties"].contains("road"));  // the generator writes the road it settled
+  // Fields every kind shares are the spec's own, typed (HazardSpec::track_id, under_way_s).
+  EXPECT_EQ(r["properties"]["track_id"]["type"], Json::array({"integer", "null"}));
+  EXPECT_EQ(r["properties"]["under_way_s"]["type"], Json::array({"number", "null"}));
   EXPECT_EQ(r["properties"]["kind"]["enum"], Json::array({"cut_in", "sudden_stop"}));
   EXPECT_EQ(r["required"].size(), r["properties"].size());
-  EXPECT_EQ(r["properties"]["extra"]["required"].size(), 5u);
+  EXPECT_EQ(r["properties"]["extra"]["required"].size(), 3u);
   EXPECT_EQ(r["properties"]["extra"]["additionalProperties"], false);
 }
 
@@ -54,7 +58,8 @@ TEST(HazardSchema, MessagesNamePointerValueAndAllowedRange) {
   std::sort(errs.begin(), errs.end());
   std::vector<std::string> expected = {
       "/colour is not an allowed field (allowed: deceleration_mps2, extra, heading_deg, initial_distance_m, "
-      "kind, lateral_offset_m, motion, object_class, rationale, side, speed_mps, start_time_s, target_ttc_s)",
+      "kind, lateral_offset_m, motion, object_class, rationale, side, speed_mps, start_time_s, target_ttc_s, "
+      "track_id, under_way_s)",
       "/extra/crossing_from = \"north\" is not one of \"left\", \"right\", null",
       "/heading_deg = \"left\" has type string, expected number",
       "/kind = \"flying_car\" is not one of \"pedestrian_crossing\", \"cut_in\"",
@@ -87,14 +92,15 @@ TEST(HazardSchema, SpecFromReplyFillsDefaultsAndDropsNulls) {
   EXPECT_EQ(with_kinds.validate(Json(s)), std::vector<std::string>{});
 }
 
-// Each kind brings its own extra fields; the file keeps only the one every kind shares.
+// Each kind brings its own extra fields (SpecField declarations); the file lists none.
 TEST(HazardSchema, KindsDeclareTheirExtraFields) {
-  EXPECT_EQ(file_schema()["properties"]["extra"]["properties"].size(), 1u);
+  EXPECT_EQ(file_schema()["properties"]["extra"]["properties"].size(), 0u);
   const Json extra = shipped()["properties"]["extra"];
   EXPECT_EQ(extra["additionalProperties"], false);
   EXPECT_EQ(extra["properties"]["crossing_from"]["description"],
             "pedestrian_crossing: the road edge the person steps off from (equals side).");
-  EXPECT_EQ(extra["properties"]["track_id"]["type"], Json::array({"integer", "null"}));
+  EXPECT_EQ(extra["properties"]["brake_delay_s"]["type"], Json::array({"number", "null"}));
+  EXPECT_EQ(extra["properties"]["crossing_from"]["enum"], Json::array({"left", "right", nullptr}));
   // Two kinds with the same field: one schema, both descriptions; a different schema is refused.
   HazardKindInfo a, b;
   a.kind = "kind_a";

@@ -270,7 +270,7 @@ TEST(Composite, APictureShowingMoreFacesThanTheFrameIsKeptToTheObjectsBox) {
   EXPECT_NEAR(free.hazard.in_picture_fraction, 1.0, 0.03);
 }
 
-// A hazard that takes over a real object (spec extra.track_id): the real one leaves the picture — covered by
+// A hazard that takes over a real object (HazardSpec::track_id): the real one leaves the picture — covered by
 // the hazard drawn in its place, the rest of its box filled from the surroundings — it occludes nothing, and
 // the share of its box left to the fill is reported.
 TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
@@ -278,7 +278,7 @@ TEST(Composite, ATakenOverObjectIsRemovedAndTheHazardDrawnInItsPlace) {
   const CameraModel cam = test_camera();
   HazardTrajectory plan = static_object("car", 20.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52));
   auto plain = std::make_shared<const HazardTrajectory>(plan);
-  plan.spec.extra = {{"track_id", 3}};
+  plan.spec.track_id = 3;
   auto taking = std::make_shared<const HazardTrajectory>(plan);
   HazardRenderer probe(options(),
                        std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));

@@ -47,7 +47,7 @@ testing::StageRunner run_ten_frames(const std::string& params = "") {
     Frame f;
     f.index = i;
     f.timestamp = t;
-    f.meta = {{"scene", i < 6 ? "scene-a" : "scene-b"}};
+    f.origin.scene = i < 6 ? "scene-a" : "scene-b";
     r.push("frames", f, t);
     r.push("truth", assessment(i, "ground_truth", truth[i]), t);
     r.push("estimates", assessment(i, "ttc_paper", ttc[i]), t, "ttc_yolo");

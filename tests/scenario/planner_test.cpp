@@ -114,7 +114,10 @@ TEST(HazardPlanner, InfeasibleSpecIsRecordedAndSkippedWhenAsked) {
   r.run();
   EXPECT_TRUE(r.outputs("trajectory").empty());
   const Json j = Json::parse(test::read_text((r.output_dir() / "trajectory.json").string()));
-  EXPECT_EQ(j["planner"]["reasons"], Json::array({"speed_mps 12 exceeds the person limit of 7 m/s"}));
+  EXPECT_EQ(j["planner"]["reasons"],
+            Json::array({{{"code", "class_limit"},
+                          {"kind", "pedestrian_crossing"},
+                          {"text", "speed_mps 12 exceeds the person limit of 7 m/s"}}}));
   ASSERT_FALSE(r.log().empty());
   EXPECT_EQ(
       r.log().back(),
@@ -137,7 +140,7 @@ TEST(HazardPlanner, TakesTheEgoSpeedFromTheStatesAndTrackedObjects) {
   st.objects.push_back(o);
   r.push("states", st, 0.0);
   HazardSpec s = stop_spec(0.0);
-  s.extra = {{"track_id", 3}};
+  s.track_id = 3;
   r.push("hazard", s, 0.0);
   r.run();
   const auto out = r.collect<HazardTrajectory>("trajectory");

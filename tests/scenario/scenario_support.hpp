@@ -12,6 +12,7 @@
 #include "hazardforge/angles.hpp"
 #include "hazardforge/registry.hpp"
 #include "hazardforge/types.hpp"
+#include "refusal_support.hpp"
 
 #include "cut_in_template.hpp"
 #include "pedestrian_crossing_template.hpp"

@@ -112,8 +112,8 @@ TEST(PedestrianCrossing, WithoutTargetThePersonIsOnTheLaneCentreWhenTheEgoArrive
 
 TEST(PedestrianCrossing, RejectsARunnerFasterThanThePersonLimit) {
   auto tpl = make_template("pedestrian_crossing");
-  EXPECT_EQ(tpl->check(pedestrian(50, 12.0, 1.5), test_scene(10.0)),
-            std::vector<std::string>{"speed_mps 12 exceeds the person limit of 7 m/s"});
+  EXPECT_EQ(test::coded(tpl->check(pedestrian(50, 12.0, 1.5), test_scene(10.0))),
+            std::vector<std::string>{"class_limit: speed_mps 12 exceeds the person limit of 7 m/s"});
   EXPECT_THROW(tpl->plan(pedestrian(50, 12.0, 1.5), test_scene(10.0)), Error);
 }
 
@@ -121,8 +121,8 @@ TEST(PedestrianCrossing, RejectsATargetTtcLongerThanTheCrossing) {
   auto tpl = make_template("pedestrian_crossing");
   // The path is 3.6 m wide; at 1.5 m/s the person is in it for 2.4 s.
   EXPECT_EQ(
-      tpl->check(pedestrian(50, 1.5, 3.0), test_scene(10.0)),
-      std::vector<std::string>{"target_ttc_s 3 is unreachable: at 1.5 m/s the person crosses the ego path in "
+      test::coded(tpl->check(pedestrian(50, 1.5, 3.0), test_scene(10.0))),
+      std::vector<std::string>{"ttc_unreachable: target_ttc_s 3 is unreachable: at 1.5 m/s the person crosses the ego path in "
                                "2.4 s, so it leaves the path before the ego arrives"});
 }
 
@@ -130,23 +130,23 @@ TEST(PedestrianCrossing, RejectsAStartOutOfView) {
   // 10 m ahead and 5.75 m left is outside a 64-degree field of view.
   auto tpl = make_template("pedestrian_crossing", {{"lanes_left", 1}});
   HazardSpec s = pedestrian(10, 3.0, std::nullopt);
-  const auto r = tpl->check(s, test_scene(2.0));
+  const auto r = test::coded(tpl->check(s, test_scene(2.0)));
   ASSERT_EQ(r.size(), 1u) << r.front();
-  EXPECT_EQ(r[0], "the start point (x=10 m, y=5.75 m) is out of the camera's view");
+  EXPECT_EQ(r[0], "not_in_view: the start point (x=10 m, y=5.75 m) is out of the camera's view");
 }
 
 TEST(PedestrianCrossing, RejectsAStartOnTheRoadAndAMissingSide) {
   auto tpl = make_template("pedestrian_crossing");
   HazardSpec s = pedestrian(50, 1.5, 1.5);
   s.lateral_offset_m = 3.0;
-  EXPECT_EQ(tpl->check(s, test_scene(10.0)),
+  EXPECT_EQ(test::coded(tpl->check(s, test_scene(10.0))),
             std::vector<std::string>{
-                "the start point y=3 m is on the road (the road edge on the left is at 5.25 m): a "
+                "placement: the start point y=3 m is on the road (the road edge on the left is at 5.25 m): a "
                 "crossing pedestrian starts on the kerb"});
   s.lateral_offset_m = 0;
   s.side = "center";
-  EXPECT_EQ(tpl->check(s, test_scene(10.0)),
-            std::vector<std::string>{"side must be 'left' or 'right' (or lateral_offset_m non-zero) for "
+  EXPECT_EQ(test::coded(tpl->check(s, test_scene(10.0))),
+            std::vector<std::string>{"spec: side must be 'left' or 'right' (or lateral_offset_m non-zero) for "
                                      "pedestrian_crossing, got 'center'"});
 }
 
@@ -199,8 +199,8 @@ TEST(SuddenStop, StopsWithinLimitsAndEndsAtContact) {
 
 TEST(SuddenStop, RejectsADecelerationAboveTheCarLimit) {
   auto tpl = make_template("sudden_stop");
-  EXPECT_EQ(tpl->check(lead_stop(30, 15, 15), test_scene(15.0)),
-            std::vector<std::string>{"deceleration_mps2 15 exceeds the car limit of 10 m/s^2"});
+  EXPECT_EQ(test::coded(tpl->check(lead_stop(30, 15, 15), test_scene(15.0))),
+            std::vector<std::string>{"class_limit: deceleration_mps2 15 exceeds the car limit of 10 m/s^2"});
 }
 
 TEST(SuddenStop, UsesATrackedObject) {
@@ -217,9 +217,9 @@ TEST(SuddenStop, UsesATrackedObject) {
   st.distance_method = "annotation";
   scene.objects.push_back(st);
   HazardSpec s = lead_stop(0, 0, 6);
-  s.extra = {{"track_id", 7}};
+  s.track_id = 7;
   const hazard::PlanOutcome o = tpl->evaluate(s, scene);
-  ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
+  ASSERT_TRUE(o.reasons.empty()) << o.reasons.front().text;
   EXPECT_DOUBLE_EQ(o.trajectory.points.front().x, 22.3);  // its rear at 20 m: its centre half its length on
   EXPECT_DOUBLE_EQ(o.trajectory.points.front().y, 0.2);
   EXPECT_DOUBLE_EQ(o.trajectory.points.front().speed, 11.0);
@@ -232,18 +232,18 @@ TEST(SuddenStop, UsesATrackedObject) {
   from_bumper.distance_origin_x = 3.4;
   EXPECT_DOUBLE_EQ(tpl->plan(s, from_bumper).points.front().x, 25.7);
 
-  s.extra = {{"track_id", 9}};
-  EXPECT_EQ(tpl->check(s, scene),
-            std::vector<std::string>{"extra.track_id 9 is not among the tracked objects (tracked: 7)"});
+  s.track_id = 9;
+  EXPECT_EQ(test::coded(tpl->check(s, scene)),
+            std::vector<std::string>{"spec: track_id 9 is not among the tracked objects (tracked: 7)"});
 }
 
 TEST(SuddenStop, RejectsALeadOutsideTheEgoPath) {
   auto tpl = make_template("sudden_stop");
   HazardSpec s = lead_stop(30, 15, 6);
   s.lateral_offset_m = 3.5;
-  EXPECT_EQ(tpl->check(s, test_scene(15.0)),
+  EXPECT_EQ(test::coded(tpl->check(s, test_scene(15.0))),
             std::vector<std::string>{
-                "the lead vehicle at y=3.5 m is not in the ego path (|y| must be below 2.42 m)"});
+                "placement: the lead vehicle at y=3.5 m is not in the ego path (|y| must be below 2.42 m)"});
 }
 
 // ---- cut_in
@@ -287,13 +287,13 @@ TEST(CutIn, OvertakesAndCutsInAtTheTargetTtcInsideTheStoppingDistance) {
 
 TEST(CutIn, RejectsAStartFullyInViewAndASlowerVehicle) {
   auto tpl = make_template("cut_in");
-  EXPECT_EQ(tpl->check(cut_in(60, 26, 1.2), test_scene(20.0)),
+  EXPECT_EQ(test::coded(tpl->check(cut_in(60, 26, 1.2), test_scene(20.0))),
             std::vector<std::string>{
-                "the vehicle starts fully in view (x=60 m, y=3.5 m): a cut-in starts beside or "
+                "not_in_view: the vehicle starts fully in view (x=60 m, y=3.5 m): a cut-in starts beside or "
                 "behind the ego, out of view or at the image edge"});
   EXPECT_EQ(
-      tpl->check(cut_in(-3, 18, 1.2), test_scene(20.0)),
-      std::vector<std::string>{"speed_mps 18 does not exceed the ego speed 20 m/s: a cut-in vehicle must "
+      test::coded(tpl->check(cut_in(-3, 18, 1.2), test_scene(20.0))),
+      std::vector<std::string>{"spec: speed_mps 18 does not exceed the ego speed 20 m/s: a cut-in vehicle must "
                                "overtake"});
 }
 
@@ -301,10 +301,10 @@ TEST(CutIn, RejectsAnOvertakerTooFastToBrakeInTime) {
   auto tpl = make_template("cut_in");
   // From 40 m/s down to 17 m/s at 3 m/s^2 takes 7.85 s and 223.8 m while the ego covers 157.1 m: starting 4 m
   // ahead it would have to brake before the hazard even starts.
-  const auto r = tpl->check(cut_in(4, 40, 1.2), test_scene(20.0));
+  const auto r = test::coded(tpl->check(cut_in(4, 40, 1.2), test_scene(20.0)));
   ASSERT_EQ(r.size(), 1u) << r.front();
   EXPECT_EQ(r[0],
-            "the vehicle cannot end 3.6 m in front of the ego: from x=4 m at 40 m/s it would have to start "
+            "placement: the vehicle cannot end 3.6 m in front of the ego: from x=4 m at 40 m/s it would have to start "
             "braking 3.08 s before the hazard starts");
 }
 
@@ -312,14 +312,14 @@ TEST(CutIn, RejectsAGapBeyondTheStoppingDistanceAndAPedestrian) {
   auto tpl = make_template("cut_in", {{"closing_speed_mps", 15.0}});
   // Gap 4 s x 15 m/s = 60 m > 20 + 28.57 m.
   EXPECT_EQ(
-      tpl->check(cut_in(-3, 26, 4.0), test_scene(20.0)),
-      std::vector<std::string>{"the cut-in would end 60 m ahead, beyond the ego's stopping distance 48.57 m "
+      test::coded(tpl->check(cut_in(-3, 26, 4.0), test_scene(20.0))),
+      std::vector<std::string>{"ttc_unreachable: the cut-in would end 60 m ahead, beyond the ego's stopping distance 48.57 m "
                                "(reaction 1 s, braking 7 m/s^2)"});
   HazardSpec p = cut_in(-3, 26, 1.2);
   p.object_class = "person";
-  EXPECT_EQ(tpl->check(p, test_scene(20.0)),
+  EXPECT_EQ(test::coded(tpl->check(p, test_scene(20.0))),
             std::vector<std::string>{
-                "object_class 'person' is not supported by cut_in (supported: car, truck, bus, "
+                "object_class: object_class 'person' is not supported by cut_in (supported: car, truck, bus, "
                 "motorcycle)"});
 }
 

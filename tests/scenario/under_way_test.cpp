@@ -1,4 +1,4 @@
-// Hazards already under way when they appear (extra.under_way_s): the plan is the whole manoeuvre from its
+// Hazards already under way when they appear (HazardSpec::under_way_s): the plan is the whole manoeuvre from its
 // start, sampled from the anchor time on, and only allowed up to the template's max_under_way_s.
 #include <gtest/gtest.h>
 
@@ -25,15 +25,15 @@ HazardSpec lead_stop_braking_at_once(double distance, double speed, double decel
 TEST(UnderWay, RefusedUnlessTheTemplateAllowsIt) {
   auto tpl = make_template("sudden_stop", {{"duration_s", 3.0}});
   HazardSpec s = lead_stop_braking_at_once(30, 15, 6);
-  s.extra["under_way_s"] = 0.5;
+  s.under_way_s = 0.5;
   EXPECT_EQ(
-      tpl->check(s, test_scene(15.0)),
-      std::vector<std::string>{"extra.under_way_s 0.5 s exceeds max_under_way_s 0 s (raise the template "
+      test::coded(tpl->check(s, test_scene(15.0))),
+      std::vector<std::string>{"spec: under_way_s 0.5 s exceeds max_under_way_s 0 s (raise the template "
                                "param to plan hazards already under way when they appear)"});
-  s.extra["under_way_s"] = -0.5;
+  s.under_way_s = -0.5;
   auto allowing = make_template("sudden_stop", {{"duration_s", 3.0}, {"max_under_way_s", 1.0}});
-  EXPECT_EQ(allowing->check(s, test_scene(15.0)),
-            std::vector<std::string>{"extra.under_way_s -0.5 is negative"});
+  EXPECT_EQ(test::coded(allowing->check(s, test_scene(15.0))),
+            std::vector<std::string>{"spec: under_way_s -0.5 is negative"});
 }
 
 TEST(UnderWay, ALeadAlreadyBrakingIsTheSameManoeuvreSampledLater) {
@@ -44,7 +44,7 @@ TEST(UnderWay, ALeadAlreadyBrakingIsTheSameManoeuvreSampledLater) {
   const hazard::PlanOutcome a = tpl->evaluate(lead_stop_braking_at_once(30, 15, 6), test_scene(15.0));
   ASSERT_TRUE(a.reasons.empty()) << a.reasons.front();
   HazardSpec s = lead_stop_braking_at_once(30, 15, 6);
-  s.extra["under_way_s"] = 0.5;
+  s.under_way_s = 0.5;
   const hazard::PlanOutcome b = tpl->evaluate(s, test_scene(15.0));
   ASSERT_TRUE(b.reasons.empty()) << b.reasons.front();
   EXPECT_DOUBLE_EQ(b.notes["under_way_s"].get<double>(), 0.5);
@@ -84,7 +84,7 @@ TEST(UnderWay, ACutInAlreadyChangingLanesAppearsInViewAndEndsAtTheTarget) {
   const hazard::PlanOutcome whole = tpl->evaluate(s, test_scene(20.0));
   ASSERT_TRUE(whole.reasons.empty()) << whole.reasons.front();
   const double t_end = whole.notes["cut_in_end_s"].get<double>();
-  s.extra = {{"under_way_s", t_end - 0.6}};
+  s.under_way_s = t_end - 0.6;
   const hazard::PlanOutcome o = tpl->evaluate(s, test_scene(20.0));
   ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
   const TrajectoryPoint& p0 = o.trajectory.points.front();
@@ -148,7 +148,7 @@ TEST(UnderWay, ACutInProposedAgainstTheRecordedSpeedEndsAfterItAppears) {
     Json answer = p.spec;
     answer["start_time_s"] = scene.timestamp;  // the generator's part
     const HazardSpec spec = answer.get<HazardSpec>();
-    ASSERT_GT(spec.extra.value("under_way_s", 0.0), 0.0) << p.spec.dump();
+    ASSERT_GT(spec.under_way_s.value_or(0.0), 0.0) << p.spec.dump();
     const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
     ASSERT_TRUE(o.reasons.empty()) << seed << ": " << o.reasons.front() << "\n" << p.spec.dump();
     const double under_way = o.notes["under_way_s"].get<double>(),
@@ -225,8 +225,9 @@ TEST(UnderWay, NoCrossingIsProposedWhoseCriticalMomentIsBelowThePicture) {
     Bits bits(seed);
     const HazardProposal p = tpl->propose(req, bits);
     EXPECT_TRUE(p.spec.is_null()) << seed << ": " << p.spec.dump();
-    EXPECT_NE(p.problem.find("not even its upper half is in the picture"), std::string::npos)
+    EXPECT_NE(p.problem.text.find("not even its upper half is in the picture"), std::string::npos)
         << seed << ": " << p.problem;
+    EXPECT_EQ(p.problem.code, refusal::kNotInView) << seed;
   }
 }
 

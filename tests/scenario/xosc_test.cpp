@@ -114,8 +114,14 @@ TEST(Xosc, CutInScenarioAndRoadValidateAgainstTheSchemas) {
 TEST(Xosc, PedestrianWaitsOnTheSidewalkAndWalksWhenTheEgoIsClose) {
   HF_REQUIRE_SHARED(test::xosc_schema());
   HazardTrajectory tr = planned("pedestrian_crossing", crossing_spec(), 10.0);
-  tr.spec.provenance["scene"] = {{"driving_side", "right"}, {"lanes_left", 1},   {"lanes_right", 0},
-                                 {"lane_width_m", 3.5},     {"sidewalks", true}, {"sidewalk_width_m", 3.0}};
+  RoadLayout layout;
+  layout.driving_side = "right";
+  layout.lanes_left = 1;
+  layout.lanes_right = 0;
+  layout.lane_width_m = 3.5;
+  layout.sidewalks = true;
+  layout.sidewalk_width_m = 3.0;
+  tr.spec.road = layout;
   auto r = testing::StageRunner::create<XoscSink>("author: \"Test & Co\"");
   const fs::path file = write_through_sink(r, tr);
   expect_valid(file);
@@ -182,21 +188,26 @@ TEST(Xosc, WorldCoordinatesAreYawOnlyAtGroundLevel) {
   }
 }
 
-TEST(Xosc, BadSceneFactsAreNamed) {
-  HazardTrajectory tr = planned("cut_in", cut_in_spec(), 20.0);
-  tr.spec.provenance["scene"] = {{"lanes_left", "two"}};
-  auto r = testing::StageRunner::create<XoscSink>();
+TEST(Xosc, BadRoadFactsInASpecAreNamed) {
+  // The road travels typed in the spec (HazardSpec::road); a spec file with a bad one is refused when read,
+  // naming the field, before any sink sees it.
+  Json spec = cut_in_spec();
+  spec["road"] = {{"lanes_left", "two"}};
   try {
-    write_through_sink(r, tr);
+    (void)spec.get<HazardSpec>();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "xosc: the trajectory's spec field provenance.scene.lanes_left must be a number in [0, 10], "
-              "got \"two\"");
+    EXPECT_EQ(std::string(e.what()), "road.lanes_left must be a whole number, got \"two\"");
   }
-  tr.spec.provenance["scene"] = {{"driving_side", "middle"}};
-  auto r2 = testing::StageRunner::create<XoscSink>();
-  EXPECT_THROW(write_through_sink(r2, tr), Error);
+  spec["road"] = {{"driving_side", "middle"}};
+  try {
+    (void)spec.get<HazardSpec>();
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "road.driving_side must be 'right' or 'left', got 'middle'");
+  }
+  spec["road"] = {{"lanes_left", 0}, {"oncoming_lanes", 1}};
+  EXPECT_THROW((void)spec.get<HazardSpec>(), Error);  // no lane on the left to carry oncoming traffic
 }
 
 TEST(Xosc, ValidationCatchesABrokenFile) {

@@ -127,39 +127,38 @@ TtcSimulation simulate_ttc(const HazardSpec& spec, const ClassSize& size, double
   return sim;
 }
 
-std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneContext& scene,
-                                           const FeasibilityConfig& cfg, std::vector<std::string>* skipped) {
-  std::vector<std::string> errs;
+std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContext& scene,
+                                       const FeasibilityConfig& cfg, std::vector<std::string>* skipped) {
+  std::vector<Refusal> errs;
+  auto refuse = [&](const char* code, std::string text) { errs.push_back({code, std::move(text), spec.kind}); };
   const std::string& cls = spec.object_class;
   const double y = spec.lateral_offset_m;
 
   // The prompt's scene rules.
   if (cls == "person" && !cfg.sidewalks && !cfg.pedestrians_without_sidewalks)
-    errs.push_back("/object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = no)");
+    refuse(refusal::kSceneLacks,
+           "/object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = no)");
   // Across the road (not along it either way: oncoming vehicles head about 180 degrees).
   if (is_motor_vehicle(cls) && std::abs(spec.heading_deg) > 45.0 && std::abs(spec.heading_deg) < 135.0 &&
       !cfg.intersection)
-    errs.push_back("/heading_deg = " + num_text(spec.heading_deg) +
-                   " makes a vehicle cross the ego path, which needs an intersection (intersection = no)");
+    refuse(refusal::kSceneLacks,
+           "/heading_deg = " + num_text(spec.heading_deg) +
+               " makes a vehicle cross the ego path, which needs an intersection (intersection = no)");
   if (auto needs = cfg.kind_needs.find(spec.kind); needs != cfg.kind_needs.end())
     for (const std::string& why : unmet_needs(needs->second, cfg, scene))
-      errs.push_back("/kind = \"" + spec.kind + "\" needs " + why);
+      refuse(refusal::kSceneLacks, "/kind = \"" + spec.kind + "\" needs " + why);
 
   // Side, crossing side and lateral position agree.
   const double lane_half = cfg.ttc.corridor.half_width_for(0.0);
   if (spec.side == "left" && y <= 0.0)
-    errs.push_back("/side = \"left\" contradicts /lateral_offset_m = " + num_text(y) +
+    refuse(refusal::kSpec, "/side = \"left\" contradicts /lateral_offset_m = " + num_text(y) +
                    " (left of the ego means y > 0)");
   if (spec.side == "right" && y >= 0.0)
-    errs.push_back("/side = \"right\" contradicts /lateral_offset_m = " + num_text(y) +
+    refuse(refusal::kSpec, "/side = \"right\" contradicts /lateral_offset_m = " + num_text(y) +
                    " (right of the ego means y < 0)");
   if (spec.side == "center" && std::abs(y) > lane_half)
-    errs.push_back("/side = \"center\" contradicts /lateral_offset_m = " + num_text(y) +
+    refuse(refusal::kSpec, "/side = \"center\" contradicts /lateral_offset_m = " + num_text(y) +
                    " (center means |y| <= " + num_text(lane_half) + " m)");
-  if (spec.extra.contains("crossing_from") && spec.extra["crossing_from"].is_string() &&
-      spec.extra["crossing_from"] != spec.side)
-    errs.push_back("/extra/crossing_from = " + json_text(spec.extra["crossing_from"]) +
-                   " contradicts /side = \"" + spec.side + "\"");
 
   // On the road, or on a sidewalk for people and bicycles.
   const int side_sign = y >= 0 ? 1 : -1;
@@ -168,22 +167,22 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
                                 (cls == "person" && cfg.pedestrians_without_sidewalks);
   const double max_y = cfg.road.edge(side_sign) + (may_use_sidewalk ? cfg.sidewalk_width_m : 0.0);
   if (std::abs(y) > max_y)
-    errs.push_back("/lateral_offset_m = " + num_text(y) + " puts the " + cls + " off the " +
+    refuse(refusal::kPlacement, "/lateral_offset_m = " + num_text(y) + " puts the " + cls + " off the " +
                    (may_use_sidewalk ? "road and sidewalk" : "road") + " (|y| <= " + num_text(max_y) +
                    " m on the " + (side_sign > 0 ? "left" : "right") + ")");
 
   // Not on top of a detected object (unless the spec takes that object over).
-  const bool takes_track = spec.extra.contains("track_id") && spec.extra["track_id"].is_number();
+  const std::optional<int64_t> taken = spec.track_id;
   if (cfg.sizes.has(cls)) {
     const ClassSize& me = cfg.sizes.at(cls);
     for (const ObjectState& o : scene.objects) {
       if (!std::isfinite(o.distance_m)) continue;
-      if (takes_track && spec.extra["track_id"].get<double>() == static_cast<double>(o.track_id)) continue;
+      if (taken && *taken == o.track_id) continue;
       ClassSize other = cfg.sizes.has(o.label) ? cfg.sizes.at(o.label) : ClassSize{};
       double ow = o.width_m > 0 ? o.width_m : other.width, ol = o.length_m > 0 ? o.length_m : other.length;
       if (std::abs(o.distance_m - spec.initial_distance_m) < (ol + me.length) / 2.0 &&
           std::abs(o.lateral_m - y) < (ow + me.width) / 2.0)
-        errs.push_back("start point (x " + num_text(spec.initial_distance_m) + " m, y " + num_text(y) +
+        refuse(refusal::kTraffic, "start point (x " + num_text(spec.initial_distance_m) + " m, y " + num_text(y) +
                        " m) overlaps the detected " + o.label + " (track " + std::to_string(o.track_id) +
                        ") at x " + num_text(o.distance_m) + " m, y " + num_text(o.lateral_m) + " m");
     }
@@ -191,34 +190,34 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
 
   // When it appears.
   if (spec.start_time_s < cfg.trigger_time_s - 1e-6)
-    errs.push_back("/start_time_s = " + num_text(spec.start_time_s) +
+    refuse(refusal::kSpec, "/start_time_s = " + num_text(spec.start_time_s) +
                    " is before the frame the hazard is for (" + num_text(cfg.trigger_time_s) + " s)");
   if (spec.start_time_s > cfg.trigger_time_s + cfg.horizon_s)
-    errs.push_back("/start_time_s = " + num_text(spec.start_time_s) + " is more than " +
+    refuse(refusal::kSpec, "/start_time_s = " + num_text(spec.start_time_s) + " is more than " +
                    num_text(cfg.horizon_s) + " s after the frame the hazard is for (" +
                    num_text(cfg.trigger_time_s) + " s)");
 
   // The target must make the scene critical.
   if (spec.target_ttc_s && *spec.target_ttc_s >= cfg.threshold_s)
-    errs.push_back("/target_ttc_s = " + num_text(*spec.target_ttc_s) + " is not below the risk threshold " +
+    refuse(refusal::kSpec, "/target_ttc_s = " + num_text(*spec.target_ttc_s) + " is not below the risk threshold " +
                    num_text(cfg.threshold_s) + " s, so the scene would stay Safe");
 
   // What the renderer can draw, and what it cannot remove.
-  for (std::string& e : check_spec_rules(spec, scene, cfg.rules)) errs.push_back(std::move(e));
+  for (Refusal& e : check_spec_rules(spec, scene, cfg.rules)) errs.push_back(std::move(e));
 
   if (!cfg.kinematics) return errs;
 
   // Class limits.
   if (!cfg.limits || !cfg.limits->has(cls)) {
-    errs.push_back("/object_class = \"" + cls + "\" has no kinematic limits in " +
+    refuse(refusal::kObjectClass, "/object_class = \"" + cls + "\" has no kinematic limits in " +
                    (cfg.limits ? cfg.limits->file() : std::string("the limits table")));
   } else {
     const KinematicLimits& lim = cfg.limits->at(cls);
     if (spec.speed_mps > lim.max_speed_mps)
-      errs.push_back("/speed_mps = " + num_text(spec.speed_mps) + " is more than a " + cls +
+      refuse(refusal::kClassLimit, "/speed_mps = " + num_text(spec.speed_mps) + " is more than a " + cls +
                      " can do (at most " + num_text(lim.max_speed_mps) + " m/s)");
     if (spec.deceleration_mps2 && *spec.deceleration_mps2 > lim.max_decel_mps2)
-      errs.push_back("/deceleration_mps2 = " + num_text(*spec.deceleration_mps2) + " is more than a " + cls +
+      refuse(refusal::kClassLimit, "/deceleration_mps2 = " + num_text(*spec.deceleration_mps2) + " is more than a " + cls +
                      " can brake (at most " + num_text(lim.max_decel_mps2) + " m/s^2)");
   }
 
@@ -226,10 +225,10 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
   if (scene.camera.valid()) {
     auto px = scene.camera.project_ego(cv::Vec3d(spec.initial_distance_m, y, 0.0));
     if (!px) {
-      errs.push_back("/initial_distance_m = " + num_text(spec.initial_distance_m) +
-                     " puts the start point behind the camera");
+      refuse(refusal::kNotInView, "/initial_distance_m = " + num_text(spec.initial_distance_m) +
+                                      " puts the start point behind the camera");
     } else if (px->x < 0 || px->y < 0 || px->x >= scene.camera.width || px->y >= scene.camera.height) {
-      errs.push_back("start point (x " + num_text(spec.initial_distance_m) + " m, y " + num_text(y) +
+      refuse(refusal::kNotInView, "start point (x " + num_text(spec.initial_distance_m) + " m, y " + num_text(y) +
                      " m) is outside the camera view: it projects to pixel (" + num_text(px->x) + ", " +
                      num_text(px->y) + ") in a " + std::to_string(scene.camera.width) + "x" +
                      std::to_string(scene.camera.height) + " image");
@@ -244,21 +243,21 @@ std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneCo
         simulate_ttc(spec, cfg.sizes.at(cls), cfg.ego_speed_mps, cfg.ego_yaw_rate, cfg.ttc, cfg.horizon_s);
     const double target = spec.target_ttc_s.value_or(cfg.threshold_s);
     if (sim.starts_in_collision) {
-      errs.push_back("the " + cls + " would appear touching the ego vehicle (x " +
+      refuse(refusal::kPlacement, "the " + cls + " would appear touching the ego vehicle (x " +
                      num_text(spec.initial_distance_m) + " m is within the ego front " +
                      num_text(cfg.ttc.ego_front) + " m plus half its length)");
     } else if (sim.ttc_at_start < target - cfg.ttc_tolerance_s) {
-      errs.push_back(
+      refuse(refusal::kTtcUnreachable,
           "the " + cls + " would appear with TTC " + num_text(sim.ttc_at_start) +
           " s, already below /target_ttc_s = " + num_text(target) +
           ": a hazard must develop, not appear on a collision course (increase /initial_distance_m)");
     } else if (!sim.enters_path) {
-      errs.push_back("/target_ttc_s = " + num_text(target) + " is never reached: with the ego at " +
+      refuse(refusal::kTtcUnreachable, "/target_ttc_s = " + num_text(target) + " is never reached: with the ego at " +
                      num_text(cfg.ego_speed_mps) + " m/s the " + cls + " never enters the ego path within " +
                      num_text(cfg.horizon_s) + " s (it stays " + num_text(sim.closest_lateral_m) +
                      " m outside)");
     } else if (sim.min_ttc > target + cfg.ttc_tolerance_s) {
-      errs.push_back("/target_ttc_s = " + num_text(target) + " is never reached: with the ego at " +
+      refuse(refusal::kTtcUnreachable, "/target_ttc_s = " + num_text(target) + " is never reached: with the ego at " +
                      num_text(cfg.ego_speed_mps) + " m/s the lowest TTC within " + num_text(cfg.horizon_s) +
                      " s is " + num_text(sim.min_ttc) + " s");
     }

@@ -62,8 +62,8 @@ TtcSimulation simulate_ttc(const HazardSpec& spec, const ClassSize& size, double
 
 // Every problem found, each naming the field (JSON pointer), its value and the limit it breaks.
 // Checks that cannot run (no camera model) are described in `skipped`.
-std::vector<std::string> check_feasibility(const HazardSpec& spec, const SceneContext& scene,
-                                           const FeasibilityConfig& cfg, std::vector<std::string>* skipped);
+std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContext& scene,
+                                       const FeasibilityConfig& cfg, std::vector<std::string>* skipped);
 
 // The scene conditions a kind may need (hf::scene_condition): whether the generator knows one, what it means
 // ("a lane beside the ego lane going its way"), and why it does not hold in this scene ("" = it holds).

@@ -58,9 +58,11 @@ Feedback Feedback::from_json(const Json& doc, const std::string& where) {
       fa.has_spec = true;
       if (!s.is_object()) fail(at + "/spec", "must be a hazard spec object or null");
       if (s.contains("side") && s["side"].is_string()) fa.side = s["side"].get<std::string>();
-      if (s.contains("extra") && s["extra"].is_object() && s["extra"].contains("track_id") &&
-          s["extra"]["track_id"].is_number_integer())
-        fa.track_id = s["extra"]["track_id"].get<int64_t>();
+      try {
+        fa.track_id = spec_track_id(s);
+      } catch (const Error& e) {
+        fail(at + "/spec/track_id", e.what());
+      }
     }
     f.attempts_.push_back(std::move(fa));
   }

@@ -12,8 +12,10 @@ ReplyChecker::ReplyChecker(const SchemaValidator& reply_schema,
 
 CheckedReply ReplyChecker::check(const Json& reply) const {
   CheckedReply out;
+  const std::string kind =
+      reply.is_object() && reply.contains("kind") && reply["kind"].is_string() ? reply["kind"].get<std::string>() : "";
   try {
-    out.errors = reply_schema_.validate(reply);
+    for (std::string& e : reply_schema_.validate(reply)) out.errors.push_back({refusal::kSpec, std::move(e), kind});
     if (!out.errors.empty()) return out;
     out.spec = spec_from_reply(reply, config_.trigger_time_s);
     auto tmpl = templates_.find(out.spec.kind);
@@ -21,15 +23,18 @@ CheckedReply ReplyChecker::check(const Json& reply) const {
     config_.kinematics = t == nullptr;
     out.errors = check_feasibility(out.spec, scene_, config_, &out.skipped);
     if (t) {
-      for (const std::string& e : t->check(out.spec, scene_))
-        out.errors.push_back("hazard template '" + out.spec.kind + "': " + e);
+      for (Refusal& e : t->check(out.spec, scene_)) {
+        e.text = "hazard template '" + out.spec.kind + "': " + e.text;
+        if (e.kind.empty()) e.kind = out.spec.kind;
+        out.errors.push_back(std::move(e));
+      }
       // The rest judge the planned motion, which exists only for a feasible spec.
       if (out.errors.empty())
         out.errors = check_trajectory_rules(t->plan(out.spec, scene_), scene_, config_.road, config_.sizes,
                                             config_.rules);
     }
   } catch (const Error& e) {
-    out.errors = {e.what()};
+    out.errors = {{refusal::kSpec, e.what(), kind}};
   }
   return out;
 }
@@ -55,7 +60,8 @@ std::vector<HazardKindInfo> TemplateCatalog::kinds() const {
 HazardProposal TemplateCatalog::propose(const std::string& kind, double aim,
                                         const std::vector<int64_t>& avoid_tracks, RandomDraw& draw) const {
   auto t = checker_.templates().find(kind);
-  if (t == checker_.templates().end()) return {nullptr, "no hazard_template '" + kind + "' is registered"};
+  if (t == checker_.templates().end())
+    return {nullptr, {refusal::kSpec, "no hazard_template '" + kind + "' is registered", kind}};
   ProposalRequest r = base_;
   r.aim = aim;
   r.avoid_tracks = avoid_tracks;
@@ -63,13 +69,14 @@ HazardProposal TemplateCatalog::propose(const std::string& kind, double aim,
   try {
     p = t->second->propose(r, draw);
   } catch (const Error& e) {
-    return {nullptr, e.what()};
+    return {nullptr, {refusal::kSpec, e.what(), kind}};
   }
+  if (!p.problem.empty() && p.problem.kind.empty()) p.problem.kind = kind;
   if (p.spec.is_object()) complete_reply(p.spec, checker_.reply_schema());
   return p;
 }
 
-std::vector<std::string> TemplateCatalog::check(const Json& reply) const {
+std::vector<Refusal> TemplateCatalog::check(const Json& reply) const {
   return checker_.check(reply).errors;
 }
 

@@ -16,7 +16,7 @@ namespace hf::llm_hazard {
 
 struct CheckedReply {
   HazardSpec spec;                    // valid when the reply passed the schema
-  std::vector<std::string> errors;    // empty = accepted
+  std::vector<Refusal> errors;        // empty = accepted
   std::vector<std::string> skipped;   // checks that could not run (no camera model ...)
 };
 
@@ -48,7 +48,7 @@ class TemplateCatalog : public HazardCatalog {
   std::vector<HazardKindInfo> kinds() const override;
   HazardProposal propose(const std::string& kind, double aim, const std::vector<int64_t>& avoid_tracks,
                          RandomDraw& draw) const override;
-  std::vector<std::string> check(const Json& reply) const override;
+  std::vector<Refusal> check(const Json& reply) const override;
 
  private:
   const ReplyChecker& checker_;

@@ -182,6 +182,7 @@ Json reply_schema(const Json& spec_schema, const std::vector<std::string>& kinds
     throw Error("hazard spec schema has no properties.kind");
   s["properties"].erase("schema_version");
   s["properties"].erase("provenance");
+  s["properties"].erase("road");
   s["properties"]["kind"]["enum"] = kinds;
   require_all(s);
   // Backends take the schema as-is; drop the keywords that only matter for the file on disk.
@@ -203,6 +204,8 @@ HazardSpec spec_from_reply(const Json& reply, double default_start_time_s) {
   spec.start_time_s = start.is_null() ? default_start_time_s : start.get<double>();
   if (const Json& d = reply.at("deceleration_mps2"); !d.is_null()) spec.deceleration_mps2 = d.get<double>();
   spec.target_ttc_s = reply.at("target_ttc_s").get<double>();
+  if (const Json& t = reply.at("track_id"); !t.is_null()) spec.track_id = t.get<int64_t>();
+  if (const Json& u = reply.at("under_way_s"); !u.is_null()) spec.under_way_s = u.get<double>();
   spec.extra = Json::object();
   for (auto it = reply.at("extra").begin(); it != reply.at("extra").end(); ++it)
     if (!it.value().is_null()) spec.extra[it.key()] = it.value();

@@ -176,7 +176,7 @@ ComponentInfo LlmHazardGenerator::describe() {
               "nearer objects; empty = none"),
       ParamSpec::boolean("take_over_tracks", true)
           .describe(
-              "a spec may take over a tracked object (extra.track_id, e.g. the real lead of a sudden stop): "
+              "a spec may take over a tracked object (track_id, e.g. the real lead of a sudden stop): "
               "ar_renderer removes the real one and draws the hazard in its place, and the verifier fails a "
               "scenario where the drawn one does not hide it; false = such specs are refused (for a "
               "renderer that cannot remove objects)"),
@@ -196,7 +196,7 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe("room the hazard's planned path keeps from every tracked object's predicted box (m)"),
       ParamSpec::number("max_under_way_s", -1.0)
           .range(-1, 30)
-          .describe("longest extra.under_way_s a spec may give (hazards already under way when they appear, "
+          .describe("longest under_way_s a spec may give (hazards already under way when they appear, "
                     "for recordings too short to show the whole manoeuvre); passed to the templates; 0 = "
                     "every hazard starts when it appears; -1 = what the clip cannot show: 6 s minus the "
                     "horizon when the clip's end cut the horizon short, else 0"),
@@ -234,12 +234,12 @@ ComponentInfo LlmHazardGenerator::describe() {
 
 Json template_params(const hazard::RoadModel& road, const hazard::TtcConventions& ttc, double horizon_s,
                      double max_under_way_s, const std::string& limits_file, const std::string& sizes_file) {
-  // Lane counts only when stated: left unstated, the templates take them from the recording's lane markings
-  // as the generator does (hazard::RoadModel::with_markings).
+  // The templates plan on the road the generator settles for each scene (SceneContext::road); their own road
+  // params only serve where they are used without one. Lane counts only when stated.
   Json j = {{"limits", limits_file},
             {"class_sizes", sizes_file},
-            {"lane_width_m", road.lane_width},
-            {"kerb_offset_m", road.kerb_offset},
+            {"lane_width_m", road.lane_width_m},
+            {"kerb_offset_m", road.kerb_offset_m},
             {"driving_side", road.driving_side},
             {"corridor_half_width", ttc.corridor.ego_half_width},
             {"corridor_margin", ttc.corridor.margin},
@@ -264,7 +264,7 @@ void LlmHazardGenerator::make_templates(StageContext& ctx, const std::vector<std
   std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
   templates_.clear();
   const Json shared =
-      template_params(templates_road_, ttc_, horizon_s_, max_under_way_s_, limits_file, sizes_file);
+      template_params(road_, ttc_, horizon_s_, max_under_way_s_, limits_file, sizes_file);
   for (const std::string& k : allowed_kinds_)
     if (std::find(registered.begin(), registered.end(), k) == registered.end())
       ctx.log(LogLevel::kWarning,
@@ -384,7 +384,7 @@ void LlmHazardGenerator::open(StageContext& ctx) {
                   ")");
     allowed_kinds_ = {force};
   }
-  road_ = templates_road_ = hazard::RoadModel::from(p);
+  road_ = hazard::RoadModel::from(p);
   ttc_ = hazard::TtcConventions::from(p);
   std::string limits_file = share_file(p, "limits", "hazard_limits.yaml");
   std::string sizes_file = share_file(p, "class_sizes", "class_sizes.yaml");
@@ -417,8 +417,8 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   rules_.entry_max_height = p.get_double("entry_max_height");
   rules_.clearance_m = p.get_double("clearance_m");
   recording_people_.clear();
-  traffic_ = recording_traffic_ = TrafficBeside(road_.lane_width);
-  oncoming_ = recording_oncoming_ = TrafficBeside(road_.lane_width, TrafficBeside::Flow::kOncoming);
+  traffic_ = recording_traffic_ = TrafficBeside(road_.lane_width_m);
+  oncoming_ = recording_oncoming_ = TrafficBeside(road_.lane_width_m, TrafficBeside::Flow::kOncoming);
   if (const std::filesystem::path rs = p.get_path("recording_states"); !rs.empty()) {
     read_states_file(rs, recording_people_, recording_traffic_, recording_oncoming_);
     ctx.record_resource(rs);
@@ -647,14 +647,13 @@ std::optional<HazardSpec> LlmHazardGenerator::generate_shortening(
   }
 }
 
-std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame,
-                                                       const ObjectStates& states,
-                                                       const std::vector<const RiskAssessment*>& risks,
-                                                       double horizon_cap) {
+// The scene's facts as stated and as the recording shows them: its words, sidewalks, intersection, the lanes
+// each side, the side traffic keeps to, several lanes the ego's way. The road every check, the prompt, the
+// templates and the export then share (road_layout).
+SceneSettings LlmHazardGenerator::read_scene(StageContext& ctx, const Frame& frame) {
   const Params& p = ctx.params();
-
   SceneSettings s;
-  s.description = dataset_description(frame);
+  s.description = frame.origin.description;
   s.environment = p.get_string("environment");
   if (s.environment.empty()) s.environment = s.description.empty() ? "unknown" : s.description;
   s.road_type = p.get_string("road_type");
@@ -694,12 +693,6 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
     ctx.log(LogLevel::kWarning, resolved.conflict);
     warned_side_ = true;
   }
-  // The templates are made again when the road they are given changes (their params say what they get).
-  if (template_params(resolved.for_templates, ttc_, 0, 0, "", "") !=
-      template_params(templates_road_, ttc_, 0, 0, "", "")) {
-    templates_road_ = resolved.for_templates;
-    make_templates(ctx, ctx.components().component_names(kind::kHazardTemplate));
-  }
   s.multi_lane = resolve_multi_lane(p.get_string("multi_lane"), text);
   if (p.get_string("multi_lane") == "auto" && !s.multi_lane.value &&
       s.multi_lane.why.rfind("auto: nothing", 0) == 0 && frame.road_markings) {
@@ -730,6 +723,18 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                           ", followed for " + num_text(seen.seconds) + " s" +
                           (whole ? " in " + p.get_path("recording_states").filename().string() : "") + ")"};
   }
+  s.sidewalk_width_m = p.get_double("sidewalk_width_m");
+  s.pedestrians_without_sidewalks = p.get_bool("pedestrians_without_sidewalks");
+  return s;
+}
+
+std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame,
+                                                       const ObjectStates& states,
+                                                       const std::vector<const RiskAssessment*>& risks,
+                                                       double horizon_cap) {
+  const Params& p = ctx.params();
+
+  SceneSettings s = read_scene(ctx, frame);
   s.allowed_kinds = allowed_kinds_;
   s.kinds = kind_infos_;
   s.rules = rules_;
@@ -767,8 +772,6 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                                  num_text(max_under_way_s_) + " s when they appear");
   }
   s.horizon_s = horizon_s_;
-  s.sidewalk_width_m = p.get_double("sidewalk_width_m");
-  s.pedestrians_without_sidewalks = p.get_bool("pedestrians_without_sidewalks");
   s.max_under_way_s = max_under_way_s_;
   s.ttc = ttc_;
   ctx.log(LogLevel::kInfo,
@@ -801,9 +804,16 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   req.scene = scene.scene;
   req.hazards = &catalog;
 
+  return ask(ctx, frame, req, checker, prompt_hash, *scene.context.road);
+}
+
+std::optional<HazardSpec> LlmHazardGenerator::ask(StageContext& ctx, const Frame& frame, LlmRequest& req,
+                                                  const ReplyChecker& checker, const std::string& prompt_hash,
+                                                  const RoadLayout& road) {
+  const Params& p = ctx.params();
   const int max_attempts = 1 + static_cast<int>(p.get_int("max_retries"));
   const std::string backend = provider_->describe_backend();
-  std::vector<std::string> errors;
+  std::vector<Refusal> errors;
   for (int attempt = 1; attempt <= max_attempts; ++attempt) {
     Json record = {{"node", ctx.node_id()},          {"frame_index", frame.index},
                    {"timestamp_s", frame.timestamp}, {"attempt", attempt},
@@ -849,14 +859,15 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
       spec = std::move(checked.spec);
       errors = std::move(checked.errors);
     } catch (const Error& e) {
-      errors = {e.what()};
+      errors = {{refusal::kSpec, e.what(), ""}};
     }
-    record["errors"] = errors;
+    record["errors"] = Json::array();
+    for (const Refusal& e : errors) record["errors"].push_back(e.text);
     record["accepted"] = errors.empty();
     calls_->append(record);
 
     if (errors.empty()) {
-      spec.schema_version = "1.0";
+      spec.schema_version = "1.1";
       spec.provenance = {{"provider", provider_name_},
                          {"backend", backend},
                          {"model", reply.model},
@@ -868,19 +879,8 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                          {"temperature", req.temperature},
                          {"trigger", trigger_},
                          {"frame_index", frame.index},
-                         {"calls", "llm/calls.jsonl"},
-                         // The road the spec was made for, so exports lay out the same road.
-                         {"scene",
-                          {{"driving_side", s.road.driving_side},
-                           {"driving_side_from", s.driving_side_why},
-                           {"oncoming_lanes", s.road.oncoming_lanes},
-                           {"lane_width_m", s.road.lane_width},
-                           {"lanes_left", s.road.lanes_left},
-                           {"lanes_right", s.road.lanes_right},
-                           {"kerb_offset_m", s.road.kerb_offset},
-                           {"sidewalks", s.sidewalks.value},
-                           {"sidewalk_width_m", s.sidewalk_width_m},
-                           {"pedestrians_without_sidewalks", s.pedestrians_without_sidewalks}}}};
+                         {"calls", "llm/calls.jsonl"}};
+      spec.road = road;  // the road the spec was made for: the planner plans and exports lay out on it
       if (!tried_.empty()) spec.provenance["frames_without_a_fit"] = frames_tried();
       Json written = spec;
       if (std::vector<std::string> bad = spec_validator_->validate(written); !bad.empty())
@@ -890,14 +890,17 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
                                    std::to_string(attempt) + " attempt(s)");
       return spec;
     }
-    ctx.log(LogLevel::kWarning, "attempt " + std::to_string(attempt) + " rejected: " + join(errors, "; "));
+    ctx.log(LogLevel::kWarning, "attempt " + std::to_string(attempt) + " rejected: " + refusal_text(errors));
     if (attempt < max_attempts) {
+      std::vector<std::string> texts;
+      for (const Refusal& e : errors) texts.push_back(e.text);
       req.messages.push_back({"assistant", echoed_reply(reply.content)});
-      req.messages.push_back({"user", retry_prompt_->render({{"errors", bullet_list(errors)}})});
+      req.messages.push_back({"user", retry_prompt_->render({{"errors", bullet_list(texts)}})});
     }
   }
   throw NoHazardFits("no valid hazard spec after " + std::to_string(max_attempts) + " attempt(s) from " +
-                     backend + "; last errors: " + join(errors, "; "));
+                         backend + "; last errors: " + refusal_text(errors),
+                     errors);
 }
 
 }  // namespace hf::llm_hazard

@@ -61,6 +61,9 @@ class LlmHazardGenerator : public Stage {
                                                 const ObjectStates& states,
                                                 const std::vector<const RiskAssessment*>& risks);
   double ego_speed(const Frame& frame, const ObjectStates& states) const;
+  SceneSettings read_scene(StageContext& ctx, const Frame& frame);
+  std::optional<HazardSpec> ask(StageContext& ctx, const Frame& frame, LlmRequest& req, const ReplyChecker& checker,
+                                const std::string& prompt_hash, const RoadLayout& road);
   double risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const;
   // first_safe: whether this frame's ego path turns more than max_turn_deg while a later one turns less.
   bool turns_too_much(StageContext& ctx, const Frame& frame);
@@ -85,8 +88,7 @@ class LlmHazardGenerator : public Stage {
   std::optional<PromptTemplate> retry_prompt_;
   LimitsTable limits_;
   ClassPriors sizes_;
-  hazard::RoadModel road_;            // as stated (params, scene block)
-  hazard::RoadModel templates_road_;  // the templates' (resolve_road's for_templates)
+  hazard::RoadModel road_;  // as stated (params, scene block)
   bool warned_side_ = false;
   hazard::TtcConventions ttc_;
   std::unique_ptr<CallLog> calls_;

@@ -127,40 +127,40 @@ std::vector<std::string> asset_classes(const std::string& dir) {
   return {classes.begin(), classes.end()};
 }
 
-std::vector<std::string> check_spec_rules(const HazardSpec& spec, const SceneContext& scene,
-                                          const SceneRules& rules) {
-  std::vector<std::string> errs;
+std::vector<Refusal> check_spec_rules(const HazardSpec& spec, const SceneContext& scene,
+                                      const SceneRules& rules) {
+  std::vector<Refusal> errs;
   const auto& classes = rules.asset_classes;
   if (!classes.empty() && std::find(classes.begin(), classes.end(), spec.object_class) == classes.end())
-    errs.push_back("/object_class = \"" + spec.object_class +
-                   "\" has no appearance assets, so the renderer cannot " +
-                   "draw it (classes with assets: " + join(classes) + "; " + rules.assets_where + ")");
-  if (!rules.take_over_tracks && spec.extra.is_object() && spec.extra.contains("track_id") &&
-      spec.extra["track_id"].is_number()) {
-    const auto id = static_cast<int64_t>(spec.extra["track_id"].get<double>());
+    errs.push_back({refusal::kObjectClass,
+                    "/object_class = \"" + spec.object_class + "\" has no appearance assets, so the renderer " +
+                        "cannot draw it (classes with assets: " + join(classes) + "; " + rules.assets_where +
+                        ")",
+                    spec.kind});
+  if (!rules.take_over_tracks && spec.track_id) {
+    const int64_t id = *spec.track_id;
     std::string what = "tracked object";
     for (const ObjectState& o : scene.objects)
       if (o.track_id == id) what = "tracked " + o.label;
-    errs.push_back(
-        "/extra/track_id = " + std::to_string(id) + " takes over the " + what +
-        ", but this scene does not allow takeovers (take_over_tracks false: the renderer would leave "
-        "the real one in the video beside the inserted one). Insert a new object instead "
-        "(extra.track_id null)");
+    errs.push_back({refusal::kSpec,
+                    "/track_id = " + std::to_string(id) + " takes over the " + what +
+                        ", but this scene does not allow takeovers (take_over_tracks false: the renderer "
+                        "would leave the real one in the video beside the inserted one). Insert a new object "
+                        "instead (track_id null)",
+                    spec.kind});
   }
   return errs;
 }
 
-std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, const SceneContext& scene,
-                                                const hazard::RoadModel& road, const ClassPriors& sizes,
-                                                const SceneRules& rules) {
-  std::vector<std::string> errs;
+std::vector<Refusal> check_trajectory_rules(const HazardTrajectory& tr, const SceneContext& scene,
+                                            const hazard::RoadModel& road, const ClassPriors& sizes,
+                                            const SceneRules& rules) {
+  std::vector<Refusal> errs;
   if (tr.points.empty()) return errs;
   const std::string& cls = tr.object_class;
   const double half_l = tr.size_lwh[0] / 2, half_w = tr.size_lwh[1] / 2, clear = rules.clearance_m / 2;
-  std::optional<int64_t> taken;
-  if (tr.spec.extra.is_object() && tr.spec.extra.contains("track_id") &&
-      tr.spec.extra["track_id"].is_number())
-    taken = static_cast<int64_t>(tr.spec.extra["track_id"].get<double>());
+  const std::optional<int64_t> taken = tr.spec.track_id;
+  auto refuse = [&](const char* code, std::string text) { errs.push_back({code, std::move(text), tr.kind}); };
 
   // Clear of every tracked object, each predicted at constant velocity from where it is now (standing when
   // its estimator cannot tell its motion from none).
@@ -197,7 +197,7 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
       }
       const double apart = side_by_side ? sideways : std::hypot(p.x - other.x, p.y - other.y);
       if (!hit || (recorded_gap && apart >= *recorded_gap - 0.1)) continue;
-      errs.push_back("the planned path of the " + cls + " runs into the tracked " + o.label + " (track " +
+      refuse(refusal::kTraffic, "the planned path of the " + cls + " runs into the tracked " + o.label + " (track " +
                      std::to_string(o.track_id) + ", predicted at constant velocity): " + num_text(dt) +
                      " s after it appears the " + cls + " would be at (x " + num_text(p.x) + ", y " +
                      num_text(p.y) + ") m and the " + o.label + " at (x " + num_text(other.x) + ", y " +
@@ -215,7 +215,7 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
     const bool with_ego = std::cos(start.rel_heading) > 0;
     const bool lane_with_ego = road.same_direction_at(start.d);
     if (with_ego != lane_with_ego)
-      errs.push_back("the " + cls + " starts at y " + num_text(start.d) + " m in a lane " +
+      refuse(refusal::kPlacement, "the " + cls + " starts at y " + num_text(start.d) + " m in a lane " +
                      (lane_with_ego ? "going the ego's way" : "with oncoming traffic") + " (lanes_left " +
                      std::to_string(road.lanes_left) + ", lanes_right " + std::to_string(road.lanes_right) +
                      ", oncoming_lanes " + std::to_string(road.oncoming_lanes) + ", traffic keeps " +
@@ -243,8 +243,8 @@ std::vector<std::string> check_trajectory_rules(const HazardTrajectory& tr, cons
           nearer.emplace_back(o.box.x, o.box.y, o.box.width, o.box.height);
       const bool hidden = covered_fraction(view.box, nearer) >= 0.5;
       if (!entering && !off_road && !small && !hidden)
-        errs.push_back(
-            "the " + cls + " would pop up on the road " + num_text(p.x) +
+        refuse(
+            refusal::kNotInView, "the " + cls + " would pop up on the road " + num_text(p.x) +
             " m ahead: when it is first seen (" + num_text(p.t - tr.anchor_time) +
             " s after it appears) its box is fully in view, " + num_text(view.box.height, 0) +
             " px tall, and no tracked object hides it. Let it enter from "

@@ -17,7 +17,7 @@ struct SceneRules {
   // Classes with appearance assets (empty = not checked) and where they were read, for messages.
   std::vector<std::string> asset_classes;
   std::string assets_where;
-  // A spec may take over a tracked object (extra.track_id) only when the renderer removes the real one.
+  // A spec may take over a tracked object (HazardSpec::track_id) only when the renderer removes the real one.
   bool take_over_tracks = true;
   // A hazard that appears fully in view, unhidden, on the road must be at most this tall (share of the image
   // height) when first seen; 0 = no such rule.
@@ -33,15 +33,15 @@ struct SceneRules {
 std::vector<std::string> asset_classes(const std::string& dir);
 
 // Spec-level rules: the class has appearance assets; no tracked object is taken over unless allowed.
-std::vector<std::string> check_spec_rules(const HazardSpec& spec, const SceneContext& scene, const SceneRules& rules);
+std::vector<Refusal> check_spec_rules(const HazardSpec& spec, const SceneContext& scene, const SceneRules& rules);
 
 // Rules on the planned trajectory (anchor frame, with the planned ego): the path keeps clear of every tracked
 // object predicted at constant velocity over the plan (except one the spec takes over), a vehicle starts in a
 // lane whose traffic goes its way, and the object enters the view plausibly (from beyond the image border, from
 // behind a nearer tracked object, or far enough to be small) rather than popping up on the road close by.
 // `sizes` gives tracked objects without a measured size their class's.
-std::vector<std::string> check_trajectory_rules(const HazardTrajectory& trajectory, const SceneContext& scene,
-                                                const hazard::RoadModel& road, const ClassPriors& sizes,
-                                                const SceneRules& rules);
+std::vector<Refusal> check_trajectory_rules(const HazardTrajectory& trajectory, const SceneContext& scene,
+                                            const hazard::RoadModel& road, const ClassPriors& sizes,
+                                            const SceneRules& rules);
 
 }  // namespace hf::llm_hazard

@@ -58,7 +58,7 @@ std::string describe_lanes(const hazard::RoadModel& road) {
     if (oncoming > 0) out += (out.empty() ? "" : ", then ") + count(oncoming, "with oncoming traffic");
     return out;
   };
-  return "traffic keeps " + road.driving_side + "; lanes " + num_text(road.lane_width) +
+  return "traffic keeps " + road.driving_side + "; lanes " + num_text(road.lane_width_m) +
          " m wide; left of the ego lane: " + side(1) + "; right of it: " + side(-1);
 }
 
@@ -158,6 +158,43 @@ TrafficBeside::Seen TrafficBeside::longest() const {
   return best;
 }
 
+namespace {
+
+// Where a fact resolved by resolve() or resolve_road() came from, by the words its reason starts with.
+RoadFactSource fact_source(const std::string& why) {
+  if (why.rfind("set to", 0) == 0 || why.rfind("stated", 0) == 0) return {"stated", why};
+  if (why.rfind("auto: the scene text", 0) == 0) return {"described", why};
+  if (why.rfind("auto: nothing", 0) == 0 || why.rfind("default", 0) == 0) return {"default", why};
+  return {"measured", why};
+}
+
+}  // namespace
+
+RoadLayout road_layout(const SceneSettings& s) {
+  RoadLayout l = s.road;
+  l.sidewalks = s.sidewalks.value;
+  l.sidewalk_width_m = s.sidewalk_width_m;
+  l.pedestrians_without_sidewalks = s.pedestrians_without_sidewalks;
+  l.intersection = s.intersection.value;
+  l.multi_lane = s.multi_lane.value;
+  l.road_type = s.road_type;
+  l.environment = s.environment;
+  l.sources.clear();
+  const RoadFactSource lanes =
+      s.road.lanes_from == "stated"    ? RoadFactSource{"stated", "stated"}
+      : s.road.lanes_from == "default" ? RoadFactSource{"default", ""}
+                                       : RoadFactSource{"measured", s.road.lanes_from};
+  for (const auto& [field, stated] : {std::pair<const char*, bool>{"lanes_left", s.road.lanes_left_stated},
+                                      {"lanes_right", s.road.lanes_right_stated}})
+    l.sources[field] = stated && lanes.from != "measured" ? RoadFactSource{"stated", "stated"} : lanes;
+  l.sources["oncoming_lanes"] = s.road.oncoming_stated ? RoadFactSource{"stated", "stated"} : lanes;
+  l.sources["driving_side"] = fact_source(s.driving_side_why);
+  l.sources["sidewalks"] = fact_source(s.sidewalks.why);
+  l.sources["intersection"] = fact_source(s.intersection.why);
+  l.sources["multi_lane"] = fact_source(s.multi_lane.why);
+  return l;
+}
+
 ResolvedRoad resolve_road(const hazard::RoadModel& stated, const RoadMarkings* markings,
                           const TrafficBeside::Seen& oncoming, const TrafficBeside::Seen& with_ego,
                           double seen_s) {
@@ -183,8 +220,6 @@ ResolvedRoad resolve_road(const hazard::RoadModel& stated, const RoadMarkings* m
         "default: no oncoming traffic followed for " + num_text(seen_s) + " s in the recording";
   }
   out.road = base.with_markings(markings);
-  out.for_templates = base;
-  out.for_templates.driving_side_stated = true;
   const int side = out.road.oncoming_side();
   const bool side_stated = side > 0 ? stated.lanes_left_stated : stated.lanes_right_stated;
   if (seen && oncoming.side == side && !stated.oncoming_stated && !(side_stated && stated.lanes(side) == 0)) {
@@ -196,22 +231,10 @@ ResolvedRoad resolve_road(const hazard::RoadModel& stated, const RoadMarkings* m
     r.oncoming_lanes = std::min(r.oncoming_lanes, lanes);
     r.oncoming_stated = true;
     (side > 0 ? r.lanes_left_stated : r.lanes_right_stated) = true;
-    hazard::RoadModel& t = out.for_templates;
-    (side > 0 ? t.lanes_left : t.lanes_right) = lanes;
-    (side > 0 ? t.lanes_left_stated : t.lanes_right_stated) = true;
-    t.oncoming_lanes = r.oncoming_lanes;
-    t.oncoming_stated = true;
     r.lanes_from += "; " + side_name + " " + std::to_string(r.oncoming_lanes) +
                     " lane(s) with oncoming traffic: the recording shows " + evidence;
   }
   return out;
-}
-
-std::string dataset_description(const Frame& frame) {
-  for (const char* key : {"scene_description", "description"})
-    if (frame.meta.is_object() && frame.meta.contains(key) && frame.meta[key].is_string())
-      return frame.meta[key].get<std::string>();
-  return {};
 }
 
 FeasibilityConfig feasibility_config(const SceneSettings& s, const LimitsTable& limits,
@@ -385,10 +408,10 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
                {"pedestrians_without_sidewalks", s.pedestrians_without_sidewalks},
                {"max_under_way_s", s.max_under_way_s},
                {"road",
-                {{"lane_width_m", s.road.lane_width},
+                {{"lane_width_m", s.road.lane_width_m},
                  {"lanes_left", s.road.lanes_left},
                  {"lanes_right", s.road.lanes_right},
-                 {"kerb_offset_m", s.road.kerb_offset},
+                 {"kerb_offset_m", s.road.kerb_offset_m},
                  {"driving_side", s.road.driving_side},
                  {"oncoming_lanes", s.road.oncoming_lanes},
                  {"edge_left_m", s.road.edge(1)},
@@ -425,7 +448,7 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
       {"allowed_kinds", kinds},
       {"target_ttc_s", num_text(s.target_ttc_s)},
       {"ego_front_m", num_text(s.ttc.ego_front)},
-      {"lane_width_m", num_text(s.road.lane_width)},
+      {"lane_width_m", num_text(s.road.lane_width_m)},
       {"road_edge_left_m", num_text(s.road.edge(1))},
       {"road_edge_right_m", num_text(s.road.edge(-1))},
       {"lanes", describe_lanes(s.road)},
@@ -443,8 +466,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
              "video, "
              "or the scene sets no rule on coming into view)."},
       {"take_over", s.rules.take_over_tracks ? "A detected vehicle may itself become the hazard "
-                                               "(extra.track_id): the renderer removes the real one."
-                                             : "Do not make a detected object the hazard (extra.track_id "
+                                               "(track_id): the renderer removes the real one."
+                                             : "Do not make a detected object the hazard (track_id "
                                                "stays null): the real one would stay in the "
                                                "video beside it."}};
 
@@ -456,10 +479,8 @@ SceneSummary summarize_scene(const Frame& frame, const ObjectStates& states,
   out.placeholders["kinds"] = describe_kinds(s.kinds, fc, out.context);
   out.context.ego_speed_mps = s.ego_speed_mps;
   out.context.camera = frame.camera;
-  out.context.meta = {{"environment", s.environment},         {"road_type", s.road_type},
-                      {"description", s.description},         {"sidewalks", s.sidewalks.value},
-                      {"intersection", s.intersection.value}, {"multi_lane", s.multi_lane.value},
-                      {"threshold_s", s.threshold_s},         {"target_ttc_s", s.target_ttc_s}};
+  out.context.road = road_layout(s);
+  out.context.origin = frame.origin;
   // The recorded ego track (e.g. nuScenes), so the templates check a spec against where the ego really goes,
   // as the planner will: a spec planned against a straight ego can be infeasible on the recorded path.
   out.context.ego_track = frame.ego_track;

@@ -70,9 +70,6 @@ class TrafficBeside {
   std::map<int64_t, Run> runs_;
 };
 
-// The dataset's own words for the scene: Frame.meta "scene_description", else "description", else "".
-std::string dataset_description(const Frame& frame);
-
 // The road the generator plans on: the stated facts, the footage's lane markings (RoadModel::with_markings)
 // and what its traffic shows. A vehicle coming towards the ego beside its lane
 // (TrafficBeside::Flow::kOncoming, followed for at least seen_s without a break) decides the side traffic
@@ -81,9 +78,7 @@ std::string dataset_description(const Frame& frame);
 // when a vehicle was also seen travelling the ego's way there. seen_s <= 0: only the stated facts and the
 // markings.
 struct ResolvedRoad {
-  hazard::RoadModel road;           // the prompt's, the scene rules' and the proposals' road
-  hazard::RoadModel for_templates;  // the same facts, the resolved ones marked stated: the templates apply
-                                    // the markings themselves
+  hazard::RoadModel road;        // the prompt's, the scene rules', the templates' and the export's road
   std::string driving_side_why;     // "stated", "default: ..." or "auto: the recording shows ..."
   std::string conflict;             // a stated driving side the traffic contradicts, else empty
 };
@@ -112,6 +107,10 @@ struct SceneSettings {
   hazard::RoadModel road;
   std::string driving_side_why;  // where road.driving_side came from (resolve_road)
 };
+
+// The road these settings settle, with what each fact rests on: what the scene context, the templates, the
+// planner (HazardSpec::road) and the export read.
+RoadLayout road_layout(const SceneSettings& settings);
 
 struct SceneSummary {
   Json scene;                                       // LlmRequest::scene

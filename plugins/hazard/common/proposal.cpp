@@ -58,7 +58,7 @@ double ProposalScene::first_seen_small_from(const std::string& cls) const {
 }
 
 ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tpl) {
-  ProposalScene sc(r, tpl.road().with_markings(r.scene.road_markings.get()), tpl.limits(), tpl.class_sizes());
+  ProposalScene sc(r, tpl.road_in(r.scene), tpl.limits(), tpl.class_sizes());
   const TtcConventions& ttc = tpl.ttc_conventions();
   sc.corridor.ego_half_width = ttc.corridor.ego_half_width;
   sc.corridor.margin = ttc.corridor.margin;

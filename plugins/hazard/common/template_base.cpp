@@ -40,10 +40,10 @@ std::vector<ParamSpec> RoadModel::params() {
 
 RoadModel RoadModel::from(const Params& p) {
   RoadModel r;
-  if (p.has("lane_width_m")) r.lane_width = p.get_double("lane_width_m");
+  if (p.has("lane_width_m")) r.lane_width_m = p.get_double("lane_width_m");
   if (p.has("lanes_left")) r.lanes_left = static_cast<int>(p.get_int("lanes_left"));
   if (p.has("lanes_right")) r.lanes_right = static_cast<int>(p.get_int("lanes_right"));
-  if (p.has("kerb_offset_m")) r.kerb_offset = p.get_double("kerb_offset_m");
+  if (p.has("kerb_offset_m")) r.kerb_offset_m = p.get_double("kerb_offset_m");
   if (p.has("driving_side")) r.driving_side = p.get_string("driving_side");
   if (p.has("oncoming_lanes")) r.oncoming_lanes = static_cast<int>(p.get_int("oncoming_lanes"));
   r.lanes_left_stated = p.has("lanes_left") && p.stated("lanes_left");
@@ -57,6 +57,18 @@ RoadModel RoadModel::from(const Params& p) {
                 std::to_string(r.lanes(side)) + " lane(s) on the " + (side > 0 ? "left" : "right") +
                 " (lanes_" + (side > 0 ? "left" : "right") +
                 "), where oncoming traffic passes when traffic keeps " + r.driving_side);
+  return r;
+}
+
+RoadModel RoadModel::from(const RoadLayout& layout) {
+  RoadModel r;
+  static_cast<RoadLayout&>(r) = layout;
+  r.lanes_left_stated = r.lanes_right_stated = r.oncoming_stated = r.driving_side_stated = true;
+  const RoadFactSource left = layout.source("lanes_left"), right = layout.source("lanes_right");
+  r.lanes_from = left.from == "default" && right.from == "default" ? "default"
+                 : !left.why.empty()                               ? left.why
+                 : !right.why.empty()                              ? right.why
+                                                                   : "stated";
   return r;
 }
 
@@ -78,29 +90,6 @@ RoadModel RoadModel::with_markings(const RoadMarkings* markings) const {
   if (r.oncoming_lanes > r.lanes(r.oncoming_side())) r.oncoming_lanes = r.lanes(r.oncoming_side());
   if (!from.empty()) r.lanes_from = "the footage's lane markings (" + from + ")";
   return r;
-}
-
-int RoadModel::oncoming_lanes_on(int side) const {
-  return side == oncoming_side() ? oncoming_lanes : 0;
-}
-
-int RoadModel::same_direction_lanes(int side) const {
-  return lanes(side) - oncoming_lanes_on(side);
-}
-
-int RoadModel::lane_at(double y) const {
-  const int side = y >= 0 ? 1 : -1;
-  const double from_centre = std::abs(y) - lane_width / 2;
-  if (from_centre < 0) return 0;
-  const int k = std::min(lanes(side) + 1, 1 + static_cast<int>(std::floor(from_centre / lane_width)));
-  return side * k;
-}
-
-bool RoadModel::same_direction_at(double y) const {
-  const int lane = lane_at(y);
-  const int side = lane >= 0 ? 1 : -1;
-  const int k = std::abs(lane);
-  return k == 0 || k > lanes(side) || k <= same_direction_lanes(side);
 }
 
 int PlanRequest::side_sign() const {
@@ -166,7 +155,7 @@ ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
           .one_of({"auto", "recorded", "constant_speed"})
           .describe(
               "the ego's motion the hazard is planned against: recorded = the scene's recorded ego track "
-              "(SceneContext.meta ego_track, e.g. from the nuscenes source), the road following it; "
+              "(SceneContext::ego_track, e.g. from the nuscenes source), the road following it; "
               "constant_speed = straight ahead at the frame's speed; auto = recorded when the scene "
               "carries a track"),
       ParamSpec::number("ego_smoothing_s", 0.25)
@@ -175,7 +164,7 @@ ComponentInfo TemplateBase::base_info(std::string name, std::string summary) {
       ParamSpec::number("max_under_way_s", 0.0)
           .range(0, 30)
           .describe(
-              "longest extra.under_way_s a spec may give: the hazard is already under way when it appears "
+              "longest under_way_s a spec may give: the hazard is already under way when it appears "
               "(a lead already braking, a lane change already started), for recordings too short to show "
               "the whole manoeuvre; the spec's position and speed then describe the manoeuvre's start, "
               "under_way_s before the anchor time. 0 = every hazard starts when it appears"),
@@ -217,128 +206,104 @@ void TemplateBase::open(const Params& params) {
   max_under_way_s_ = params.has("max_under_way_s") ? params.get_double("max_under_way_s") : 0.0;
 }
 
-std::vector<std::string> TemplateBase::check(const HazardSpec& spec, const SceneContext& scene) const {
+std::vector<Refusal> TemplateBase::check(const HazardSpec& spec, const SceneContext& scene) const {
   return evaluate(spec, scene).reasons;
 }
 
 HazardTrajectory TemplateBase::plan(const HazardSpec& spec, const SceneContext& scene) const {
   PlanOutcome o = evaluate(spec, scene);
-  if (!o.reasons.empty()) {
-    std::string msg = "hazard '" + spec.kind + "' is infeasible: ";
-    for (size_t i = 0; i < o.reasons.size(); ++i) msg += (i ? "; " : "") + o.reasons[i];
-    throw Error(msg);
-  }
+  if (!o.reasons.empty())
+    throw Error("hazard '" + spec.kind + "' is infeasible: " + refusal_text(o.reasons));
   return std::move(o.trajectory);
 }
 
-PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& scene) const {
-  PlanOutcome out;
-  auto& reasons = out.reasons;
-  const std::string& cls = spec.object_class;
+RoadModel TemplateBase::road_in(const SceneContext& scene) const {
+  return scene.road ? RoadModel::from(*scene.road) : road_.with_markings(scene.road_markings.get());
+}
 
-  // Spec-level checks first: a motion is only designed for a spec that is physically possible at all.
+namespace {
+
+// Standing objects keep the heading they will move off with (or last moved with).
+void fill_standing_headings(std::vector<std::optional<double>>& headings) {
+  std::optional<double> last;
+  for (auto& h : headings) {
+    if (h)
+      last = h;
+    else
+      h = last;
+  }
+  last.reset();
+  for (auto it = headings.rbegin(); it != headings.rend(); ++it) {
+    if (*it)
+      last = *it;
+    else
+      *it = last;
+  }
+}
+
+}  // namespace
+
+std::vector<Refusal> TemplateBase::spec_reasons(const HazardSpec& spec, const SceneContext& scene) const {
+  std::vector<Refusal> reasons;
+  const std::string& kind = spec.kind;
+  auto refuse = [&](const char* code, std::string text) { reasons.push_back({code, std::move(text), kind}); };
+  const std::string& cls = spec.object_class;
   if (!scene.camera.valid())
-    reasons.push_back("the scene has no valid camera model (needed for the view check)");
+    refuse(refusal::kSceneData, "the scene has no valid camera model (needed for the view check)");
   if (!scene.ego_speed_mps)
-    reasons.push_back("the scene has no ego speed");
+    refuse(refusal::kSceneData, "the scene has no ego speed");
   else if (*scene.ego_speed_mps < 0)
-    reasons.push_back("ego speed " + num_text(*scene.ego_speed_mps) + " m/s is negative");
+    refuse(refusal::kSceneData, "ego speed " + num_text(*scene.ego_speed_mps) + " m/s is negative");
   const auto allowed = allowed_classes();
   if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), cls) == allowed.end()) {
     std::string list;
     for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-    reasons.push_back("object_class '" + cls + "' is not supported by " + hazard_kind() +
-                      " (supported: " + list + ")");
+    refuse(refusal::kObjectClass,
+           "object_class '" + cls + "' is not supported by " + hazard_kind() + " (supported: " + list + ")");
   } else if (!limits_.has(cls)) {
     std::string list;
     for (const auto& a : limits_.classes()) list += (list.empty() ? "" : ", ") + a;
-    reasons.push_back("object_class '" + cls +
-                      "' has no kinematic limits in hazard_limits.yaml (known: " + list + ")");
+    refuse(refusal::kObjectClass,
+           "object_class '" + cls + "' has no kinematic limits in hazard_limits.yaml (known: " + list + ")");
   } else if (!sizes_.has(cls)) {
-    reasons.push_back("object_class '" + cls + "' has no size in class_sizes.yaml");
+    refuse(refusal::kObjectClass, "object_class '" + cls + "' has no size in class_sizes.yaml");
   }
-  if (!reasons.empty()) return out;
+  if (!reasons.empty()) return reasons;
 
   const KinematicLimits& lim = limits_.at(cls);
-  if (spec.speed_mps < 0) reasons.push_back("speed_mps " + num_text(spec.speed_mps) + " is negative");
+  if (spec.speed_mps < 0) refuse(refusal::kSpec, "speed_mps " + num_text(spec.speed_mps) + " is negative");
   if (spec.speed_mps > lim.max_speed_mps)
-    reasons.push_back("speed_mps " + num_text(spec.speed_mps) + " exceeds the " + cls + " limit of " +
-                      num_text(lim.max_speed_mps) + " m/s");
+    refuse(refusal::kClassLimit, "speed_mps " + num_text(spec.speed_mps) + " exceeds the " + cls +
+                                     " limit of " + num_text(lim.max_speed_mps) + " m/s");
   if (spec.deceleration_mps2) {
     if (*spec.deceleration_mps2 <= 0)
-      reasons.push_back("deceleration_mps2 " + num_text(*spec.deceleration_mps2) + " must be positive");
+      refuse(refusal::kSpec, "deceleration_mps2 " + num_text(*spec.deceleration_mps2) + " must be positive");
     else if (*spec.deceleration_mps2 > lim.max_decel_mps2)
-      reasons.push_back("deceleration_mps2 " + num_text(*spec.deceleration_mps2) + " exceeds the " + cls +
-                        " limit of " + num_text(lim.max_decel_mps2) + " m/s^2");
+      refuse(refusal::kClassLimit, "deceleration_mps2 " + num_text(*spec.deceleration_mps2) + " exceeds the " +
+                                       cls + " limit of " + num_text(lim.max_decel_mps2) + " m/s^2");
   }
   if (spec.target_ttc_s && *spec.target_ttc_s <= 0)
-    reasons.push_back("target_ttc_s " + num_text(*spec.target_ttc_s) + " must be positive");
-  // How long the manoeuvre has been under way when the hazard appears (0 = it starts now).
-  double under_way = 0;
-  if (spec.extra.is_object() && spec.extra.contains("under_way_s") && !spec.extra["under_way_s"].is_null()) {
-    const Json& u = spec.extra["under_way_s"];
-    if (!u.is_number()) {
-      reasons.push_back("extra.under_way_s must be a number, got " + u.dump());
-    } else {
-      under_way = u.get<double>();
-      if (under_way < 0)
-        reasons.push_back("extra.under_way_s " + num_text(under_way) + " is negative");
-      else if (under_way > max_under_way_s_ + 1e-9)
-        reasons.push_back("extra.under_way_s " + num_text(under_way) + " s exceeds max_under_way_s " +
-                          num_text(max_under_way_s_) +
-                          " s (raise the template param to plan hazards already under way when they appear)");
-    }
+    refuse(refusal::kSpec, "target_ttc_s " + num_text(*spec.target_ttc_s) + " must be positive");
+  if (spec.under_way_s) {
+    const double under_way = *spec.under_way_s;
+    if (under_way < 0)
+      refuse(refusal::kSpec, "under_way_s " + num_text(under_way) + " is negative");
+    else if (under_way > max_under_way_s_ + 1e-9)
+      refuse(refusal::kSpec, "under_way_s " + num_text(under_way) + " s exceeds max_under_way_s " +
+                                 num_text(max_under_way_s_) +
+                                 " s (raise the template param to plan hazards already under way when they "
+                                 "appear)");
   }
-  if (!reasons.empty()) return out;
+  return reasons;
+}
 
-  // The ego plan: the recorded track when the scene carries one (so the hazard is planned against where the
-  // ego really goes), else straight on at the frame's speed.
-  const bool has_track = scene.ego_track && scene.ego_track->samples.size() >= 2;
-  EgoPath ego = EgoPath::straight(*scene.ego_speed_mps);
-  if (ego_plan_ == "recorded" && !has_track) {
-    reasons.push_back(
-        "ego_plan 'recorded' needs the recording's ego track (from dataset poses or estimated from the "
-        "video), which this scene does not carry");
-    return out;
-  }
-  // An under-way hazard is designed from its start, under_way s before the anchor time, against the ego's
-  // path from there (`design_ego`); its samples are then taken from the anchor time on.
-  EgoPath design_ego = ego;
-  if (ego_plan_ != "constant_speed" && has_track) {
-    ego = EgoPath::recorded(scene.ego_track->samples, scene.timestamp,
-                            "scene at t=" + num_text(scene.timestamp, 3) + " s", ego_smoothing_s_);
-    // The same path seen from where the ego was then — before the recording began, back along its first
-    // heading at its first speed (the recording says nothing else about that time), as proposals assume.
-    design_ego = under_way > 0 ? ego.seen_from(-under_way) : ego;
-  }
-  // Arc length the ego covers from the hazard's start to the anchor time (road x of the design -> of the
-  // anchor).
-  const double ego_shift = under_way > 0 ? design_ego.s_at(under_way) : 0.0;
-
-  const ClassSize& prior = sizes_.at(cls);
-  PlanRequest req{spec,
-                  scene,
-                  lim,
-                  cv::Vec3d(prior.length, prior.width, prior.height),
-                  *scene.ego_speed_mps,
-                  road_.with_markings(scene.road_markings.get()),
-                  ttc_,
-                  duration_s_ + under_way,
-                  params_,
-                  design_ego,
-                  under_way,
-                  &ego};
-  Design d = design(req, reasons);
-  if (!reasons.empty()) return out;
-  if (!d.motion) throw Error("hazard template '" + hazard_kind() + "' designed no motion and gave no reason");
-  out.notes = d.notes;
-  out.notes["ego_plan"] = ego.is_recorded() ? "recorded" : "constant_speed";
-  if (under_way > 0) out.notes["under_way_s"] = under_way;
-
-  HazardTrajectory& tr = out.trajectory;
+HazardTrajectory TemplateBase::sample(const Design& d, const HazardSpec& spec, const SceneContext& scene,
+                                      const EgoPath& ego, double under_way, double ego_shift,
+                                      const cv::Vec3d& size_lwh) const {
+  HazardTrajectory tr;
   tr.kind = spec.kind;
-  tr.object_class = cls;
-  tr.size_lwh = d.size_lwh.value_or(req.size_lwh);
+  tr.object_class = spec.object_class;
+  tr.size_lwh = d.size_lwh.value_or(size_lwh);
   tr.anchor_time = scene.timestamp;
   tr.spec = spec;
   const int n = static_cast<int>(std::floor(duration_s_ * rate_hz_ + 1e-9));
@@ -361,29 +326,93 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
     e.t = p.t;
     tr.ego.push_back(e);
   }
-  // Standing objects keep the heading they will move off with (or last moved with).
-  std::optional<double> last;
-  for (auto& h : headings) {
-    if (h)
-      last = h;
-    else
-      h = last;
-  }
-  last.reset();
-  for (auto it = headings.rbegin(); it != headings.rend(); ++it) {
-    if (*it)
-      last = *it;
-    else
-      *it = last;
-  }
+  fill_standing_headings(headings);
   for (size_t k = 0; k < headings.size(); ++k) tr.points[k].heading = headings[k].value_or(0.0);
+  return tr;
+}
+
+std::vector<TrajectoryPoint> TemplateBase::whole_manoeuvre(const Design& d, const HazardTrajectory& tr,
+                                                          const EgoPath& design_ego, double under_way) const {
+  // The limits hold for the whole manoeuvre, including its part before the anchor time: measure it from its
+  // start (in the frame of the ego at the start) up to the last planned sample.
+  std::vector<TrajectoryPoint> whole;
+  const int m_end =
+      static_cast<int>(std::floor((under_way + (tr.points.back().t - tr.anchor_time)) * rate_hz_ + 1e-9));
+  for (int k = 0; k <= m_end; ++k) {
+    const ObjectMotion m = d.motion(k / rate_hz_);
+    const EgoPath::Mapped a = design_ego.map(m.x, m.y, m.vx, m.vy, m.heading);
+    TrajectoryPoint p;
+    p.t = tr.anchor_time - under_way + k / rate_hz_;
+    p.x = a.x;
+    p.y = a.y;
+    p.speed = std::hypot(a.vx, a.vy);
+    p.heading = a.heading.value_or(p.speed > 0.05 ? std::atan2(a.vy, a.vx)
+                                                  : (whole.empty() ? 0.0 : whole.back().heading));
+    whole.push_back(p);
+  }
+  return whole;
+}
+
+PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& scene) const {
+  PlanOutcome out;
+  auto& reasons = out.reasons;
+  auto refuse = [&](const char* code, std::string text) {
+    reasons.push_back({code, std::move(text), spec.kind});
+  };
+  // Spec-level checks first: a motion is only designed for a spec that is physically possible at all.
+  reasons = spec_reasons(spec, scene);
+  if (!reasons.empty()) return out;
+  const std::string& cls = spec.object_class;
+  const KinematicLimits& lim = limits_.at(cls);
+  // How long the manoeuvre has been under way when the hazard appears (0 = it starts now).
+  const double under_way = spec.under_way_s.value_or(0.0);
+
+  // The ego plan: the recorded track when the scene carries one (so the hazard is planned against where the
+  // ego really goes), else straight on at the frame's speed.
+  const bool has_track = scene.ego_track && scene.ego_track->samples.size() >= 2;
+  EgoPath ego = EgoPath::straight(*scene.ego_speed_mps);
+  if (ego_plan_ == "recorded" && !has_track) {
+    refuse(refusal::kSceneData,
+           "ego_plan 'recorded' needs the recording's ego track (from dataset poses or estimated from the "
+           "video), which this scene does not carry");
+    return out;
+  }
+  // An under-way hazard is designed from its start, under_way s before the anchor time, against the ego's
+  // path from there (`design_ego`); its samples are then taken from the anchor time on.
+  EgoPath design_ego = ego;
+  if (ego_plan_ != "constant_speed" && has_track) {
+    ego = EgoPath::recorded(scene.ego_track->samples, scene.timestamp,
+                            "scene at t=" + num_text(scene.timestamp, 3) + " s", ego_smoothing_s_);
+    // The same path seen from where the ego was then — before the recording began, back along its first
+    // heading at its first speed (the recording says nothing else about that time), as proposals assume.
+    design_ego = under_way > 0 ? ego.seen_from(-under_way) : ego;
+  }
+  // Arc length the ego covers from the hazard's start to the anchor time (road x of the design -> of the
+  // anchor).
+  const double ego_shift = under_way > 0 ? design_ego.s_at(under_way) : 0.0;
+
+  const ClassSize& prior = sizes_.at(cls);
+  const RoadModel road = road_in(scene);
+  PlanRequest req{spec,       scene, lim,        cv::Vec3d(prior.length, prior.width, prior.height),
+                  *scene.ego_speed_mps, road, ttc_, duration_s_ + under_way,
+                  params_,    design_ego, under_way, &ego};
+  Design d = design(req, reasons);
+  if (!reasons.empty()) return out;
+  if (!d.motion) throw Error("hazard template '" + hazard_kind() + "' designed no motion and gave no reason");
+  out.notes = d.notes;
+  out.notes["ego_plan"] = ego.is_recorded() ? "recorded" : "constant_speed";
+  if (under_way > 0) out.notes["under_way_s"] = under_way;
+
+  HazardTrajectory& tr = out.trajectory;
+  tr = sample(d, spec, scene, ego, under_way, ego_shift, req.size_lwh);
 
   // The ego plan does not react, so samples after contact would put the object inside the ego: stop there.
   out.ttc = ttc_series(tr.ego, tr.points, tr.size_lwh, ttc_);
   for (size_t k = 0; k < out.ttc.size(); ++k) {
     if (out.ttc[k].in_path && out.ttc[k].gap <= 0) {
       if (k < 2) {
-        reasons.push_back("the object touches the ego at the start (gap " + num_text(out.ttc[k].gap) + " m)");
+        refuse(refusal::kPlacement,
+               "the object touches the ego at the start (gap " + num_text(out.ttc[k].gap) + " m)");
         return out;
       }
       out.notes["contact_time_s"] = tr.points[k].t;
@@ -395,44 +424,23 @@ PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& s
   }
   tr.intended_min_ttc_s = min_ttc(out.ttc);
 
-  if (under_way > 0) {
-    // The limits hold for the whole manoeuvre, including its part before the anchor time: measure it from its
-    // start (in the frame of the ego at the start) up to the last planned sample.
-    std::vector<TrajectoryPoint> whole;
-    const int m_end =
-        static_cast<int>(std::floor((under_way + (tr.points.back().t - tr.anchor_time)) * rate_hz_ + 1e-9));
-    for (int k = 0; k <= m_end; ++k) {
-      const ObjectMotion m = d.motion(k / rate_hz_);
-      const EgoPath::Mapped a = design_ego.map(m.x, m.y, m.vx, m.vy, m.heading);
-      TrajectoryPoint p;
-      p.t = scene.timestamp - under_way + k / rate_hz_;
-      p.x = a.x;
-      p.y = a.y;
-      p.speed = std::hypot(a.vx, a.vy);
-      p.heading = a.heading.value_or(p.speed > 0.05 ? std::atan2(a.vy, a.vx)
-                                                    : (whole.empty() ? 0.0 : whole.back().heading));
-      whole.push_back(p);
-    }
-    out.stats = measure(whole);
-  } else {
-    out.stats = measure(tr.points);
-  }
-  for (auto& r : exceeded_limits(out.stats, lim)) reasons.push_back(r);
+  out.stats = measure(under_way > 0 ? whole_manoeuvre(d, tr, design_ego, under_way) : tr.points);
+  for (auto& r : exceeded_limits(out.stats, lim)) refuse(refusal::kClassLimit, r);
 
   if (start_must_be_visible()) {
     const TrajectoryPoint& p0 = tr.points.front();
     if (!view_of(scene.camera, p0.x, p0.y, p0.heading, tr.size_lwh).centre_inside)
-      reasons.push_back("the start point (x=" + num_text(p0.x) + " m, y=" + num_text(p0.y) +
-                        " m) is out of the camera's view");
+      refuse(refusal::kNotInView, "the start point (x=" + num_text(p0.x) + " m, y=" + num_text(p0.y) +
+                                      " m) is out of the camera's view");
   }
   if (spec.target_ttc_s && tr.intended_min_ttc_s > *spec.target_ttc_s + 0.05) {
     const double window = tr.points.back().t - tr.points.front().t;
-    reasons.push_back("target_ttc_s " + num_text(*spec.target_ttc_s) + " is not reached within the " +
-                      num_text(window) + " s plan (planned minimum TTC " +
-                      (std::isfinite(tr.intended_min_ttc_s)
-                           ? num_text(tr.intended_min_ttc_s) + " s)"
-                           : std::string("infinite: the object never closes in "
-                                         "on the ego path)")));
+    refuse(refusal::kTtcUnreachable,
+           "target_ttc_s " + num_text(*spec.target_ttc_s) + " is not reached within the " + num_text(window) +
+               " s plan (planned minimum TTC " +
+               (std::isfinite(tr.intended_min_ttc_s)
+                    ? num_text(tr.intended_min_ttc_s) + " s)"
+                    : std::string("infinite: the object never closes in on the ego path)")));
   }
   return out;
 }

@@ -13,6 +13,14 @@ namespace hf {
 namespace {
 // The class's jerk limit shared between braking and the lane change: |(0.8, 0.6)| = 1.
 constexpr double kLongitudinalJerkShare = 0.8, kLateralJerkShare = 0.6;
+
+const SpecField<double> kFinalSpeed("final_speed_mps",
+                                    "speed after braking in front of the ego (below the ego speed)",
+                                    {{"minimum", 0}, {"maximum", 50}});
+
+HazardProposal refused(const char* code, std::string text) {
+  return {nullptr, {code, std::move(text), "cut_in"}};
+}
 }  // namespace
 
 HazardKindInfo CutInTemplate::info() {
@@ -25,9 +33,7 @@ HazardKindInfo CutInTemplate::info() {
       "braking (deceleration_mps2, or null for the default) to extra.final_speed_mps, below the ego speed.";
   k.object_classes = {"car", "truck", "bus", "motorcycle"};
   k.needs = {scene_condition::kSameDirectionLane};
-  k.extra_fields = {{"final_speed_mps",
-                     {{"type", {"number", "null"}}, {"minimum", 0}, {"maximum", 50}},
-                     "speed after braking in front of the ego (below the ego speed)"}};
+  k.extra_fields = {kFinalSpeed.declaration()};
   return k;
 }
 
@@ -61,49 +67,51 @@ ComponentInfo CutInTemplate::describe() {
 }
 
 hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
-                                     std::vector<std::string>& reasons) const {
+                                     std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
+  auto refuse = [&](const char* code, std::string text) {
+    reasons.push_back({code, std::move(text), spec.kind});
+  };
   const Params& p = req.params;
   const KinematicLimits& lim = req.limits;
   const double len = req.size_lwh[0], wid = req.size_lwh[1];
   const int side = req.side_sign();
   if (side == 0) {
-    reasons.push_back("side must be 'left' or 'right' (or lateral_offset_m non-zero) for cut_in, got '" +
-                      spec.side + "'");
+    refuse(refusal::kSpec,
+           "side must be 'left' or 'right' (or lateral_offset_m non-zero) for cut_in, got '" + spec.side + "'");
     return {};
   }
   const std::string side_name = side > 0 ? "left" : "right";
   const double y0 =
-      std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * req.road.lane_width;
+      std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * req.road.lane_width_m;
   const double half = req.path_half_width(wid);
   if (std::abs(y0) < half)
-    reasons.push_back("the start point y=" + num_text(y0) + " m is already in the ego path (|y| < " +
+    refuse(refusal::kPlacement, "the start point y=" + num_text(y0) + " m is already in the ego path (|y| < " +
                       num_text(half) + " m)");
   const double edge = req.road.edge(side);
   if (std::abs(y0) + wid / 2 > edge)
-    reasons.push_back("the start point y=" + num_text(y0) + " m is off the road (the road edge on the " +
+    refuse(refusal::kPlacement, "the start point y=" + num_text(y0) + " m is off the road (the road edge on the " +
                       side_name + " is at " + num_text(edge) + " m with lanes_" + side_name + "=" +
                       std::to_string(side > 0 ? req.road.lanes_left : req.road.lanes_right) + ")");
   const double x0 = spec.initial_distance_m;
   const hazard::BoxView start = hazard::view_of(req.scene.camera, req.ego, x0, y0, 0.0, req.size_lwh);
   if (start.in_front && start.inside_fraction > 0.999)
-    reasons.push_back("the vehicle starts fully in view (x=" + num_text(x0) + " m, y=" + num_text(y0) +
+    refuse(refusal::kNotInView, "the vehicle starts fully in view (x=" + num_text(x0) + " m, y=" + num_text(y0) +
                       " m): a cut-in starts beside or behind the ego, out of view or at the image edge");
   const double ve = req.ego_speed, v0 = spec.speed_mps;
   if (v0 <= ve)
-    reasons.push_back("speed_mps " + num_text(v0) + " does not exceed the ego speed " + num_text(ve) +
+    refuse(refusal::kSpec, "speed_mps " + num_text(v0) + " does not exceed the ego speed " + num_text(ve) +
                       " m/s: a cut-in vehicle must overtake");
   double v1 = std::max(0.0, ve - p.get_double("closing_speed_mps"));
-  if (spec.extra.contains("final_speed_mps")) {
-    if (!spec.extra["final_speed_mps"].is_number()) {
-      reasons.push_back("extra.final_speed_mps must be a number");
-      return {};
-    }
-    v1 = spec.extra["final_speed_mps"].get<double>();
+  try {
+    if (const std::optional<double> given = kFinalSpeed.get(spec)) v1 = *given;
+  } catch (const Error& e) {
+    refuse(refusal::kSpec, e.what());
+    return {};
   }
-  if (v1 < 0) reasons.push_back("extra.final_speed_mps " + num_text(v1) + " is negative");
+  if (v1 < 0) refuse(refusal::kSpec, "extra.final_speed_mps " + num_text(v1) + " is negative");
   if (v1 >= ve)
-    reasons.push_back("the final speed " + num_text(v1) + " m/s is not below the ego speed " + num_text(ve) +
+    refuse(refusal::kSpec, "the final speed " + num_text(v1) + " m/s is not below the ego speed " + num_text(ve) +
                       " m/s: the cut-in would never close in");
   if (!reasons.empty()) return {};
 
@@ -115,7 +123,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
   const double reaction = p.get_double("ego_reaction_s"), ego_decel = p.get_double("ego_max_decel_mps2");
   const double stopping = ve * reaction + ve * ve / (2 * ego_decel);
   if (gap_end >= stopping)
-    reasons.push_back("the cut-in would end " + num_text(gap_end) +
+    refuse(refusal::kTtcUnreachable, "the cut-in would end " + num_text(gap_end) +
                       " m ahead, beyond the ego's stopping distance " + num_text(stopping) + " m (reaction " +
                       num_text(reaction) + " s, braking " + num_text(ego_decel) + " m/s^2)");
 
@@ -134,7 +142,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
     double lo = 0, hi = std::max(1.0, req.duration);
     for (int i = 0; i < 8 && end_gap(hi) < 0; ++i) hi *= 2;
     if (end_gap(hi) < 0) {
-      reasons.push_back("at " + num_text(v0) + " m/s the vehicle never gets " + num_text(gap_end) +
+      refuse(refusal::kEgoMotion, "at " + num_text(v0) + " m/s the vehicle never gets " + num_text(gap_end) +
                         " m ahead of the ego (which reaches " + num_text(req.ego.at(hi).speed) +
                         " m/s): it cannot overtake");
       return {};
@@ -146,7 +154,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
     t_brake = (lo + hi) / 2;
   }
   if (t_brake < 0)
-    reasons.push_back("the vehicle cannot end " + num_text(gap_end) + " m in front of the ego: from x=" +
+    refuse(refusal::kPlacement, "the vehicle cannot end " + num_text(gap_end) + " m in front of the ego: from x=" +
                       num_text(x0) + " m at " + num_text(v0) + " m/s it would have to start braking " +
                       num_text(-t_brake) + " s before the hazard starts");
   if (!reasons.empty()) return {};
@@ -173,7 +181,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
       hazard::min_jerk_duration(y0, lim.max_lateral_speed_mps, lim.max_lateral_accel_mps2, jerk_lat);
   double lane_dur = std::max(shortest, p.get_double("lane_change_s"));
   if (p.get_double("lane_change_s") > 0 && p.get_double("lane_change_s") < shortest)
-    reasons.push_back("lane_change_s " + num_text(p.get_double("lane_change_s")) + " is shorter than the " +
+    refuse(refusal::kClassLimit, "lane_change_s " + num_text(p.get_double("lane_change_s")) + " is shorter than the " +
                       num_text(shortest) + " s the " + lim.object_class + " lateral limits allow");
   for (int iter = 0; iter < 40; ++iter) {
     const auto m = motion_with(t_end - lane_dur, lane_dur);
@@ -191,7 +199,7 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
   }
   const double lane_start = t_end - lane_dur;
   if (lane_start < 0)
-    reasons.push_back("the lane change needs " + num_text(lane_dur) +
+    refuse(refusal::kPlacement, "the lane change needs " + num_text(lane_dur) +
                       " s but the vehicle reaches its cut-in point " + num_text(t_end) +
                       " s after the hazard starts: start it further behind");
   if (!reasons.empty()) return {};
@@ -206,11 +214,11 @@ hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
   const double t_enter = hi;
   const double gap_enter = req.gap(motion(t_enter).x, len, t_enter);
   if (gap_enter <= 0)
-    reasons.push_back("the vehicle would enter the ego path beside the ego (gap " + num_text(gap_enter) +
+    refuse(refusal::kPlacement, "the vehicle would enter the ego path beside the ego (gap " + num_text(gap_enter) +
                       " m at " + num_text(t_enter) + " s): it has not passed yet");
   const hazard::ObjectMotion end = motion(t_end);
   if (!hazard::view_from_anchor(req, end.x, end.y, 0.0, req.size_lwh).centre_inside)
-    reasons.push_back("the cut-in point (x=" + num_text(end.x) + " m at " + num_text(t_end) +
+    refuse(refusal::kNotInView, "the cut-in point (x=" + num_text(end.x) + " m at " + num_text(t_end) +
                       " s) is out of the camera's view");
   if (!reasons.empty()) return {};
 
@@ -240,7 +248,8 @@ bool CutInTemplate::enters_from_border(const ProposalRequest& request, const std
   spec.start_time_s = request.scene.timestamp;
   spec.deceleration_mps2 = decel;
   spec.target_ttc_s = request.target_ttc_s;
-  spec.extra = {{"final_speed_mps", v1}, {"under_way_s", under_way}};
+  spec.extra = {{kFinalSpeed.name(), v1}};
+  spec.under_way_s = under_way;
   const hazard::PlanOutcome plan = evaluate(spec, request.scene);
   if (!plan.reasons.empty() || plan.trajectory.points.empty()) return false;
   const TrajectoryPoint& p = plan.trajectory.points.front();
@@ -254,26 +263,27 @@ bool CutInTemplate::enters_from_border(const ProposalRequest& request, const std
 // stops there.
 HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
-  if (!sc.multi_lane) return {nullptr, "the road has a single lane"};
-  if (sc.ego_speed < 1.0) return {nullptr, "the ego is (nearly) standing: nothing cuts in ahead of it"};
+  if (!sc.multi_lane) return refused(refusal::kSceneLacks, "the road has a single lane");
+  if (sc.ego_speed < 1.0)
+    return refused(refusal::kEgoMotion, "the ego is (nearly) standing: nothing cuts in ahead of it");
   const bool queue = sc.ego_speed < 5.0;
   // Which vehicle: mostly cars, among the classes the renderer can draw.
   std::string no_class;
   const std::optional<std::string> drawn =
       hazard::draw_class(sc, {{"car", 3}, {"motorcycle", 1}, {"truck", 1}}, d, &no_class);
-  if (!drawn) return {nullptr, no_class};
+  if (!drawn) return refused(refusal::kObjectClass, no_class);
   const std::string cls = *drawn;
   const KinematicLimits& lim = sc.limits.at(cls);
   const hazard::Footprint size = sc.size(cls);
   // A side has room when its adjacent lane exists and goes the ego's way.
   auto room = [&](int side) {
-    return sc.edge(side) >= sc.road.lane_width + size.width / 2.0 && sc.road.same_direction_lanes(side) > 0;
+    return sc.edge(side) >= sc.road.lane_width_m + size.width / 2.0 && sc.road.same_direction_lanes(side) > 0;
   };
   bool left = d.coin();
   if (!room(left ? 1 : -1)) left = !left;
   const int sign = left ? 1 : -1;
-  if (!room(sign)) return {nullptr, "there is no lane going the ego's way beside the ego lane"};
-  const double y0 = sign * sc.road.lane_width;
+  if (!room(sign)) return refused(refusal::kSceneLacks, "there is no lane going the ego's way beside the ego lane");
+  const double y0 = sign * sc.road.lane_width_m;
   // In a queue it keeps rolling slower than the ego at the end (a vehicle cannot move sideways while
   // standing), and brakes gently so that the long, slow lane change fits. The numbers as the spec states them
   // (its precision), so that the plan of the spec is the one timed here. Faster than the ego all along: than
@@ -287,7 +297,7 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
       queue ? sc.ego_speed * d.uniform(0.3, 0.5) : std::max(0.0, sc.ego_speed - d.uniform(2.0, 4.0)), 0.05);
   const double decel =
       hazard::round_to(std::min(queue ? d.uniform(0.8, 1.5) : d.uniform(2.5, 4.0), lim.max_decel_mps2), 0.1);
-  if (v0 <= ego_fastest + 1.0) return {nullptr, "a " + cls + " cannot overtake the ego here"};
+  if (v0 <= ego_fastest + 1.0) return refused(refusal::kClassLimit, "a " + cls + " cannot overtake the ego here");
   // The plan ends the braking at the spec's target TTC, after which the TTC keeps falling (the vehicle is
   // slower).
   const double ttc = sc.target;
@@ -298,7 +308,7 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
       hazard::SpeedProfile(v0).change_speed(v1, decel, kLongitudinalJerkShare * lim.max_jerk_mps3);
   const double t_slow = slow.duration();
   const double s_slow = slow.end_distance();
-  const double lane_change = 1.15 * 1.875 * sc.road.lane_width / std::max(0.5, lim.max_lateral_speed_mps);
+  const double lane_change = 1.15 * 1.875 * sc.road.lane_width_m / std::max(0.5, lim.max_lateral_speed_mps);
   const double t_brake = std::max(0.5, lane_change - t_slow + 0.5) + d.uniform(0.0, 1.0);
   const double manoeuvre = t_brake + t_slow;
   // Where it starts, ahead of the ego at the manoeuvre's start (`start` s from now; before now for a hazard
@@ -310,7 +320,7 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
   };
   auto fits = [](double x) { return x >= -25.0 && x <= 3.0; };
   auto no_start = [&](double x) {
-    return HazardProposal{nullptr, "no start beside or behind the ego fits (x " + fixed_text(x, 1) + " m)"};
+    return refused(refusal::kPlacement, "no start beside or behind the ego fits (x " + fixed_text(x, 1) + " m)");
   };
   double x0 = start_x(0.0);
   // A horizon too short for the whole manoeuvre: when allowed, it is already under way when it appears and
@@ -318,7 +328,7 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
   // is still beside the ego, at the image border, when it appears.
   double under_way = 0;
   if (manoeuvre > sc.horizon - 0.5) {
-    if (sc.max_under_way <= 0) return {nullptr, "the cut-in takes longer than the horizon"};
+    if (sc.max_under_way <= 0) return refused(refusal::kTtcUnreachable, "the cut-in takes longer than the horizon");
     double end =
         (request.first_seen_max_height > 0 ? d.uniform(0.55, 0.8) : d.uniform(0.3, 0.5)) * sc.horizon;
     if (request.first_seen_max_height > 0) {
@@ -329,24 +339,25 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
         if (fits(x0) && enters_from_border(request, cls, x0, y0, v0, v1, decel, manoeuvre - end)) break;
       }
       if (end > sc.horizon - 0.2)
-        return fits(x0) ? HazardProposal{nullptr,
-                                         "no start already under way comes into view from the image border"}
+        return fits(x0) ? refused(refusal::kNotInView,
+                                  "no start already under way comes into view from the image border")
                         : no_start(x0);
     }
     under_way = manoeuvre - end;
     x0 = start_x(-under_way);
     if (under_way > sc.max_under_way)
-      return {nullptr, "the cut-in would have to be under way for " + fixed_text(under_way, 1) +
-                           " s (max_under_way_s " + fixed_text(sc.max_under_way, 1) + ")"};
+      return refused(refusal::kTtcUnreachable, "the cut-in would have to be under way for " +
+                                                   fixed_text(under_way, 1) + " s (max_under_way_s " +
+                                                   fixed_text(sc.max_under_way, 1) + ")");
   }
   if (!fits(x0)) return no_start(x0);
   if (under_way == 0)
-    if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {nullptr, p};
+    if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return refused(refusal::kTraffic, p);
   const std::string side = left ? "left" : "right";
   Json spec = hazard::proposal_spec(kind_info().kind, cls, x0, y0, side, v0, 0.0,
                                     "overtakes in the " + side + " lane and cuts in, braking", sc.target);
   spec["deceleration_mps2"] = decel;
-  spec["extra"]["final_speed_mps"] = v1;
+  kFinalSpeed.set(spec, v1);
   spec["rationale"] =
       queue ? "In slow traffic a " + cls + " in the " + side + " lane, moving at " + fixed_text(v0, 1) +
                   " m/s, squeezes into the gap ahead of the ego, slowing to " + fixed_text(v1, 1) +
@@ -356,7 +367,7 @@ HazardProposal CutInTemplate::propose(const ProposalRequest& request, RandomDraw
                   " m/s; it ends about " + fixed_text(gap_end, 1) + " m ahead, TTC near " +
                   fixed_text(ttc, 1) + " s.";
   if (under_way > 0) {
-    spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
+    spec["under_way_s"] = hazard::round_to(under_way, 0.05);
     spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fixed_text(under_way, 1) +
                         " s into the manoeuvre, already changing lanes beside-ahead of the ego.";
   }

@@ -25,7 +25,7 @@ class CutInTemplate : public hazard::KindTemplate<CutInTemplate> {
   bool start_must_be_visible() const override { return false; }
   bool enters_from_border(const ProposalRequest& request, const std::string& cls, double x0, double y0, double v0,
                           double v1, double decel, double under_way) const;
-  hazard::Design design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const override;
+  hazard::Design design(const hazard::PlanRequest& req, std::vector<Refusal>& reasons) const override;
 };
 
 }  // namespace hf

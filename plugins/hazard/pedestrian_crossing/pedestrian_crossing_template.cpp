@@ -11,6 +11,18 @@
 
 namespace hf {
 
+namespace {
+
+const SpecField<std::string> kCrossingFrom("crossing_from",
+                                           "the road edge the person steps off from (equals side)",
+                                           {{"enum", {"left", "right"}}});
+
+HazardProposal refused(const char* code, std::string text) {
+  return {nullptr, {code, std::move(text), "pedestrian_crossing"}};
+}
+
+}  // namespace
+
 HazardKindInfo PedestrianCrossingTemplate::info() {
   HazardKindInfo k;
   k.kind = "pedestrian_crossing";
@@ -23,9 +35,7 @@ HazardKindInfo PedestrianCrossingTemplate::info() {
       "TTC.";
   k.object_classes = {"person"};
   k.needs = {scene_condition::kSidewalks};
-  k.extra_fields = {{"crossing_from",
-                     {{"type", {"string", "null"}}, {"enum", {"left", "right", nullptr}}},
-                     "the road edge the person steps off from (equals side)"}};
+  k.extra_fields = {kCrossingFrom.declaration()};
   return k;
 }
 
@@ -48,43 +58,52 @@ ComponentInfo PedestrianCrossingTemplate::describe() {
 }
 
 hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req,
-                                                  std::vector<std::string>& reasons) const {
+                                                  std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
+  auto refuse = [&](const char* code, std::string text) {
+    reasons.push_back({code, std::move(text), spec.kind});
+  };
+  try {
+    if (const std::optional<std::string> from = kCrossingFrom.get(spec); from && *from != spec.side)
+      refuse(refusal::kSpec, "extra.crossing_from \"" + *from + "\" contradicts side \"" + spec.side + "\"");
+  } catch (const Error& e) {
+    refuse(refusal::kSpec, e.what());
+  }
   const double len = req.size_lwh[0], wid = req.size_lwh[1];
   const int side = req.side_sign();
   if (side == 0) {
-    reasons.push_back(
-        "side must be 'left' or 'right' (or lateral_offset_m non-zero) for pedestrian_crossing, got '" +
-        spec.side + "'");
+    refuse(refusal::kSpec,
+           "side must be 'left' or 'right' (or lateral_offset_m non-zero) for pedestrian_crossing, got '" +
+               spec.side + "'");
     return {};
   }
   const std::string side_name = side > 0 ? "left" : "right";
   const double edge = req.road.edge(side);
   const double y_kerb =
-      std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * (edge + req.road.kerb_offset);
+      std::abs(spec.lateral_offset_m) > 0.01 ? spec.lateral_offset_m : side * (edge + req.road.kerb_offset_m);
   const int dir = -side;  // walks towards the other side
   if (std::abs(y_kerb) < edge)
-    reasons.push_back("the start point y=" + num_text(y_kerb) + " m is on the road (the road edge on the " +
+    refuse(refusal::kPlacement, "the start point y=" + num_text(y_kerb) + " m is on the road (the road edge on the " +
                       side_name + " is at " + num_text(edge) +
                       " m): a crossing pedestrian starts on the kerb");
   if (spec.heading_deg != 0 && std::abs(spec.heading_deg - dir * 90.0) > 45.0)
-    reasons.push_back("heading_deg " + num_text(spec.heading_deg) + " does not cross the road from the " +
+    refuse(refusal::kSpec, "heading_deg " + num_text(spec.heading_deg) + " does not cross the road from the " +
                       side_name + " (expected about " + num_text(dir * 90.0) + ")");
   const double v = spec.speed_mps;
-  if (v < 0.5) reasons.push_back("speed_mps " + num_text(v) + " is too slow to cross (at least 0.5 m/s)");
+  if (v < 0.5) refuse(refusal::kSpec, "speed_mps " + num_text(v) + " is too slow to cross (at least 0.5 m/s)");
   const double ve = req.ego_speed;
   if (ve <= req.ttc.min_closing)
-    reasons.push_back("the ego is not moving (" + num_text(ve) + " m/s): a crossing cannot close in on it");
+    refuse(refusal::kEgoMotion, "the ego is not moving (" + num_text(ve) + " m/s): a crossing cannot close in on it");
   const double x = spec.initial_distance_m;
   const double gap0 = req.gap(x, len, 0.0);
   if (gap0 <= 0)
-    reasons.push_back("initial_distance_m " + num_text(x) +
+    refuse(refusal::kPlacement, "initial_distance_m " + num_text(x) +
                       " puts the crossing behind the ego's front bumper (gap " + num_text(gap0) + " m)");
   if (!reasons.empty()) return {};
 
   const std::optional<double> arrive = req.ego.time_at(gap0);  // the ego's front reaches the crossing line
   if (!arrive) {
-    reasons.push_back("the ego never reaches the crossing line " + num_text(gap0) +
+    refuse(refusal::kEgoMotion, "the ego never reaches the crossing line " + num_text(gap0) +
                       " m ahead of its front bumper (its planned motion stops before)");
     return {};
   }
@@ -93,7 +112,7 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
   const bool stop = req.params.get_bool("stop_in_path");
   const double stop_offset = req.params.get_double("stop_offset_m");
   if (stop && std::abs(stop_offset) >= half) {
-    reasons.push_back("stop_offset_m " + num_text(stop_offset) +
+    refuse(refusal::kSpec, "stop_offset_m " + num_text(stop_offset) +
                       " is outside the ego path (|offset| must be below " + num_text(half) + " m for a " +
                       num_text(wid) + " m wide person)");
     return {};
@@ -120,7 +139,7 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
     }
     v_peak = lo;
     if (v_peak < 0.5) {
-      reasons.push_back("the stop point is only " + num_text(d_walk) + " m from the kerb: too short a walk");
+      refuse(refusal::kPlacement, "the stop point is only " + num_text(d_walk) + " m from the kerb: too short a walk");
       return {};
     }
   }
@@ -133,13 +152,13 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
     const double enter_at = t_arrive - target;  // TTC = t_arrive - t while in the path
     const double t_in = *walk_time(d_in);       // the path is entered before any stop point inside it
     if (!stop && target > *walk_time(d_out) - t_in) {
-      reasons.push_back("target_ttc_s " + num_text(target) + " is unreachable: at " + num_text(v) +
+      refuse(refusal::kTtcUnreachable, "target_ttc_s " + num_text(target) + " is unreachable: at " + num_text(v) +
                         " m/s the person crosses "
                         "the ego path in " +
                         num_text(*walk_time(d_out) - t_in) +
                         " s, so it leaves the path before the ego arrives");
     } else if (t_in > enter_at) {
-      reasons.push_back(
+      refuse(refusal::kTtcUnreachable,
           "target_ttc_s " + num_text(target) + " is unreachable: the person needs " + num_text(t_in) +
           " s to walk from the kerb into the ego path but would have to be in it after " +
           num_text(enter_at) + " s (the ego reaches the crossing point in " + num_text(t_arrive) + " s)");
@@ -149,7 +168,7 @@ hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req
     const double to_centre = stop ? walk.duration() : *walk_time(std::abs(y_kerb));
     wait = t_arrive - to_centre;
     if (wait < 0)
-      reasons.push_back("the person cannot reach the " + std::string(stop ? "stop point" : "lane centre") +
+      refuse(refusal::kTtcUnreachable, "the person cannot reach the " + std::string(stop ? "stop point" : "lane centre") +
                         " before the ego: walking from the kerb takes " + num_text(to_centre) +
                         " s, the ego reaches the crossing point in " + num_text(t_arrive) + " s");
   }
@@ -193,16 +212,16 @@ double walk_time(double d, double v, double accel) {
 HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
   const double aim = request.aim;
-  if (!sc.sidewalks && !sc.on_shoulder) return {nullptr, "the scene has no sidewalks"};
+  if (!sc.sidewalks && !sc.on_shoulder) return refused(refusal::kSceneLacks, "the scene has no sidewalks");
   std::string no_class;
   const std::optional<std::string> drawn = hazard::draw_class(sc, {{"person", 1}}, d, &no_class);
-  if (!drawn) return {nullptr, no_class};
+  if (!drawn) return refused(refusal::kObjectClass, no_class);
   const std::string cls = *drawn;
   const KinematicLimits& lim = sc.limits.at(cls);
   const hazard::Footprint size = sc.size(cls);
   const bool left = d.coin();
   const int sign = left ? 1 : -1;
-  const double y0 = sign * (sc.edge(sign) + sc.road.kerb_offset + d.uniform(0.0, std::min(0.5, sc.sidewalk)));
+  const double y0 = sign * (sc.edge(sign) + sc.road.kerb_offset_m + d.uniform(0.0, std::min(0.5, sc.sidewalk)));
   const double speed = d.uniform(1.6, std::min(2.5, lim.max_speed_mps));
   const double d_in = std::abs(y0) - sc.path_half(size.width);
   // Waits a moment before stepping off; within a short horizon only as long as still leaves time to be seen.
@@ -217,11 +236,13 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
   // hazard appears and enters the path a little into the horizon.
   double under_way = 0;
   if (enter > sc.horizon - 0.5) {
-    if (sc.max_under_way <= 0) return {nullptr, "walking into the ego path takes longer than the horizon"};
+    if (sc.max_under_way <= 0)
+      return refused(refusal::kTtcUnreachable, "walking into the ego path takes longer than the horizon");
     under_way = enter - d.uniform(0.3, 0.5) * sc.horizon;
     if (under_way > sc.max_under_way)
-      return {nullptr, "the walk would have to be under way for " + fixed_text(under_way, 1) +
-                           " s (max_under_way_s " + fixed_text(sc.max_under_way, 1) + ")"};
+      return refused(refusal::kTtcUnreachable, "the walk would have to be under way for " +
+                                                   fixed_text(under_way, 1) + " s (max_under_way_s " +
+                                                   fixed_text(sc.max_under_way, 1) + ")");
   }
   // Placed where the ego's front is when the person has been in its path for `ttc`: along the ego's planned
   // motion (a recorded queue slows, a constant-speed ego does not), from the walk's start, `under_way` s
@@ -235,20 +256,21 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
   // a hold).
   const double x_enter = x0 - sc.ego_travel(-under_way, enter - under_way);
   if (!sc.visible(x_enter, sign * sc.path_half(size.width), sc.sizes.at(cls).height / 2.0))
-    return {nullptr, "the person would step into the ego path " +
-                         fixed_text(x_enter - sc.ego_front - size.length / 2.0, 1) +
-                         " m ahead of the ego (at " + fixed_text(sc.ego_speed_at(enter - under_way), 1) +
-                         " m/s then), where not even its upper half is in the picture"};
-  if (x0 > 120.0) return {nullptr, "the crossing would be more than 120 m ahead"};
+    return refused(refusal::kNotInView, "the person would step into the ego path " +
+                                            fixed_text(x_enter - sc.ego_front - size.length / 2.0, 1) +
+                                            " m ahead of the ego (at " +
+                                            fixed_text(sc.ego_speed_at(enter - under_way), 1) +
+                                            " m/s then), where not even its upper half is in the picture");
+  if (x0 > 120.0) return refused(refusal::kPlacement, "the crossing would be more than 120 m ahead");
   if (!sc.visible(x_seen, y0))
-    return {nullptr, "the kerb point (" + fixed_text(x_seen, 1) + ", " + fixed_text(y0, 1) +
-                         ") m is outside the camera view"};
-  if (std::string p = sc.overlap_problem(x_seen, y0, size); !p.empty()) return {nullptr, p};
+    return refused(refusal::kNotInView, "the kerb point (" + fixed_text(x_seen, 1) + ", " +
+                                            fixed_text(y0, 1) + ") m is outside the camera view");
+  if (std::string p = sc.overlap_problem(x_seen, y0, size); !p.empty()) return refused(refusal::kTraffic, p);
   const std::string from = left ? "left" : "right";
   Json spec = hazard::proposal_spec(
       kind_info().kind, cls, x0, y0, from, speed, -sign * 90.0,
       "steps off the " + from + " kerb and crosses to the " + (left ? "right" : "left"), sc.target);
-  spec["extra"]["crossing_from"] = from;
+  kCrossingFrom.set(spec, from);
   const std::string where =
       sc.sidewalks ? "The scene has sidewalks, so a pedestrian stepping off the " + from + " kerb "
                    : "Edge case (no sidewalks; people on the road allowed explicitly): a person who left a "
@@ -261,7 +283,7 @@ HazardProposal PedestrianCrossingTemplate::propose(const ProposalRequest& reques
       " they are in its path about " + fixed_text(enter, 1) + " s later, TTC near " + fixed_text(ttc, 1) +
       " s.";
   if (under_way > 0) {
-    spec["extra"]["under_way_s"] = hazard::round_to(under_way, 0.05);
+    spec["under_way_s"] = hazard::round_to(under_way, 0.05);
     spec["rationale"] = spec["rationale"].get<std::string>() + " The hazard appears " +
                         fixed_text(under_way, 1) + " s after the start, " + fixed_text(x_seen, 1) +
                         " m ahead, as the person sets off.";

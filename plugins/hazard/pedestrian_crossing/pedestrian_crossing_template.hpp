@@ -21,7 +21,7 @@ class PedestrianCrossingTemplate : public hazard::KindTemplate<PedestrianCrossin
   HazardProposal propose(const ProposalRequest& request, RandomDraw& draw) const override;
 
  protected:
-  hazard::Design design(const hazard::PlanRequest& req, std::vector<std::string>& reasons) const override;
+  hazard::Design design(const hazard::PlanRequest& req, std::vector<Refusal>& reasons) const override;
 };
 
 }  // namespace hf

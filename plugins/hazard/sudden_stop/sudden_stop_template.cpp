@@ -10,6 +10,11 @@
 
 namespace hf {
 
+namespace {
+const SpecField<double> kBrakeDelay("brake_delay_s", "seconds the lead cruises before it brakes",
+                                    {{"minimum", 0}, {"maximum", 30}});
+}  // namespace
+
 HazardKindInfo SuddenStopTemplate::info() {
   HazardKindInfo k;
   k.kind = "sudden_stop";
@@ -17,23 +22,17 @@ HazardKindInfo SuddenStopTemplate::info() {
   k.play_out =
       "a lead vehicle in the ego lane (side center, y near 0) at initial_distance_m driving at speed_mps, "
       "cruising for extra.brake_delay_s seconds and then braking at deceleration_mps2 to a standstill; "
-      "where the rules allow taking over a detected object, extra.track_id may name a detected vehicle to "
-      "use as "
-      "the lead instead.";
+      "where the rules allow taking over a detected object, track_id may name a detected vehicle to use as the "
+      "lead instead.";
   k.object_classes = {"car", "truck", "bus", "motorcycle"};
-  k.extra_fields = {{"brake_delay_s",
-                     {{"type", {"number", "null"}}, {"minimum", 0}, {"maximum", 30}},
-                     "seconds the lead cruises before it brakes"},
-                    {"track_id",
-                     {{"type", {"integer", "null"}}, {"minimum", 0}},
-                     "a tracked object that becomes the braking lead instead of an inserted one"}};
+  k.extra_fields = {kBrakeDelay.declaration()};
   return k;
 }
 
 ComponentInfo SuddenStopTemplate::describe() {
   ComponentInfo i = base_info(
       info(),
-      "The lead is inserted at initial_distance_m (or taken from the tracked object spec.extra.track_id), "
+      "The lead is inserted at initial_distance_m (or taken from the tracked object spec.track_id), "
       "cruises for brake_delay_s, then brakes with deceleration_mps2 to a standstill (jerk-limited). The "
       "constant-speed ego closes in; the plan ends at contact.");
   i.params.push_back(hf::ParamSpec::number("brake_delay_s", 1.0)
@@ -42,48 +41,36 @@ ComponentInfo SuddenStopTemplate::describe() {
   return i;
 }
 
-namespace {
-// extra.<field> as a number: absent -> nullopt; present but not numeric -> a reason.
-std::optional<double> extra_number(const HazardSpec& spec, const char* field,
-                                   std::vector<std::string>& reasons) {
-  if (!spec.extra.contains(field)) return std::nullopt;
-  const Json& v = spec.extra[field];
-  if (v.is_number()) return v.get<double>();
-  if (v.is_string()) {
-    try {
-      size_t used = 0;
-      const double d = std::stod(v.get<std::string>(), &used);
-      if (used == v.get<std::string>().size()) return d;
-    } catch (const std::exception&) {
-    }
-  }
-  reasons.push_back(std::string("extra.") + field + " must be a number, got " + v.dump());
-  return std::nullopt;
-}
-}  // namespace
-
 hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
-                                          std::vector<std::string>& reasons) const {
+                                          std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
+  auto refuse = [&](const char* code, std::string text) {
+    reasons.push_back({code, std::move(text), spec.kind});
+  };
   cv::Vec3d size = req.size_lwh;
   double x0 = spec.initial_distance_m, y0 = spec.lateral_offset_m, v0 = spec.speed_mps;
-  const std::optional<double> track = extra_number(spec, "track_id", reasons);
-  const std::optional<double> delay_extra = extra_number(spec, "brake_delay_s", reasons);
-  if (!reasons.empty()) return {};
+  const std::optional<int64_t> track = spec.track_id;
+  std::optional<double> delay_extra;
+  try {
+    delay_extra = kBrakeDelay.get(spec);
+  } catch (const Error& e) {
+    refuse(refusal::kSpec, e.what());
+    return {};
+  }
   if (track) {
     const ObjectState* found = nullptr;
     std::string ids;
     for (const ObjectState& s : req.scene.objects) {
       ids += (ids.empty() ? "" : ", ") + std::to_string(s.track_id);
-      if (s.track_id == static_cast<int64_t>(*track)) found = &s;
+      if (s.track_id == *track) found = &s;
     }
     if (!found) {
-      reasons.push_back("extra.track_id " + num_text(*track, 0) + " is not among the tracked objects (" +
-                        (ids.empty() ? std::string("none are tracked") : "tracked: " + ids) + ")");
+      refuse(refusal::kSpec, "track_id " + std::to_string(*track) + " is not among the tracked objects (" +
+                                 (ids.empty() ? std::string("none are tracked") : "tracked: " + ids) + ")");
       return {};
     }
     if (!std::isfinite(found->distance_m)) {
-      reasons.push_back("tracked object " + std::to_string(found->track_id) + " has no distance estimate");
+      refuse(refusal::kTraffic, "tracked object " + std::to_string(found->track_id) + " has no distance estimate");
       return {};
     }
     if (found->length_m > 0) size[0] = found->length_m;
@@ -100,28 +87,28 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
     else if (found->speed_mps)
       v0 = *found->speed_mps;
   }
-  const std::string who = track ? "tracked object " + num_text(*track, 0) : std::string("the lead vehicle");
+  const std::string who = track ? "tracked object " + std::to_string(*track) : std::string("the lead vehicle");
   if (v0 < 0.5)
-    reasons.push_back(who + " moves at " + num_text(v0) +
+    refuse(track ? refusal::kTraffic : refusal::kSpec, who + " moves at " + num_text(v0) +
                       " m/s: a sudden stop needs a moving lead (at least 0.5 m/s)");
   if (v0 > req.limits.max_speed_mps)
-    reasons.push_back(who + " moves at " + num_text(v0) + " m/s, above the " + req.limits.object_class +
+    refuse(refusal::kClassLimit, who + " moves at " + num_text(v0) + " m/s, above the " + req.limits.object_class +
                       " limit of " + num_text(req.limits.max_speed_mps) + " m/s");
   if (!spec.deceleration_mps2)
-    reasons.push_back("deceleration_mps2 is missing: sudden_stop needs the braking deceleration");
+    refuse(refusal::kSpec, "deceleration_mps2 is missing: sudden_stop needs the braking deceleration");
   const double half = req.path_half_width(size[1]);
   if (std::abs(y0) >= half)
-    reasons.push_back(who + " at y=" + num_text(y0) + " m is not in the ego path (|y| must be below " +
+    refuse(refusal::kPlacement, who + " at y=" + num_text(y0) + " m is not in the ego path (|y| must be below " +
                       num_text(half) + " m)");
   const double gap0 = req.gap(x0, size[0], 0.0);
   if (gap0 <= 0)
-    reasons.push_back(who + " at x=" + num_text(x0) + " m is not ahead of the ego's front bumper (gap " +
+    refuse(refusal::kPlacement, who + " at x=" + num_text(x0) + " m is not ahead of the ego's front bumper (gap " +
                       num_text(gap0) + " m)");
   if (!reasons.empty()) return {};
 
   const double delay = delay_extra.value_or(req.params.get_double("brake_delay_s"));
   if (delay < 0) {
-    reasons.push_back("extra.brake_delay_s " + num_text(delay) + " is negative");
+    refuse(refusal::kSpec, "extra.brake_delay_s " + num_text(delay) + " is negative");
     return {};
   }
   const hazard::SpeedProfile profile = hazard::SpeedProfile(v0).hold(delay).change_speed(
@@ -142,7 +129,7 @@ hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
              {"standstill_s", profile.duration()},
              {"braking_distance_m", profile.end_distance() - v0 * delay},
              {"initial_speed_mps", v0}};
-  if (track) d.notes["track_id"] = static_cast<int64_t>(*track);
+  if (track) d.notes["track_id"] = *track;
   return d;
 }
 
@@ -164,17 +151,20 @@ double time_to_ttc(double gap0, const hazard::ProposalScene& sc, double v0, doub
   return kInf;
 }
 
-// "" or why an inserted lead of footprint `size` cannot start at (x0, y0): 2 m short of the tracked lead's
-// rear, in view, clear of the other tracked objects.
-std::string insert_problem(const hazard::ProposalScene& sc, const hazard::ProposalScene::Obj* lead, double x0,
-                           double y0, const hazard::Footprint& size) {
+// Nothing, or why an inserted lead of footprint `size` cannot start at (x0, y0): 2 m short of the tracked
+// lead's rear, in view, clear of the other tracked objects.
+Refusal insert_problem(const hazard::ProposalScene& sc, const hazard::ProposalScene::Obj* lead, double x0,
+                       double y0, const hazard::Footprint& size) {
   if (lead && x0 + size.length / 2.0 + 2.0 > lead->x - lead->length / 2.0)
-    return "no room to insert a lead vehicle before the " + lead->label + " at " + fixed_text(lead->x, 1) +
-           " m";
+    return {refusal::kTraffic,
+            "no room to insert a lead vehicle before the " + lead->label + " at " + fixed_text(lead->x, 1) + " m",
+            "sudden_stop"};
   if (!sc.visible(x0, y0))
-    return "the start point (" + fixed_text(x0, 1) + ", " + fixed_text(y0, 1) +
-           ") m is outside the camera view";
-  return sc.overlap_problem(x0, y0, size);
+    return {refusal::kNotInView,
+            "the start point (" + fixed_text(x0, 1) + ", " + fixed_text(y0, 1) + ") m is outside the camera view",
+            "sudden_stop"};
+  if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return {refusal::kTraffic, p, "sudden_stop"};
+  return {};
 }
 
 bool is_vehicle(const std::string& c) {
@@ -194,9 +184,12 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   const hazard::ProposalScene::Obj* lead = nullptr;
   // Why the tracked lead could not be the one that brakes, told with whatever refuses an inserted lead.
   std::string lead_problem;
-  auto refuse = [&](const std::string& why) -> HazardProposal {
-    return {nullptr, lead_problem.empty() ? why : lead_problem + "; an inserted lead: " + why};
+  // With the tracked lead's problem the refusal is that one's (its TTC), as it is what the scene offered.
+  auto refuse = [&](const char* code, const std::string& why) -> HazardProposal {
+    if (lead_problem.empty()) return {nullptr, {code, why, kind}};
+    return {nullptr, {refusal::kTtcUnreachable, lead_problem + "; an inserted lead: " + why, kind}};
   };
+  auto refuse_insert = [&](const Refusal& r) { return refuse(r.code.c_str(), r.text); };
   // The lead is the nearest object centred in the ego lane; the corridor also holds wide neighbours beside
   // it.
   for (const auto& o : sc.objects)
@@ -229,8 +222,8 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
                                         "the tracked lead brakes hard in the ego lane", sc.target);
       spec["side"] = std::abs(lead->y) <= sc.path_half(0.0) ? "center" : (lead->y > 0 ? "left" : "right");
       spec["deceleration_mps2"] = decel;
-      spec["extra"]["brake_delay_s"] = brake_after;
-      spec["extra"]["track_id"] = lead->track_id;
+      kBrakeDelay.set(spec, brake_after);
+      spec["track_id"] = lead->track_id;
       spec["rationale"] = "The " + lead->label + " (track " + std::to_string(lead->track_id) + ") " +
                           fixed_text(lead->x, 1) + " m ahead in the ego lane brakes at " +
                           fixed_text(decel, 1) + " m/s^2 after " + fixed_text(brake_after, 1) +
@@ -243,12 +236,12 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   std::string no_class;
   const std::optional<std::string> drawn =
       hazard::draw_class(sc, {{"car", 3}, {"truck", 1}, {"bus", 1}}, d, &no_class);
-  if (!drawn) return refuse(no_class);
+  if (!drawn) return refuse(refusal::kObjectClass, no_class);
   const std::string cls = *drawn;
   const hazard::Footprint size = sc.size(cls);
   const double speed = std::min(sc.ego_speed, sc.limits.at(cls).max_speed_mps);
   const double decel = round_to(d.uniform(0.6, 0.9) * sc.limits.at(cls).max_decel_mps2, 0.1);
-  if (speed < 1.0) return refuse("a lead vehicle cannot brake from standstill");
+  if (speed < 1.0) return refuse(refusal::kEgoMotion, "a lead vehicle cannot brake from standstill");
   const bool short_horizon = sc.max_under_way > 0 && delay + 1.0 > sc.horizon - 0.7;
   if (const double small_from = sc.first_seen_small_from(cls); small_from > 0) {
     // Appearing in the ego lane, it must be first seen small: a slower lead far ahead (the end of a queue, a
@@ -261,27 +254,28 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double b = short_horizon ? std::min(sc.max_under_way, d.uniform(0.3, 0.8)) : 0.0;
     const double v_start = v_now + decel * b;  // its speed when it began to brake
     const double gap_now = x0 - front;
-    if (v_now < 0.5) return refuse("the ego is too slow for a slower lead to brake in front of it");
+    if (v_now < 0.5)
+      return refuse(refusal::kEgoMotion, "the ego is too slow for a slower lead to brake in front of it");
     if (v_start > sc.limits.at(cls).max_speed_mps)
-      return refuse("the lead would have braked from above its limit");
+      return refuse(refusal::kClassLimit, "the lead would have braked from above its limit");
     const double t = time_to_ttc(gap_now, sc, v_start, b > 0 ? -b : delay, decel, ttc, sc.horizon);
     if (t > sc.horizon - std::min(0.7, 0.3 * sc.horizon))
-      return refuse("a lead first seen small (from " + fixed_text(small_from, 1) +
+      return refuse(refusal::kTtcUnreachable, "a lead first seen small (from " + fixed_text(small_from, 1) +
                     " m) cannot bring the TTC to " + fixed_text(ttc, 1) + " s within the horizon");
-    if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse(p);
+    if (const Refusal p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse_insert(p);
     // The spec states the manoeuvre's start: b s before, the gap was larger by what the ego closed since.
     const double gap_start = gap_now + sc.ego_speed * b - (v_start * b - decel * b * b / 2.0);
     Json spec = hazard::proposal_spec(kind, cls, front + gap_start, y0, "center", v_start, 0.0,
                                       "drives slower ahead in the ego lane, then brakes hard", sc.target);
     spec["deceleration_mps2"] = decel;
-    spec["extra"]["brake_delay_s"] = b > 0 ? 0.0 : delay;
+    kBrakeDelay.set(spec, b > 0 ? 0.0 : delay);
     spec["rationale"] = "A " + cls + " " + fixed_text(x0, 1) + " m ahead in the ego lane at " +
                         fixed_text(v_now, 1) + " m/s, slower than the ego, brakes at " +
                         fixed_text(decel, 1) + " m/s^2" +
                         (b > 0 ? " (braking for " + fixed_text(b, 1) + " s when it appears)"
                                : " after " + fixed_text(delay, 1) + " s") +
                         "; the TTC falls to about " + fixed_text(ttc, 1) + " s.";
-    if (b > 0) spec["extra"]["under_way_s"] = round_to(b, 0.05);
+    if (b > 0) spec["under_way_s"] = round_to(b, 0.05);
     return {spec, {}};
   }
   if (short_horizon) {
@@ -294,14 +288,14 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
     const double x0 = sc.ego_front + size.length / 2.0 + gap_start;
     const double y0 = d.uniform(-0.3, 0.3);
     if (time_to_ttc(gap_now, sc, speed, -b, decel, ttc, sc.horizon) > sc.horizon - 0.7)
-      return refuse("the stop would come too late within the horizon");
-    if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse(p);
+      return refuse(refusal::kTtcUnreachable, "the stop would come too late within the horizon");
+    if (const Refusal p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse_insert(p);
     Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
                                       "follows in the ego lane and is already braking hard when it appears",
                                       sc.target);
     spec["deceleration_mps2"] = decel;
-    spec["extra"]["brake_delay_s"] = 0.0;
-    spec["extra"]["under_way_s"] = round_to(b, 0.05);
+    kBrakeDelay.set(spec, 0.0);
+    spec["under_way_s"] = round_to(b, 0.05);
     spec["rationale"] =
         "A " + cls + " following " + fixed_text(gap_start, 1) + " m ahead of the ego at the same " +
         fixed_text(speed, 1) + " m/s has been braking at " + fixed_text(decel, 1) + " m/s^2 for " +
@@ -314,14 +308,14 @@ HazardProposal SuddenStopTemplate::propose(const ProposalRequest& request, Rando
   const double gap = decel * t_star * t_star / 2.0 + decel * ttc * t_star;
   const double x0 = sc.ego_front + size.length / 2.0 + gap;
   const double y0 = d.uniform(-0.3, 0.3);
-  if (x0 < 4.0 || x0 > 120.0) return refuse("no start distance within [4, 120] m");
+  if (x0 < 4.0 || x0 > 120.0) return refuse(refusal::kPlacement, "no start distance within [4, 120] m");
   if (time_to_ttc(gap, sc, speed, delay, decel, ttc, sc.horizon) > sc.horizon - 0.7)
-    return refuse("the stop would come too late within the horizon");
-  if (std::string p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse(p);
+    return refuse(refusal::kTtcUnreachable, "the stop would come too late within the horizon");
+  if (const Refusal p = insert_problem(sc, lead, x0, y0, size); !p.empty()) return refuse_insert(p);
   Json spec = hazard::proposal_spec(kind, cls, x0, y0, "center", speed, 0.0,
                                     "drives ahead in the ego lane, then brakes hard", sc.target);
   spec["deceleration_mps2"] = decel;
-  spec["extra"]["brake_delay_s"] = delay;
+  kBrakeDelay.set(spec, delay);
   spec["rationale"] = "A " + cls + " driving " + fixed_text(gap, 1) + " m ahead of the ego at the same " +
                       fixed_text(speed, 1) + " m/s brakes at " + fixed_text(decel, 1) + " m/s^2 after " +
                       fixed_text(delay, 1) + " s; the TTC falls to about " + fixed_text(ttc, 1) + " s.";

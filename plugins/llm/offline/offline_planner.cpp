@@ -47,9 +47,10 @@ struct Signature {
     s.kind = spec.value("kind", "");
     s.object_class = spec.value("object_class", "");
     s.side = spec.value("side", "");
-    if (spec.contains("extra") && spec["extra"].is_object() && spec["extra"].contains("track_id") &&
-        spec["extra"]["track_id"].is_number_integer())
-      s.track = spec["extra"]["track_id"].get<int64_t>();
+    try {
+      s.track = spec_track_id(spec);
+    } catch (const Error&) {
+    }
     return s;
   }
   bool matches(const Signature& o) const {
@@ -133,27 +134,27 @@ class Selection {
     std::vector<Slot> slots;
     for (const std::string& kind : kinds) {
       Slot s{kind, nullptr, false, budget_};
-      std::string why;
+      Refusal why;
       if (prefer_visible_ ? best(s, why) : next(s, false, why))
         slots.push_back(std::move(s));
       else
-        problems.push_back(kind + ": " + why);
+        problems.push_back(labelled(kind, std::move(why)));
     }
     candidates = slots.size();
     while (!slots.empty()) {
       const size_t i = draw_.index(slots.size());
       Slot& s = slots[i];
       if (s.checked) return s.spec;
-      const std::vector<std::string> errors = catalog_.check(s.spec);
+      const std::vector<Refusal> errors = catalog_.check(s.spec);
       if (errors.empty()) return s.spec;
-      problems.push_back(s.kind + ": " + join(errors, "; "));
-      std::string why;
+      for (const Refusal& e : errors) problems.push_back(labelled(s.kind, e));
+      Refusal why;
       if (!next(s, true, why)) slots.erase(slots.begin() + static_cast<long>(i));
     }
     return std::nullopt;
   }
 
-  std::vector<std::string> problems;
+  std::vector<Refusal> problems;  // texts prefixed "<kind>: "
   size_t candidates = 0;
   bool skipped_repeat = false;  // a plan was passed over because it repeats a failed attempt
 
@@ -165,27 +166,41 @@ class Selection {
     int budget;
   };
 
-  // The kind's next plan within its budget (checked with the generator's rules when `checked`).
-  bool next(Slot& s, bool checked, std::string& why) {
+  static Refusal labelled(const std::string& kind, Refusal r) {
+    r.text = kind + ": " + r.text;
+    if (r.kind.empty()) r.kind = kind;
+    return r;
+  }
+
+  // The kind's next plan within its budget (checked with the generator's rules when `checked`); else why
+  // not (the last reason found).
+  bool next(Slot& s, bool checked, Refusal& why) {
     while (s.budget > 0) {
       --s.budget;
       HazardProposal p = catalog_.propose(s.kind, aim_, avoid_tracks_, draw_);
       if (!p.problem.empty() || p.spec.is_null()) {
-        why = p.problem.empty() ? "no plan" : p.problem;
+        why = p.problem.empty() ? Refusal{refusal::kSpec, "no plan", s.kind} : p.problem;
         continue;
       }
       const Signature sig = Signature::of(p.spec);
       auto same =
           std::find_if(avoid_.begin(), avoid_.end(), [&](const Signature& a) { return a.matches(sig); });
       if (same != avoid_.end()) {
-        why = "the plan (" + sig.str() + ") repeats a failed attempt";
+        why = {refusal::kRepeatsFailed, "the plan (" + sig.str() + ") repeats a failed attempt", s.kind};
         skipped_repeat = true;
         continue;
       }
       if (checked) {
-        const std::vector<std::string> errors = catalog_.check(p.spec);
+        const std::vector<Refusal> errors = catalog_.check(p.spec);
         if (!errors.empty()) {
-          why = join(errors, "; ");
+          // One reason for the kind, with every text: traffic only when every reason is traffic.
+          why = errors.front();
+          for (const Refusal& e : errors)
+            if (e.code != refusal::kTraffic) {
+              why.code = e.code;
+              break;
+            }
+          why.text = refusal_text(errors);
           continue;
         }
       }
@@ -197,7 +212,7 @@ class Selection {
   }
 
   // Of the kind's plans that pass the rules, the largest object, then the nearest start.
-  bool best(Slot& s, std::string& why) {
+  bool best(Slot& s, Refusal& why) {
     std::optional<Json> chosen;
     auto score = [&](const Json& spec) {
       return std::make_pair(class_volume(request_.scene, spec.value("object_class", "")),
@@ -295,12 +310,14 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
 
   const Feedback fb = read_feedback(request);
   const double aim = fb.lower_ttc ? std::max(0.3, 0.75 * aim_) : aim_;
-  std::vector<std::string> problems;
+  std::vector<Refusal> problems;
   std::optional<Json> chosen;
   size_t candidates = 0;
   if (ego_speed < kMinEgoSpeed) {
-    problems.push_back("the ego speed " + fixed_text(ego_speed, 1) + " m/s is below " +
-                       fixed_text(kMinEgoSpeed, 1) + " m/s, so no inserted object closes in on it");
+    problems.push_back({refusal::kEgoMotion, "the ego speed " + fixed_text(ego_speed, 1) + " m/s is below " +
+                                                 fixed_text(kMinEgoSpeed, 1) +
+                                                 " m/s, so no inserted object closes in on it",
+                        ""});
   } else {
     Draw draw(seed);
     Selection sel(request, *request.hazards, draw, candidates_, aim, fb.failed, fb.more_visible);
@@ -316,22 +333,26 @@ LlmReply OfflinePlanner::complete(const LlmRequest& request) {
         Draw again(seed);
         Selection retry(request, *request.hazards, again, candidates_, aim, here, fb.more_visible);
         chosen = retry.run(kinds);
-        for (const std::string& p : retry.problems)
-          problems.push_back("(repeats allowed from other frames) " + p);
+        for (Refusal p : retry.problems) {
+          p.text = "(repeats allowed from other frames) " + p.text;
+          problems.push_back(std::move(p));
+        }
         candidates = retry.candidates;
       }
     }
   }
   if (!chosen) {
-    std::string why = join(problems, "; ");
-    if (why.empty()) why = "no kind was offered";
+    if (problems.empty()) problems.push_back({refusal::kSpec, "no kind was offered", ""});
     throw NoHazardFits("offline: no hazard fits this scene (allowed kinds: " + join(offered, ", ") +
-                       "): " + why);
+                           "): " + refusal_text(problems),
+                       problems);
   }
   LlmReply reply;
   reply.content = chosen->dump(2);
   reply.model = "offline-planner-1";
-  reply.raw = {{"planner", "offline"}, {"candidates", candidates}, {"rejected", problems}};
+  Json rejected = Json::array();
+  for (const Refusal& p : problems) rejected.push_back(p.text);
+  reply.raw = {{"planner", "offline"}, {"candidates", candidates}, {"rejected", rejected}};
   if (fb.lower_ttc || fb.more_visible || !fb.failed.empty())
     reply.raw["feedback"] = {
         {"avoided", fb.failed.size()}, {"aim", aim}, {"prefer_visible", fb.more_visible}};

@@ -85,9 +85,10 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   SceneContext scene;
   scene.timestamp = frame.timestamp;
   scene.camera = frame.camera;
-  scene.meta = frame.meta;
+  scene.origin = frame.origin;
   scene.ego_track = frame.ego_track;
   scene.road_markings = frame.road_markings;
+  scene.road = spec->road;  // the road the spec was designed on, so the plan is made on the same one
   const ObjectStates* states = in.get<ObjectStates>("states");
   if (states) {
     scene.objects = states->objects;
@@ -121,7 +122,7 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
     // A template not built on the shared kit does not take the bounds: it plans with its own.
     tpl = ctx.components().create<HazardTemplate>(kind::kHazardTemplate, spec->kind, tpl_params);
   }
-  const std::vector<std::string> reasons = tpl->check(*spec, scene);
+  const std::vector<Refusal> reasons = tpl->check(*spec, scene);
 
   ++planned_;
   std::string name = file_;
@@ -134,11 +135,11 @@ void HazardPlanner::process(StageContext& ctx, const Inputs& in, Outputs& out) {
                   {"template", spec->kind}, {"feasible", reasons.empty()},
                   {"reasons", reasons},     {"ego_speed_mps", *scene.ego_speed_mps}};
   if (!reasons.empty()) {
-    std::string msg = "hazard spec '" + spec->kind + "' at " + where + " is infeasible: ";
-    for (size_t k = 0; k < reasons.size(); ++k) msg += (k ? "; " : "") + reasons[k];
+    const std::string msg =
+        "hazard spec '" + spec->kind + "' at " + where + " is infeasible: " + refusal_text(reasons);
     write_file_atomic(ctx.output_dir() / name,
                       json_text(Json{{"planner", planner}, {"spec", *spec}}, 2) + "\n");
-    if (!skip_infeasible_) throw Error(msg);
+    if (!skip_infeasible_) throw NoHazardFits(msg, reasons);
     ctx.log(LogLevel::kWarning, msg + " (skipped)");
     return;
   }

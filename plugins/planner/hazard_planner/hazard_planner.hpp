@@ -9,7 +9,7 @@ namespace hf {
 
 // Stage hazard_planner (kind planner).
 // Inputs: `hazard` (HazardSpec, sticky), `frames` (Frame), `states` (ObjectStates, optional: tracked objects
-// a template may build on, e.g. sudden_stop with extra.track_id). Output: `trajectory` (HazardTrajectory),
+// a template may build on, e.g. sudden_stop with track_id). Output: `trajectory` (HazardTrajectory),
 // emitted once per distinct spec at the first frame whose timestamp is
 // >= spec.start_time_s; that frame is the anchor (the trajectory's frame of reference) and stamps the packet.
 // Also writes <output>/trajectory.json atomically (trajectory_<n>.json for the n-th spec of a run).

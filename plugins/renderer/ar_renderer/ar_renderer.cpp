@@ -70,8 +70,7 @@ void HazardRenderer::start_hazard(const HazardTrajectory& t) {
   lane_shift_.reset();
   reached_ = false;
   warned_taken_missing_ = false;
-  if (t.spec.extra.is_object() && t.spec.extra.contains("track_id") && t.spec.extra["track_id"].is_number())
-    taken_id_ = static_cast<int64_t>(t.spec.extra["track_id"].get<double>());
+  if (t.spec.track_id) taken_id_ = *t.spec.track_id;
   compositor_ = CompositorState{};
   prev_center_px_.reset();
   warned_future_anchor_ = false;

@@ -115,7 +115,7 @@ class HazardRenderer {
   std::optional<cv::Point2d> prev_center_px_;
   double prev_t_ = 0;
   bool warned_future_anchor_ = false;
-  std::optional<int64_t> taken_id_;      // the hazard's extra.track_id: a real object it replaces
+  std::optional<int64_t> taken_id_;      // the hazard's track_id: a real object it replaces
   bool reached_ = false;                 // past its plan, the ego has reached the hazard: no longer drawn
   std::optional<cv::Rect2f> taken_box_;  // that object's latest box
   int taken_unseen_ = 0;                 // frames since its track last had it

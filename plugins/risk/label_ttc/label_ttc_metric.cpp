@@ -43,7 +43,7 @@ void LabelTtcMetric::process(StageContext& ctx, const Inputs& in, Outputs& out) 
   const Frame& f = in.require<Frame>("frames");
   const std::string what =
       "label_ttc: frame " + std::to_string(f.index) +
-      (f.meta.contains("kitti_frame") ? " (KITTI frame " + f.meta["kitti_frame"].dump() + ")" : "");
+      (f.origin.dataset_frame ? " (dataset frame " + std::to_string(*f.origin.dataset_frame) + ")" : "");
   if (!f.annotations)
     throw Error(what + ": no annotations; label_ttc needs a source with labels (kitti, layout tracking)");
   RiskAssessment r = protocol_.assess(*f.annotations, f.ego, what);

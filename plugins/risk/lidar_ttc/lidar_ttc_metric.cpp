@@ -36,7 +36,7 @@ ComponentInfo LidarTtcMetric::describe() {
       "ranges (2 = TTC = d_t dt / (d_{t-1} - d_t)); infinite when not closing faster than min_closing_mps, "
       "unknown before two ranges. Scene value = the lead's TTC (unknown without a lead). One risk packet and "
       "one lidar_range record per frame, stamped with the frame's time. See docs/evaluation.md.";
-  i.inputs = {port<Frame>("frames", "KITTI raw frames (image name or meta.kitti_frame names the scan)"),
+  i.inputs = {port<Frame>("frames", "KITTI raw frames (the image name or the dataset frame number names the scan)"),
               optional(port<ObjectStates>("states", "tracked boxes (per-track TTC, lead = a track)")),
               optional(port<Detections>("detections", "detected boxes (TTC of the lead only)"))};
   i.outputs = {
@@ -122,14 +122,14 @@ fs::path LidarTtcMetric::scan_file(const Frame& f) const {
     const fs::path by_name = velodyne_dir_ / (fs::path(f.source_id).stem().string() + ".bin");
     if (fs::exists(by_name)) return by_name;
   }
-  if (f.meta.contains("kitti_frame") && f.meta["kitti_frame"].is_number_integer()) {
+  if (f.origin.dataset_frame) {
     char name[32];
-    std::snprintf(name, sizeof name, "%010lld.bin", f.meta["kitti_frame"].get<long long>());
+    std::snprintf(name, sizeof name, "%010lld.bin", static_cast<long long>(*f.origin.dataset_frame));
     if (fs::exists(velodyne_dir_ / name)) return velodyne_dir_ / name;
   }
   throw Error("lidar_ttc: frame " + std::to_string(f.index) + " (" + f.source_id +
               "): no Velodyne scan in '" + velodyne_dir_.string() +
-              "' (looked for <image name>.bin and the 10-digit meta.kitti_frame)");
+              "' (looked for <image name>.bin and the frame's 10-digit dataset number)");
 }
 
 lidar::CvTtc LidarTtcMetric::update(std::map<int64_t, History>& hist, int64_t id, double t, double range) {

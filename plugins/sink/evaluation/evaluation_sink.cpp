@@ -30,7 +30,7 @@ ComponentInfo EvaluationSink::describe() {
   i.inputs = {
       port<RiskAssessment>("truth", "reference assessment (ground_truth, label_ttc, lidar_ttc)"),
       multi(port<RiskAssessment>("estimates", "assessments to score, labelled by their producer node")),
-      optional(port<Frame>("frames", "for the scene name (Frame.meta) of each frame"))};
+      optional(port<Frame>("frames", "for the scene name (Frame.origin.scene) of each frame"))};
   i.params = {
       ParamSpec::string("dir", "evaluation").describe("folder below the run's output folder"),
       ParamSpec::number_list("thresholds", {1.5, 2.0, 3.0}).describe("TTC thresholds (s): Unsafe when below"),
@@ -40,7 +40,6 @@ ComponentInfo EvaluationSink::describe() {
       ParamSpec::number("plot_max_s", 12.0)
           .range(0.1, 1e6)
           .describe("upper end of the TTC plots' y axis (s)"),
-      ParamSpec::string("scene_key", "scene").describe("Frame.meta key holding the scene name"),
       ParamSpec::string("scene", "")
           .describe("scene name of every frame (e.g. a KITTI sequence per run); empty = from the frames"),
       ParamSpec::string_list("compare", {"scene"})
@@ -59,7 +58,6 @@ void EvaluationSink::open(StageContext& ctx) {
   options_.max_ttc_s = p.get_double("max_ttc_s");
   options_.plot_max_s = p.get_double("plot_max_s");
   options_.title = p.get_string("title");
-  scene_key_ = p.get_string("scene_key");
   scene_ = p.get_string("scene");
   options_.compare = p.get_strings("compare");
   if (options_.compare.empty()) throw Error("stage 'evaluation': 'compare' must list scene and/or lead");
@@ -84,8 +82,7 @@ void EvaluationSink::process(StageContext& ctx, const Inputs& in, Outputs&) {
   r.scene = "all";
   if (const Frame* f = in.get<Frame>("frames")) {
     r.timestamp = f->timestamp;
-    if (f->meta.contains(scene_key_) && f->meta[scene_key_].is_string())
-      r.scene = f->meta[scene_key_].get<std::string>();
+    if (!f->origin.scene.empty()) r.scene = f->origin.scene;
   }
   if (!scene_.empty()) r.scene = scene_;
   const std::vector<const Packet*> packets = in.packets("estimates");

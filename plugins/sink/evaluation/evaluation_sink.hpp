@@ -15,13 +15,13 @@ namespace hf {
 // Sink "evaluation".
 // Ports: truth (RiskAssessment, from risk_metric/ground_truth), estimates (RiskAssessment, multi: one stream
 // per metric/detector combination, each labelled by its producer node id), frames (Frame, optional: scene
-// name from Frame.meta[scene_key], or the `scene` param). A frame is recorded when the truth and at least one
+// name from Frame::origin, or the `scene` param). A frame is recorded when the truth and at least one
 // estimate arrive for it; its time is the frame's timestamp; frames whose true scene value is unknown (NaN)
 // are recorded but not scored. With compare [lead], each estimate also records its value for the truth's
 // critical object (same track id). Writes below <output_dir>/<dir>: per_frame.jsonl (one record per frame,
 // appended as frames arrive), and at finish report.json (with a flat `summary` of rows per scene, metric and
 // threshold), report.md and report.html (self-contained, inline SVG), each written atomically.
-// Params: dir, thresholds, max_ttc_s, plot_max_s, scene_key, scene, compare, title.
+// Params: dir, thresholds, max_ttc_s, plot_max_s, scene, compare, title.
 class EvaluationSink : public Stage {
  public:
   static ComponentInfo describe();
@@ -32,7 +32,6 @@ class EvaluationSink : public Stage {
  private:
   std::filesystem::path dir_;
   eval::Options options_;
-  std::string scene_key_;
   std::string scene_;  // fixed scene name, empty = from the frames
   bool lead_ = false;  // "lead" comparison: record each stream's value for the truth's critical object
   std::vector<eval::FrameRecord> records_;

@@ -14,46 +14,20 @@ namespace hf {
 
 namespace {
 
-// The road the spec was generated for: spec.provenance.scene (the generator's scene facts). Specs from
-// elsewhere get the road the templates assume by default.
+// The road the spec was designed on (HazardSpec::road, the generator's); specs without one get the road the
+// templates assume by default.
 road::LaneLayout scene_lanes(const HazardSpec& spec, double* kerb_offset) {
+  const RoadLayout r = spec.road.value_or(RoadLayout{});
   road::LaneLayout l;
-  const hazard::RoadModel defaults;
-  l.lane_width = defaults.lane_width;
-  l.lanes_left = defaults.lanes_left;
-  l.lanes_right = defaults.lanes_right;
-  *kerb_offset = defaults.kerb_offset;
-  if (!spec.provenance.is_object() || !spec.provenance.contains("scene")) return l;
-  const Json& sc = spec.provenance["scene"];
-  const std::string where = "xosc: the trajectory's spec field provenance.scene";
-  if (!sc.is_object()) throw Error(where + " must be an object, got " + sc.dump());
-  auto number = [&](const char* key, double lo, double hi, double fallback) {
-    if (!sc.contains(key)) return fallback;
-    const Json& v = sc[key];
-    if (!v.is_number() || v.get<double>() < lo || v.get<double>() > hi)
-      throw Error(where + "." + key + " must be a number in [" + num_text(lo) + ", " + num_text(hi) +
-                  "], got " + v.dump());
-    return v.get<double>();
-  };
-  auto flag = [&](const char* key) {
-    if (!sc.contains(key)) return false;
-    if (!sc[key].is_boolean())
-      throw Error(where + "." + key + " must be true or false, got " + sc[key].dump());
-    return sc[key].get<bool>();
-  };
-  l.lane_width = number("lane_width_m", 2, 6, l.lane_width);
-  l.lanes_left = static_cast<int>(number("lanes_left", 0, 10, l.lanes_left));
-  l.lanes_right = static_cast<int>(number("lanes_right", 0, 10, l.lanes_right));
-  *kerb_offset = number("kerb_offset_m", 0, 5, *kerb_offset);
-  l.edge_width = number("sidewalk_width_m", 0, 15, l.edge_width);
-  l.oncoming_lanes = static_cast<int>(number("oncoming_lanes", 0, 10, l.oncoming_lanes));
-  if (sc.contains("driving_side")) {
-    const Json& side = sc["driving_side"];
-    if (!side.is_string() || (side != "right" && side != "left"))
-      throw Error(where + ".driving_side must be 'right' or 'left', got " + side.dump());
-    l.left_hand_traffic = side == "left";
-  }
-  l.edge_type = flag("sidewalks") ? "sidewalk" : flag("pedestrians_without_sidewalks") ? "shoulder" : "";
+  l.lane_width = r.lane_width_m;
+  l.lanes_left = r.lanes_left;
+  l.lanes_right = r.lanes_right;
+  *kerb_offset = r.kerb_offset_m;
+  if (!spec.road) return l;
+  l.edge_width = r.sidewalk_width_m;
+  l.oncoming_lanes = r.oncoming_lanes;
+  l.left_hand_traffic = r.driving_side == "left";
+  l.edge_type = r.sidewalks ? "sidewalk" : r.pedestrians_without_sidewalks ? "shoulder" : "";
   if (l.edge_width < 0.1) l.edge_type.clear();  // no room beside the road: no lane there
   return l;
 }
@@ -75,7 +49,7 @@ ComponentInfo XoscSink::describe() {
   i.doc =
       "The road (.xodr beside the .xosc) is fitted to the ego's path, with the scene's lanes, driving side "
       "and "
-      "sidewalks from the spec's provenance.scene. The ego starts in its lane at its recorded speed "
+      "sidewalks from the spec's road (HazardSpec::road). The ego starts in its lane at its recorded speed "
       "(controlled "
       "by the player or a system under test; 'replay' adds its recorded speed profile). The hazard starts "
       "relative to the ego and its manoeuvre (lane change, speed change, walk) is started by a condition on "

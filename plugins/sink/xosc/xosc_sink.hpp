@@ -13,8 +13,8 @@ namespace hf {
 // places the scenario in the dataset's world frame, and its meta.ego_track gives the road beyond the plan).
 // Outputs: none. When a trajectory arrives writes <output>/<file> and its road <stem>.xodr beside it
 // (<stem>_<n>.* for the n-th of a run), and once per run the hazard maneuver catalog; all atomically, so an
-// interrupted run keeps them. The road's lanes come from the spec's provenance.scene (the generator's scene
-// facts). Params: file, catalog, author, description, coordinates (auto | anchor | world), ego (controlled |
+// interrupted run keeps them. The road's lanes come from the spec's road (HazardSpec::road, the road the
+// generator settled). Params: file, catalog, author, description, coordinates (auto | anchor | world), ego (controlled |
 // replay), lead_in_s, after_s, ego_name, hazard_name, ego_front_m, limits, class_sizes.
 class XoscSink : public Stage {
  public:

@@ -114,9 +114,15 @@ void KittiSource::open(StageContext& ctx) {
     if (calib.empty()) calib = base / "calib" / (seq + ".txt");
     if (labels.empty() && fs::exists(base / "label_02" / (seq + ".txt")))
       labels = base / "label_02" / (seq + ".txt");
+    scene_ = p.get_string("split") + " sequence " + seq;
   } else {
     if (images.empty()) throw Error("kitti source: layout 'raw' needs the 'images' folder");
     if (calib.empty()) throw Error("kitti source: layout 'raw' needs a 'calib' file");
+    // A raw drive keeps its images in <drive>/image_02/data.
+    const fs::path dir = fs::absolute(images).lexically_normal();
+    scene_ = (dir.filename() == "data" && dir.has_parent_path() ? dir.parent_path().parent_path() : dir)
+                 .filename()
+                 .string();
   }
   const kitti::Calibration cal = kitti::read_calibration(calib);
   ctx.record_resource(calib);
@@ -265,8 +271,10 @@ bool KittiSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.camera = camera_;
   f.ego = ego_;
   f.annotations = it.annotations;
-  f.meta = {{"kitti_frame", it.kitti_frame},
-            {"layout", layout_},
+  f.origin.dataset = "kitti";
+  f.origin.scene = scene_;
+  f.origin.dataset_frame = it.kitti_frame;
+  f.meta = {{"layout", layout_},
             {"has_image", !it.image.empty()},
             {"velocity_reference", ego_.speed_mps ? "ego_speed_param" : "camera"}};
   const double ts = f.timestamp;

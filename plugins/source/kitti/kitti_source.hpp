@@ -41,6 +41,7 @@ class KittiSource : public SourceStage {
   EgoState ego_;
   double fps_ = 10;
   std::string layout_;
+  std::string scene_;  // the sequence, or the drive's folder
   size_t pos_ = 0;
 };
 

@@ -394,9 +394,8 @@ bool NuScenesSource::next(StageContext& /*ctx*/, Outputs& out) {
   }
   f.ego = k.ego;
   f.source_id = k.filename;
-  f.meta = {{"scene", k.scene},
-            {"scene_description", k.scene_description},
-            {"scene_start", k.scene_start},
+  f.origin = {"nuscenes", k.scene, k.scene_description, std::nullopt};
+  f.meta = {{"scene_start", k.scene_start},
             {"sample_token", k.sample_token},
             {"sample_data_token", k.sample_data_token},
             {"timestamp_us", k.timestamp_us},

@@ -95,6 +95,8 @@ bool ImageSequenceSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.road_markings = setup_.road_markings();
   f.stream_end = clock_.at(files_.size() - 1);
   f.source_id = file.filename().string();
+  f.origin.dataset = "images";
+  f.origin.scene = file.parent_path().filename().string();
   f.meta = {{"file", file.string()}, {"intrinsics", setup_.intrinsics_source()}};
   const double ts = f.timestamp;
   out.emit_packet("frames", Packet::make<Frame>(std::move(f), ts));

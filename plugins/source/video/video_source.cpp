@@ -193,6 +193,8 @@ bool VideoSource::next(StageContext& /*ctx*/, Outputs& out) {
   f.ego_track = setup_.ego_track();
   f.road_markings = setup_.road_markings();
   if (count_ && *count_ > 0) f.stream_end = clock_.at(static_cast<size_t>(*count_ - 1));
+  f.origin.dataset = files_.empty() ? "video" : "images";
+  f.origin.scene = files_.empty() ? fs::path(path_).stem().string() : fs::path(path_).filename().string();
   if (!files_.empty()) {
     f.source_id = files_[static_cast<size_t>(emitted_)].filename().string();
     f.meta = {{"file", files_[static_cast<size_t>(emitted_)].string()}, {"intrinsics", setup_.intrinsics_source()}};
@@ -266,6 +268,7 @@ bool CameraSource::next(StageContext& ctx, Outputs& out) {
   f.camera = setup_.camera();
   f.ego = setup_.ego_at(-1);
   f.source_id = what_;
+  f.origin = {"camera", what_, "", std::nullopt};
   f.meta = {{"intrinsics", setup_.intrinsics_source()}};
   const double ts = f.timestamp;
   out.emit_packet("frames", Packet::make<Frame>(std::move(f), ts));

@@ -155,9 +155,7 @@ void ClosedLoopVerifier::open(StageContext& ctx) {
 void ClosedLoopVerifier::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   if (const HazardTrajectory* tr = in.get<HazardTrajectory>("trajectory")) {
     trajectory_seen_ = true;
-    if (tr->spec.extra.is_object() && tr->spec.extra.contains("track_id") &&
-        tr->spec.extra["track_id"].is_number())
-      planned_takeover_ = static_cast<int64_t>(tr->spec.extra["track_id"].get<double>());
+    if (tr->spec.track_id) planned_takeover_ = *tr->spec.track_id;
     intended_traj_min_ = tr->intended_min_ttc_s;
     length_ = tr->size_lwh[0];
     if (!tr->points.empty()) plan_end_t_ = tr->points.back().t;

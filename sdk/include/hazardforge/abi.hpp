@@ -21,9 +21,12 @@
 // real reference's box came from (source: detection or annotation). 8.0: HazardInstance (v4) says what a
 // camera sees of the hazard: its drawn silhouette's box and the share of it inside the picture. 8.1: the
 // road-user limits table (LimitsTable, from the hazard kit), EgoTrack::heading_change, angles.hpp and
-// number_text.hpp.
-#define HF_SDK_ABI_MAJOR 8
-#define HF_SDK_ABI_MINOR 1
+// number_text.hpp. 9.0: typed contracts: Frame::origin (FrameOrigin) instead of meta keys; RoadLayout, the
+// road settled once, in SceneContext and HazardSpec; HazardSpec::track_id and under_way_s as fields, kind
+// fields through SpecField; refusals as typed codes (Refusal: HazardTemplate::check, HazardCatalog::check,
+// HazardProposal::problem, NoHazardFits::reasons); SceneContext::meta removed.
+#define HF_SDK_ABI_MAJOR 9
+#define HF_SDK_ABI_MINOR 0
 #define HF_SDK_VERSION "0.1.0"
 
 #define HF_STR_INNER(x) #x

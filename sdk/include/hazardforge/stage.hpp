@@ -10,10 +10,12 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "hazardforge/packet.hpp"
 #include "hazardforge/params.hpp"
+#include "hazardforge/refusal.hpp"
 #include "hazardforge/types.hpp"
 
 HF_SDK_BEGIN
@@ -258,8 +260,14 @@ struct LlmReply {
 // frame.
 class NoHazardFits : public Error {
  public:
-  explicit NoHazardFits(const std::string& message) : Error(message) {}
+  NoHazardFits(const std::string& message, std::vector<Refusal> reasons)
+      : Error(message), reasons_(std::move(reasons)) {}
   ~NoHazardFits() override;
+  // Why, typed (the host records them in the run's manifest, the campaign counts them).
+  const std::vector<Refusal>& reasons() const { return reasons_; }
+
+ private:
+  std::vector<Refusal> reasons_;
 };
 
 // A text-generation backend. Throws hf::Error (with the endpoint and cause) on transport failures,
@@ -284,7 +292,10 @@ struct SceneContext {
   double distance_origin_x = 0.0;
   std::shared_ptr<const EgoTrack> ego_track;  // the recording's ego motion, when known (Frame::ego_track)
   std::shared_ptr<const RoadMarkings> road_markings;  // the recording's lane markings (Frame::road_markings)
-  Json meta = Json::object();  // environment, road type, dataset description
+  FrameOrigin origin;                                 // the frame's (Frame::origin)
+  // The road settled for this scene (the generator's, or the spec's HazardSpec::road at the planner); absent:
+  // the templates' own road, from their params and the lane markings.
+  std::optional<RoadLayout> road;
 };
 
 // Scene conditions a hazard kind may need (HazardKindInfo::needs). The generator evaluates each on the scene,
@@ -297,11 +308,54 @@ inline constexpr const char* kIntersection = "intersection";   // vehicles may c
 inline constexpr const char* kTrackedLead = "tracked_lead";    // a tracked vehicle ahead in the ego path
 }  // namespace scene_condition
 
-// A kind-specific field of HazardSpec::extra.
+// A kind-specific field of HazardSpec::extra (declared by SpecField::declaration()).
 struct HazardField {
   std::string name;                // extra.<name>
   Json schema = Json::object();    // JSON Schema of its value, null included ({"type": ["number", "null"]})
   std::string doc;                 // what it means, for the prompt and the reply schema
+};
+
+// A field of HazardSpec::extra with its type, declared once by the kind that reads it (api2-style handle): its
+// declaration() goes into HazardKindInfo::extra_fields (the prompt, the reply schema), get() reads it from a
+// spec and set() writes it into a proposal's JSON. T is double, int64_t, bool or std::string.
+template <class T>
+class SpecField {
+ public:
+  // `constraints`: JSON Schema keywords of the value beyond its type ({"minimum": 0}, {"enum": [...]}).
+  SpecField(std::string name, std::string doc, Json constraints = Json::object())
+      : name_(std::move(name)), doc_(std::move(doc)), constraints_(std::move(constraints)) {}
+  const std::string& name() const { return name_; }
+  HazardField declaration() const {
+    Json schema = constraints_;
+    schema["type"] = Json::array({type_name(), "null"});
+    if (schema.contains("enum")) schema["enum"].push_back(nullptr);
+    return {name_, schema, doc_};
+  }
+  // The value in spec.extra; nullopt when absent or null. Throws hf::Error naming extra.<name> when it has
+  // another type.
+  std::optional<T> get(const HazardSpec& spec) const {
+    if (!spec.extra.is_object() || !spec.extra.contains(name_) || spec.extra[name_].is_null())
+      return std::nullopt;
+    const Json& v = spec.extra[name_];
+    const bool ok = std::is_same_v<T, bool>          ? v.is_boolean()
+                    : std::is_same_v<T, std::string> ? v.is_string()
+                    : std::is_same_v<T, int64_t>     ? v.is_number_integer()
+                                                     : v.is_number();
+    if (!ok) throw Error("extra." + name_ + " must be " + type_name() + " or null, got " + v.dump());
+    return v.get<T>();
+  }
+  // Writes the value into a spec's (or a proposal's) JSON object under extra.<name>.
+  void set(Json& spec_json, const T& value) const { spec_json["extra"][name_] = value; }
+
+ private:
+  static std::string type_name() {
+    if constexpr (std::is_same_v<T, bool>) return "boolean";
+    else if constexpr (std::is_same_v<T, std::string>) return "string";
+    else if constexpr (std::is_same_v<T, int64_t>) return "integer";
+    else return "number";
+  }
+  std::string name_, doc_;
+  Json constraints_;
 };
 
 // What a hazard kind is and when it applies. The generator builds the prompt's kind list, the reply schema's
@@ -344,7 +398,8 @@ struct ProposalRequest {
   // A hazard that appears fully in view on the road, not hidden by a nearer object, must be at most this tall
   // (share of the image height) when first seen; 0 = no such rule.
   double first_seen_max_height = 0.0;
-  // Whether a hazard may take over a tracked object (extra.track_id): only when the renderer removes the real one.
+  // Whether a hazard may take over a tracked object (HazardSpec::track_id): only when the renderer removes the
+  // real one.
   bool may_take_over = false;
   std::vector<int64_t> avoid_tracks;  // tracked objects not to take over (earlier attempts failed with them)
 
@@ -354,8 +409,8 @@ struct ProposalRequest {
 // One drawn plan: the spec as a model would answer it (the reply schema's fields; fields the kind does not use
 // may be left out), or why none fits this draw.
 struct HazardProposal {
-  Json spec;            // null when `problem` says why not
-  std::string problem;
+  Json spec;        // null when `problem` says why not
+  Refusal problem;  // empty with a spec
 };
 
 // Turns a hazard spec into a kinematically plausible trajectory for one hazard kind.
@@ -364,8 +419,8 @@ class HazardTemplate : public Component {
   ~HazardTemplate() override;
   virtual void open(const Params& params) = 0;
   virtual std::string hazard_kind() const = 0;
-  // Physical feasibility of the spec (speeds, decelerations, visibility ...). Empty = feasible.
-  virtual std::vector<std::string> check(const HazardSpec& spec, const SceneContext& scene) const = 0;
+  // Physical feasibility of the spec (speeds, decelerations, visibility ...), typed reasons. Empty = feasible.
+  virtual std::vector<Refusal> check(const HazardSpec& spec, const SceneContext& scene) const = 0;
   virtual HazardTrajectory plan(const HazardSpec& spec, const SceneContext& scene) const = 0;
   // What the kind is and when it applies. Default: the kind's name only.
   virtual HazardKindInfo kind_info() const;
@@ -385,7 +440,7 @@ class HazardCatalog {
                                  RandomDraw& draw) const = 0;
   // Every reason the generator would reject this reply for (schema, scene rules, the kind's template); empty =
   // it would be accepted.
-  virtual std::vector<std::string> check(const Json& reply) const = 0;
+  virtual std::vector<Refusal> check(const Json& reply) const = 0;
 };
 
 // ---- inline template ---------------------------------------------------------------------------------------------

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -117,6 +118,58 @@ struct RoadMarkings {
   std::string note;  // how it was measured, for reports
 };
 
+// What one fact of a RoadLayout rests on.
+struct RoadFactSource {
+  std::string from = "default";  // "stated" (the scene block, a param), "measured" (the footage), "default"
+  std::string why;               // the evidence, for logs, reports and the prompt
+};
+
+// The road a hazard is designed on, settled once from what the scene states and what the footage shows (lane
+// markings, traffic, people, the scene's words). Road coordinates follow the ego's path: the ego lane is
+// centred on it, lanes and kerbs run beside it. The generator's rules and prompt, the hazard templates, the
+// planner and the scenario export all read this one road.
+struct RoadLayout {
+  static constexpr const char* kTypeName = "RoadLayout";
+  static constexpr int kTypeVersion = 1;
+  double lane_width_m = 3.5;
+  int lanes_left = 1;  // lanes beside the ego lane on its left, either direction
+  int lanes_right = 1;
+  // Of the lanes on the side away from driving_side (the left when traffic keeps right), how many carry
+  // oncoming traffic: the outermost ones, beyond any lanes going the ego's way. 0 = every lane goes its way.
+  int oncoming_lanes = 0;
+  std::string driving_side = "right";  // the side traffic keeps to
+  double kerb_offset_m = 0.5;          // where pedestrians wait, beyond the road edge (m)
+  bool sidewalks = false;
+  double sidewalk_width_m = 3.0;
+  bool pedestrians_without_sidewalks = false;  // people may walk on the shoulder where there are no sidewalks
+  bool intersection = false;                   // vehicles may cross the ego path
+  bool multi_lane = false;                     // a lane beside the ego's goes its way
+  std::string road_type = "unknown";
+  std::string environment;  // the scene's words for its surroundings
+  // What each fact rests on, by field name ("lanes_left", "driving_side", "sidewalks", ...); a fact not
+  // listed is a default.
+  std::map<std::string, RoadFactSource> sources;
+
+  // +1 / -1: the side oncoming traffic passes on (left when traffic keeps right).
+  int oncoming_side() const { return driving_side == "left" ? -1 : 1; }
+  int lanes(int side) const { return side > 0 ? lanes_left : lanes_right; }
+  // |y| of the road edge on a side (+1 = left, -1 = right).
+  double edge(int side) const { return lane_width_m * (0.5 + lanes(side)); }
+  // Lanes on a side going the ego's way (next to the ego lane) and with oncoming traffic (beyond them).
+  int oncoming_lanes_on(int side) const { return side == oncoming_side() ? oncoming_lanes : 0; }
+  int same_direction_lanes(int side) const { return lanes(side) - oncoming_lanes_on(side); }
+  // The lane a lateral offset lies in: 0 = the ego lane, +-k = the k-th lane to the left/right; beyond the road
+  // edge the lane count + 1 (kerb side).
+  int lane_at(double y) const;
+  // Whether traffic in the lane at offset y goes the ego's way (the ego lane and same-direction lanes).
+  bool same_direction_at(double y) const;
+  // What a fact rests on (a default when `sources` does not list it).
+  RoadFactSource source(const std::string& field) const;
+  // Throws hf::Error naming `where` and the field when a count or width is out of range or oncoming_lanes
+  // exceeds the lanes on its side.
+  void validate(const std::string& where) const;
+};
+
 struct AnnotatedObject {
   std::string instance_id;
   std::string category;  // dataset category, e.g. "vehicle.car"
@@ -140,19 +193,30 @@ struct Annotations {
   std::optional<cv::Vec3d> ego_velocity_ego;  // ego velocity in its own axes (m/s), if derivable
 };
 
+// Where a frame comes from: what stages that name the recording, look up its other data or describe it read.
+struct FrameOrigin {
+  std::string dataset;      // "nuscenes", "kitti", "video", "images"; "" = unknown
+  std::string scene;        // the dataset's scene, sequence or drive, or the file's name
+  std::string description;  // the dataset's own words for the scene; "" = none
+  std::optional<int64_t> dataset_frame;  // the frame's number in the dataset's files (KITTI's 10-digit name)
+};
+
 struct Frame {
   static constexpr const char* kTypeName = "Frame";
-  static constexpr int kTypeVersion = 1;
+  static constexpr int kTypeVersion = 2;
   int64_t index = 0;       // 0-based position in the source's stream
   double timestamp = 0.0;  // seconds since the start of the stream
   cv::Mat image;           // BGR 8-bit
   CameraModel camera;
   EgoState ego;
   std::string source_id;  // file name / dataset token
+  FrameOrigin origin;
   std::shared_ptr<const EgoTrack> ego_track;  // the whole recording's ego motion, when known
   std::shared_ptr<const RoadMarkings> road_markings;  // the recording's lane markings, when measured
   std::optional<double> stream_end;           // timestamp of the stream's last frame, when the source knows it
-  Json meta = Json::object();  // source-specific (scene description, sample token, ...)
+  // Source-specific details for the run's records (sample tokens, file names); no stage reads them, what stages
+  // share is typed (origin, ego_track, road_markings, annotations).
+  Json meta = Json::object();
   std::shared_ptr<const Annotations> annotations;  // dataset ground truth, when the source carries it
 };
 
@@ -278,7 +342,7 @@ double deciding_value(const RiskAssessment& r);
 struct HazardSpec {
   static constexpr const char* kTypeName = "HazardSpec";
   static constexpr int kTypeVersion = 1;
-  std::string schema_version = "1.0";
+  std::string schema_version = "1.1";
   std::string kind;           // pedestrian_crossing, cut_in, sudden_stop, or a third-party kind
   std::string object_class;   // person, car, truck, ...
   double initial_distance_m = 0.0;  // longitudinal, ego frame, at start_time
@@ -290,9 +354,20 @@ struct HazardSpec {
   double start_time_s = 0.0;        // stream time at which the hazard appears
   std::optional<double> deceleration_mps2;  // sudden_stop
   std::optional<double> target_ttc_s;       // TTC the hazard is designed to reach
-  Json extra = Json::object();              // kind-specific fields
+  // A tracked object of the recording the hazard takes over (the renderer removes the real one and draws the
+  // hazard in its place): its track id. Any kind may take one over where the scene's rules allow it.
+  std::optional<int64_t> track_id;
+  // How long the manoeuvre has already been under way when the hazard appears at start_time_s (a lead already
+  // braking, a lane change already started); the position and speed fields then describe its start, that
+  // long before. At most max_under_way_s.
+  std::optional<double> under_way_s;
+  // The fields the kind declares (HazardKindInfo::extra_fields), read by that kind alone (SpecField).
+  Json extra = Json::object();
   std::string rationale;
-  Json provenance = Json::object();  // backend, model, prompt hash, retries ...
+  // The road the hazard was designed on (the generator's); the planner plans on it and the export lays it out.
+  // Absent (hand-written specs): the templates' own road.
+  std::optional<RoadLayout> road;
+  Json provenance = Json::object();  // for the record (backend, model, prompt hash, retries); no stage reads it
   // The bounds the generator designed and checked the hazard under (not part of an LLM's reply): how long it
   // is planned for from its start, and how long it may already be under way when it appears. The planner plans
   // within the same bounds, so they are stated once, on the generator.
@@ -358,7 +433,7 @@ struct AppearanceStats {
   double aspect = kNaN;
 };
 
-// A recorded object the hazard took over (HazardSpec extra.track_id): the renderer removed it from the picture
+// A recorded object the hazard took over (HazardSpec::track_id): the renderer removed it from the picture
 // and drew the hazard in its place.
 struct TakenOver {
   int64_t track_id = -1;
@@ -421,9 +496,18 @@ void to_json(Json& j, const HazardInstance& v);
 void to_json(Json& j, const Record& v);
 void to_json(Json& j, const LaneMarkingSide& v);
 void to_json(Json& j, const RoadMarkings& v);
+void to_json(Json& j, const RoadFactSource& v);
+void to_json(Json& j, const RoadLayout& v);
+void from_json(const Json& j, RoadLayout& v);
+void to_json(Json& j, const FrameOrigin& v);
 void to_json(Json& j, const AnnotatedObject& v);
 void to_json(Json& j, const Annotations& v);
 void to_json(Json& j, const Frame& v);  // metadata only, not pixels
+
+// The tracked object a hazard spec's JSON takes over (HazardSpec::track_id: top level since schema 1.1, inside
+// `extra` in 1.0), read from a spec that may be partial (a campaign's feedback); nullopt when it names none.
+// Throws hf::Error when it is not a non-negative whole number.
+std::optional<int64_t> spec_track_id(const Json& spec);
 
 // JSON has no infinity: non-finite numbers are written as null.
 Json finite_or_null(double v);

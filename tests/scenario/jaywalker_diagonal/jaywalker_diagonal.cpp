@@ -28,20 +28,22 @@ class JaywalkerDiagonal : public hf::hazard::KindTemplate<JaywalkerDiagonal> {
 
  protected:
   hf::hazard::Design design(const hf::hazard::PlanRequest& req,
-                            std::vector<std::string>& reasons) const override {
+                            std::vector<hf::Refusal>& reasons) const override {
     const int side = req.side_sign();  // +1 left, -1 right
     const double h = req.spec.heading_deg * std::numbers::pi / 180;
     const double across = -side * std::sin(h);  // share of the motion towards the other side
     if (side == 0) {
-      reasons.push_back("side must be 'left' or 'right'");
+      reasons.push_back({hf::refusal::kSpec, "side must be 'left' or 'right'", "jaywalker_diagonal"});
     } else if (across < 0.34 || std::abs(std::cos(h)) < 0.34) {  // 20 degrees off both axes at least
-      reasons.push_back("heading_deg " + hf::num_text(req.spec.heading_deg) +
-                        " is not a diagonal across the road from the " + req.spec.side);
+      reasons.push_back({hf::refusal::kSpec,
+                         "heading_deg " + hf::num_text(req.spec.heading_deg) +
+                             " is not a diagonal across the road from the " + req.spec.side,
+                         "jaywalker_diagonal"});
     }
     if (!reasons.empty()) return {};
 
     const double x0 = req.spec.initial_distance_m;
-    const double y0 = side * (req.road.edge(side) + req.road.kerb_offset);
+    const double y0 = side * (req.road.edge(side) + req.road.kerb_offset_m);
     const double vx = req.spec.speed_mps * std::cos(h), vy = req.spec.speed_mps * std::sin(h);
     hf::hazard::Design d;
     d.motion = [=](double tau) {

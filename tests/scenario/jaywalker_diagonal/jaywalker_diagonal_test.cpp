@@ -69,10 +69,14 @@ TEST(JaywalkerDiagonal, DescribesItself) {
 
 TEST(JaywalkerDiagonal, SharedAndOwnChecks) {
   auto tpl = registry().create<hf::HazardTemplate>("hazard_template", "jaywalker_diagonal", {});
-  EXPECT_EQ(tpl->check(spec(-45, 12), scene()),
-            std::vector<std::string>{"speed_mps 12 exceeds the person limit of 7 m/s"});
-  EXPECT_EQ(tpl->check(spec(-90, 1.5), scene()),
-            std::vector<std::string>{"heading_deg -90 is not a diagonal across the road from the left"});
+  const std::vector<hf::Refusal> fast = tpl->check(spec(-45, 12), scene());
+  ASSERT_EQ(fast.size(), 1u);
+  EXPECT_EQ(fast[0].code, hf::refusal::kClassLimit);
+  EXPECT_EQ(fast[0].text, "speed_mps 12 exceeds the person limit of 7 m/s");
+  const std::vector<hf::Refusal> straight = tpl->check(spec(-90, 1.5), scene());
+  ASSERT_EQ(straight.size(), 1u);
+  EXPECT_EQ(straight[0].code, hf::refusal::kSpec);
+  EXPECT_EQ(straight[0].text, "heading_deg -90 is not a diagonal across the road from the left");
 }
 
 }  // namespace

@@ -21,6 +21,13 @@ using hf::num_text;
 // template params.
 class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
  public:
+  // Its own field of the spec, typed: declared once, read and written through it.
+  static const hf::SpecField<double>& swerve_after() {
+    static const hf::SpecField<double> f(
+        "swerve_after_s", "seconds it drives on in its own lane before it swerves into the ego lane",
+        {{"minimum", 0}, {"maximum", 30}});
+    return f;
+  }
   // It comes from far ahead, where a recorded path's turns, a lane to the side, are tighter than a vehicle
   // may take at its speed: it is planned against a straight ego by default.
   static hf::ComponentInfo describe() {
@@ -44,9 +51,7 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
         "keeps coming, so the gap closes at the ego speed plus speed_mps.";
     k.object_classes = {"car", "truck", "bus"};
     k.needs = {hf::scene_condition::kOncomingLane};
-    k.extra_fields = {{"swerve_after_s",
-                       {{"type", {"number", "null"}}, {"minimum", 0}, {"maximum", 30}},
-                       "seconds it drives on in its own lane before it swerves into the ego lane"}};
+    k.extra_fields = {swerve_after().declaration()};
     return k;
   }
 
@@ -56,15 +61,17 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
   hf::HazardProposal propose(const hf::ProposalRequest& req, hf::RandomDraw& d) const override {
     const auto sc = hf::hazard::ProposalScene::of(req, *this);
     const int side = sc.road.oncoming_side();
-    if (sc.road.oncoming_lanes_on(side) == 0) return {nullptr, "no lane carries oncoming traffic"};
+    if (sc.road.oncoming_lanes_on(side) == 0)
+      return {nullptr, {hf::refusal::kSceneLacks, "no lane carries oncoming traffic", "oncoming_overtaker"}};
     static const char* kClasses[] = {"car", "car", "truck", "bus"};
     const std::string cls = kClasses[d.index(4)];
-    if (!req.class_allowed(cls) || !sc.limits.has(cls)) return {nullptr, "no '" + cls + "' here"};
+    if (!req.class_allowed(cls) || !sc.limits.has(cls))
+      return {nullptr, {hf::refusal::kObjectClass, "no '" + cls + "' here", "oncoming_overtaker"}};
     const hf::KinematicLimits& lim = sc.limits.at(cls);
     const hf::hazard::Footprint size = sc.size(cls);
     const double v = d.uniform(5.0, std::min(10.0, lim.max_speed_mps));
     const double closing = sc.ego_speed + v;
-    const double y0 = side * sc.road.lane_width * (sc.road.same_direction_lanes(side) + 1);
+    const double y0 = side * sc.road.lane_width_m * (sc.road.same_direction_lanes(side) + 1);
     const double lane = lane_change(std::abs(y0), v, lim);
     // The share of the lane change after which it is in the ego path.
     const double inside = 1.0 - sc.path_half(size.width) / std::abs(y0);
@@ -80,14 +87,16 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
     const double far =
         std::min({110.0, near + 20.0, front + closing * (sc.horizon - 0.5 + req.aim * sc.target)});
     if (near > far)
-      return {nullptr, "it cannot come from " + hf::fixed_text(near, 1) + " m within the horizon"};
+      return {nullptr,
+              {hf::refusal::kTtcUnreachable,
+               "it cannot come from " + hf::fixed_text(near, 1) + " m within the horizon", "oncoming_overtaker"}};
     const double x0 = d.uniform(near, far);
     const double swerve = (x0 - front) / closing - ttc_in - to_path;
     const std::string side_name = side > 0 ? "left" : "right";
     hf::Json spec = hf::hazard::proposal_spec(
         "oncoming_overtaker", cls, x0, y0, side_name, v, 180.0,
         "comes towards the ego in the oncoming lane and swerves into the ego lane to overtake", sc.target);
-    spec["extra"]["swerve_after_s"] = hf::hazard::round_to(swerve, 0.05);
+    swerve_after().set(spec, hf::hazard::round_to(swerve, 0.05));
     spec["rationale"] = "An oncoming " + cls + " " + hf::fixed_text(x0, 1) + " m ahead at " +
                         hf::fixed_text(v, 1) + " m/s pulls out to overtake into the ego lane; closing at " +
                         hf::fixed_text(closing, 1) + " m/s the TTC falls below the target.";
@@ -96,35 +105,37 @@ class OncomingOvertaker : public hf::hazard::KindTemplate<OncomingOvertaker> {
 
  protected:
   hf::hazard::Design design(const hf::hazard::PlanRequest& req,
-                            std::vector<std::string>& reasons) const override {
+                            std::vector<hf::Refusal>& reasons) const override {
     const hf::HazardSpec& spec = req.spec;
+    auto refuse = [&](const char* code, std::string text) {
+      reasons.push_back({code, std::move(text), "oncoming_overtaker"});
+    };
     const int side = req.side_sign();
     const int oncoming = req.road.oncoming_side();
     if (side != oncoming || req.road.oncoming_lanes_on(oncoming) == 0) {
-      reasons.push_back("side '" + spec.side + "' carries no oncoming traffic (oncoming_lanes " +
+      refuse(hf::refusal::kSceneLacks, "side '" + spec.side + "' carries no oncoming traffic (oncoming_lanes " +
                         std::to_string(req.road.oncoming_lanes) + ", traffic keeps " + req.road.driving_side +
                         ")");
       return {};
     }
     const double y0 = spec.lateral_offset_m;
     if (req.road.same_direction_at(y0) || req.road.lane_at(y0) == 0)
-      reasons.push_back("the start y=" + num_text(y0) + " m is not in an oncoming lane");
+      refuse(hf::refusal::kPlacement, "the start y=" + num_text(y0) + " m is not in an oncoming lane");
     const double v = spec.speed_mps;
-    if (v < 1.0) reasons.push_back("speed_mps " + num_text(v) + " is too slow to overtake (at least 1 m/s)");
+    if (v < 1.0) refuse(hf::refusal::kSpec, "speed_mps " + num_text(v) + " is too slow to overtake (at least 1 m/s)");
     if (std::abs(std::abs(spec.heading_deg) - 180.0) > 10.0)
-      reasons.push_back("heading_deg " + num_text(spec.heading_deg) +
+      refuse(hf::refusal::kSpec, "heading_deg " + num_text(spec.heading_deg) +
                         " does not come towards the ego (about 180)");
     double swerve = 0;
-    if (spec.extra.contains("swerve_after_s")) {
-      if (!spec.extra["swerve_after_s"].is_number()) {
-        reasons.push_back("extra.swerve_after_s must be a number");
-        return {};
-      }
-      swerve = spec.extra["swerve_after_s"].get<double>();
+    try {
+      swerve = swerve_after().get(spec).value_or(0.0);
+    } catch (const hf::Error& e) {
+      refuse(hf::refusal::kSpec, e.what());
+      return {};
     }
-    if (swerve < 0) reasons.push_back("extra.swerve_after_s " + num_text(swerve) + " is negative");
+    if (swerve < 0) refuse(hf::refusal::kSpec, "extra.swerve_after_s " + num_text(swerve) + " is negative");
     if (req.gap(spec.initial_distance_m, req.size_lwh[0], 0.0) <= 0)
-      reasons.push_back("initial_distance_m " + num_text(spec.initial_distance_m) +
+      refuse(hf::refusal::kPlacement, "initial_distance_m " + num_text(spec.initial_distance_m) +
                         " is not ahead of the ego");
     if (!reasons.empty()) return {};
     const double lane = lane_change(std::abs(y0), v, req.limits);

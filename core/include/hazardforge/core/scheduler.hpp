@@ -39,6 +39,13 @@ struct NodeTiming {
   std::vector<double> process_cpu_s;  // per frame: CPU time of the node's own thread during process()/next()
 };
 
+// A stage that ended the run because no hazard fits the scene (NoHazardFits), with its typed reasons.
+struct NodeRefusal {
+  std::string node;
+  int64_t frame = -1;  // the frame it was processing (-1 = at open or finish)
+  std::vector<Refusal> reasons;
+};
+
 struct RunResult {
   int64_t frames = 0;       // frames the source produced
   double wall_s = 0.0;
@@ -48,6 +55,7 @@ struct RunResult {
   std::vector<std::filesystem::path> resources;
   std::vector<std::string> log;  // warnings and errors stages logged
   std::vector<std::string> incomplete;  // "node 'x': reason" for inputs a stage could use only in part
+  std::vector<NodeRefusal> refusals;     // also in errors, as text
   bool ok() const { return errors.empty(); }
 };
 

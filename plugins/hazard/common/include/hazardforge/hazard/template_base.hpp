@@ -14,32 +14,14 @@
 
 namespace hf::hazard {
 
-// The road, in road coordinates (EgoPath): the ego lane is centred on the ego's path (d = 0), lanes and kerbs
-// run parallel to it. With a straight ego path that is a straight road along the anchor frame's x axis.
-struct RoadModel {
-  double lane_width = 3.5;
-  int lanes_left = 1;
-  int lanes_right = 1;
-  double kerb_offset = 0.5;  // where pedestrians wait, beyond the road edge (m)
-  std::string driving_side = "right";  // the side traffic keeps to
-  // Of the lanes on the side away from the driving side (the left when traffic keeps right), how many carry
-  // oncoming traffic: the outermost ones, beyond any lanes going the ego's way. 0 = every lane goes its way.
-  int oncoming_lanes = 0;
-  // |y| of the road edge on a side (+1 = left, -1 = right).
-  double edge(int side) const { return lane_width * (0.5 + (side > 0 ? lanes_left : lanes_right)); }
-  int lanes(int side) const { return side > 0 ? lanes_left : lanes_right; }
-  // +1 / -1: the side oncoming traffic passes on (left when traffic keeps right).
-  int oncoming_side() const { return driving_side == "left" ? -1 : 1; }
-  // Lanes on a side going the ego's way (next to the ego lane) and with oncoming traffic (beyond them).
-  int same_direction_lanes(int side) const;
-  int oncoming_lanes_on(int side) const;
-  // The lane a lateral offset lies in: 0 = the ego lane, +-k = the k-th lane to the left/right; beyond the road
-  // edge the lane count + 1 (kerb side).
-  int lane_at(double y) const;
-  // Whether traffic in the lane at offset y goes the ego's way (the ego lane and same-direction lanes).
-  bool same_direction_at(double y) const;
+// The road a template plans on: the scene's settled RoadLayout (SceneContext::road), else the template's own
+// params (scene-bound: road.lanes_left ...) with the recording's lane markings. Road coordinates (EgoPath): the
+// ego lane is centred on the ego's path (d = 0), lanes and kerbs run parallel to it.
+struct RoadModel : RoadLayout {
   static std::vector<ParamSpec> params();
   static RoadModel from(const Params& p);
+  // A settled road: every fact as the layout says (nothing is applied to it further).
+  static RoadModel from(const RoadLayout& layout);
   // Which of lanes_left, lanes_right, oncoming_lanes and driving_side were stated (params, scene block)
   // rather than defaults.
   bool lanes_left_stated = false, lanes_right_stated = false, oncoming_stated = false;
@@ -84,7 +66,7 @@ struct PlanRequest {
   double duration = 0;   // s
   const Params& params;  // the template's validated params
   const EgoPath& ego;    // where the ego goes: the recorded track, or straight at ego_speed
-  // A hazard already under way (extra.under_way_s): the design starts under_way s before the anchor time and
+  // A hazard already under way (HazardSpec::under_way_s): the design starts under_way s before the anchor time and
   // `ego` is the ego's path from there; `anchor_ego` is its path from the anchor time, where the recording
   // (and the camera's view of the hazard) begins. Without: under_way 0 and anchor_ego = &ego.
   double under_way = 0;
@@ -122,7 +104,7 @@ BoxView view_from_anchor(const PlanRequest& req, double s, double d, double rel_
 // The planned hazard and, when infeasible, why.
 struct PlanOutcome {
   HazardTrajectory trajectory;
-  std::vector<std::string> reasons;
+  std::vector<Refusal> reasons;
   std::vector<TtcSample> ttc;  // per sample
   MotionStats stats;
   Json notes = Json::object();
@@ -137,7 +119,7 @@ class TemplateBase : public HazardTemplate {
   static ComponentInfo base_info(const HazardKindInfo& kind, const std::string& doc = {});
 
   void open(const Params& params) override;
-  std::vector<std::string> check(const HazardSpec& spec, const SceneContext& scene) const override;
+  std::vector<Refusal> check(const HazardSpec& spec, const SceneContext& scene) const override;
   // Throws hf::Error listing the reasons when the spec is infeasible.
   HazardTrajectory plan(const HazardSpec& spec, const SceneContext& scene) const override;
   // Both at once, with the TTC series and peak stats (for reports and tests).
@@ -146,6 +128,9 @@ class TemplateBase : public HazardTemplate {
   const LimitsTable& limits() const { return limits_; }
   const ClassPriors& class_sizes() const { return sizes_; }
   const RoadModel& road() const { return road_; }
+  // The road this template plans on in a scene: the scene's settled road, else its own with the scene's lane
+  // markings.
+  RoadModel road_in(const SceneContext& scene) const;
   const TtcConventions& ttc_conventions() const { return ttc_; }
   // The ego's motion this template plans against from the scene's time on: the recorded track when the scene
   // carries one (and ego_plan allows it), else straight on at the scene's ego speed (0 when unknown).
@@ -156,10 +141,19 @@ class TemplateBase : public HazardTemplate {
   virtual std::vector<std::string> allowed_classes() const { return {}; }
   // Most hazards must be in view when they start; a cut-in starts beside or behind the ego instead.
   virtual bool start_must_be_visible() const { return true; }
-  // Designs the motion, or appends human-readable reasons (and returns an empty motion) when it cannot.
-  virtual Design design(const PlanRequest& req, std::vector<std::string>& reasons) const = 0;
+  // Designs the motion, or appends typed reasons (and returns an empty motion) when it cannot.
+  virtual Design design(const PlanRequest& req, std::vector<Refusal>& reasons) const = 0;
 
  private:
+  // The spec's own checks (scene data, class, limits of its numbers, under_way_s).
+  std::vector<Refusal> spec_reasons(const HazardSpec& spec, const SceneContext& scene) const;
+  // The design sampled from the anchor time on, mapped into the anchor frame, with the ego's plan.
+  HazardTrajectory sample(const Design& d, const HazardSpec& spec, const SceneContext& scene, const EgoPath& ego,
+                          double under_way, double ego_shift, const cv::Vec3d& size_lwh) const;
+  // An under-way design from its start to the plan's last sample, in the frame of the ego at its start.
+  std::vector<TrajectoryPoint> whole_manoeuvre(const Design& d, const HazardTrajectory& tr,
+                                               const EgoPath& design_ego, double under_way) const;
+
   Params params_;
   LimitsTable limits_;
   ClassPriors sizes_;
