@@ -491,36 +491,25 @@ std::string reasons_digest(const Json& reasons, size_t max_chars) {
   return out;
 }
 
-// A refusal whose every reason is a road user of this moment (a planned path running into a tracked object, a
-// start overlapping a detected one) says nothing about the scene: another window has other traffic.
-bool refusal_is_only_traffic(const std::string& reason) {
-  const size_t at = reason.find("no hazard fits this scene");
-  if (at == std::string::npos) return false;
-  const size_t kinds = reason.find("): ", at);  // after "(allowed kinds: ...)"
-  const std::string why = reason.substr(kinds == std::string::npos ? at : kinds + 3);
-  size_t from = 0;
-  bool any = false;
-  while (from < why.size()) {
-    size_t to = why.find("; ", from);
-    if (to == std::string::npos) to = why.size();
-    const std::string part = why.substr(from, to - from);
-    if (part.find("the tracked ") == std::string::npos && part.find("the detected ") == std::string::npos)
-      return false;
-    any = true;
-    from = to + 2;
-  }
-  return any;
+std::vector<Refusal> attempt_refusals(const Json& attempt) {
+  std::vector<Refusal> out;
+  if (!attempt.is_object() || !attempt.contains("refusals") || !attempt["refusals"].is_array()) return out;
+  for (const Json& r : attempt["refusals"])
+    if (r.is_object()) out.push_back(r.get<Refusal>());
+  return out;
 }
 
 bool refused_for_traffic(const Json& attempt) {
   if (!attempt.is_object() || attempt.value("outcome", "") != "no hazard") return false;
-  bool any = false;
-  for (const Json& reason : attempt.value("reasons", Json::array())) {
-    if (!reason.is_string() || reason.get<std::string>().rfind("node 'generator'", 0) != 0) continue;
-    if (!refusal_is_only_traffic(reason.get<std::string>())) return false;
-    any = true;
-  }
-  return any;
+  return only_traffic(attempt_refusals(attempt));
+}
+
+std::set<std::string> scene_refusal(const Json& attempt) {
+  std::set<std::string> r;
+  if (!attempt.is_object() || attempt.value("outcome", "") != "no hazard") return r;
+  for (const Refusal& f : attempt_refusals(attempt))
+    if (f.code != refusal::kTraffic) r.insert(f.kind.empty() ? f.code : f.kind + ":" + f.code);
+  return r;
 }
 
 const CampaignWindow& next_window(const std::vector<CampaignWindow>& windows,
@@ -618,30 +607,14 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
   if (p.attempts.size() >= 2) {
     const Json& a = p.attempts[p.attempts.size() - 2];
     const Json& b = p.attempts.back();
-    auto refusal = [](const Json& x) {
-      std::set<std::string> r;
-      if (x.value("outcome", "") != "no hazard") return r;
-      const Json reasons = x.value("reasons", Json::array());
-      // The generator's own error says why; the verifier's "no hazard was inserted" only repeats that it did.
-      bool own = false;
-      for (const Json& reason : reasons)
-        if (reason.is_string() && reason.get<std::string>().rfind("node 'generator'", 0) == 0) own = true;
-      for (const Json& reason : reasons) {
-        if (!reason.is_string()) continue;
-        const std::string& why = reason.get<std::string>();
-        if (own ? why.rfind("node 'generator'", 0) != 0 : why.find("generator") == std::string::npos)
-          continue;
-        if (refusal_is_only_traffic(why)) continue;
-        r.insert(reason_class(why));
-      }
-      return r;
-    };
-    const auto ra = refusal(a), rb = refusal(b);
+    const auto ra = scene_refusal(a), rb = scene_refusal(b);
     if (!ra.empty() && ra == rb && a["window"]["trigger_frame"] != b["window"]["trigger_frame"]) {
-      std::string shown = *rb.begin();  // the generator's own error says most
-      for (const std::string& r : rb)
-        if (r.find("node 'generator'") != std::string::npos) shown = r;
-      *why = "the generator refuses this kind in this scene: " + shown;
+      std::vector<Refusal> shown;
+      for (const Refusal& r : attempt_refusals(b))
+        if (r.code != refusal::kTraffic) shown.push_back(r);
+      std::string codes;
+      for (const std::string& c : rb) codes += (codes.empty() ? "" : ", ") + c;
+      *why = "the generator refuses this kind in this scene (" + codes + "): " + refusal_text(shown);
       return std::nullopt;
     }
   }
@@ -735,6 +708,12 @@ Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, doubl
   }
   const Json m = read_json(a.dir / "manifest.json");
   e["status"] = m.is_object() ? m.value("status", "missing") : "missing";
+  if (m.is_object() && m.contains("refusals") && m["refusals"].is_array()) {
+    e["refusals"] = Json::array();
+    for (const Json& r : m["refusals"])
+      if (r.is_object() && r.contains("reasons") && r["reasons"].is_array())
+        for (const Json& reason : r["reasons"]) e["refusals"].push_back(reason);
+  }
   if (ex.exit_code != 0) {
     e["passed"] = false;
     if (m.is_object() && m.contains("errors"))
@@ -803,7 +782,7 @@ void wait_for_survivor(const Planned& a, const fs::path& out, bool quiet) {
 
 Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) {
   Json by_kind = Json::object(), by_rec = Json::object();
-  std::map<std::string, int> reasons;
+  std::map<std::string, int> reasons, refusal_codes;
   int attempts = 0, verified_attempts = 0, verified_pairs = 0, spurious_passes = 0, with_spurious = 0;
   double cpu = scout_cpu;
   for (const Pair& p : pairs) {
@@ -822,9 +801,15 @@ Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) 
       // A spurious pass: verified without a single Unsafe frame attributed to the hazard.
       if (a.value("passed", false) && a.value("hazard_critical_frames", 0) == 0) ++spurious_passes;
       if (a.value("passed", false) && !a.value("spurious_frames", Json::array()).empty()) ++with_spurious;
-      if (!a.value("passed", false))
-        for (const Json& r : a.value("reasons", Json::array()))
-          if (r.is_string()) ++reasons[reason_class(r.get<std::string>())];
+      if (a.value("passed", false)) continue;
+      if (const std::vector<Refusal> refused = attempt_refusals(a); !refused.empty()) {
+        std::set<std::string> codes;  // each code once per attempt
+        for (const Refusal& r : refused) codes.insert(r.code);
+        for (const std::string& c : codes) ++refusal_codes[c];
+        continue;
+      }
+      for (const Json& r : a.value("reasons", Json::array()))
+        if (r.is_string()) ++reasons[reason_class(r.get<std::string>())];
     }
   }
   for (Json* table : {&by_kind, &by_rec})
@@ -850,7 +835,8 @@ Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) 
           {"wall_s", wall_s},
           {"by_kind", by_kind},
           {"by_recording", by_rec},
-          {"failure_reasons", rs}};
+          {"failure_reasons", rs},
+          {"refusal_codes", refusal_codes}};
 }
 
 std::string summary_markdown(const CampaignSpec& s, const Json& sum, const std::vector<Pair>& pairs) {
@@ -884,6 +870,11 @@ std::string summary_markdown(const CampaignSpec& s, const Json& sum, const std::
       md << "| " << it.key() << " | " << (*it)["verified_pairs"].get<int>() << " / " << (*it)["pairs"].get<int>()
          << " | " << (*it)["attempts"].get<int>() << " | " << (*it)["verified_attempts"].get<int>() << " | "
          << fixed(100 * (*it)["yield"].get<double>(), 0) << " % |\n";
+  }
+  if (!sum["refusal_codes"].empty()) {
+    md << "\n| generator refusal (code) | attempts |\n|---|---:|\n";
+    for (auto it = sum["refusal_codes"].begin(); it != sum["refusal_codes"].end(); ++it)
+      md << "| " << it.key() << " | " << it.value().get<int>() << " |\n";
   }
   if (!sum["failure_reasons"].empty()) {
     md << "\n| failure reason (numbers left out) | attempts |\n|---|---:|\n";

@@ -178,34 +178,37 @@ TEST(CampaignReasons, TheSummaryShowsTheReasonsThatSayWhyOnce) {
   EXPECT_EQ(d, std::string(40, 'x') + " ...");
 }
 
-TEST(CampaignReasons, ARefusalForTrafficDoesNotSayTheSceneForbidsTheKind) {
-  const std::string head =
-      "node 'generator': frame 21: offline: no hazard fits this scene (allowed kinds: cut_in): ";
-  // Road users of that moment: another window has other traffic.
-  EXPECT_TRUE(refusal_is_only_traffic(
-      head +
-      "cut_in: the planned path of the car runs into the tracked car (track 6, predicted at constant "
-      "velocity): 1.3 s after it appears the car would be at (x 11.1, y 3.47) m. Place it where its path "
-      "stays clear of the tracked objects"));
-  EXPECT_TRUE(refusal_is_only_traffic(
-      head +
-      "cut_in: start point (x 1.4 m, y 3.5 m) overlaps the detected car (track 1) at x 4.46 m, y 4.18 m; "
-      "the planned path of the car runs into the tracked truck (track 3)"));
-  // What the scene is, alone or beside traffic: the pair stops when it repeats.
-  EXPECT_FALSE(refusal_is_only_traffic(head + "cut_in: the road has a single lane"));
-  EXPECT_FALSE(refusal_is_only_traffic(
-      head +
-      "cut_in: start point (x 1.4 m, y 3.5 m) overlaps the detected car (track 1) at x 4.46 m, y 4.18 m; "
-      "hazard template 'cut_in': the lane change needs 3.97 s but the vehicle reaches its cut-in point "
-      "3.82 s after the hazard starts"));
-  EXPECT_FALSE(refusal_is_only_traffic("the scene never becomes Unsafe while the hazard is visible"));
+// A finished attempt as index.json holds it: its window, and whether the generator refused it and with which
+// typed reasons (the run manifest's refusals).
+Json attempt_at(const CampaignWindow& w, const std::string& outcome, const std::vector<Refusal>& refused) {
+  Json a = {{"window", {{"trigger_frame", w.trigger}, {"t_s", w.t}}},
+            {"outcome", outcome},
+            {"reasons", Json::array({"no hazard was inserted: no planned trajectory arrived"})}};
+  if (!refused.empty()) a["refusals"] = refused;
+  return a;
 }
 
-// A finished attempt as index.json holds it: its window, and whether the generator refused it and why.
-Json attempt_at(const CampaignWindow& w, const std::string& outcome, const std::string& reason) {
-  return {{"window", {{"trigger_frame", w.trigger}, {"t_s", w.t}}},
-          {"outcome", outcome},
-          {"reasons", Json::array({"no hazard was inserted: no planned trajectory arrived", reason})}};
+TEST(CampaignReasons, ARefusalForTrafficDoesNotSayTheSceneForbidsTheKind) {
+  CampaignWindow w;
+  w.trigger = 21;
+  const Refusal traffic{refusal::kTraffic, "cut_in: start point overlaps the detected car (track 1)", "cut_in"};
+  const Refusal path{refusal::kTraffic, "cut_in: the planned path runs into the tracked truck (track 3)",
+                     "cut_in"};
+  const Refusal scene{refusal::kSceneLacks, "cut_in: the road has a single lane", "cut_in"};
+  const Refusal timing{refusal::kPlacement, "cut_in: the lane change needs 3.97 s", "cut_in"};
+  // Road users of that moment: another window has other traffic.
+  EXPECT_TRUE(refused_for_traffic(attempt_at(w, "no hazard", {traffic})));
+  EXPECT_TRUE(refused_for_traffic(attempt_at(w, "no hazard", {traffic, path})));
+  EXPECT_TRUE(scene_refusal(attempt_at(w, "no hazard", {traffic, path})).empty());
+  // What the scene is, alone or beside traffic: the pair stops when it repeats.
+  EXPECT_FALSE(refused_for_traffic(attempt_at(w, "no hazard", {scene})));
+  EXPECT_FALSE(refused_for_traffic(attempt_at(w, "no hazard", {traffic, timing})));
+  EXPECT_EQ(scene_refusal(attempt_at(w, "no hazard", {traffic, timing, scene})),
+            (std::set<std::string>{"cut_in:placement", "cut_in:scene_lacks"}));
+  // Not refused at all (drawn, then not verified), or refused without typed reasons: neither.
+  EXPECT_FALSE(refused_for_traffic(attempt_at(w, "not verified", {traffic})));
+  EXPECT_FALSE(refused_for_traffic(attempt_at(w, "no hazard", {})));
+  EXPECT_TRUE(scene_refusal(attempt_at(w, "failed", {scene})).empty());
 }
 
 TEST(CampaignWindows, AfterARefusalForTrafficTheNextAttemptWaitsForTheTrafficToMoveOn) {
@@ -216,11 +219,9 @@ TEST(CampaignWindows, AfterARefusalForTrafficTheNextAttemptWaitsForTheTrafficToM
     w[i].trigger = static_cast<int64_t>(std::lround(t[i] * 10));
     w[i].t = t[i];
   }
-  const std::string gen =
-      "node 'generator': frame 21: offline: no hazard fits this scene (allowed kinds: cut_in): ";
-  const std::string traffic =
-      gen + "cut_in: start point (x 2.9 m, y 3.5 m) overlaps the detected car (track 3)";
-  const std::string scene = gen + "cut_in: the road has a single lane";
+  const std::vector<Refusal> traffic = {
+      {refusal::kTraffic, "cut_in: start point (x 2.9 m, y 3.5 m) overlaps the detected car (track 3)", "cut_in"}};
+  const std::vector<Refusal> scene = {{refusal::kSceneLacks, "cut_in: the road has a single lane", "cut_in"}};
   std::vector<Json> done;
   EXPECT_EQ(next_window(w, done, s).trigger, 21);  // the best window first
   // Refused for a car beside the ego: not the same moment again, nor 0.2 s later; the best one >= 1 s later.
@@ -232,7 +233,7 @@ TEST(CampaignWindows, AfterARefusalForTrafficTheNextAttemptWaitsForTheTrafficToM
   // Any other outcome keeps the window for its second seed, then goes on in rank order.
   done = {attempt_at(w[0], "no hazard", scene)};
   EXPECT_EQ(next_window(w, done, s).trigger, 21);
-  done.push_back(attempt_at(w[0], "failed", "the scene never becomes Unsafe while the hazard is visible"));
+  done.push_back(attempt_at(w[0], "failed", {}));
   EXPECT_EQ(next_window(w, done, s).trigger, 23);
   // Traffic at the last window with no later one left: the best window with seeds left.
   done = {attempt_at(w[4], "no hazard", traffic)};
@@ -240,7 +241,7 @@ TEST(CampaignWindows, AfterARefusalForTrafficTheNextAttemptWaitsForTheTrafficToM
   // Every window had its seeds: they repeat in rank order.
   done.clear();
   for (const CampaignWindow& x : w)
-    for (int k = 0; k < s.seeds_per_window; ++k) done.push_back(attempt_at(x, "failed", "not Unsafe"));
+    for (int k = 0; k < s.seeds_per_window; ++k) done.push_back(attempt_at(x, "failed", {}));
   EXPECT_EQ(next_window(w, done, s).trigger, 21);
   EXPECT_FALSE(refused_for_traffic(attempt_at(w[0], "failed", traffic)));  // it was drawn: not a refusal
   EXPECT_TRUE(refused_for_traffic(attempt_at(w[0], "no hazard", traffic)));

@@ -5,11 +5,13 @@
 #include <atomic>
 #include <filesystem>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "hazardforge/core/host.hpp"
+#include "hazardforge/refusal.hpp"
 
 namespace hf::core {
 
@@ -81,17 +83,21 @@ struct CampaignWindow {
 // one moved to the end.
 std::vector<CampaignWindow> candidate_windows(const std::vector<ScoutFrame>& frames, const CampaignSpec& spec);
 
-// Whether a generator's refusal names only road users of that moment (a planned path running into a tracked
-// object, a start overlapping a detected one): such a refusal at two trigger frames does not stop a pair,
-// another window has other traffic; a refusal for what the scene is (a single lane, no sidewalks) does.
-bool refusal_is_only_traffic(const std::string& reason);
+// The typed reasons a finished attempt (an index.json entry) was refused for: its run's manifest `refusals`
+// (NoHazardFits), copied into the entry's "refusals".
+std::vector<Refusal> attempt_refusals(const Json& attempt);
 
-// Whether a finished attempt (an index.json entry) ended without a hazard because the generator refused, for
-// reasons that all name road users of that moment (refusal_is_only_traffic).
+// Whether a finished attempt ended without a hazard because the generator refused it for road users of that
+// moment only (every reason refusal::kTraffic): another window has other traffic, so such a refusal at two
+// trigger frames does not stop a pair; a refusal for what the scene is (scene_lacks, ...) does.
 bool refused_for_traffic(const Json& attempt);
 
+// The codes (with their kinds) of an attempt's refusal other than traffic: two attempts at different
+// trigger frames refused for the same ones end the pair.
+std::set<std::string> scene_refusal(const Json& attempt);
+
 // The window of a pair's next attempt, from its finished attempts in order (index.json entries: "window" with
-// "trigger_frame" and "t_s", "outcome", "reasons"): seeds_per_window attempts at a window, windows in rank
+// "trigger_frame" and "t_s", "outcome", "refusals"): seeds_per_window attempts at a window, windows in rank
 // order; after a refusal for traffic, the best-ranked window at least traffic_wait_s later with seeds left
 // (the ego has moved on, and the traffic with it). Once every window has had its seeds, they repeat in rank
 // order.
