@@ -558,6 +558,56 @@ void to_json(Json& j, const Frame& v) {
        {"origin", v.origin},    {"meta", v.meta}};
 }
 
+void to_json(Json& j, const VerificationOutcome& v) {
+  auto opt = [](const auto& x) { return x ? Json(*x) : Json(); };
+  Json texts = Json::array(), codes = Json::array(), spurious = Json::array();
+  for (const Refusal& r : v.reasons) {
+    texts.push_back(r.text);
+    codes.push_back(r.code);
+  }
+  for (int64_t f : v.spurious_frames) spurious.push_back({{"frame", f}});
+  j = {{"passed", v.passed},
+       {"reasons", texts},
+       {"reason_codes", codes},
+       {"kind", v.kind},
+       {"object_class", v.object_class},
+       {"ttc",
+        {{"intended_min_ttc_visible_s", opt(v.intended_min_ttc_s)},
+         {"achieved_min_ttc_s", opt(v.achieved_min_ttc_s)},
+         {"achieved_at_frame", opt(v.achieved_at_frame)}}},
+       {"unsafe", {{"attributed_frames", v.hazard_critical_frames}, {"spurious_frames", spurious}}},
+       {"redetection", {{"rate", opt(v.redetection_rate)}}}};
+}
+
+void from_json(const Json& j, VerificationOutcome& v) {
+  if (!j.is_object()) throw Error("a verification outcome must be an object, got " + j.dump());
+  v = VerificationOutcome{};
+  auto number = [](const Json& o, const char* key, const std::string& where) -> std::optional<double> {
+    if (!o.is_object() || !o.contains(key) || o[key].is_null()) return std::nullopt;
+    if (!o[key].is_number()) throw Error(where + key + " must be a number or null, got " + o[key].dump());
+    return o[key].get<double>();
+  };
+  if (!j.contains("passed") || !j["passed"].is_boolean()) throw Error("passed must be true or false");
+  v.passed = j["passed"].get<bool>();
+  const Json texts = j.value("reasons", Json::array()), codes = j.value("reason_codes", Json::array());
+  for (size_t k = 0; k < texts.size(); ++k) {
+    if (!texts[k].is_string()) throw Error("reasons[" + std::to_string(k) + "] must be a string");
+    v.reasons.push_back({k < codes.size() && codes[k].is_string() ? codes[k].get<std::string>() : std::string(),
+                         texts[k].get<std::string>(), j.value("kind", std::string())});
+  }
+  v.kind = j.value("kind", std::string());
+  v.object_class = j.value("object_class", std::string());
+  const Json ttc = j.value("ttc", Json::object()), unsafe = j.value("unsafe", Json::object());
+  v.intended_min_ttc_s = number(ttc, "intended_min_ttc_visible_s", "ttc.");
+  v.achieved_min_ttc_s = number(ttc, "achieved_min_ttc_s", "ttc.");
+  if (const auto f = number(ttc, "achieved_at_frame", "ttc.")) v.achieved_at_frame = static_cast<int64_t>(*f);
+  v.hazard_critical_frames = static_cast<int>(number(unsafe, "attributed_frames", "unsafe.").value_or(0));
+  for (const Json& s : unsafe.value("spurious_frames", Json::array()))
+    if (s.is_object() && s.contains("frame") && s["frame"].is_number_integer())
+      v.spurious_frames.push_back(s["frame"].get<int64_t>());
+  v.redetection_rate = number(j.value("redetection", Json::object()), "rate", "redetection.");
+}
+
 int RoadLayout::lane_at(double y) const {
   const int side = y >= 0 ? 1 : -1;
   const double from_centre = std::abs(y) - lane_width_m / 2;

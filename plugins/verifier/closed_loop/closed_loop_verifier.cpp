@@ -73,7 +73,8 @@ ComponentInfo ClosedLoopVerifier::describe() {
                   "independent_detections",
                   "an independent detector's detections on the augmented frames (reported, never "
                   "part of the verdict)"))};
-  i.outputs = {port<Record>("records", "per-frame verification records and the final summary")};
+  i.outputs = {port<Record>("records", "per-frame verification records and the final summary"),
+               port<VerificationOutcome>("outcome", "the scenario's verdict, typed, once at finish")};
   i.params = {
       ParamSpec::number("min_iou", 0.5)
           .range(0.01, 1)
@@ -427,24 +428,26 @@ Json ClosedLoopVerifier::takeover_json() const {
 }
 
 Json ClosedLoopVerifier::summary() const {
-  std::vector<std::string> reasons;
+  VerificationOutcome o;
+  std::vector<Refusal>& reasons = o.reasons;
+  auto fail = [&](const char* code, std::string text) { reasons.push_back({code, std::move(text), kind_}); };
   const double rate = counted_ > 0 ? static_cast<double>(redetected_) / counted_ : 0.0;
   const int partly = visible_ - counted_;
   const double intended =
       std::isfinite(intended_visible_min_) ? intended_visible_min_ : intended_traj_min_.value_or(kInf);
   if (visible_ == 0 && !trajectory_seen_ && kind_.empty()) {
-    reasons.push_back(
-        "no hazard was inserted: no planned trajectory arrived (the generator or the planner "
+    fail(verdict::kNoHazard,
+         "no hazard was inserted: no planned trajectory arrived (the generator or the planner "
         "produced none; the run's log says why)");
   } else if (visible_ == 0) {
-    reasons.push_back("the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
+    fail(verdict::kNeverVisible, "the inserted object is never visible (0 of " + std::to_string(frames_) + " frames)");
   } else if (counted_ == 0) {
-    reasons.push_back("the inserted object is never at least " + num_text(min_visible_share_) +
+    fail(verdict::kNeverVisible, "the inserted object is never at least " + num_text(min_visible_share_) +
                       " in view (min_visible_share): at most " + num_text(best_share_) +
                       " of it is seen in its " + std::to_string(visible_) +
                       " visible frames, too little to expect a detection");
   } else if (rate < min_rate_) {
-    reasons.push_back("re-detection rate " + num_text(rate) + " is below min_redetection_rate " +
+    fail(verdict::kNotRedetected, "re-detection rate " + num_text(rate) + " is below min_redetection_rate " +
                       num_text(min_rate_) + " (" + std::to_string(redetected_) + " of " +
                       std::to_string(counted_) + " visible frames with IoU >= " + num_text(min_iou_) +
                       (partly > 0 ? "; " + std::to_string(partly) + " more with less than " +
@@ -457,45 +460,51 @@ Json ClosedLoopVerifier::summary() const {
                       : chosen_ttc_metric_.empty()
                           ? "no TTC metric among the risk streams"
                           : "minimum scene TTC " + num_text(achieved_min_ttc_) + " s";
-    reasons.push_back("the scene never becomes Unsafe while the hazard is visible (" + why + ")");
+    fail(verdict::kNeverUnsafe, "the scene never becomes Unsafe while the hazard is visible (" + why + ")");
   }
   if (require_critical_ && visible_ > 0 && first_unsafe_frame_ && !first_unsafe_critical_frame_) {
     int other = 0, plan = 0;
     for (const auto& [f, why] : spurious_frames_)
       (why.find("not the critical track") != std::string::npos ? other : plan)++;
-    reasons.push_back(
+    fail(verdict::kNotHazardCritical,
         "none of the " + std::to_string(unsafe_frames_) + " Unsafe visible frames is the hazard's: " +
         std::to_string(other) + " with another object critical, " + std::to_string(plan) +
         " where the plan does not make the hazard critical (spurious Unsafe frames never pass)");
   } else if (require_critical_ && visible_ > 0 && !first_unsafe_frame_ && !require_unsafe_)
-    reasons.push_back(
+    fail(verdict::kNeverUnsafe,
         "the scene never becomes Unsafe while the hazard is visible, so the inserted object is never "
         "the cause (minimum scene TTC " +
         num_text(achieved_min_ttc_) + " s)");
   if (planned_takeover_ && !taken_track_ && visible_ > 0)
-    reasons.push_back(
+    fail(verdict::kTakeover,
         "the hazard takes over track " + std::to_string(*planned_takeover_) +
         ", but the renderer never removed the real one: it stays in the video beside the hazard");
   if (taken_track_ && taken_worst_ > max_takeover_uncovered_)
-    reasons.push_back("the taken-over real object (track " + std::to_string(*taken_track_) +
+    fail(verdict::kTakeover, "the taken-over real object (track " + std::to_string(*taken_track_) +
                       ") is not hidden by the hazard drawn in its place: " + num_text(taken_worst_) +
                       " of its box shows the inpainted fill at frame " + std::to_string(taken_worst_frame_) +
                       " (max_takeover_uncovered " + num_text(max_takeover_uncovered_) + ")");
   const double ttc_err = std::abs(achieved_min_ttc_ - intended);
   if (max_ttc_error_ >= 0 && visible_ > 0) {
     if (!std::isfinite(achieved_min_ttc_) || !std::isfinite(intended))
-      reasons.push_back("cannot compare TTC: achieved minimum " + num_text(achieved_min_ttc_) +
+      fail(verdict::kTtcError, "cannot compare TTC: achieved minimum " + num_text(achieved_min_ttc_) +
                         " s, intended " + num_text(intended) + " s");
     else if (ttc_err > max_ttc_error_)
-      reasons.push_back("achieved minimum TTC " + num_text(achieved_min_ttc_) + " s is " + num_text(ttc_err) +
+      fail(verdict::kTtcError, "achieved minimum TTC " + num_text(achieved_min_ttc_) + " s is " + num_text(ttc_err) +
                         " s away from the intended " + num_text(intended) + " s (max_ttc_error_s " +
                         num_text(max_ttc_error_) + ")");
   }
-  Json j;
-  j["passed"] = reasons.empty();
-  j["reasons"] = reasons;
-  j["kind"] = kind_;
-  j["object_class"] = object_class_;
+  o.passed = reasons.empty();
+  o.kind = kind_;
+  o.object_class = object_class_;
+  if (std::isfinite(intended_visible_min_)) o.intended_min_ttc_s = intended_visible_min_;
+  if (std::isfinite(achieved_min_ttc_)) o.achieved_min_ttc_s = achieved_min_ttc_;
+  o.achieved_at_frame = achieved_at_frame_;
+  o.hazard_critical_frames = unsafe_critical_frames_;
+  for (const auto& [f, why] : spurious_frames_) o.spurious_frames.push_back(f);
+  if (counted_ > 0) o.redetection_rate = rate;
+  // The typed outcome first, then the details only this file carries.
+  Json j = o;
   j["frames"] = frames_;
   j["visible_frames"] = visible_;
   j["visible_frames_after_plan"] = visible_after_plan_;
@@ -559,6 +568,7 @@ void ClosedLoopVerifier::finish(StageContext& ctx, Outputs& out) {
           std::string("scenario ") + (s["passed"].get<bool>() ? "passed" : "failed") + " verification" +
               (s["reasons"].empty() ? std::string() : ": " + s["reasons"][0].get<std::string>()));
   out.emit("records", Record{"verification_summary", s});
+  out.emit("outcome", s.get<VerificationOutcome>());
 }
 
 }  // namespace hf

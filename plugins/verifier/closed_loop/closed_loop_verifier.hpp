@@ -19,8 +19,9 @@ namespace hf {
 // optional: for the distance check), `trajectory` (HazardTrajectory, sticky: the intended minimum TTC and the
 // object's length); the states' distances are taken from where they say they start (distance_origin_x).
 // Output: `records` (Record "verification" per frame with a hazard packet, stamped with that frame; and one
-// "verification_summary" at finish, stamped with the last frame). Writes <output>/verification.json at finish
-// (atomic). A scenario counts as generated only when `passed` is true; `reasons` says why not.
+// "verification_summary" at finish, stamped with the last frame) and `outcome` (VerificationOutcome, the
+// typed verdict, at finish). Writes <output>/verification.json at finish (atomic). A scenario counts as
+// generated only when `passed` is true; `reasons` says why not, `reason_codes` how (verdict::k*).
 // `independent_detections` (Detections, optional): an independent detector's detections on the augmented
 // frames (never used to plan or to pass), reported as `independent_redetection`. The hazard packets'
 // appearances (HazardInstance::appearance / references) are compared in `realism`; neither changes `passed`.

@@ -24,9 +24,10 @@
 // number_text.hpp. 9.0: typed contracts: Frame::origin (FrameOrigin) instead of meta keys; RoadLayout, the
 // road settled once, in SceneContext and HazardSpec; HazardSpec::track_id and under_way_s as fields, kind
 // fields through SpecField; refusals as typed codes (Refusal: HazardTemplate::check, HazardCatalog::check,
-// HazardProposal::problem, NoHazardFits::reasons); SceneContext::meta removed.
+// HazardProposal::problem, NoHazardFits::reasons); SceneContext::meta removed. 9.1: VerificationOutcome, a
+// scenario's typed verdict, with its failure codes (verdict::k*).
 #define HF_SDK_ABI_MAJOR 9
-#define HF_SDK_ABI_MINOR 0
+#define HF_SDK_ABI_MINOR 1
 #define HF_SDK_VERSION "0.1.0"
 
 #define HF_STR_INNER(x) #x

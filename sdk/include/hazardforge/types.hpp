@@ -7,6 +7,7 @@
 #pragma once
 
 #include "hazardforge/abi.hpp"
+#include "hazardforge/refusal.hpp"
 
 #include <cstdint>
 #include <limits>
@@ -469,6 +470,34 @@ struct HazardInstance {
   std::optional<TakenOver> taken_over;  // set while a taken-over real object is being removed
 };
 
+// Codes of a scenario's verification failures (VerificationOutcome::reasons), by what failed.
+namespace verdict {
+inline constexpr const char* kNoHazard = "no_hazard";          // no planned trajectory arrived
+inline constexpr const char* kNeverVisible = "never_visible";  // never drawn in view, or never enough of it
+inline constexpr const char* kNotRedetected = "not_redetected";  // re-detected in too few frames
+inline constexpr const char* kNeverUnsafe = "never_unsafe";      // the re-assessment never says Unsafe
+inline constexpr const char* kNotHazardCritical = "not_hazard_critical";  // Unsafe, but never for the hazard
+inline constexpr const char* kTakeover = "takeover";  // the taken-over real object not found or not hidden
+inline constexpr const char* kTtcError = "ttc_error";  // the achieved minimum TTC far from the intended one
+}  // namespace verdict
+
+// A scenario's verdict after its re-assessment (the closed-loop verifier's), with the numbers the campaign,
+// reports and a test of a system read. Its JSON form is the head of verification.json ("reasons" the texts,
+// "reason_codes" their codes).
+struct VerificationOutcome {
+  static constexpr const char* kTypeName = "VerificationOutcome";
+  static constexpr int kTypeVersion = 1;
+  bool passed = false;
+  std::vector<Refusal> reasons;  // why it did not pass (verdict::k* codes); empty when it passed
+  std::string kind, object_class;
+  std::optional<double> intended_min_ttc_s;  // the plan's lowest TTC while the hazard is visible
+  std::optional<double> achieved_min_ttc_s;  // the re-assessment's lowest TTC while it is visible
+  std::optional<int64_t> achieved_at_frame;
+  int hazard_critical_frames = 0;       // Unsafe frames attributed to the hazard
+  std::vector<int64_t> spurious_frames;  // Unsafe frames not attributed to it
+  std::optional<double> redetection_rate;
+};
+
 // Generic per-frame record (verification, evaluation) for sinks.
 struct Record {
   static constexpr const char* kTypeName = "Record";
@@ -500,6 +529,10 @@ void to_json(Json& j, const RoadFactSource& v);
 void to_json(Json& j, const RoadLayout& v);
 void from_json(const Json& j, RoadLayout& v);
 void to_json(Json& j, const FrameOrigin& v);
+// The fields above, in verification.json's layout (ttc.*, unsafe.*, redetection.rate); from_json reads a
+// verification.json (files without reason_codes: the reasons without codes). Throws hf::Error naming the field.
+void to_json(Json& j, const VerificationOutcome& v);
+void from_json(const Json& j, VerificationOutcome& v);
 void to_json(Json& j, const AnnotatedObject& v);
 void to_json(Json& j, const Annotations& v);
 void to_json(Json& j, const Frame& v);  // metadata only, not pixels
