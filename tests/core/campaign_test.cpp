@@ -10,11 +10,12 @@
 #include <fstream>
 
 #include "command.hpp"
-#include "hazardforge/core/campaign.hpp"
-#include "hazardforge/core/child_process.hpp"
+#include "hazardforge/apps/campaign.hpp"
+#include "hazardforge/apps/child_process.hpp"
 #include "temp_dir.hpp"
 
-namespace hf::core {
+namespace hf::apps {
+using namespace hf::core;
 namespace {
 
 // A 10 Hz recording of `n` frames, Safe, the ego at 8 m/s driving straight.
@@ -324,4 +325,4 @@ TEST(CampaignAttempts, AnAttemptThatEndedOnItsOwnIsReadBackNotRunAgain) {
 }
 
 }  // namespace
-}  // namespace hf::core
+}  // namespace hf::apps

@@ -11,7 +11,7 @@
 #include <fstream>
 
 #include "command.hpp"
-#include "hazardforge/core/commands.hpp"
+#include "hazardforge/apps/commands.hpp"
 #include "hazardforge/types.hpp"
 #include "temp_dir.hpp"
 #include "test_support.hpp"
@@ -197,7 +197,7 @@ std::string after_signals(std::initializer_list<int> signals) {
   const pid_t pid = fork();
   if (pid == 0) {
     static std::atomic<bool> flag{false};
-    hf::core::install_stop_signals(&flag);
+    hf::apps::install_stop_signals(&flag);
     for (int sig : signals) raise(sig);
     _exit(flag.load() ? 0 : 3);
   }

@@ -5,12 +5,13 @@
 
 #include <fstream>
 
-#include "hazardforge/core/commands.hpp"
+#include "hazardforge/apps/commands.hpp"
 #include "hazardforge/core/host.hpp"
 #include "test_stages.hpp"
 #include "test_support.hpp"
 
 namespace hf::core {
+using namespace hf::apps;  // the CLI's frame window
 namespace {
 
 // Each test gets its own folder: ctest runs the tests as concurrent processes.

@@ -7,12 +7,13 @@
 #include <fstream>
 #include <map>
 
-#include "hazardforge/core/campaign.hpp"
+#include "hazardforge/apps/campaign.hpp"
 #include "hazardforge/core/host.hpp"
 #include "hazardforge/yaml_json.hpp"
 #include "test_support.hpp"
 
 namespace hf::core {
+using namespace hf::apps;  // campaign files
 namespace {
 
 namespace fs = std::filesystem;

@@ -10,7 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "camera_setup.hpp"
-#include "hazardforge/core/calibration.hpp"
+#include "hazardforge/apps/calibration.hpp"
 #include "io_test_util.hpp"
 #include "test_support.hpp"
 

@@ -10,7 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "hazardforge/core/calibration.hpp"
+#include "hazardforge/apps/calibration.hpp"
 #include "folder_clock.hpp"
 #include "image_sequence_source.hpp"
 #include "synthetic_road.hpp"

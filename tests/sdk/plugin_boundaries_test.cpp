@@ -89,6 +89,26 @@ std::vector<std::string> boundary_violations(const fs::path& root) {
   return found;
 }
 
+// The host library (core/src, core/include) knows nothing of the CLI's applications (core/apps): no file of
+// it includes an apps header (the apps library links the host, not the other way round).
+std::vector<std::string> host_violations(const fs::path& root) {
+  std::vector<std::string> found;
+  const std::regex apps_include(R"re(^\s*#\s*include\s*[<"]hazardforge/apps/)re");
+  for (const char* dir : {"core/src", "core/include"}) {
+    if (!fs::exists(root / dir)) continue;
+    for (const fs::directory_entry& e : fs::recursive_directory_iterator(root / dir)) {
+      if (!e.is_regular_file() || !is_source(e.path())) continue;
+      std::ifstream in(e.path());
+      std::string line;
+      for (int n = 1; std::getline(in, line); ++n)
+        if (std::regex_search(line, apps_include))
+          found.push_back(fs::relative(e.path(), root).string() + ":" + std::to_string(n) +
+                          ": the host includes an application header");
+    }
+  }
+  return found;
+}
+
 std::string joined(const std::vector<std::string>& v) {
   std::string s;
   for (const std::string& x : v) s += x + "\n";
@@ -100,9 +120,25 @@ TEST(PluginBoundaries, NoPluginReachesIntoAnotherPluginsFolder) {
   EXPECT_TRUE(found.empty()) << joined(found);
 }
 
+TEST(HostBoundary, TheHostLibraryDoesNotKnowTheApplications) {
+  const std::vector<std::string> found = host_violations(test::source_dir());
+  EXPECT_TRUE(found.empty()) << joined(found);
+  EXPECT_TRUE(fs::exists(test::source_dir() / "core/apps/src/campaign.cpp"));
+}
+
 void write(const fs::path& p, const std::string& text) {
   fs::create_directories(p.parent_path());
   std::ofstream(p) << text;
+}
+
+TEST(HostBoundary, TheCheckFindsAnApplicationHeaderInTheHost) {
+  test::TempDir t;
+  write(t.path() / "core/src/host.cpp", "#include \"hazardforge/core/host.hpp\"\n");
+  ASSERT_TRUE(host_violations(t.path()).empty());
+  write(t.path() / "core/src/scheduler.cpp",
+        "#include \"hazardforge/core/scheduler.hpp\"\n  #  include <hazardforge/apps/campaign.hpp>\n");
+  EXPECT_EQ(host_violations(t.path()),
+            std::vector<std::string>{"core/src/scheduler.cpp:2: the host includes an application header"});
 }
 
 TEST(PluginBoundaries, TheCheckFindsEachWayOfReachingIn) {

@@ -13,7 +13,10 @@
 #include "hazardforge/core/host.hpp"
 #include "hazardforge/refusal.hpp"
 
-namespace hf::core {
+namespace hf::apps {
+
+// The CLI uses the host through its public interface (hazardforge/core/*.hpp).
+using core::Host;
 
 struct CampaignRecording {
   std::string name;                   // path-safe; names its folders
@@ -129,4 +132,4 @@ std::optional<int> finished_run_exit_code(const std::filesystem::path& run);
 
 int cmd_campaign(Host& host, const CampaignOptions& o);
 
-}  // namespace hf::core
+}  // namespace hf::apps

@@ -6,8 +6,8 @@
 #include <iostream>
 #include <sstream>
 
-#include "hazardforge/core/campaign.hpp"
-#include "hazardforge/core/commands.hpp"
+#include "hazardforge/apps/campaign.hpp"
+#include "hazardforge/apps/commands.hpp"
 #include "hazardforge/core/host.hpp"
 #include "hazardforge/process_memory.hpp"
 #include "hazardforge/redact.hpp"
@@ -20,6 +20,7 @@ std::atomic<bool> g_interrupt{false};
 
 int main(int argc, char** argv) {
   using namespace hf::core;
+  using namespace hf::apps;
   hf::keep_freed_memory_for_reuse();
   std::vector<std::string> args(argv, argv + argc);
   CLI::App app{"HazardForge: turn real driving recordings into safety-critical test scenarios"};

@@ -1,6 +1,6 @@
 // Child processes with a log file, in their own process group, ended with their parent, reaped with their CPU
 // time (wait4).
-#include "hazardforge/core/child_process.hpp"
+#include "hazardforge/apps/child_process.hpp"
 
 #include <fcntl.h>
 #include <sys/prctl.h>
@@ -16,7 +16,9 @@
 
 extern char** environ;
 
-namespace hf::core {
+namespace hf::apps {
+
+using namespace hf::core;  // the host's public interface
 
 pid_t spawn_logged(const std::vector<std::string>& args, const std::filesystem::path& log, int keep_fd) {
   // Everything the child uses is made before fork: between fork and exec it calls async-signal-safe functions
@@ -89,4 +91,4 @@ ChildExit wait_any_child() {
   return e;
 }
 
-}  // namespace hf::core
+}  // namespace hf::apps

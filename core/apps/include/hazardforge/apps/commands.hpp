@@ -7,7 +7,10 @@
 
 #include "hazardforge/core/host.hpp"
 
-namespace hf::core {
+namespace hf::apps {
+
+// The CLI uses the host through its public interface (hazardforge/core/*.hpp).
+using core::Host;
 
 // SIGINT (Ctrl-C) and SIGTERM (kill, timeout, a service manager, a campaign's death) both set `*flag`: the
 // command stops as for Ctrl-C, every stage finishes and the manifest says "interrupted". A second signal of
@@ -83,4 +86,4 @@ int cmd_assets_harvest(Host& host, const HarvestOptions& o);
 // Text of `inspect` for one registered component (plain or Markdown).
 std::string describe_component(const RegisteredComponent& c, bool markdown);
 
-}  // namespace hf::core
+}  // namespace hf::apps

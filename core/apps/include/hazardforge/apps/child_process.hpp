@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace hf::core {
+namespace hf::apps {
 
 // Starts args[0] with args, stdout and stderr to `log` (created or truncated). The child runs in its own
 // process group and gets SIGTERM when the thread that started it ends, however that happens (SIGKILL
@@ -26,4 +26,4 @@ struct ChildExit {
 // Waits for any child of this process to end.
 ChildExit wait_any_child();
 
-}  // namespace hf::core
+}  // namespace hf::apps

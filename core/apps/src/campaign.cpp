@@ -24,15 +24,17 @@
 #include <sstream>
 
 #include "hazardforge/atomic_file.hpp"
-#include "hazardforge/core/campaign.hpp"
-#include "hazardforge/core/child_process.hpp"
+#include "hazardforge/apps/campaign.hpp"
+#include "hazardforge/apps/child_process.hpp"
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/markup.hpp"
 #include "hazardforge/params.hpp"
 #include "hazardforge/redact.hpp"
 #include "hazardforge/yaml_json.hpp"
 
-namespace hf::core {
+namespace hf::apps {
+
+using namespace hf::core;  // the host's public interface
 
 namespace fs = std::filesystem;
 
@@ -690,21 +692,28 @@ Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, doubl
     e["spec"] = spec;
     e["object_class"] = spec.value("object_class", "");
   }
-  const Json v = read_json(a.dir / "verification.json");
-  if (v.is_object()) {
-    e["passed"] = v.value("passed", false) && ex.exit_code == 0;
-    e["reasons"] = v.value("reasons", Json::array());
-    if (v.contains("ttc") && v["ttc"].is_object()) {
-      e["intended_min_ttc_s"] = v["ttc"].value("intended_min_ttc_visible_s", Json());
-      e["achieved_min_ttc_s"] = v["ttc"].value("achieved_min_ttc_s", Json());
-      e["achieved_at_frame"] = v["ttc"].value("achieved_at_frame", Json());
+  // The verifier's typed verdict (its verification.json); a file that does not read as one is a failed run.
+  std::optional<VerificationOutcome> v;
+  if (const Json file = read_json(a.dir / "verification.json"); file.is_object()) {
+    try {
+      v = file.get<VerificationOutcome>();
+    } catch (const Error& err) {
+      e["reasons"].push_back((fs::relative(a.dir, out) / "verification.json").string() + ": " + err.what());
     }
-    if (v.contains("unsafe") && v["unsafe"].is_object()) {
-      e["hazard_critical_frames"] = v["unsafe"].value("attributed_frames", 0);
-      e["spurious_frames"] = v["unsafe"].value("spurious_frames", Json::array());
+  }
+  if (v) {
+    e["passed"] = v->passed && ex.exit_code == 0;
+    e["reason_codes"] = Json::array();
+    for (const Refusal& r : v->reasons) {
+      e["reasons"].push_back(r.text);
+      e["reason_codes"].push_back(r.code);
     }
-    if (v.contains("redetection") && v["redetection"].is_object())
-      e["redetection_rate"] = v["redetection"].value("rate", Json());
+    e["intended_min_ttc_s"] = v->intended_min_ttc_s ? Json(*v->intended_min_ttc_s) : Json();
+    e["achieved_min_ttc_s"] = v->achieved_min_ttc_s ? Json(*v->achieved_min_ttc_s) : Json();
+    e["achieved_at_frame"] = v->achieved_at_frame ? Json(*v->achieved_at_frame) : Json();
+    e["hazard_critical_frames"] = v->hazard_critical_frames;
+    e["spurious_frames"] = v->spurious_frames;
+    e["redetection_rate"] = v->redetection_rate ? Json(*v->redetection_rate) : Json();
   }
   const Json m = read_json(a.dir / "manifest.json");
   e["status"] = m.is_object() ? m.value("status", "missing") : "missing";
@@ -734,7 +743,7 @@ Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, doubl
     }
   e["outcome"] = e["passed"].get<bool>()   ? "verified"
                  : !spec.is_object()       ? "no hazard"
-                 : v.is_object()           ? "not verified"
+                 : v                       ? "not verified"
                                            : "failed";
   return e;
 }
@@ -782,7 +791,7 @@ void wait_for_survivor(const Planned& a, const fs::path& out, bool quiet) {
 
 Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) {
   Json by_kind = Json::object(), by_rec = Json::object();
-  std::map<std::string, int> reasons, refusal_codes;
+  std::map<std::string, int> reasons, refusal_codes, failure_codes;
   int attempts = 0, verified_attempts = 0, verified_pairs = 0, spurious_passes = 0, with_spurious = 0;
   double cpu = scout_cpu;
   for (const Pair& p : pairs) {
@@ -807,6 +816,13 @@ Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) 
         for (const Refusal& r : refused) codes.insert(r.code);
         for (const std::string& c : codes) ++refusal_codes[c];
         continue;
+      }
+      if (const Json codes = a.value("reason_codes", Json::array()); !codes.empty()) {
+        std::set<std::string> once;
+        for (const Json& c : codes)
+          if (c.is_string() && !c.get<std::string>().empty()) once.insert(c.get<std::string>());
+        for (const std::string& c : once) ++failure_codes[c];
+        if (!once.empty()) continue;
       }
       for (const Json& r : a.value("reasons", Json::array()))
         if (r.is_string()) ++reasons[reason_class(r.get<std::string>())];
@@ -836,7 +852,8 @@ Json summarize(const std::vector<Pair>& pairs, double scout_cpu, double wall_s) 
           {"by_kind", by_kind},
           {"by_recording", by_rec},
           {"failure_reasons", rs},
-          {"refusal_codes", refusal_codes}};
+          {"refusal_codes", refusal_codes},
+          {"verification_failure_codes", failure_codes}};
 }
 
 std::string summary_markdown(const CampaignSpec& s, const Json& sum, const std::vector<Pair>& pairs) {
@@ -876,8 +893,13 @@ std::string summary_markdown(const CampaignSpec& s, const Json& sum, const std::
     for (auto it = sum["refusal_codes"].begin(); it != sum["refusal_codes"].end(); ++it)
       md << "| " << it.key() << " | " << it.value().get<int>() << " |\n";
   }
+  if (!sum["verification_failure_codes"].empty()) {
+    md << "\n| verification failure (code) | attempts |\n|---|---:|\n";
+    for (auto it = sum["verification_failure_codes"].begin(); it != sum["verification_failure_codes"].end(); ++it)
+      md << "| " << it.key() << " | " << it.value().get<int>() << " |\n";
+  }
   if (!sum["failure_reasons"].empty()) {
-    md << "\n| failure reason (numbers left out) | attempts |\n|---|---:|\n";
+    md << "\n| other failure (numbers left out) | attempts |\n|---|---:|\n";
     for (const Json& r : sum["failure_reasons"])
       md << "| " << r["reason"].get<std::string>() << " | " << r["count"].get<int>() << " |\n";
   }
@@ -1168,4 +1190,4 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
   return 0;
 }
 
-}  // namespace hf::core
+}  // namespace hf::apps

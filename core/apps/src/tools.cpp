@@ -1,15 +1,17 @@
 // `hazardforge calibrate` and `hazardforge assets harvest`.
 #include <iostream>
 
-#include "hazardforge/core/commands.hpp"
+#include "hazardforge/apps/commands.hpp"
 #include "hazardforge/geometry.hpp"
 
-#if __has_include("hazardforge/core/calibration.hpp")
-#include "hazardforge/core/calibration.hpp"
+#if __has_include("hazardforge/apps/calibration.hpp")
+#include "hazardforge/apps/calibration.hpp"
 #define HF_HAVE_CALIBRATION 1
 #endif
 
-namespace hf::core {
+namespace hf::apps {
+
+using namespace hf::core;  // the host's public interface
 
 int cmd_calibrate(const CalibrateOptions& o) {
 #ifdef HF_HAVE_CALIBRATION
@@ -45,4 +47,4 @@ int cmd_assets_harvest(Host& host, const HarvestOptions& o) {
   return out.exit_code;
 }
 
-}  // namespace hf::core
+}  // namespace hf::apps

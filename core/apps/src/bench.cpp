@@ -12,11 +12,13 @@
 #include <sstream>
 #include <thread>
 
-#include "hazardforge/core/commands.hpp"
+#include "hazardforge/apps/commands.hpp"
 #include "hazardforge/core/manifest.hpp"
 #include "hazardforge/json_text.hpp"
 
-namespace hf::core {
+namespace hf::apps {
+
+using namespace hf::core;  // the host's public interface
 
 namespace {
 
@@ -275,4 +277,4 @@ int cmd_bench(Host& host, const CommonOptions& o, const BenchOptions& b) {
   return 0;
 }
 
-}  // namespace hf::core
+}  // namespace hf::apps

@@ -7,11 +7,13 @@
 #include <map>
 #include <sstream>
 
-#include "hazardforge/core/child_process.hpp"
-#include "hazardforge/core/commands.hpp"
+#include "hazardforge/apps/child_process.hpp"
+#include "hazardforge/apps/commands.hpp"
 #include "hazardforge/json_text.hpp"
 
-namespace hf::core {
+namespace hf::apps {
+
+using namespace hf::core;  // the host's public interface
 
 namespace {
 
@@ -249,4 +251,4 @@ int cmd_experiment(Host& /*host*/, const ExperimentOptions& o) {
   return failed == 0 ? 0 : 1;
 }
 
-}  // namespace hf::core
+}  // namespace hf::apps

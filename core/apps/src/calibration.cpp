@@ -1,5 +1,5 @@
 // Chessboard calibration (OpenCV findChessboardCorners + cornerSubPix + calibrateCamera) and its YAML file.
-#include "hazardforge/core/calibration.hpp"
+#include "hazardforge/apps/calibration.hpp"
 
 #include "hazardforge/atomic_file.hpp"
 

@@ -1,5 +1,5 @@
 // run / validate / plugins / inspect / graph / eval: thin layers over the host facade.
-#include "hazardforge/core/commands.hpp"
+#include "hazardforge/apps/commands.hpp"
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/number_text.hpp"
 #include "hazardforge/redact.hpp"
@@ -11,7 +11,9 @@
 #include <iostream>
 #include <sstream>
 
-namespace hf::core {
+namespace hf::apps {
+
+using namespace hf::core;  // the host's public interface
 
 namespace {
 
@@ -309,4 +311,4 @@ int cmd_eval(Host& host, const CommonOptions& o) {
   return 0;
 }
 
-}  // namespace hf::core
+}  // namespace hf::apps
