@@ -170,6 +170,7 @@ Json make_manifest(const ManifestInput& in, const std::string& status, const Run
     m["errors"] = result->errors;
     m["warnings"] = result->log;
     if (!result->incomplete.empty()) m["incomplete"] = result->incomplete;
+    if (result->failed_to_start) m["failed_to_start"] = true;
     if (!result->refusals.empty()) {
       Json refusals = Json::array();
       for (const NodeRefusal& r : result->refusals)

@@ -67,6 +67,7 @@ struct Shared {
   std::vector<std::string> log;
   std::vector<std::string> incomplete;
   std::vector<NodeRefusal> refusals;
+  bool failed_to_start = false;  // a node failed while being created or opened
   std::set<std::filesystem::path> resources;
   std::atomic<bool> abort{false};
   const RunOptions* options = nullptr;
@@ -206,6 +207,7 @@ void fail(NodeRuntime& n, Shared& sh, const std::string& when, const std::string
   sh.abort = true;
   std::lock_guard lk(sh.mu);
   sh.errors.push_back(n.who() + ": " + when + ": " + redact_urls(what));
+  if (when == "create" || when == "open") sh.failed_to_start = true;
 }
 
 void send(NodeRuntime& n, int64_t tick, int64_t frame, double ts, bool final, NodeOutputs& out) {
@@ -461,6 +463,7 @@ RunResult run_graph(const Graph& graph, const ComponentRegistry& registry, const
   result.log = sh.log;
   result.incomplete = sh.incomplete;
   result.refusals = sh.refusals;
+  result.failed_to_start = sh.failed_to_start;
   result.resources.assign(sh.resources.begin(), sh.resources.end());
   for (auto& n : nodes) {
     NodeTiming t{n->spec->id,

@@ -123,6 +123,30 @@ TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
 // A hazard kind from a plugin the project does not build into its plugin folder: the campaign generates it
 // (the offline planner asks the kind's own template for a plan), plans, renders and verifies it, with no line of
 // the prompt, the planner or the campaign changed for it.
+// A graph that cannot start (here an asset folder without its index) fails the same way at every window: the
+// pair stops after its first attempt, which says why, instead of spending its budget.
+TEST(CampaignEndToEnd, AGraphThatDoesNotStartEndsThePairAtOnce) {
+  const fs::path shared = test::shared_dir();
+  HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");
+  test::TempDir dir;
+  fs::create_directories(dir / "no_assets");
+  write_nuscenes_campaign(dir / "c.yaml", "name: broken\nkinds: [sudden_stop]\nbudget: {attempts: 4, cpu_s: 600}\n",
+                          (dir / "no_assets").string());
+  const fs::path out = dir / "out";
+  const auto r = test::run_command(hazardforge(shared) + " campaign " + test::quote(dir / "c.yaml") + " -o " +
+                                   test::quote(out) + " -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Json index = Json::parse(test::read_file(out / "index.json"));
+  ASSERT_EQ(index["attempts"].size(), 1u) << index.dump(2);
+  const Json& a = index["attempts"][0];
+  EXPECT_EQ(a["failed_to_start"], true);
+  EXPECT_EQ(a["outcome"], "no hazard");
+  const std::string summary = test::read_file(out / "summary.md");
+  EXPECT_NE(summary.find("the attempt's graph does not start: node 'generator': open: "), std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("asset index not found"), std::string::npos) << summary;
+}
+
 TEST(CampaignEndToEnd, AThirdPartyHazardKindIsGeneratedAndVerified) {
   const fs::path shared = test::shared_dir();
   HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");

@@ -604,6 +604,14 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
     *why = "no candidate window (no Safe frame with enough of the clip left)";
     return std::nullopt;
   }
+  // A graph that does not start (a node's params, files or models) fails the same way at every window.
+  if (!p.attempts.empty() && p.attempts.back().value("failed_to_start", false)) {
+    const Json reasons = p.attempts.back().value("reasons", Json::array());
+    *why = "the attempt's graph does not start: " +
+           (reasons.empty() || !reasons.back().is_string() ? std::string("see its run.log")
+                                                            : reasons.back().get<std::string>());
+    return std::nullopt;
+  }
   // The generator refusing this kind for the same reasons at two different trigger frames: the scene does not
   // allow it (no sidewalks, a single lane, ...); more windows and seeds would only repeat the refusal.
   if (p.attempts.size() >= 2) {
@@ -717,6 +725,7 @@ Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, doubl
   }
   const Json m = read_json(a.dir / "manifest.json");
   e["status"] = m.is_object() ? m.value("status", "missing") : "missing";
+  if (m.is_object() && m.value("failed_to_start", false)) e["failed_to_start"] = true;
   if (m.is_object() && m.contains("refusals") && m["refusals"].is_array()) {
     e["refusals"] = Json::array();
     for (const Json& r : m["refusals"])

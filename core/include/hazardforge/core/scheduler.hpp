@@ -56,6 +56,9 @@ struct RunResult {
   std::vector<std::string> log;  // warnings and errors stages logged
   std::vector<std::string> incomplete;  // "node 'x': reason" for inputs a stage could use only in part
   std::vector<NodeRefusal> refusals;     // also in errors, as text
+  // A node failed while being created or opened (its params, files or models): the graph never ran, and
+  // would not with any other frames.
+  bool failed_to_start = false;
   bool ok() const { return errors.empty(); }
 };
 
