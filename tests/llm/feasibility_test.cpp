@@ -85,9 +85,7 @@ TEST_F(Feasibility, SceneRulesFromThePrompt) {
   p.lateral_offset_m = -5.5;
   std::vector<std::string> e = coded(p);
   ASSERT_FALSE(e.empty());
-  EXPECT_EQ(e[0],
-            "scene_lacks: /object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = "
-            "no)");
+  EXPECT_EQ(e[0], "scene_lacks: /kind = \"pedestrian_crossing\" needs sidewalks: the scene has none (sidewalks = no)");
 
   HazardSpec c = stop();
   c.kind = "cut_in";
@@ -153,11 +151,11 @@ TEST_F(Feasibility, PersonOnTheShoulderOnlyWithTheExplicitRelaxation) {
     return false;
   };
   std::vector<std::string> e = check(p);
-  EXPECT_TRUE(has(e, "/object_class = \"person\" is not allowed"));
+  EXPECT_TRUE(has(e, "/kind = \"pedestrian_crossing\" needs sidewalks"));
   EXPECT_TRUE(has(e, "/lateral_offset_m = -6 puts the person off the road (|y| <= 5.25 m on the right)"));
   cfg_.pedestrians_without_sidewalks = true;
   e = check(p);
-  EXPECT_FALSE(has(e, "/object_class = \"person\" is not allowed"));
+  EXPECT_FALSE(has(e, "/kind = \"pedestrian_crossing\" needs sidewalks"));
   EXPECT_FALSE(has(e, "/lateral_offset_m"));
   p.lateral_offset_m = -8.0;  // beyond the 2.5 m shoulder
   EXPECT_TRUE(

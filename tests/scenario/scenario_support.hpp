@@ -9,13 +9,19 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "hazardforge/angles.hpp"
 #include "hazardforge/registry.hpp"
+#include "hazardforge/stage.hpp"
 #include "hazardforge/types.hpp"
 #include "refusal_support.hpp"
 
 #include "cut_in_template.hpp"
+#include "pedestrian_along_road_template.hpp"
 #include "pedestrian_crossing_template.hpp"
+#include "pull_out_template.hpp"
+#include "stopped_vehicle_template.hpp"
 #include "sudden_stop_template.hpp"
 
 namespace hf::test {
@@ -39,6 +45,9 @@ inline ComponentRegistry& template_registry() {
     reg.add<PedestrianCrossingTemplate>();
     reg.add<CutInTemplate>();
     reg.add<SuddenStopTemplate>();
+    reg.add<StoppedVehicleTemplate>();
+    reg.add<PullOutTemplate>();
+    reg.add<PedestrianAlongRoadTemplate>();
     return true;
   }();
   (void)registered;
@@ -76,6 +85,28 @@ inline Peaks peaks(const std::vector<TrajectoryPoint>& p) {
   }
   return k;
 }
+
+// Plans stay within the class's limits (peaks by finite differences, 2 % for their sampling error).
+inline void expect_within_limits(const HazardTrajectory& tr, const KinematicLimits& lim) {
+  const Peaks k = peaks(tr.points);
+  const double tol = 1.02;
+  EXPECT_LE(k.accel, std::max(lim.max_accel_mps2, lim.max_decel_mps2) * tol);
+  EXPECT_LE(k.jerk, lim.max_jerk_mps3 * tol);
+  EXPECT_LE(k.yaw_rate_dps, lim.max_yaw_rate_dps * tol);
+  EXPECT_LE(k.speed, lim.max_speed_mps * tol);
+}
+
+// Random bits for proposals from a seed (splitmix64), the same on every platform.
+struct Bits : RandomDraw {
+  uint64_t state;
+  explicit Bits(uint64_t seed) : state(seed) {}
+  uint64_t next() override {
+    uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+  }
+};
 
 inline std::string read_text(const std::string& path) {
   std::ifstream in(path);

@@ -10,6 +10,7 @@
 namespace hf {
 namespace {
 
+using test::expect_within_limits;
 using test::make_template;
 using test::test_scene;
 
@@ -46,15 +47,6 @@ HazardSpec cut_in(double x0, double speed, double target) {
   s.target_ttc_s = target;
   s.start_time_s = 2.0;
   return s;
-}
-
-void expect_within_limits(const HazardTrajectory& tr, const KinematicLimits& lim) {
-  const test::Peaks k = test::peaks(tr.points);
-  const double tol = 1.02;  // sampling error of finite differences
-  EXPECT_LE(k.accel, std::max(lim.max_accel_mps2, lim.max_decel_mps2) * tol);
-  EXPECT_LE(k.jerk, lim.max_jerk_mps3 * tol);
-  EXPECT_LE(k.yaw_rate_dps, lim.max_yaw_rate_dps * tol);
-  EXPECT_LE(k.speed, lim.max_speed_mps * tol);
 }
 
 bool projects_into_image(const CameraModel& cam, const TrajectoryPoint& p, const cv::Vec3d& size) {

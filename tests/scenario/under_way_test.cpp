@@ -107,16 +107,6 @@ TEST(UnderWay, ACutInAlreadyChangingLanesAppearsInViewAndEndsAtTheTarget) {
   EXPECT_NEAR(o.stats.max_yaw_rate, whole.stats.max_yaw_rate, 1e-6);
 }
 
-struct Bits : RandomDraw {
-  uint64_t state;
-  explicit Bits(uint64_t seed) : state(seed) {}
-  uint64_t next() override {  // splitmix64
-    uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  }
-};
 
 // A highway clip of 1.5 s whose ego speeds up from 22 to 27 m/s (its recorded track), the hazard appearing at
 // 0.2 s with 1.3 s of clip left: too short for a cut-in, so it is proposed already under way, for up to 4.7 s
@@ -142,7 +132,7 @@ TEST(UnderWay, ACutInProposedAgainstTheRecordedSpeedEndsAfterItAppears) {
   req.multi_lane = true;
   int planned = 0;
   for (uint64_t seed = 1; seed <= 8; ++seed) {
-    Bits bits(seed);
+    test::Bits bits(seed);
     const HazardProposal p = tpl->propose(req, bits);
     if (p.spec.is_null()) continue;  // e.g. a truck, whose slow lane change does not fit 4.7 s
     Json answer = p.spec;
@@ -197,7 +187,7 @@ TEST(UnderWay, ACrossingProposedAgainstASlowingEgoIsReachedAtTheTarget) {
   const SceneContext scene = slowing_scene([](double t) { return std::max(3.5, 8.0 - 0.8 * t); });
   const ProposalRequest req = crossing_request(scene);
   for (uint64_t seed = 1; seed <= 8; ++seed) {
-    Bits bits(seed);
+    test::Bits bits(seed);
     const HazardProposal p = tpl->propose(req, bits);
     ASSERT_FALSE(p.spec.is_null()) << seed << ": " << p.problem;
     Json answer = p.spec;
@@ -222,7 +212,7 @@ TEST(UnderWay, NoCrossingIsProposedWhoseCriticalMomentIsBelowThePicture) {
   scene.camera = CameraModel::pinhole(1242, 375, 721.5, 721.5, 609.6, 172.9, 1.65);
   const ProposalRequest req = crossing_request(scene);
   for (uint64_t seed = 1; seed <= 8; ++seed) {
-    Bits bits(seed);
+    test::Bits bits(seed);
     const HazardProposal p = tpl->propose(req, bits);
     EXPECT_TRUE(p.spec.is_null()) << seed << ": " << p.spec.dump();
     EXPECT_NE(p.problem.text.find("not even its upper half is in the picture"), std::string::npos)

@@ -134,10 +134,8 @@ std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContex
   const std::string& cls = spec.object_class;
   const double y = spec.lateral_offset_m;
 
-  // The prompt's scene rules.
-  if (cls == "person" && !cfg.sidewalks && !cfg.pedestrians_without_sidewalks)
-    refuse(refusal::kSceneLacks,
-           "/object_class = \"person\" is not allowed: the scene has no sidewalks (sidewalks = no)");
+  // The prompt's scene rules. (People without sidewalks: a kind that needs them says so, HazardKindInfo::needs; a
+  // person beyond the road edge is refused below; one walking on the road's edge is a kind of its own.)
   // Across the road (not along it either way: oncoming vehicles head about 180 degrees).
   if (is_motor_vehicle(cls) && std::abs(spec.heading_deg) > 45.0 && std::abs(spec.heading_deg) < 135.0 &&
       !cfg.intersection)
@@ -165,11 +163,14 @@ std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContex
   // Beyond the road edge: a sidewalk, or the shoulder when people on roads without sidewalks are allowed.
   const bool may_use_sidewalk = ((cls == "person" || cls == "bicycle") && cfg.sidewalks) ||
                                 (cls == "person" && cfg.pedestrians_without_sidewalks);
-  const double max_y = cfg.road.edge(side_sign) + (may_use_sidewalk ? cfg.sidewalk_width_m : 0.0);
+  // A vehicle standing beside the road (parked) may stand in a parking strip of its width (and 0.5 m) there.
+  const bool parked = is_motor_vehicle(cls) && std::abs(spec.speed_mps) < 0.1 && cfg.sizes.has(cls);
+  const double beyond = may_use_sidewalk ? cfg.sidewalk_width_m : parked ? cfg.sizes.at(cls).width + 0.5 : 0.0;
+  const double max_y = cfg.road.edge(side_sign) + beyond;
   if (std::abs(y) > max_y)
     refuse(refusal::kPlacement, "/lateral_offset_m = " + num_text(y) + " puts the " + cls + " off the " +
-                   (may_use_sidewalk ? "road and sidewalk" : "road") + " (|y| <= " + num_text(max_y) +
-                   " m on the " + (side_sign > 0 ? "left" : "right") + ")");
+                   (may_use_sidewalk ? "road and sidewalk" : parked ? "road and its parking strip" : "road") +
+                   " (|y| <= " + num_text(max_y) + " m on the " + (side_sign > 0 ? "left" : "right") + ")");
 
   // Not on top of a detected object (unless the spec takes that object over).
   const std::optional<int64_t> taken = spec.track_id;

@@ -111,6 +111,31 @@ std::optional<std::string> draw_class(const ProposalScene& sc,
   return pool[d.index(pool.size())];
 }
 
+HazardProposal plan_some_class(const std::string& kind, const ProposalScene& sc,
+                               std::vector<std::pair<std::string, int>> weighted, RandomDraw& d,
+                               const std::function<HazardProposal(const std::string&)>& plan) {
+  std::optional<HazardProposal> first;
+  std::string others;
+  while (true) {
+    std::string why;
+    const std::optional<std::string> cls = draw_class(sc, weighted, d, &why);
+    if (!cls) break;
+    HazardProposal p = plan(*cls);
+    if (!p.spec.is_null()) return p;
+    if (!first) first = std::move(p);
+    else others += (others.empty() ? "" : ", ") + *cls;
+    std::erase_if(weighted, [&](const auto& w) { return w.first == *cls; });
+    if (weighted.empty()) break;
+  }
+  if (!first) {
+    std::string why;
+    (void)draw_class(sc, weighted, d, &why);
+    return {nullptr, {refusal::kObjectClass, why, kind}};
+  }
+  if (!others.empty()) first->problem.text += " (nor as a " + others + ")";
+  return *first;
+}
+
 double round_to(double v, double step) {
   return std::round(v / step) * step;
 }

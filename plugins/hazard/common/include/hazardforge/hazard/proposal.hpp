@@ -2,6 +2,7 @@
 // reads it, and the checks and JSON every kind's proposals share.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -83,6 +84,14 @@ struct ProposalScene {
 std::optional<std::string> draw_class(const ProposalScene& sc,
                                       const std::vector<std::pair<std::string, int>>& weighted, RandomDraw& d,
                                       std::string* why);
+
+// A plan for a class drawn from `weighted` (as draw_class), adapting to the scene: when the drawn class's plan is
+// refused (`plan` returns no spec: a bus too slow to pull out in time, a truck first seen small too far ahead)
+// another class is drawn from the rest, until one plans. When none does, the refusal is the first drawn class's,
+// naming the others tried.
+HazardProposal plan_some_class(const std::string& kind, const ProposalScene& sc,
+                               std::vector<std::pair<std::string, int>> weighted, RandomDraw& d,
+                               const std::function<HazardProposal(const std::string&)>& plan);
 
 // Rounds to a multiple of `step` (the precision a proposal states its numbers with).
 double round_to(double v, double step);

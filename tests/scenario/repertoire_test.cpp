@@ -1,0 +1,278 @@
+// The pre-crash kinds beyond the first three (stopped_vehicle, pull_out, pedestrian_along_road) on synthetic scenes of known geometry:
+// their plans in closed form, their limits, and proposals that plan as proposed and refuse only for physical
+// reasons.
+#include <gtest/gtest.h>
+
+#include "hazardforge/hazard/proposal.hpp"
+#include "scenario_support.hpp"
+
+namespace hf {
+namespace {
+
+using test::expect_within_limits;
+using test::make_template;
+using test::test_scene;
+
+HazardSpec standing(double distance, double y = 0.0) {
+  HazardSpec s;
+  s.kind = "stopped_vehicle";
+  s.object_class = "car";
+  s.initial_distance_m = distance;
+  s.lateral_offset_m = y;
+  s.side = "center";
+  s.start_time_s = 2.0;
+  return s;
+}
+
+HazardSpec parked(double distance, const std::string& side, double after, double speed) {
+  HazardSpec s;
+  s.kind = "pull_out";
+  s.object_class = "car";
+  s.initial_distance_m = distance;
+  s.side = side;
+  s.start_time_s = 2.0;
+  s.extra = {{"pull_out_after_s", after}, {"pull_out_speed_mps", speed}};
+  return s;
+}
+
+// A proposal request at 10 m/s on the test camera with the first-seen rule of the generator's default (7 % of
+// the image height).
+ProposalRequest request_at(const SceneContext& scene) {
+  ProposalRequest req(scene);
+  req.target_ttc_s = 1.4;
+  req.horizon_s = 6.0;
+  req.first_seen_max_height = 0.07;
+  return req;
+}
+
+// The spec a proposal stands for, with the generator's part (its start time) filled in.
+HazardSpec answered(const HazardProposal& p, const SceneContext& scene) {
+  Json answer = p.spec;
+  answer["start_time_s"] = scene.timestamp;
+  return answer.get<HazardSpec>();
+}
+
+TEST(StoppedVehicle, TheGapClosesAtTheEgoSpeedToContact) {
+  auto tpl = make_template("stopped_vehicle", {{"duration_s", 6.0}});
+  const hazard::PlanOutcome o = tpl->evaluate(standing(40.0, 0.2), test_scene(10.0));
+  ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
+  // Gap at the start: 40 - 3.4 (ego front) - 4.5 / 2 = 34.35 m; the ego at 10 m/s reaches it after 3.435 s,
+  // where the plan ends; one second in the TTC is (34.35 - 10) / 10.
+  ASSERT_GE(o.ttc.size(), 21u);
+  EXPECT_NEAR(o.ttc.front().gap, 34.35, 1e-9);
+  EXPECT_NEAR(o.ttc[20].ttc, 2.435, 1e-9);
+  EXPECT_LT(o.trajectory.intended_min_ttc_s, 0.05);
+  EXPECT_NEAR(o.trajectory.points.back().t - 2.0, 3.435, 0.051);
+  for (const TrajectoryPoint& p : o.trajectory.points) {
+    EXPECT_DOUBLE_EQ(p.x, 40.0);
+    EXPECT_DOUBLE_EQ(p.y, 0.2);
+    EXPECT_DOUBLE_EQ(p.speed, 0.0);
+    EXPECT_DOUBLE_EQ(p.heading, 0.0);
+  }
+}
+
+TEST(StoppedVehicle, RefusesAMovingVehicleOneBesideThePathAndATakeOver) {
+  auto tpl = make_template("stopped_vehicle");
+  HazardSpec s = standing(40.0, 2.5);
+  s.speed_mps = 3.0;
+  s.track_id = 7;
+  const std::vector<std::string> got = test::coded(tpl->check(s, test_scene(10.0)));
+  ASSERT_EQ(got.size(), 3u);
+  EXPECT_EQ(got[0], "spec: track_id 7: a stopped vehicle is inserted, it does not take over a tracked object");
+  EXPECT_EQ(got[1], "spec: speed_mps 3: a stopped vehicle stands (speed_mps 0)");
+  EXPECT_EQ(got[2].rfind("placement: the vehicle at y=2.5 m is not in the ego path", 0), 0u) << got[2];
+}
+
+TEST(StoppedVehicle, ProposalsAreFirstSeenSmallAndReachTheTargetWithinTheHorizon) {
+  auto tpl = make_template("stopped_vehicle");
+  const SceneContext scene = test_scene(10.0);
+  const ProposalRequest req = request_at(scene);
+  const hazard::ProposalScene sc = hazard::ProposalScene::of(req, *tpl);
+  int planned = 0;
+  for (uint64_t seed = 1; seed <= 12; ++seed) {
+    test::Bits bits(seed);
+    const HazardProposal p = tpl->propose(req, bits);
+    ASSERT_FALSE(p.spec.is_null()) << seed << ": " << p.problem;
+    const HazardSpec spec = answered(p, scene);
+    EXPECT_GE(spec.initial_distance_m + 0.05, sc.first_seen_small_from(spec.object_class)) << seed;
+    const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
+    ASSERT_TRUE(o.reasons.empty()) << seed << ": " << o.reasons.front();
+    // The TTC falls below the aimed value (aim x target) before the horizon's last 0.7 s.
+    bool reached = false;
+    for (const hazard::TtcSample& t : o.ttc)
+      if (t.t - scene.timestamp <= 6.0 - 0.7 && t.ttc <= req.aim * req.target_ttc_s + 0.05) reached = true;
+    EXPECT_TRUE(reached) << seed << ": " << p.spec.dump();
+    ++planned;
+  }
+  EXPECT_EQ(planned, 12);
+}
+
+TEST(StoppedVehicle, NoProposalWhereTheEgoStandsOrALeadDrivesInTheWay) {
+  auto tpl = make_template("stopped_vehicle");
+  const SceneContext standing_ego = test_scene(0.2);
+  test::Bits bits(3);
+  const HazardProposal still = tpl->propose(request_at(standing_ego), bits);
+  EXPECT_TRUE(still.spec.is_null());
+  EXPECT_EQ(still.problem.code, refusal::kEgoMotion);
+
+  SceneContext traffic = test_scene(10.0);
+  ObjectState lead;
+  lead.track_id = 4;
+  lead.label = "car";
+  lead.distance_m = 18.0;
+  lead.lateral_m = 0.1;
+  lead.in_path = true;
+  traffic.objects.push_back(lead);
+  test::Bits bits2(3);
+  const HazardProposal blocked = tpl->propose(request_at(traffic), bits2);
+  EXPECT_TRUE(blocked.spec.is_null());
+  EXPECT_EQ(blocked.problem.code, refusal::kTraffic) << blocked.problem;
+}
+
+TEST(PullOut, StandsBesideTheRoadThenSteersIntoTheEgoLaneWithinTheCarLimits) {
+  // An ego at 6 m/s, slow enough to watch the whole manoeuvre within 10 s before it reaches the car.
+  auto tpl = make_template("pull_out", {{"duration_s", 10.0}});
+  const hazard::PlanOutcome o = tpl->evaluate(parked(45.0, "right", 1.0, 4.0), test_scene(6.0));
+  ASSERT_TRUE(o.reasons.empty()) << o.reasons.front();
+  expect_within_limits(o.trajectory, tpl->limits().at("car"));
+  // Parked beyond the default road's one lane on the right (edge 1.5 x 3.5 m), half its width and 0.3 m out,
+  // aligned with the road, for the first second.
+  const auto& pts = o.trajectory.points;
+  const double y_park = -(1.5 * 3.5 + tpl->class_sizes().at("car").width / 2 + 0.3);
+  EXPECT_NEAR(pts.front().y, y_park, 1e-9);
+  double most_off_road = 0;
+  bool in_lane = false;
+  for (const TrajectoryPoint& p : pts) {
+    if (p.t - 2.0 <= 1.0 + 1e-9) {
+      EXPECT_NEAR(p.x, 45.0, 1e-9);
+      EXPECT_NEAR(p.heading, 0.0, 1e-12);
+    }
+    most_off_road = std::max(most_off_road, rad_to_deg(std::abs(p.heading)));
+    // Once in the ego lane's centre it drives along it at 4 m/s.
+    if (std::abs(p.y) < 0.01) {
+      in_lane = true;
+      EXPECT_NEAR(p.speed, 4.0, 0.01);
+      EXPECT_NEAR(p.heading, 0.0, 0.03);
+    }
+  }
+  EXPECT_TRUE(in_lane);
+  EXPECT_LE(most_off_road, 35.5);
+  EXPECT_GT(o.notes["gap_entering_m"].get<double>(), 0.0);
+}
+
+TEST(PullOut, RefusesAMovingStartAPlaceInThePathAndTooFastAnEnd) {
+  auto tpl = make_template("pull_out");
+  HazardSpec s = parked(45.0, "right", 1.0, 4.0);
+  s.lateral_offset_m = -0.5;
+  s.speed_mps = 2.0;
+  const std::vector<std::string> got = test::coded(tpl->check(s, test_scene(10.0)));
+  ASSERT_GE(got.size(), 2u);
+  EXPECT_EQ(got[0].rfind("placement: the parking place y=-0.5 m is in the ego path", 0), 0u) << got[0];
+  EXPECT_EQ(got[1], "spec: speed_mps 2: a parked vehicle stands (speed_mps 0)");
+  HazardSpec fast = parked(45.0, "right", 1.0, 36.0);
+  fast.object_class = "truck";
+  EXPECT_EQ(test::coded(tpl->check(fast, test_scene(10.0))),
+            std::vector<std::string>{"class_limit: pull_out_speed_mps 36 is above the truck limit of 35 m/s"});
+}
+
+TEST(PullOut, ProposalsParkOnTheDrivingSideAndAreCriticalWithinTheHorizon) {
+  auto tpl = make_template("pull_out");
+  for (const char* driving : {"right", "left"}) {
+    SceneContext scene = test_scene(10.0);
+    RoadLayout road;
+    road.driving_side = driving;
+    scene.road = road;
+    const ProposalRequest req = request_at(scene);
+    int planned = 0;
+    for (uint64_t seed = 1; seed <= 12; ++seed) {
+      test::Bits bits(seed);
+      const HazardProposal p = tpl->propose(req, bits);
+      if (p.spec.is_null()) {
+        // Only when no class's drive-off fits in time, never the road or the rules.
+        EXPECT_EQ(p.problem.code, refusal::kTtcUnreachable) << seed << ": " << p.problem;
+        continue;
+      }
+      const HazardSpec spec = answered(p, scene);
+      EXPECT_EQ(spec.side, driving) << seed;
+      EXPECT_EQ(spec.lateral_offset_m > 0, std::string(driving) == "left") << seed;
+      const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
+      ASSERT_TRUE(o.reasons.empty()) << seed << ": " << o.reasons.front() << "\n" << p.spec.dump();
+      EXPECT_LE(o.trajectory.intended_min_ttc_s, req.target_ttc_s) << seed << ": " << p.spec.dump();
+      ++planned;
+    }
+    EXPECT_GE(planned, 11) << driving;
+  }
+}
+
+HazardSpec walker(double distance, double y, double speed, double heading_deg) {
+  HazardSpec s;
+  s.kind = "pedestrian_along_road";
+  s.object_class = "person";
+  s.initial_distance_m = distance;
+  s.lateral_offset_m = y;
+  s.side = y > 0 ? "left" : "right";
+  s.speed_mps = speed;
+  s.heading_deg = heading_deg;
+  s.start_time_s = 2.0;
+  return s;
+}
+
+TEST(PedestrianAlongRoad, TheEgoClosesInAtItsSpeedLessOrMoreThePersons) {
+  auto tpl = make_template("pedestrian_along_road");
+  // Walking the ego's way at 1.5 m/s, 30 m ahead: gap 30 - 3.4 - length / 2, closing 10 - 1.5 = 8.5 m/s.
+  const double half_len = tpl->class_sizes().at("person").length / 2;
+  const hazard::PlanOutcome away = tpl->evaluate(walker(30.0, -1.0, 1.5, 0.0), test_scene(10.0));
+  ASSERT_TRUE(away.reasons.empty()) << away.reasons.front();
+  ASSERT_GE(away.ttc.size(), 21u);
+  EXPECT_NEAR(away.ttc[20].ttc, (30.0 - 3.4 - half_len + 1.5 - 10.0) / 8.5, 1e-9);
+  EXPECT_NEAR(away.trajectory.points[20].x, 31.5, 1e-9);
+  EXPECT_DOUBLE_EQ(away.trajectory.points[20].heading, 0.0);
+  // Towards the ego: closing 11.5 m/s, facing it.
+  const hazard::PlanOutcome towards = tpl->evaluate(walker(30.0, -1.0, 1.5, 180.0), test_scene(10.0));
+  ASSERT_TRUE(towards.reasons.empty()) << towards.reasons.front();
+  EXPECT_NEAR(towards.ttc[20].ttc, (30.0 - 3.4 - half_len - 1.5 - 10.0) / 11.5, 1e-9);
+  EXPECT_NEAR(std::abs(towards.trajectory.points[20].heading), kPi, 1e-9);
+}
+
+TEST(PedestrianAlongRoad, RefusesACrossingHeadingAPlaceBesideThePathAndOffTheRoad) {
+  auto tpl = make_template("pedestrian_along_road");
+  EXPECT_EQ(test::coded(tpl->check(walker(30.0, -1.0, 1.5, 90.0), test_scene(10.0))),
+            std::vector<std::string>{
+                "spec: heading_deg 90: a person walking along the road heads 0 (the ego's way) or 180 (towards it)"});
+  const std::vector<std::string> beside = test::coded(tpl->check(walker(30.0, -3.0, 1.5, 0.0), test_scene(10.0)));
+  ASSERT_FALSE(beside.empty());
+  EXPECT_EQ(beside[0].rfind("placement: the person at y=-3 m is not in the ego path", 0), 0u) << beside[0];
+}
+
+TEST(PedestrianAlongRoad, ProposedOnlyWhereTheEgoLaneBordersTheRoadEdge) {
+  auto tpl = make_template("pedestrian_along_road");
+  SceneContext scene = test_scene(10.0);
+  RoadLayout rural;  // one lane each way, traffic keeps right: the ego lane borders the right edge
+  rural.lanes_left = 1;
+  rural.lanes_right = 0;
+  rural.oncoming_lanes = 1;
+  scene.road = rural;
+  const ProposalRequest req = request_at(scene);
+  for (uint64_t seed = 1; seed <= 12; ++seed) {
+    test::Bits bits(seed);
+    const HazardProposal p = tpl->propose(req, bits);
+    ASSERT_FALSE(p.spec.is_null()) << seed << ": " << p.problem;
+    const HazardSpec spec = answered(p, scene);
+    EXPECT_LT(spec.lateral_offset_m, 0.0) << seed;
+    const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
+    ASSERT_TRUE(o.reasons.empty()) << seed << ": " << o.reasons.front() << "\n" << p.spec.dump();
+    EXPECT_LE(o.trajectory.intended_min_ttc_s, req.aim * req.target_ttc_s + 0.05) << seed;
+  }
+  // A lane between the ego and the kerb: a person at the edge walks in that lane, not in the ego path.
+  SceneContext arterial = test_scene(10.0);
+  RoadLayout two_lanes;
+  two_lanes.lanes_right = 1;
+  arterial.road = two_lanes;
+  test::Bits bits(1);
+  const HazardProposal p = tpl->propose(request_at(arterial), bits);
+  EXPECT_TRUE(p.spec.is_null());
+  EXPECT_EQ(p.problem.code, refusal::kSceneLacks) << p.problem;
+}
+
+}  // namespace
+}  // namespace hf
