@@ -147,6 +147,40 @@ TEST(CampaignEndToEnd, AGraphThatDoesNotStartEndsThePairAtOnce) {
   EXPECT_NE(summary.find("asset index not found"), std::string::npos) << summary;
 }
 
+// An attempt whose run ends before it makes its folder (here a `hazardforge` beside the campaign's executable that
+// fails every `run` into an attempt folder, as a broken install would) is recorded in a folder of its own with its
+// log, and ends its pair, instead of ending the campaign.
+TEST(CampaignEndToEnd, AnAttemptThatNeverStartsIsRecordedAndTheCampaignGoesOn) {
+  const fs::path shared = test::shared_dir();
+  HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");
+  HF_REQUIRE_SHARED(shared / "models/yolov8n/yolov8n_deq_640x384.onnx");
+  test::TempDir dir;
+  const fs::path bin = dir / "bin";
+  fs::create_directories(bin);
+  fs::copy_file(HF_BINARY_DIR "/bin/hazardforge", bin / "hazardforge-campaign");
+  std::ofstream(bin / "hazardforge") << "#!/bin/sh\ncase \"$*\" in *attempts*) echo \"error: cannot load the plugins\" >&2; "
+                                        "exit 1;; esac\nexec " << test::quote(HF_BINARY_DIR "/bin/hazardforge")
+                                     << " \"$@\"\n";
+  fs::permissions(bin / "hazardforge", fs::perms::owner_all);
+  write_nuscenes_campaign(dir / "c.yaml", "name: broken\nkinds: [sudden_stop]\nbudget: {attempts: 3, cpu_s: 600}\n", "");
+  const fs::path out = dir / "out";
+  const auto r = test::run_command("HAZARDFORGE_SHARED=" + test::quote(shared) + " " +
+                                   test::quote(bin / "hazardforge-campaign") + " --plugin-path " +
+                                   test::quote(HF_BINARY_DIR "/lib/hazardforge/plugins") + " campaign " +
+                                   test::quote(dir / "c.yaml") + " -o " + test::quote(out) + " -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Json index = Json::parse(test::read_file(out / "index.json"));
+  ASSERT_EQ(index["attempts"].size(), 1u) << index.dump(2);
+  const Json& a = index["attempts"][0];
+  EXPECT_EQ(a["failed_to_start"], true);
+  const fs::path folder = out / a["folder"].get<std::string>();
+  EXPECT_TRUE(fs::exists(folder / "attempt.json"));
+  EXPECT_NE(test::read_file(folder / "run.log").find("cannot load the plugins"), std::string::npos);
+  const std::string summary = test::read_file(out / "summary.md");
+  EXPECT_NE(summary.find("the attempt's run did not start: cannot load the plugins"), std::string::npos)
+      << summary;
+}
+
 TEST(CampaignEndToEnd, AThirdPartyHazardKindIsGeneratedAndVerified) {
   const fs::path shared = test::shared_dir();
   HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");

@@ -726,6 +726,15 @@ Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, doubl
   const Json m = read_json(a.dir / "manifest.json");
   e["status"] = m.is_object() ? m.value("status", "missing") : "missing";
   if (m.is_object() && m.value("failed_to_start", false)) e["failed_to_start"] = true;
+  // No manifest at all: the run ended before it began, as it will at every window.
+  if (!m.is_object() && ex.exit_code != 0) {
+    e["failed_to_start"] = true;
+    std::string last;
+    std::ifstream log(a.dir / "run.log");
+    for (std::string line; std::getline(log, line);)
+      if (!line.empty()) last = line;
+    e["reasons"].push_back("the attempt's run did not start" + (last.empty() ? std::string() : ": " + short_error(last)));
+  }
   if (m.is_object() && m.contains("refusals") && m["refusals"].is_array()) {
     e["refusals"] = Json::array();
     for (const Json& r : m["refusals"])
@@ -1108,6 +1117,9 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
     running.erase(it);
     p.running = false;
     std::error_code ec;
+    // A run that ended before it made its folder (it could not start: a broken install, a full disk) is
+    // recorded in one all the same, with its log.
+    fs::create_directories(a.dir, ec);
     fs::rename(a.dir.string() + ".log", a.dir / "run.log", ec);
     fs::remove(attempt_lock(a), ec);
     if (interrupted || ex.exit_code == 130) return;  // not finished: run again next time
