@@ -1,4 +1,5 @@
-// The pre-crash kinds beyond the first three (stopped_vehicle, pull_out, pedestrian_along_road) on synthetic scenes of known geometry:
+// The pre-crash kinds beyond the first three (stopped_vehicle, pull_out, pedestrian_along_road,
+// pedestrian_dart_out) on synthetic scenes of known geometry:
 // their plans in closed form, their limits, and proposals that plan as proposed and refuse only for physical
 // reasons.
 #include <gtest/gtest.h>
@@ -179,8 +180,11 @@ TEST(PullOut, ProposalsParkOnTheDrivingSideAndAreCriticalWithinTheHorizon) {
   auto tpl = make_template("pull_out");
   for (const char* driving : {"right", "left"}) {
     SceneContext scene = test_scene(10.0);
-    RoadLayout road;
+    RoadLayout road;  // a two-way road, the ego lane at the kerb
     road.driving_side = driving;
+    road.lanes_left = road.lanes_right = 0;
+    (std::string(driving) == "right" ? road.lanes_left : road.lanes_right) = 1;
+    road.oncoming_lanes = 1;
     scene.road = road;
     const ProposalRequest req = request_at(scene);
     int planned = 0;
@@ -202,6 +206,15 @@ TEST(PullOut, ProposalsParkOnTheDrivingSideAndAreCriticalWithinTheHorizon) {
     }
     EXPECT_GE(planned, 11) << driving;
   }
+  // A lane between the kerb and the ego's: the vehicle would pull out into that one.
+  SceneContext arterial = test_scene(10.0);
+  RoadLayout two_lanes;
+  two_lanes.lanes_right = 1;
+  arterial.road = two_lanes;
+  test::Bits bits(1);
+  const HazardProposal p = tpl->propose(request_at(arterial), bits);
+  EXPECT_TRUE(p.spec.is_null());
+  EXPECT_EQ(p.problem.code, refusal::kSceneLacks) << p.problem;
 }
 
 HazardSpec walker(double distance, double y, double speed, double heading_deg) {
@@ -272,6 +285,94 @@ TEST(PedestrianAlongRoad, ProposedOnlyWhereTheEgoLaneBordersTheRoadEdge) {
   const HazardProposal p = tpl->propose(request_at(arterial), bits);
   EXPECT_TRUE(p.spec.is_null());
   EXPECT_EQ(p.problem.code, refusal::kSceneLacks) << p.problem;
+}
+
+// A car parked 25 m ahead on the right, beside the ego path, standing; its tracked box as the test camera sees it.
+ObjectState parked_car(const CameraModel& cam, double ego_speed) {
+  ObjectState o;
+  o.track_id = 9;
+  o.label = "car";
+  o.distance_m = 25.0;  // to its rear face (the states' origin: the rear axle)
+  o.lateral_m = -4.5;
+  o.length_m = 4.5;
+  o.width_m = 1.8;
+  o.velocity_rel = cv::Vec2d(-ego_speed, 0.0);
+  o.speed_mps = 0.0;
+  const hazard::BoxView v = hazard::view_of(cam, 25.0 + 2.25, -4.5, 0.0, {4.5, 1.8, 1.5});
+  o.box = cv::Rect2f(v.box);
+  return o;
+}
+
+TEST(PedestrianDartOut, APersonHiddenBehindAParkedCarRunsIntoThePathAtTheTarget) {
+  auto tpl = make_template("pedestrian_dart_out");
+  SceneContext scene = test_scene(8.0);
+  scene.objects.push_back(parked_car(scene.camera, 8.0));
+  const ProposalRequest req = request_at(scene);
+  for (uint64_t seed = 1; seed <= 6; ++seed) {
+    test::Bits bits(seed);
+    const HazardProposal p = tpl->propose(req, bits);
+    ASSERT_FALSE(p.spec.is_null()) << seed << ": " << p.problem;
+    const HazardSpec spec = answered(p, scene);
+    // Just beyond the car's front end (25 + 4.5 + 0.4 m), on its centre line, running to the left.
+    EXPECT_NEAR(spec.initial_distance_m, 29.9, 0.05) << seed;
+    EXPECT_NEAR(spec.lateral_offset_m, -4.5, 0.03) << seed;
+    EXPECT_GE(spec.speed_mps, 2.0);
+    EXPECT_LE(spec.speed_mps, 3.5);
+    const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
+    ASSERT_TRUE(o.reasons.empty()) << seed << ": " << o.reasons.front();
+    expect_within_limits(o.trajectory, tpl->limits().at("person"));
+    // It stands until it runs, enters the path when the TTC is the target, and the plan ends in a collision
+    // course (the TTC keeps falling while it crosses).
+    EXPECT_GT(o.notes["wait_s"].get<double>(), 0.3 - 1e-9);
+    double ttc_entering = kInf;
+    for (const hazard::TtcSample& t : o.ttc)
+      if (t.in_path) {
+        ttc_entering = t.ttc;
+        break;
+      }
+    EXPECT_NEAR(ttc_entering, req.target_ttc_s, 0.06) << seed;
+    EXPECT_LE(o.trajectory.intended_min_ttc_s, req.target_ttc_s) << seed;
+  }
+}
+
+TEST(PedestrianDartOut, NoProposalWithoutAParkedVehicleOrWhereItHidesNothing) {
+  auto tpl = make_template("pedestrian_dart_out");
+  SceneContext empty = test_scene(8.0);
+  test::Bits bits(1);
+  const HazardProposal none = tpl->propose(request_at(empty), bits);
+  EXPECT_TRUE(none.spec.is_null());
+  EXPECT_EQ(none.problem.code, refusal::kTraffic) << none.problem;
+  // Its tracked box only a sliver of what the camera sees: it hides nothing.
+  SceneContext sliver = test_scene(8.0);
+  ObjectState car = parked_car(sliver.camera, 8.0);
+  car.box.height = 5;
+  sliver.objects.push_back(car);
+  test::Bits bits2(1);
+  const HazardProposal open = tpl->propose(request_at(sliver), bits2);
+  EXPECT_TRUE(open.spec.is_null());
+  EXPECT_EQ(open.problem.code, refusal::kPlacement) << open.problem;
+}
+
+TEST(PedestrianDartOut, RefusesAStartInThePathAndASpeedNoPersonRuns) {
+  auto tpl = make_template("pedestrian_dart_out");
+  HazardSpec s;
+  s.kind = "pedestrian_dart_out";
+  s.object_class = "person";
+  s.initial_distance_m = 30.0;
+  s.lateral_offset_m = -1.0;
+  s.side = "right";
+  s.speed_mps = 9.0;
+  s.target_ttc_s = 1.4;
+  const std::vector<std::string> got = test::coded(tpl->check(s, test_scene(8.0)));
+  ASSERT_FALSE(got.empty());
+  EXPECT_EQ(got, std::vector<std::string>{"class_limit: speed_mps 9 exceeds the person limit of 7 m/s"});
+  s.speed_mps = 0.2;
+  EXPECT_EQ(test::coded(tpl->check(s, test_scene(8.0))).back(),
+            "spec: speed_mps 0.2 is too slow to run out (at least 0.5 m/s)");
+  s.speed_mps = 3.0;
+  const std::vector<std::string> in_path = test::coded(tpl->check(s, test_scene(8.0)));
+  ASSERT_EQ(in_path.size(), 1u) << ::testing::PrintToString(in_path);
+  EXPECT_EQ(in_path[0].rfind("placement: the start y=-1 m is in or at the ego path", 0), 0u) << in_path[0];
 }
 
 }  // namespace

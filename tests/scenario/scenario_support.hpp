@@ -20,6 +20,7 @@
 #include "cut_in_template.hpp"
 #include "pedestrian_along_road_template.hpp"
 #include "pedestrian_crossing_template.hpp"
+#include "pedestrian_dart_out_template.hpp"
 #include "pull_out_template.hpp"
 #include "stopped_vehicle_template.hpp"
 #include "sudden_stop_template.hpp"
@@ -48,6 +49,7 @@ inline ComponentRegistry& template_registry() {
     reg.add<StoppedVehicleTemplate>();
     reg.add<PullOutTemplate>();
     reg.add<PedestrianAlongRoadTemplate>();
+    reg.add<PedestrianDartOutTemplate>();
     return true;
   }();
   (void)registered;

@@ -57,6 +57,21 @@ double ProposalScene::first_seen_small_from(const std::string& cls) const {
   return hi;
 }
 
+const ProposalScene::Obj* ProposalScene::in_path_before(double x, double margin) const {
+  const Obj* nearest = nullptr;
+  for (const Obj& o : objects)
+    if (o.in_path && o.x > 0 && o.x - o.length / 2.0 < x + margin && (!nearest || o.x < nearest->x)) nearest = &o;
+  return nearest;
+}
+
+double ProposalScene::time_ttc_falls_to(double gap0, double object_speed, double ttc, double horizon) const {
+  for (double t = 0; t <= horizon; t += 0.02) {
+    const double gap = gap0 + object_speed * t - ego_travel(0.0, t), closing = ego_speed_at(t) - object_speed;
+    if (gap <= 0 || (closing > 0.1 && gap / closing <= ttc)) return t;
+  }
+  return kInf;
+}
+
 ProposalScene ProposalScene::of(const ProposalRequest& r, const TemplateBase& tpl) {
   ProposalScene sc(r, tpl.road_in(r.scene), tpl.limits(), tpl.class_sizes());
   const TtcConventions& ttc = tpl.ttc_conventions();
@@ -114,6 +129,7 @@ std::optional<std::string> draw_class(const ProposalScene& sc,
 HazardProposal plan_some_class(const std::string& kind, const ProposalScene& sc,
                                std::vector<std::pair<std::string, int>> weighted, RandomDraw& d,
                                const std::function<HazardProposal(const std::string&)>& plan) {
+  const NoPlan refused{kind};
   std::optional<HazardProposal> first;
   std::string others;
   while (true) {
@@ -130,7 +146,7 @@ HazardProposal plan_some_class(const std::string& kind, const ProposalScene& sc,
   if (!first) {
     std::string why;
     (void)draw_class(sc, weighted, d, &why);
-    return {nullptr, {refusal::kObjectClass, why, kind}};
+    return refused(refusal::kObjectClass, why);
   }
   if (!others.empty()) first->problem.text += " (nor as a " + others + ")";
   return *first;

@@ -246,7 +246,7 @@ void fill_standing_headings(std::vector<std::optional<double>>& headings) {
 std::vector<Refusal> TemplateBase::spec_reasons(const HazardSpec& spec, const SceneContext& scene) const {
   std::vector<Refusal> reasons;
   const std::string& kind = spec.kind;
-  auto refuse = [&](const char* code, std::string text) { reasons.push_back({code, std::move(text), kind}); };
+  const Reasons refuse{reasons, kind};
   const std::string& cls = spec.object_class;
   if (!scene.camera.valid())
     refuse(refusal::kSceneData, "the scene has no valid camera model (needed for the view check)");
@@ -356,9 +356,7 @@ std::vector<TrajectoryPoint> TemplateBase::whole_manoeuvre(const Design& d, cons
 PlanOutcome TemplateBase::evaluate(const HazardSpec& spec, const SceneContext& scene) const {
   PlanOutcome out;
   auto& reasons = out.reasons;
-  auto refuse = [&](const char* code, std::string text) {
-    reasons.push_back({code, std::move(text), spec.kind});
-  };
+  const Reasons refuse{reasons, spec.kind};
   // Spec-level checks first: a motion is only designed for a spec that is physically possible at all.
   reasons = spec_reasons(spec, scene);
   if (!reasons.empty()) return out;

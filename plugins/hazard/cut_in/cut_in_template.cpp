@@ -18,9 +18,7 @@ const SpecField<double> kFinalSpeed("final_speed_mps",
                                     "speed after braking in front of the ego (below the ego speed)",
                                     {{"minimum", 0}, {"maximum", 50}});
 
-HazardProposal refused(const char* code, std::string text) {
-  return {nullptr, {code, std::move(text), "cut_in"}};
-}
+const hazard::NoPlan refused{"cut_in"};
 }  // namespace
 
 HazardKindInfo CutInTemplate::info() {
@@ -69,9 +67,7 @@ ComponentInfo CutInTemplate::describe() {
 hazard::Design CutInTemplate::design(const hazard::PlanRequest& req,
                                      std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
-  auto refuse = [&](const char* code, std::string text) {
-    reasons.push_back({code, std::move(text), spec.kind});
-  };
+  const hazard::Reasons refuse{reasons, spec.kind};
   const Params& p = req.params;
   const KinematicLimits& lim = req.limits;
   const double len = req.size_lwh[0], wid = req.size_lwh[1];

@@ -17,15 +17,6 @@ int walking_direction(double heading_deg) {
   return h <= 20.0 ? 1 : h >= 160.0 ? -1 : 0;
 }
 
-// First time (s from now) at which the TTC to a person `gap0` ahead of the ego's front, walking at `v` along
-// `dir`, falls to `ttc` along the ego's planned motion; kInf when it does not within `horizon`.
-double time_to_ttc(double gap0, int dir, double v, const hazard::ProposalScene& sc, double ttc, double horizon) {
-  for (double t = 0; t <= horizon; t += 0.02) {
-    const double gap = gap0 + dir * v * t - sc.ego_travel(0.0, t), closing = sc.ego_speed_at(t) - dir * v;
-    if (gap <= 0 || (closing > 0.1 && gap / closing <= ttc)) return t;
-  }
-  return kInf;
-}
 
 }  // namespace
 
@@ -44,9 +35,7 @@ HazardKindInfo PedestrianAlongRoadTemplate::info() {
 hazard::Design PedestrianAlongRoadTemplate::design(const hazard::PlanRequest& req,
                                                    std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
-  auto refuse = [&](const char* code, std::string text) {
-    reasons.push_back({code, std::move(text), spec.kind});
-  };
+  const hazard::Reasons refuse{reasons, spec.kind};
   const double x0 = spec.initial_distance_m, y0 = spec.lateral_offset_m, v = spec.speed_mps;
   const int dir = walking_direction(spec.heading_deg);
   if (dir == 0)
@@ -87,9 +76,7 @@ hazard::Design PedestrianAlongRoadTemplate::design(const hazard::PlanRequest& re
 HazardProposal PedestrianAlongRoadTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
   const std::string kind = kind_info().kind;
-  auto refused = [&](const char* code, std::string text) -> HazardProposal {
-    return {nullptr, {code, std::move(text), kind}};
-  };
+  const hazard::NoPlan refused{kind};
   std::string no_class;
   const std::optional<std::string> drawn = hazard::draw_class(sc, {{"person", 1}}, d, &no_class);
   if (!drawn) return refused(refusal::kObjectClass, no_class);
@@ -119,7 +106,7 @@ HazardProposal PedestrianAlongRoadTemplate::propose(const ProposalRequest& reque
   const double small_from = sc.first_seen_small_from(cls);
   const double extra = d.uniform(0.0, 5.0);
   if (x0 < small_from) x0 = small_from + extra;
-  const double reached = time_to_ttc(x0 - front, dir, v, sc, ttc, sc.horizon);
+  const double reached = sc.time_ttc_falls_to(x0 - front, dir * v, ttc, sc.horizon);
   if (reached > latest)
     return refused(refusal::kTtcUnreachable,
                    "a person walking " + std::string(dir > 0 ? "the ego's way " : "towards the ego ") +
@@ -127,11 +114,10 @@ HazardProposal PedestrianAlongRoadTemplate::propose(const ProposalRequest& reque
                        " s within " + fixed_text(latest, 1) + " s (the ego at " + fixed_text(sc.ego_speed, 1) +
                        " m/s now" + (sc.ego.is_recorded() ? ", as recorded after" : "") + ")");
   if (x0 > 120.0) return refused(refusal::kPlacement, "the person would be more than 120 m ahead");
-  for (const auto& o : sc.objects)
-    if (o.in_path && o.x > 0 && o.x - o.length / 2.0 < x0 + 2.0)
-      return refused(refusal::kTraffic, "a tracked " + o.label + " (track " + std::to_string(o.track_id) + ") " +
-                                            fixed_text(o.x, 1) + " m ahead in the ego lane is short of the person (" +
-                                            fixed_text(x0, 1) + " m)");
+  if (const auto* o = sc.in_path_before(x0, 2.0))
+    return refused(refusal::kTraffic, "a tracked " + o->label + " (track " + std::to_string(o->track_id) + ") " +
+                                          fixed_text(o->x, 1) + " m ahead in the ego lane is short of the person (" +
+                                          fixed_text(x0, 1) + " m)");
   if (!sc.visible(x0, y0))
     return refused(refusal::kNotInView, "the person's place (" + fixed_text(x0, 1) + ", " + fixed_text(y0, 1) +
                                             ") m is outside the camera view");

@@ -17,9 +17,7 @@ const SpecField<std::string> kCrossingFrom("crossing_from",
                                            "the road edge the person steps off from (equals side)",
                                            {{"enum", {"left", "right"}}});
 
-HazardProposal refused(const char* code, std::string text) {
-  return {nullptr, {code, std::move(text), "pedestrian_crossing"}};
-}
+const hazard::NoPlan refused{"pedestrian_crossing"};
 
 }  // namespace
 
@@ -60,9 +58,7 @@ ComponentInfo PedestrianCrossingTemplate::describe() {
 hazard::Design PedestrianCrossingTemplate::design(const hazard::PlanRequest& req,
                                                   std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
-  auto refuse = [&](const char* code, std::string text) {
-    reasons.push_back({code, std::move(text), spec.kind});
-  };
+  const hazard::Reasons refuse{reasons, spec.kind};
   try {
     if (const std::optional<std::string> from = kCrossingFrom.get(spec); from && *from != spec.side)
       refuse(refusal::kSpec, "extra.crossing_from \"" + *from + "\" contradicts side \"" + spec.side + "\"");

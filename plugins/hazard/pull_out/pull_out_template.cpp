@@ -134,9 +134,7 @@ ComponentInfo PullOutTemplate::describe() {
 
 hazard::Design PullOutTemplate::design(const hazard::PlanRequest& req, std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
-  auto refuse = [&](const char* code, std::string text) {
-    reasons.push_back({code, std::move(text), spec.kind});
-  };
+  const hazard::Reasons refuse{reasons, spec.kind};
   const double len = req.size_lwh[0], wid = req.size_lwh[1];
   const int side = req.side_sign();
   if (side == 0) {
@@ -203,6 +201,17 @@ hazard::Design PullOutTemplate::design(const hazard::PlanRequest& req, std::vect
 
 HazardProposal PullOutTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
+  // Parked on the side traffic keeps to; a lane between that kerb and the ego's takes the vehicle pulling out
+  // (it merges into the nearest lane), so the ego lane must border the parking strip.
+  const int kerb = -sc.road.oncoming_side();
+  if (const int between = sc.road.lanes(kerb); between > 0) {
+    const std::string side = kerb > 0 ? "left" : "right";
+    return {nullptr,
+            {refusal::kSceneLacks,
+             "the ego lane does not border the kerb on the " + side + " (lanes_" + side + " " +
+                 std::to_string(between) + "): a vehicle pulling out there merges into the lane beside it",
+             kind_info().kind}};
+  }
   // A car mostly; a truck or bus (slower to drive off) where one fits.
   return hazard::plan_some_class(kind_info().kind, sc, {{"car", 4}, {"truck", 1}, {"bus", 1}}, d,
                                  [&](const std::string& cls) { return propose_as(cls, sc, request, d); });
@@ -212,9 +221,7 @@ HazardProposal PullOutTemplate::propose_as(const std::string& cls, const hazard:
                                            const ProposalRequest& request, RandomDraw& d) const {
   using hazard::round_to;
   const std::string kind = kind_info().kind;
-  auto refused = [&](const char* code, std::string text) -> HazardProposal {
-    return {nullptr, {code, std::move(text), kind}};
-  };
+  const hazard::NoPlan refused{kind};
   const double ttc = request.aim * sc.target;
   const KinematicLimits& lim = sc.limits.at(cls);
   const hazard::Footprint size = sc.size(cls);
@@ -251,12 +258,11 @@ HazardProposal PullOutTemplate::propose_as(const std::string& cls, const hazard:
     // Placed so that the TTC is `ttc` as it enters the ego path.
     const double x0 = front + sc.ego_travel(0.0, *t_in) + ttc * closing - s->at(*t_in).x;
     if (x0 > 150.0) return refused(refusal::kPlacement, "the vehicle would stand more than 150 m ahead");
-    for (const auto& o : sc.objects)
-      if (o.in_path && o.x > 0 && o.x - o.length / 2.0 < x0 + s->at(*t_in).x + size.length / 2.0 + 5.0)
-        return refused(refusal::kTraffic, "a tracked " + o.label + " (track " + std::to_string(o.track_id) +
-                                              ") " + fixed_text(o.x, 1) +
-                                              " m ahead in the ego lane is short of where the " + cls +
-                                              " would pull in");
+    if (const auto* o = sc.in_path_before(x0 + s->at(*t_in).x + size.length / 2.0, 5.0))
+      return refused(refusal::kTraffic, "a tracked " + o->label + " (track " + std::to_string(o->track_id) +
+                                            ") " + fixed_text(o->x, 1) +
+                                            " m ahead in the ego lane is short of where the " + cls +
+                                            " would pull in");
     if (!sc.visible(x0, y0))
       return refused(refusal::kNotInView, "the parking place (" + fixed_text(x0, 1) + ", " + fixed_text(y0, 1) +
                                               ") m is outside the camera view");

@@ -34,7 +34,8 @@ struct PullOutShape {
 // Proposals: a car (4 in 6 draws), truck or bus (another class when the drawn one does not fit) parked on the kerb
 // side (the driving side), in view from the start like anything beside the road; it drives off after 0.3-1 s and
 // is placed so that the TTC is the aimed one (ProposalRequest::aim x target) as it enters the ego path; refused
-// when it cannot enter the path within the horizon, when the ego is not faster than the vehicle once it pulls out, when a tracked road user drives in the ego lane
+// where a lane lies between that kerb and the ego lane (the vehicle would merge into it), when it cannot enter the
+// path within the horizon, when the ego is not faster than the vehicle once it pulls out, when a tracked road user drives in the ego lane
 // short of the place, or when the place is out of view or taken.
 class PullOutTemplate : public hazard::KindTemplate<PullOutTemplate> {
  public:

@@ -23,9 +23,7 @@ HazardKindInfo StoppedVehicleTemplate::info() {
 hazard::Design StoppedVehicleTemplate::design(const hazard::PlanRequest& req,
                                               std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
-  auto refuse = [&](const char* code, std::string text) {
-    reasons.push_back({code, std::move(text), spec.kind});
-  };
+  const hazard::Reasons refuse{reasons, spec.kind};
   const double x0 = spec.initial_distance_m, y0 = spec.lateral_offset_m;
   if (spec.track_id)
     refuse(refusal::kSpec, "track_id " + std::to_string(*spec.track_id) +
@@ -55,20 +53,6 @@ hazard::Design StoppedVehicleTemplate::design(const hazard::PlanRequest& req,
   return d;
 }
 
-namespace {
-
-// First time (s from now) at which the TTC to a standing object `gap0` ahead of the ego's front falls to `ttc`
-// along the ego's planned motion; kInf when it does not within `horizon` (the ego stops or crawls).
-double time_to_ttc(double gap0, const hazard::ProposalScene& sc, double ttc, double horizon) {
-  for (double t = 0; t <= horizon; t += 0.02) {
-    const double gap = gap0 - sc.ego_travel(0.0, t), v = sc.ego_speed_at(t);
-    if (gap <= 0 || (v > 0.1 && gap / v <= ttc)) return t;
-  }
-  return kInf;
-}
-
-}  // namespace
-
 HazardProposal StoppedVehicleTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
   const std::string kind = kind_info().kind;
@@ -89,9 +73,7 @@ HazardProposal StoppedVehicleTemplate::propose_as(const std::string& cls, const 
                                                   const ProposalRequest& request, RandomDraw& d) const {
   using hazard::round_to;
   const std::string kind = kind_info().kind;
-  auto refused = [&](const char* code, std::string text) -> HazardProposal {
-    return {nullptr, {code, std::move(text), kind}};
-  };
+  const hazard::NoPlan refused{kind};
   const double ttc = request.aim * sc.target;
   const hazard::Footprint size = sc.size(cls);
   const double front = sc.ego_front + size.length / 2.0;
@@ -104,7 +86,7 @@ HazardProposal StoppedVehicleTemplate::propose_as(const std::string& cls, const 
   const double small_from = sc.first_seen_small_from(cls);
   const double extra = d.uniform(0.0, 5.0);
   if (x0 < small_from) x0 = small_from + extra;
-  const double reached = time_to_ttc(x0 - front, sc, ttc, sc.horizon);
+  const double reached = sc.time_ttc_falls_to(x0 - front, 0.0, ttc, sc.horizon);
   if (reached > latest)
     return refused(refusal::kTtcUnreachable,
                    "a " + cls + " standing " + fixed_text(x0 - front, 1) + " m ahead" +
@@ -117,11 +99,10 @@ HazardProposal StoppedVehicleTemplate::propose_as(const std::string& cls, const 
   const double y0 = d.uniform(-0.3, 0.3);
   if (x0 > 150.0) return refused(refusal::kPlacement, "the vehicle would stand more than 150 m ahead");
   // A tracked road user driving in the ego lane short of that place would have to pass through it.
-  for (const auto& o : sc.objects)
-    if (o.in_path && o.x > 0 && o.x - o.length / 2.0 < x0 + size.length / 2.0 + 2.0)
-      return refused(refusal::kTraffic, "a tracked " + o.label + " (track " + std::to_string(o.track_id) + ") " +
-                                            fixed_text(o.x, 1) + " m ahead in the ego lane is short of where the " +
-                                            cls + " would stand (" + fixed_text(x0, 1) + " m)");
+  if (const auto* o = sc.in_path_before(x0 + size.length / 2.0, 2.0))
+    return refused(refusal::kTraffic, "a tracked " + o->label + " (track " + std::to_string(o->track_id) + ") " +
+                                          fixed_text(o->x, 1) + " m ahead in the ego lane is short of where the " +
+                                          cls + " would stand (" + fixed_text(x0, 1) + " m)");
   if (!sc.visible(x0, y0))
     return refused(refusal::kNotInView, "the place (" + fixed_text(x0, 1) + ", " + fixed_text(y0, 1) +
                                             ") m is outside the camera view");

@@ -44,9 +44,7 @@ ComponentInfo SuddenStopTemplate::describe() {
 hazard::Design SuddenStopTemplate::design(const hazard::PlanRequest& req,
                                           std::vector<Refusal>& reasons) const {
   const HazardSpec& spec = req.spec;
-  auto refuse = [&](const char* code, std::string text) {
-    reasons.push_back({code, std::move(text), spec.kind});
-  };
+  const hazard::Reasons refuse{reasons, spec.kind};
   cv::Vec3d size = req.size_lwh;
   double x0 = spec.initial_distance_m, y0 = spec.lateral_offset_m, v0 = spec.speed_mps;
   const std::optional<int64_t> track = spec.track_id;

@@ -71,6 +71,13 @@ struct ProposalScene {
   bool visible(double x, double y, double z = 0.0) const;
   // "" or why an object of footprint `me` at (x, y) would start next to a tracked object (except `except`).
   std::string overlap_problem(double x, double y, const Footprint& me, int64_t except = -1) const;
+  // The nearest tracked object in the ego path ahead whose rear is short of `x` (+ `margin`): one that would have
+  // to pass through a hazard standing there; null when none is.
+  const Obj* in_path_before(double x, double margin = 0.0) const;
+  // First time (s from now) at which the TTC to an object `gap0` ahead of the ego's front, moving along the road
+  // at `object_speed` (negative: towards the ego), falls to `ttc` along the ego's planned motion; kInf when it
+  // does not within `horizon` (the ego stops or crawls). A 20 ms replay.
+  double time_ttc_falls_to(double gap0, double object_speed, double ttc, double horizon) const;
   // The nearest x ahead on the ego lane's centre from which an object of this class, first seen there, looks
   // small enough (ProposalRequest::first_seen_max_height); 0 without that rule or without a camera.
   double first_seen_small_from(const std::string& cls) const;
@@ -84,6 +91,14 @@ struct ProposalScene {
 std::optional<std::string> draw_class(const ProposalScene& sc,
                                       const std::vector<std::pair<std::string, int>>& weighted, RandomDraw& d,
                                       std::string* why);
+
+// A proposal that does not fit, with its typed reason: `const NoPlan refused{kind}; return refused(code, text);`.
+struct NoPlan {
+  std::string kind;
+  HazardProposal operator()(const char* code, std::string text) const {
+    return {nullptr, {code, std::move(text), kind}};
+  }
+};
 
 // A plan for a class drawn from `weighted` (as draw_class), adapting to the scene: when the drawn class's plan is
 // refused (`plan` returns no spec: a bus too slow to pull out in time, a truck first seen small too far ahead)

@@ -54,6 +54,13 @@ struct Design {
   Json notes = Json::object();        // design values worth recording (brake time, lane-change duration ...)
 };
 
+// A design's (or check's) reasons against one spec: refuse(code, text) appends {code, text, kind}.
+struct Reasons {
+  std::vector<Refusal>& out;
+  const std::string& kind;
+  void operator()(const char* code, std::string text) const { out.push_back({code, std::move(text), kind}); }
+};
+
 // Everything a kind needs to design a motion.
 struct PlanRequest {
   const HazardSpec& spec;
