@@ -131,9 +131,8 @@ HazardProposal plan_some_class(const std::string& kind, const ProposalScene& sc,
                                const std::function<HazardProposal(const std::string&)>& plan) {
   const NoPlan refused{kind};
   std::optional<HazardProposal> first;
-  std::string others;
+  std::string others, why;
   while (true) {
-    std::string why;
     const std::optional<std::string> cls = draw_class(sc, weighted, d, &why);
     if (!cls) break;
     HazardProposal p = plan(*cls);
@@ -143,11 +142,7 @@ HazardProposal plan_some_class(const std::string& kind, const ProposalScene& sc,
     std::erase_if(weighted, [&](const auto& w) { return w.first == *cls; });
     if (weighted.empty()) break;
   }
-  if (!first) {
-    std::string why;
-    (void)draw_class(sc, weighted, d, &why);
-    return refused(refusal::kObjectClass, why);
-  }
+  if (!first) return refused(refusal::kObjectClass, why);  // no class could be drawn at all
   if (!others.empty()) first->problem.text += " (nor as a " + others + ")";
   return *first;
 }
