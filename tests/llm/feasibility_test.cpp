@@ -162,6 +162,41 @@ TEST_F(Feasibility, PersonOnTheShoulderOnlyWithTheExplicitRelaxation) {
       has(check(p), "/lateral_offset_m = -8 puts the person off the road and sidewalk (|y| <= 7.75 m"));
 }
 
+TEST_F(Feasibility, APersonMayStandBesideATrackedVehicleBeyondTheRoadEdge) {
+  cfg_.sidewalks = false;
+  HazardSpec p = stop();
+  p.kind = "pedestrian_dart_out";
+  p.object_class = "person";
+  p.speed_mps = 3;
+  p.deceleration_mps2.reset();
+  p.heading_deg = 90;
+  p.side = "right";
+  p.initial_distance_m = 33.5;  // a metre beyond the front of the car below
+  p.lateral_offset_m = -7.5;  // the right road edge is at 5.25 m, no sidewalk
+  auto lateral = [&] {
+    std::vector<std::string> out;
+    for (const std::string& m : check(p))
+      if (m.rfind("/lateral_offset_m", 0) == 0) out.push_back(m);
+    return out;
+  };
+  EXPECT_EQ(lateral(), std::vector<std::string>{
+                           "/lateral_offset_m = -7.5 puts the person off the road (|y| <= 5.25 m on the right)"});
+  // A car parked in a bay there (its rear face 28 m ahead, centred at 30.25 m): the ground beside it is ground.
+  ObjectState bay;
+  bay.track_id = 11;
+  bay.label = "car";
+  bay.distance_m = 28.0;
+  bay.lateral_m = -7.5;
+  bay.length_m = 4.5;
+  bay.width_m = 1.8;
+  bay.speed_mps = 0.0;
+  scene_.objects.push_back(bay);
+  EXPECT_TRUE(lateral().empty());
+  // Not a person far from it.
+  p.initial_distance_m = 45.0;
+  EXPECT_EQ(lateral().size(), 1u);
+}
+
 TEST_F(Feasibility, SideRoadAndOverlap) {
   HazardSpec s = stop();
   s.side = "left";
@@ -170,7 +205,8 @@ TEST_F(Feasibility, SideRoadAndOverlap) {
   std::vector<std::string> e = check(s);
   ASSERT_GE(e.size(), 2u);
   EXPECT_EQ(e[0], "/side = \"left\" contradicts /lateral_offset_m = -3.5 (left of the ego means y > 0)");
-  EXPECT_EQ(e[1], "start point (x 40 m, y -3.5 m) overlaps the detected car (track 7) at x 40 m, y -3.5 m");
+  // The car's distance reaches its rear face; its centre lies half its length (4.5 m) further on.
+  EXPECT_EQ(e[1], "start point (x 40 m, y -3.5 m) overlaps the detected car (track 7) centred at x 42.25 m, y -3.5 m");
 
   s = stop();
   s.side = "right";

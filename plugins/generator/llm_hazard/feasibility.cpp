@@ -9,6 +9,7 @@
 
 #include <hazardforge/angles.hpp>
 #include <hazardforge/error.hpp>
+#include <hazardforge/hazard/proposal.hpp>
 #include <hazardforge/number_text.hpp>
 
 namespace hf::llm_hazard {
@@ -167,7 +168,21 @@ std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContex
   const bool parked = is_motor_vehicle(cls) && std::abs(spec.speed_mps) < 0.1 && cfg.sizes.has(cls);
   const double beyond = may_use_sidewalk ? cfg.sidewalk_width_m : parked ? cfg.sizes.at(cls).width + 0.5 : 0.0;
   const double max_y = cfg.road.edge(side_sign) + beyond;
-  if (std::abs(y) > max_y)
+  // Where a tracked vehicle stands or drives beyond that (a parking area, a lot the road passes), the ground is
+  // there: a person may be beside it, within 1.5 m of its footprint (one hidden behind a parked car).
+  auto beside_tracked_vehicle = [&] {
+    if (cls != "person") return false;
+    for (const ObjectState& o : scene.objects) {
+      if (!std::isfinite(o.distance_m) || !is_motor_vehicle(o.label)) continue;
+      const ClassSize other = cfg.sizes.has(o.label) ? cfg.sizes.at(o.label) : ClassSize{};
+      const double ow = o.width_m > 0 ? o.width_m : other.width, ol = o.length_m > 0 ? o.length_m : other.length;
+      const double ox = hazard::centre_x(o, scene.distance_origin_x, cfg.sizes);
+      if (std::abs(ox - spec.initial_distance_m) <= ol / 2.0 + 1.5 && std::abs(o.lateral_m - y) <= ow / 2.0 + 1.5)
+        return true;
+    }
+    return false;
+  };
+  if (std::abs(y) > max_y && !beside_tracked_vehicle())
     refuse(refusal::kPlacement, "/lateral_offset_m = " + num_text(y) + " puts the " + cls + " off the " +
                    (may_use_sidewalk ? "road and sidewalk" : parked ? "road and its parking strip" : "road") +
                    " (|y| <= " + num_text(max_y) + " m on the " + (side_sign > 0 ? "left" : "right") + ")");
@@ -181,11 +196,13 @@ std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContex
       if (taken && *taken == o.track_id) continue;
       ClassSize other = cfg.sizes.has(o.label) ? cfg.sizes.at(o.label) : ClassSize{};
       double ow = o.width_m > 0 ? o.width_m : other.width, ol = o.length_m > 0 ? o.length_m : other.length;
-      if (std::abs(o.distance_m - spec.initial_distance_m) < (ol + me.length) / 2.0 &&
+      // Centre to centre, as the templates place objects (hazard::centre_x), not face to centre.
+      const double ox = hazard::centre_x(o, scene.distance_origin_x, cfg.sizes);
+      if (std::abs(ox - spec.initial_distance_m) < (ol + me.length) / 2.0 &&
           std::abs(o.lateral_m - y) < (ow + me.width) / 2.0)
         refuse(refusal::kTraffic, "start point (x " + num_text(spec.initial_distance_m) + " m, y " + num_text(y) +
                        " m) overlaps the detected " + o.label + " (track " + std::to_string(o.track_id) +
-                       ") at x " + num_text(o.distance_m) + " m, y " + num_text(o.lateral_m) + " m");
+                       ") centred at x " + num_text(ox) + " m, y " + num_text(o.lateral_m) + " m");
     }
   }
 
