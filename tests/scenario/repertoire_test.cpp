@@ -217,6 +217,63 @@ TEST(PullOut, ProposalsParkOnTheDrivingSideAndAreCriticalWithinTheHorizon) {
   EXPECT_EQ(p.problem.code, refusal::kSceneLacks) << p.problem;
 }
 
+// The ego in the leftmost lane of a divided road (a median barrier on its left, two lanes on its right, traffic
+// keeps right), and on a one-lane one-way street (both edges border the ego lane).
+RoadLayout divided_road() {
+  RoadLayout road;
+  road.lanes_left = 0;
+  road.lanes_right = 2;
+  road.oncoming_lanes = 0;
+  return road;
+}
+
+RoadLayout one_way_street() {
+  RoadLayout road;
+  road.lanes_left = road.lanes_right = 0;
+  road.oncoming_lanes = 0;
+  return road;
+}
+
+// The sides of a kind's proposals on a road, over 24 seeds: {left, right} counts; every proposal plans.
+std::pair<int, int> proposal_sides(const hazard::TemplateBase& tpl, const RoadLayout& road) {
+  SceneContext scene = test_scene(10.0);
+  scene.road = road;
+  const ProposalRequest req = request_at(scene);
+  int left = 0, right = 0;
+  for (uint64_t seed = 1; seed <= 24; ++seed) {
+    test::Bits bits(seed);
+    const HazardProposal p = tpl.propose(req, bits);
+    if (p.spec.is_null()) {
+      EXPECT_EQ(p.problem.code, refusal::kTtcUnreachable) << seed << ": " << p.problem;
+      continue;
+    }
+    const HazardSpec spec = answered(p, scene);
+    const hazard::PlanOutcome o = tpl.evaluate(spec, scene);
+    EXPECT_TRUE(o.reasons.empty()) << seed << ": " << (o.reasons.empty() ? "" : o.reasons.front().text);
+    ++(spec.lateral_offset_m > 0 ? left : right);
+  }
+  return {left, right};
+}
+
+TEST(RoadEdge, OnADividedRoadTheMedianSideIsTheEdgeTheEgoLaneBorders) {
+  for (const char* kind : {"pull_out", "pedestrian_along_road"}) {
+    auto tpl = make_template(kind);
+    const auto [left, right] = proposal_sides(*tpl, divided_road());
+    EXPECT_GE(left, 20) << kind;
+    EXPECT_EQ(right, 0) << kind;
+  }
+}
+
+TEST(RoadEdge, OnAOneWayStreetBothEdgesTheKerbMostly) {
+  for (const char* kind : {"pull_out", "pedestrian_along_road"}) {
+    auto tpl = make_template(kind);
+    const auto [left, right] = proposal_sides(*tpl, one_way_street());
+    EXPECT_GT(right, left) << kind;  // traffic keeps right: the kerb is on the right
+    EXPECT_GE(left, 1) << kind;
+    EXPECT_GE(left + right, 20) << kind;
+  }
+}
+
 HazardSpec walker(double distance, double y, double speed, double heading_deg) {
   HazardSpec s;
   s.kind = "pedestrian_along_road";

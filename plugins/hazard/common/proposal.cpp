@@ -64,6 +64,26 @@ const ProposalScene::Obj* ProposalScene::in_path_before(double x, double margin)
   return nearest;
 }
 
+std::vector<int> ProposalScene::edge_sides() const {
+  std::vector<int> sides;
+  const int kerb = -road.oncoming_side();
+  for (const int side : {kerb, -kerb})
+    if (road.lanes(side) == 0) sides.push_back(side);
+  return sides;
+}
+
+int ProposalScene::draw_edge_side(RandomDraw& d) const {
+  const std::vector<int> sides = edge_sides();
+  if (sides.empty()) return 0;
+  if (sides.size() == 1) return sides.front();
+  return d.index(4) < 3 ? sides[0] : sides[1];
+}
+
+std::string ProposalScene::no_edge_side() const {
+  return "the ego lane borders no road edge: there is a lane beside it on either side (lanes_left " +
+         std::to_string(road.lanes_left) + ", lanes_right " + std::to_string(road.lanes_right) + ")";
+}
+
 double ProposalScene::time_ttc_falls_to(double gap0, double object_speed, double ttc, double horizon) const {
   for (double t = 0; t <= horizon; t += 0.02) {
     const double gap = gap0 + object_speed * t - ego_travel(0.0, t), closing = ego_speed_at(t) - object_speed;

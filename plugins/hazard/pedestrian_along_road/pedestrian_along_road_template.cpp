@@ -81,13 +81,13 @@ HazardProposal PedestrianAlongRoadTemplate::propose(const ProposalRequest& reque
   const std::optional<std::string> drawn = hazard::draw_class(sc, {{"person", 1}}, d, &no_class);
   if (!drawn) return refused(refusal::kObjectClass, no_class);
   const std::string cls = *drawn;
-  // At the road edge on the side traffic keeps to, which the ego lane must border.
-  const int sign = -sc.road.oncoming_side();
+  // At a road edge the ego lane borders (the kerb, or a one-way or divided road's far edge): elsewhere a person
+  // walking at the edge is not in the ego path.
+  const int sign = sc.draw_edge_side(d);
+  if (sign == 0)
+    return refused(refusal::kSceneLacks,
+                   sc.no_edge_side() + ": a person walking at the road's edge would not be in the ego path");
   const std::string side = sign > 0 ? "left" : "right";
-  if (sc.road.lanes(sign) > 0)
-    return refused(refusal::kSceneLacks, "the ego lane does not border the road edge on the " + side + " (lanes_" +
-                                             side + " " + std::to_string(sc.road.lanes(sign)) +
-                                             "): a person walking at the edge would not be in the ego path");
   const hazard::Footprint size = sc.size(cls);
   const double half = sc.path_half(size.width);
   const double y0 = sign * std::min(half - d.uniform(0.3, 0.6), sc.edge(sign) - size.width / 2.0 - 0.2);

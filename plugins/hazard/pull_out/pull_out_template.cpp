@@ -201,23 +201,19 @@ hazard::Design PullOutTemplate::design(const hazard::PlanRequest& req, std::vect
 
 HazardProposal PullOutTemplate::propose(const ProposalRequest& request, RandomDraw& d) const {
   const hazard::ProposalScene sc = hazard::ProposalScene::of(request, *this);
-  // Parked on the side traffic keeps to; a lane between that kerb and the ego's takes the vehicle pulling out
-  // (it merges into the nearest lane), so the ego lane must border the parking strip.
-  const int kerb = -sc.road.oncoming_side();
-  if (const int between = sc.road.lanes(kerb); between > 0) {
-    const std::string side = kerb > 0 ? "left" : "right";
-    return {nullptr,
-            {refusal::kSceneLacks,
-             "the ego lane does not border the kerb on the " + side + " (lanes_" + side + " " +
-                 std::to_string(between) + "): a vehicle pulling out there merges into the lane beside it",
-             kind_info().kind}};
-  }
+  // Parked at a road edge the ego lane borders: the kerb, or a one-way or divided road's far edge (a shoulder by
+  // the median). Across a lane, the vehicle pulling out merges into that lane, not the ego's.
+  const int sign = sc.draw_edge_side(d);
+  const hazard::NoPlan refused{kind_info().kind};
+  if (sign == 0)
+    return refused(refusal::kSceneLacks,
+                   sc.no_edge_side() + ": a vehicle pulling out merges into the lane beside the ego lane");
   // A car mostly; a truck or bus (slower to drive off) where one fits.
   return hazard::plan_some_class(kind_info().kind, sc, {{"car", 4}, {"truck", 1}, {"bus", 1}}, d,
-                                 [&](const std::string& cls) { return propose_as(cls, sc, request, d); });
+                                 [&](const std::string& cls) { return propose_as(cls, sign, sc, request, d); });
 }
 
-HazardProposal PullOutTemplate::propose_as(const std::string& cls, const hazard::ProposalScene& sc,
+HazardProposal PullOutTemplate::propose_as(const std::string& cls, int sign, const hazard::ProposalScene& sc,
                                            const ProposalRequest& request, RandomDraw& d) const {
   using hazard::round_to;
   const std::string kind = kind_info().kind;
@@ -225,8 +221,6 @@ HazardProposal PullOutTemplate::propose_as(const std::string& cls, const hazard:
   const double ttc = request.aim * sc.target;
   const KinematicLimits& lim = sc.limits.at(cls);
   const hazard::Footprint size = sc.size(cls);
-  // Parked on the side traffic keeps to.
-  const int sign = -sc.road.oncoming_side();
   const std::string side = sign > 0 ? "left" : "right";
   const double y0 = PullOutShape::parking_offset(sc.road, sign, size.width);
   // Its end speed: a pull-out's 2-6 m/s, well below the ego's (35-60 % of it) so that the ego closes in.

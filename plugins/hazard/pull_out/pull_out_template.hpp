@@ -31,10 +31,11 @@ struct PullOutShape {
 // after extra.pull_out_after_s (param pull_out_after_s) it drives off to extra.pull_out_speed_mps (param
 // pull_out_speed_mps) at up to 2.5 m/s^2 (or 70 % of the class limit) while steering into the ego lane. Params: the
 // shared template params plus those two.
-// Proposals: a car (4 in 6 draws), truck or bus (another class when the drawn one does not fit) parked on the kerb
-// side (the driving side), in view from the start like anything beside the road; it drives off after 0.3-1 s and
+// Proposals: a car (4 in 6 draws), truck or bus (another class when the drawn one does not fit) parked at a road
+// edge the ego lane borders (the kerb, three times in four where the far edge of a one-way or divided road
+// borders it too; hazard::ProposalScene::edge_sides), in view from the start like anything beside the road; it drives off after 0.3-1 s and
 // is placed so that the TTC is the aimed one (ProposalRequest::aim x target) as it enters the ego path; refused
-// where a lane lies between that kerb and the ego lane (the vehicle would merge into it), when it cannot enter the
+// where a lane lies beside the ego lane on either side (the vehicle would merge into it), when it cannot enter the
 // path within the horizon, when the ego is not faster than the vehicle once it pulls out, when a tracked road user drives in the ego lane
 // short of the place, or when the place is out of view or taken.
 class PullOutTemplate : public hazard::KindTemplate<PullOutTemplate> {
@@ -47,7 +48,7 @@ class PullOutTemplate : public hazard::KindTemplate<PullOutTemplate> {
   hazard::Design design(const hazard::PlanRequest& req, std::vector<Refusal>& reasons) const override;
 
  private:
-  HazardProposal propose_as(const std::string& cls, const hazard::ProposalScene& sc,
+  HazardProposal propose_as(const std::string& cls, int side, const hazard::ProposalScene& sc,
                             const ProposalRequest& request, RandomDraw& d) const;
 };
 

@@ -78,6 +78,15 @@ struct ProposalScene {
   // at `object_speed` (negative: towards the ego), falls to `ttc` along the ego's planned motion; kInf when it
   // does not within `horizon` (the ego stops or crawls). A 20 ms replay.
   double time_ttc_falls_to(double gap0, double object_speed, double ttc, double horizon) const;
+  // The sides (+1 left, -1 right) where the ego lane borders the road's edge: the kerb (the side traffic keeps
+  // to) first, then the far side where no lane lies beyond the ego's (a one-way road, a divided road's median).
+  // Where a parked vehicle pulls out into the ego lane, or a person at the edge walks in its path.
+  std::vector<int> edge_sides() const;
+  // One of edge_sides(), the kerb three times as often as the far side; 0 when there is none.
+  int draw_edge_side(RandomDraw& d) const;
+  // Why no side has a road edge next to the ego lane ("every side has a lane beside the ego lane (lanes_left 1,
+  // lanes_right 2)").
+  std::string no_edge_side() const;
   // The nearest x ahead on the ego lane's centre from which an object of this class, first seen there, looks
   // small enough (ProposalRequest::first_seen_max_height); 0 without that rule or without a camera.
   double first_seen_small_from(const std::string& cls) const;
