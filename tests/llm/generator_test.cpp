@@ -87,6 +87,39 @@ TEST(LlmHazard, OfflineSpecAtFirstSafeFrameAfterWarmup) {
 }
 
 // Every offline plan must survive the generic checks and the built-in templates' own check() first time.
+// road.jsonl: the road as the generator settles it on every frame, one record where a fact changes, and on after
+// the hazard is made. Here a person followed for 1 s (people_seen_s) shows there are pavements from frame 3 on.
+TEST(LlmHazard, TheRoadIsRecordedWhereAFactChanges) {
+  auto r = test::make_runner("seed: 3\n");
+  for (int i = 0; i < 10; ++i) {
+    const double t = 0.5 * i;
+    r.push("frames", test::make_frame(i, t, "a road"), t);
+    ObjectStates states = test::make_states(i, t);
+    if (i >= 1) {
+      ObjectState person;
+      person.track_id = 20;
+      person.label = "person";
+      person.distance_m = 60.0;
+      person.lateral_m = 8.0;
+      states.objects.push_back(person);
+    }
+    r.push("states", states, t);
+    r.push("risk", test::make_risk(i, true), t, "ttc");
+  }
+  r.run();
+  ASSERT_EQ(r.collect<HazardSpec>("hazard").size(), 1u);  // made at frame 5
+  const std::vector<Json> road = test::read_jsonl(r.output_dir() / "road.jsonl");
+  ASSERT_EQ(road.size(), 2u) << road[0].dump();
+  EXPECT_EQ(road[0]["frame"], 0);
+  EXPECT_EQ(road[0]["road"]["sidewalks"], false);
+  EXPECT_EQ(road[1]["frame"], 3);  // the person seen at 0.5 s, followed for 1 s at 1.5 s
+  EXPECT_EQ(road[1]["road"]["sidewalks"], true);
+  EXPECT_EQ(road[1]["road"]["sources"]["sidewalks"]["from"], "measured");
+  const RoadLayout layout = road[1]["road"].get<RoadLayout>();
+  EXPECT_EQ(layout.lanes_left, 1);
+  EXPECT_FALSE(road[1]["road"].contains("environment"));
+}
+
 TEST(LlmHazard, OfflinePlansPassTheTemplatesForManySeeds) {
   std::map<std::string, int> kinds;
   for (int seed = 0; seed < 16; ++seed) {

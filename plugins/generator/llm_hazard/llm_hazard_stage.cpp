@@ -88,6 +88,9 @@ ComponentInfo LlmHazardGenerator::describe() {
       ParamSpec::number("target_ttc_s", 1.0).range(0.1, 10).describe("TTC the hazard should reach"),
       ParamSpec::number("ttc_tolerance_s", 0.25).range(0, 5).describe("slack when checking the reached TTC"),
       ParamSpec::string("trigger", "first_safe").one_of({"first_safe", "frame"}).describe("when to generate"),
+      ParamSpec::string("road_file", "road.jsonl")
+          .describe("the road as settled from the scene block and the footage, one record per frame where a "
+                    "fact changes ({frame, timestamp, road: RoadLayout}); '' = none"),
       ParamSpec::integer("trigger_frame", 0)
           .range(0, std::nullopt)
           .describe("frame index for trigger: frame"),
@@ -450,8 +453,9 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   trigger_ = p.get_string("trigger");
   trigger_frame_ = p.get_int("trigger_frame");
   warmup_frames_ = p.get_int("warmup_frames");
-  calls_ = std::make_unique<CallLog>(resolve_output_path(
+  calls_ = std::make_unique<JsonLines>(resolve_output_path(
       ctx.output_dir(), "llm/calls.jsonl", "node '" + ctx.node_id() + "': the LLM call record"));
+  if (!p.get_string("road_file").empty()) road_log_ = std::make_unique<JsonLines>(output_param_path(ctx, "road_file"));
   ctx.log(LogLevel::kInfo,
           "hazards from " + provider_->describe_backend() + "; kinds: " + join(allowed_kinds_, ", "));
 }
@@ -471,7 +475,6 @@ std::string echoed_reply(const std::string& reply) {
 }  // namespace
 
 void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& out) {
-  if (done_) return;
   const Frame& frame = in.require<Frame>("frames");
   const ObjectStates& states = in.require<ObjectStates>("states");
   std::vector<const RiskAssessment*> risks;
@@ -488,6 +491,8 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
     traffic_.add(frame.timestamp, states, ego);
     oncoming_.add(frame.timestamp, states, ego);
   }
+  record_road(ctx, frame);
+  if (done_) return;
   if (trigger_ == "first_safe" && (seen < warmup_frames_ || frame.timestamp < next_try_s_ - 1e-9)) return;
   if (trigger_ == "frame" && frame.index != trigger_frame_) return;
   if (risks.empty())
@@ -726,6 +731,18 @@ SceneSettings LlmHazardGenerator::read_scene(StageContext& ctx, const Frame& fra
   s.sidewalk_width_m = p.get_double("sidewalk_width_m");
   s.pedestrians_without_sidewalks = p.get_bool("pedestrians_without_sidewalks");
   return s;
+}
+
+void LlmHazardGenerator::record_road(StageContext& ctx, const Frame& frame) {
+  if (!road_log_) return;
+  Json road = road_layout(read_scene(ctx, frame));
+  road.erase("environment");  // the scene's words, the same on every frame
+  // The facts and what each rests on; the evidence's wording (a track followed for longer) is not a change.
+  Json facts = road;
+  for (auto& [field, source] : facts["sources"].items()) source.erase("why");
+  if (facts == last_road_) return;
+  road_log_->append({{"frame", frame.index}, {"timestamp", frame.timestamp}, {"road", road}});
+  last_road_ = std::move(facts);
 }
 
 std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const Frame& frame,

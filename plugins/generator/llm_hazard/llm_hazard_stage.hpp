@@ -62,6 +62,8 @@ class LlmHazardGenerator : public Stage {
                                                 const std::vector<const RiskAssessment*>& risks);
   double ego_speed(const Frame& frame, const ObjectStates& states) const;
   SceneSettings read_scene(StageContext& ctx, const Frame& frame);
+  // Appends the frame's settled road to road_file when a fact differs from the last record's.
+  void record_road(StageContext& ctx, const Frame& frame);
   std::optional<HazardSpec> ask(StageContext& ctx, const Frame& frame, LlmRequest& req, const ReplyChecker& checker,
                                 const std::string& prompt_hash, const RoadLayout& road);
   double risk_threshold(const std::vector<const RiskAssessment*>& risks, int64_t frame) const;
@@ -91,7 +93,9 @@ class LlmHazardGenerator : public Stage {
   hazard::RoadModel road_;  // as stated (params, scene block)
   bool warned_side_ = false;
   hazard::TtcConventions ttc_;
-  std::unique_ptr<CallLog> calls_;
+  std::unique_ptr<JsonLines> calls_;
+  std::unique_ptr<JsonLines> road_log_;  // road_file
+  Json last_road_;  // its last record's facts and their sources, without the evidence's wording
 
   std::string trigger_;
   int64_t trigger_frame_ = 0;

@@ -6,11 +6,11 @@
 
 namespace hf::llm_hazard {
 
-CallLog::CallLog(std::filesystem::path path) : path_(std::move(path)) {
+JsonLines::JsonLines(std::filesystem::path path) : path_(std::move(path)) {
   out_.open(path_, RecordFile::Mode::kAppend);
 }
 
-void CallLog::append(const Json& record) {
+void JsonLines::append(const Json& record) {
   out_.write(json_text(record) + '\n');
 }
 

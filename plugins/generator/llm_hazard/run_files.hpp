@@ -1,4 +1,4 @@
-// Files the generator leaves in the run folder: the append-only LLM call record.
+// Files the generator leaves in the run folder: the append-only LLM call record and the road record.
 #pragma once
 
 #include <filesystem>
@@ -9,11 +9,11 @@
 
 namespace hf::llm_hazard {
 
-// llm/calls.jsonl: one JSON object per model call, written whole as it happens so an interrupted run keeps
-// it.
-class CallLog {
+// An append-only JSON-lines file (llm/calls.jsonl: one object per model call; road.jsonl): each record written
+// whole as it happens, so an interrupted run keeps it.
+class JsonLines {
  public:
-  explicit CallLog(std::filesystem::path path);
+  explicit JsonLines(std::filesystem::path path);
   void append(const Json& record);
   const std::filesystem::path& path() const { return path_; }
 
