@@ -394,6 +394,53 @@ std::string scene_reading(const std::string& yaml, const std::function<void(int,
   return std::string("(no generation)");
 }
 
+// A run that starts at its trigger frame (a campaign's attempt whose hazard is there from the clip's first
+// frame): its own tracks have no velocities yet, so the hazard is planned on the whole recording's estimates of
+// the same objects there (recording_states, matched by box), keeping the run's track ids.
+TEST(LlmHazard, AHazardMadeAtTheRunsFirstFrameIsPlannedOnTheRecordingsStates) {
+  test::TempDir tmp;
+  const auto scout = tmp / "scout.jsonl";
+  {
+    std::ofstream f(scout);
+    for (int i = 0; i <= 9; ++i)
+      f << "{\"frame\":" << i << ",\"timestamp\":" << 0.5 * i
+        << ",\"estimator.states\":{\"frame\":" << i
+        << ",\"ego_speed_mps\":8.0,\"objects\":[{\"track_id\":31,\"label\":\"car\",\"box\":[600,300,80,60],"
+           "\"distance_m\":40.0,\"lateral_m\":-3.5,\"width_m\":1.85,\"length_m\":4.5,\"speed_mps\":0.0,"
+           "\"velocity_rel\":[-8.0,0.0],\"sigma\":{\"distance_m\":0.5,\"lateral_m\":0.1,"
+           "\"velocity_rel\":[0.3,0.3]}}]}}\n";
+  }
+  auto run_from = [&](int first, int trigger) {
+    auto r = test::make_runner("seed: 3\ntrigger: frame\ntrigger_frame: " + std::to_string(trigger) +
+                               "\nrecording_states: " + scout.string() + "\n");
+    for (int i = first; i <= 9; ++i) {
+      const double t = 0.5 * i;
+      ObjectStates st = test::make_states(i, t);
+      st.objects.front().box = cv::Rect2f(601, 300, 80, 60);
+      if (i == first) {  // a track the run has just started: no velocity, no ego speed yet
+        st.objects.front().velocity_rel.reset();
+        st.ego_speed_mps.reset();
+      }
+      r.push("frames", test::make_frame(i, t, "a road"), t);
+      r.push("states", st, t);
+      r.push("risk", test::make_risk(i, true), t, "ttc");
+    }
+    r.run();
+    std::string said;
+    for (const std::string& l : r.log())
+      if (l.find("planned on recording_states") != std::string::npos) said = l;
+    return std::make_pair(r.collect<HazardSpec>("hazard").size(), said);
+  };
+  const auto [made, said] = run_from(3, 3);
+  EXPECT_EQ(made, 1u);
+  EXPECT_NE(said.find("frame 3 is the run's frame 1: planned on recording_states' estimates there (1 of 1 objects "
+                      "matched, ego speed 8 m/s)"),
+            std::string::npos)
+      << said;
+  // A run with warmup_frames (5) of history before its trigger plans on its own tracks.
+  EXPECT_EQ(run_from(0, 5).second, "");
+}
+
 // Sidewalks on auto with a scene text that says nothing about them: the people the recording shows decide.
 TEST(LlmHazard, PeopleTheRecordingShowsMeanSidewalks) {
   auto sidewalks_line = [](const std::string& yaml, int person_frames) {

@@ -169,7 +169,9 @@ ComponentInfo LlmHazardGenerator::describe() {
           .describe(
               "JSON-lines file of the whole recording's object states, as the jsonl sink writes them (a "
               "campaign's scouting run): the people and the traffic beside the ego it shows count for "
-              "people_seen_s and traffic_seen_s too, when this run sees only a window of the recording"),
+              "people_seen_s and traffic_seen_s too, when this run sees only a window of the recording; a "
+              "hazard made among the run's first warmup_frames frames is planned on its estimates of the "
+              "objects and the ego there (the run's own tracks have no velocities yet)"),
       ParamSpec::path("feedback", "")
           .describe(
               "JSON file of failed attempts on this recording, {\"attempts\": [{\"kind\", \"object_class\", "
@@ -191,9 +193,9 @@ ComponentInfo LlmHazardGenerator::describe() {
               "first seen small, never popping up close ahead; 0 = no such rule"),
       ParamSpec::number("entry_after_s", 0.5)
           .range(0, 3600)
-          .describe("entry_max_height applies to hazards that appear this long or more after the recording's "
-                    "first frame; one that appears earlier is there from the start of the video, as the real "
-                    "objects are"),
+          .describe("entry_max_height applies to hazards that appear this long or more after the run's first "
+                    "frame; one that appears earlier is there from the start of the video, as the real objects "
+                    "are"),
       ParamSpec::number("clearance_m", 0.3)
           .range(0, 5)
           .describe("room the hazard's planned path keeps from every tracked object's predicted box (m)"),
@@ -298,6 +300,17 @@ ObjectState state_from_record(const Json& o) {
   };
   s.distance_m = number("distance_m", std::nan(""));
   s.lateral_m = number("lateral_m", 0.0);
+  s.width_m = number("width_m", 0.0);
+  s.length_m = number("length_m", 0.0);
+  s.age = static_cast<int>(number("age", 0.0));
+  s.in_path = o.value("in_path", false);
+  s.distance_method = o.value("distance_method", "");
+  if (o.contains("speed_mps") && o["speed_mps"].is_number()) s.speed_mps = o["speed_mps"].get<double>();
+  if (o.contains("heading_rad") && o["heading_rad"].is_number()) s.heading_rad = o["heading_rad"].get<double>();
+  if (o.contains("scale_rate") && o["scale_rate"].is_number()) s.scale_rate = o["scale_rate"].get<double>();
+  const Json b = o.value("box", Json());
+  if (b.is_array() && b.size() == 4 && std::all_of(b.begin(), b.end(), [](const Json& x) { return x.is_number(); }))
+    s.box = cv::Rect2f(b[0].get<float>(), b[1].get<float>(), b[2].get<float>(), b[3].get<float>());
   if (o.contains("truncated") && o["truncated"].is_number_unsigned())
     s.truncated = o["truncated"].get<unsigned>();
   const Json v = o.value("velocity_rel", Json());
@@ -322,7 +335,8 @@ ObjectState state_from_record(const Json& o) {
 
 void LlmHazardGenerator::read_states_file(const std::filesystem::path& file,
                                           std::map<int64_t, std::pair<double, double>>& people,
-                                          TrafficBeside& traffic, TrafficBeside& oncoming) {
+                                          TrafficBeside& traffic, TrafficBeside& oncoming,
+                                          std::map<int64_t, ObjectStates>& frames) {
   std::ifstream in(file);
   if (!in) throw Error("recording_states: cannot read " + file.string());
   std::string line;
@@ -355,6 +369,15 @@ void LlmHazardGenerator::read_states_file(const std::filesystem::path& file,
       if (ego.is_number()) {
         traffic.add(t, states, ego.get<double>());
         oncoming.add(t, states, ego.get<double>());
+        states.ego_speed_mps = ego.get<double>();
+      }
+      if (const Json yaw = value.value("ego_yaw_rate", Json()); yaw.is_number())
+        states.ego_yaw_rate = yaw.get<double>();
+      states.distance_origin_x = value.value("distance_origin_x", 0.0);
+      states.timestamp = t;
+      if (const Json f = value.contains("frame") ? value["frame"] : j.value("frame", Json()); f.is_number_integer()) {
+        states.frame_index = f.get<int64_t>();
+        frames[states.frame_index] = std::move(states);
       }
     }
   }
@@ -420,10 +443,12 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   rules_.entry_max_height = p.get_double("entry_max_height");
   rules_.clearance_m = p.get_double("clearance_m");
   recording_people_.clear();
+  recording_frames_.clear();
+  run_start_s_.reset();
   traffic_ = recording_traffic_ = TrafficBeside(road_.lane_width_m);
   oncoming_ = recording_oncoming_ = TrafficBeside(road_.lane_width_m, TrafficBeside::Flow::kOncoming);
   if (const std::filesystem::path rs = p.get_path("recording_states"); !rs.empty()) {
-    read_states_file(rs, recording_people_, recording_traffic_, recording_oncoming_);
+    read_states_file(rs, recording_people_, recording_traffic_, recording_oncoming_, recording_frames_);
     ctx.record_resource(rs);
   }
   const std::filesystem::path feedback_file = p.get_path("feedback");
@@ -481,6 +506,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
   for (const Packet* pk : in.packets("risk"))
     if (pk && !pk->empty()) risks.push_back(&pk->get<RiskAssessment>());
   const int64_t seen = frames_seen_++;
+  if (!run_start_s_) run_start_s_ = frame.timestamp;
 
   for (const ObjectState& o : states.objects) {  // people the recording shows, for the sidewalks' auto rule
     if (o.label != "person" || o.track_id < 0) continue;
@@ -521,7 +547,7 @@ void LlmHazardGenerator::process(StageContext& ctx, const Inputs& in, Outputs& o
   if (trigger_ == "first_safe" && turns_too_much(ctx, frame)) return;
   std::optional<HazardSpec> spec;
   try {
-    spec = generate_shortening(ctx, frame, states, risks);
+    spec = generate_shortening(ctx, frame, planning_states(ctx, frame, states, seen), risks);
   } catch (const NoHazardFits& e) {
     if (trigger_ == "frame") throw;
     tried_.emplace_back(frame.index, e.what());
@@ -733,6 +759,42 @@ SceneSettings LlmHazardGenerator::read_scene(StageContext& ctx, const Frame& fra
   return s;
 }
 
+ObjectStates LlmHazardGenerator::planning_states(StageContext& ctx, const Frame& frame, const ObjectStates& live,
+                                                 int64_t seen) const {
+  if (seen >= warmup_frames_) return live;
+  const auto at = recording_frames_.find(frame.index);
+  if (at == recording_frames_.end()) return live;
+  const ObjectStates& rec = at->second;
+  ObjectStates out = live;
+  if (rec.ego_speed_mps) out.ego_speed_mps = rec.ego_speed_mps;
+  if (rec.ego_yaw_rate) out.ego_yaw_rate = rec.ego_yaw_rate;
+  int matched = 0;
+  for (ObjectState& o : out.objects) {
+    // The same detection in both passes: the same label and nearly the same box.
+    const ObjectState* best = nullptr;
+    double best_iou = 0.7;
+    for (const ObjectState& r : rec.objects) {
+      if (r.label != o.label) continue;
+      const double inter = (r.box & o.box).area(), uni = r.box.area() + o.box.area() - inter;
+      if (uni > 0 && inter / uni > best_iou) best = &r, best_iou = inter / uni;
+    }
+    if (!best || rec.distance_origin_x != live.distance_origin_x) continue;
+    const int64_t id = o.track_id;
+    const cv::Rect2f box = o.box;
+    const float score = o.score;
+    o = *best;  // its estimate with the track's history
+    o.track_id = id, o.box = box, o.score = score;
+    ++matched;
+  }
+  ctx.log(LogLevel::kInfo, "frame " + std::to_string(frame.index) + " is the run's frame " +
+                               std::to_string(seen + 1) + ": planned on recording_states' estimates there (" +
+                               std::to_string(matched) + " of " + std::to_string(out.objects.size()) +
+                               " objects matched, ego speed " +
+                               (out.ego_speed_mps ? num_text(*out.ego_speed_mps) + " m/s" : std::string("unknown")) +
+                               ")");
+  return out;
+}
+
 void LlmHazardGenerator::record_road(StageContext& ctx, const Frame& frame) {
   if (!road_log_) return;
   Json road = road_layout(read_scene(ctx, frame));
@@ -757,7 +819,8 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   s.rules = rules_;
   s.rules.distance_origin_x = states.distance_origin_x;
   // Appearing with the video's first frames, the hazard is there from the start like the real objects.
-  if (frame.timestamp < p.get_double("entry_after_s")) s.rules.entry_max_height = 0.0;
+  if (frame.timestamp - run_start_s_.value_or(frame.timestamp) < p.get_double("entry_after_s"))
+    s.rules.entry_max_height = 0.0;
   s.feedback = feedback_;
   s.target_ttc_s = p.get_double("target_ttc_s");
   s.ttc_tolerance_s = p.get_double("ttc_tolerance_s");

@@ -113,11 +113,19 @@ class LlmHazardGenerator : public Stage {
   TrafficBeside traffic_,
       recording_traffic_;  // vehicles travelling the ego's way beside it: so far / recording
   TrafficBeside oncoming_, recording_oncoming_;  // vehicles coming towards the ego beside its lane
-  // Person tracks (first and last time seen) and vehicles travelling beside the ego, either way, in a jsonl
-  // sink's file of object states.
+  // recording_states by frame index: the whole recording's perception, tracks with their history.
+  std::map<int64_t, ObjectStates> recording_frames_;
+  std::optional<double> run_start_s_;  // the timestamp of the first frame this run sees
+  // Person tracks (first and last time seen), vehicles travelling beside the ego, either way, and each frame's
+  // states, in a jsonl sink's file of object states.
   static void read_states_file(const std::filesystem::path& file,
                                std::map<int64_t, std::pair<double, double>>& people, TrafficBeside& traffic,
-                               TrafficBeside& oncoming);
+                               TrafficBeside& oncoming, std::map<int64_t, ObjectStates>& frames);
+  // The states a hazard is planned on. Among the run's first frames (fewer than warmup_frames: its own tracks
+  // have no velocities yet) each object takes the recording's estimate of it at this frame (recording_states,
+  // matched by its box), and the ego its speed and yaw rate; otherwise the run's own.
+  ObjectStates planning_states(StageContext& ctx, const Frame& frame, const ObjectStates& live,
+                               int64_t seen) const;
   bool warned_skipped_ = false;
 };
 
