@@ -212,6 +212,27 @@ TEST(CampaignReasons, ARefusalForTrafficDoesNotSayTheSceneForbidsTheKind) {
   EXPECT_TRUE(scene_refusal(attempt_at(w, "failed", {scene})).empty());
 }
 
+// A hazard first seen far away that cannot reach the target in time, or come into view plausibly, is placed
+// there from the window's first frame in the pair's next attempts; other refusals change nothing.
+TEST(CampaignWindows, AfterAHazardFirstSeenTooFarTheNextAttemptsStartAtTheirTrigger) {
+  CampaignWindow w;
+  w.trigger = 21;
+  const Refusal far{refusal::kTtcUnreachable,
+                    "sudden_stop: a lead first seen small (from 45.9 m) cannot bring the TTC to 0.9 s", "sudden_stop"};
+  const Refusal view{refusal::kNotInView, "cut_in: no start already under way comes into view from the image border",
+                     "cut_in"};
+  const Refusal scene{refusal::kSceneLacks, "cut_in: the road has a single lane", "cut_in"};
+  EXPECT_FALSE(starts_at_trigger({}));
+  EXPECT_FALSE(starts_at_trigger({attempt_at(w, "no hazard", {scene})}));
+  EXPECT_FALSE(starts_at_trigger({attempt_at(w, "not verified", {})}));
+  EXPECT_TRUE(starts_at_trigger({attempt_at(w, "no hazard", {far})}));
+  EXPECT_TRUE(starts_at_trigger({attempt_at(w, "no hazard", {scene, view})}));
+  // Once started at its trigger, a pair goes on that way whatever the later outcomes.
+  Json from_start = attempt_at(w, "not verified", {});
+  from_start["window"]["from_start"] = true;
+  EXPECT_TRUE(starts_at_trigger({attempt_at(w, "no hazard", {scene}), from_start}));
+}
+
 TEST(CampaignWindows, AfterARefusalForTrafficTheNextAttemptWaitsForTheTrafficToMoveOn) {
   CampaignSpec s;  // 2 seeds per window, traffic_wait_s 1
   std::vector<CampaignWindow> w(5);

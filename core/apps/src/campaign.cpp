@@ -438,6 +438,7 @@ Json to_json(const CampaignWindow& w) {
           {"scene_ttc_s", opt(w.scene_ttc)},
           {"turn_deg", opt(w.turn_deg)},
           {"appear_m", opt(w.appear_m)},
+          {"from_start", w.from_start},
           {"reach_m", opt(w.reach_m)},
           {"score", w.score}};
 }
@@ -512,6 +513,17 @@ std::set<std::string> scene_refusal(const Json& attempt) {
   for (const Refusal& f : attempt_refusals(attempt))
     if (f.code != refusal::kTraffic) r.insert(f.kind.empty() ? f.code : f.kind + ":" + f.code);
   return r;
+}
+
+bool starts_at_trigger(const std::vector<Json>& attempts) {
+  for (const Json& a : attempts) {
+    if (!a.is_object()) continue;
+    if (a.contains("window") && a["window"].is_object() && a["window"].value("from_start", false)) return true;
+    if (a.value("outcome", "") != "no hazard") continue;
+    for (const Refusal& r : attempt_refusals(a))
+      if (r.code == refusal::kTtcUnreachable || r.code == refusal::kNotInView) return true;
+  }
+  return false;
 }
 
 const CampaignWindow& next_window(const std::vector<CampaignWindow>& windows,
@@ -612,13 +624,21 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
                                                             : reasons.back().get<std::string>());
     return std::nullopt;
   }
-  // The generator refusing this kind for the same reasons at two different trigger frames: the scene does not
-  // allow it (no sidewalks, a single lane, ...); more windows and seeds would only repeat the refusal.
+  // A hazard there from the window's first frame once one first seen far away could not do (the generator plans
+  // it on the scouting pass's states).
+  const bool from_start = !p.recording_states.empty() && starts_at_trigger(p.attempts);
+  auto started_at_trigger = [](const Json& a) {
+    return a.contains("window") && a["window"].is_object() && a["window"].value("from_start", false);
+  };
+  // The generator refusing this kind for the same reasons at two different trigger frames, both run the way the
+  // next would be: the scene does not allow it (no sidewalks, a single lane, ...); more windows and seeds would
+  // only repeat the refusal.
   if (p.attempts.size() >= 2) {
     const Json& a = p.attempts[p.attempts.size() - 2];
     const Json& b = p.attempts.back();
     const auto ra = scene_refusal(a), rb = scene_refusal(b);
-    if (!ra.empty() && ra == rb && a["window"]["trigger_frame"] != b["window"]["trigger_frame"]) {
+    if (!ra.empty() && ra == rb && a["window"]["trigger_frame"] != b["window"]["trigger_frame"] &&
+        started_at_trigger(a) == from_start && started_at_trigger(b) == from_start) {
       std::vector<Refusal> shown;
       for (const Refusal& r : attempt_refusals(b))
         if (r.code != refusal::kTraffic) shown.push_back(r);
@@ -631,6 +651,11 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
   Planned a;
   a.index = static_cast<int>(p.attempts.size()) + 1;
   a.window = next_window(windows, p.attempts, s);
+  if (from_start) {
+    a.window.from_start = true;
+    a.window.first = a.window.trigger;
+    a.window.history_s = 0;
+  }
   a.seed = a.index;  // every attempt of a pair its own seed
   a.id = attempt_id(a.index, a.window, a.seed);
   a.dir = pair_dir(out, p) / a.id;

@@ -78,6 +78,9 @@ struct CampaignWindow {
   std::optional<double> turn_deg;  // the ego's heading change over the horizon
   std::optional<double> appear_m;  // where a hazard critical after lead_s must be first seen
   std::optional<double> reach_m;   // 90th percentile of the distances the detector tracked in this recording
+  // The attempt runs from its trigger frame (first = trigger): the hazard is there from the clip's first frame,
+  // as the recording's objects in view are, planned on the scouting pass's estimates (starts_at_trigger).
+  bool from_start = false;
 };
 
 // Safe frames with enough clip left, best first (the ground the ego covers over the horizon, or without
@@ -98,6 +101,12 @@ bool refused_for_traffic(const Json& attempt);
 // The codes (with their kinds) of an attempt's refusal other than traffic: two attempts at different
 // trigger frames refused for the same ones end the pair.
 std::set<std::string> scene_refusal(const Json& attempt);
+
+// Whether a pair's next attempt runs from its trigger frame (CampaignWindow::from_start): once an attempt was
+// refused because nothing first seen far enough away reaches the target TTC in time (ttc_unreachable) or comes
+// into view plausibly (not_in_view), and for every later attempt of the pair. Needs the scouting pass's states
+// (the generator plans on them at a run's first frames).
+bool starts_at_trigger(const std::vector<Json>& attempts);
 
 // The window of a pair's next attempt, from its finished attempts in order (index.json entries: "window" with
 // "trigger_frame" and "t_s", "outcome", "refusals"): seeds_per_window attempts at a window, windows in rank
