@@ -274,6 +274,41 @@ TEST(RoadEdge, OnAOneWayStreetBothEdgesTheKerbMostly) {
   }
 }
 
+// A clip too short for a whole pull-out (1.4 s left, a highway's 25 m/s): the vehicle is already pulling out from
+// the median shoulder when the hazard appears, and enters the ego path within the horizon at the target TTC.
+TEST(PullOut, OnAShortClipItIsAlreadyPullingOutWhenItAppears) {
+  auto tpl = make_template("pull_out", {{"duration_s", 1.4}, {"max_under_way_s", 4.6}});
+  SceneContext scene = test_scene(25.0);
+  scene.road = divided_road();
+  ProposalRequest req = request_at(scene);
+  req.horizon_s = 1.4;
+  req.max_under_way_s = 4.6;
+  int planned = 0;
+  for (uint64_t seed = 1; seed <= 12; ++seed) {
+    test::Bits bits(seed);
+    const HazardProposal p = tpl->propose(req, bits);
+    if (p.spec.is_null()) {
+      EXPECT_EQ(p.problem.code, refusal::kTtcUnreachable) << seed << ": " << p.problem;
+      continue;
+    }
+    const HazardSpec spec = answered(p, scene);
+    ASSERT_TRUE(spec.under_way_s) << p.spec.dump();
+    EXPECT_GT(*spec.under_way_s, 0.0);
+    EXPECT_LE(*spec.under_way_s, 4.6);
+    EXPECT_GT(spec.lateral_offset_m, 0.0);  // the median shoulder, on the left
+    const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
+    ASSERT_TRUE(o.reasons.empty()) << seed << ": " << o.reasons.front() << "\n" << p.spec.dump();
+    EXPECT_LE(o.trajectory.intended_min_ttc_s, req.target_ttc_s + 0.05) << seed << ": " << p.spec.dump();
+    ++planned;
+  }
+  EXPECT_GE(planned, 10);
+  // Not allowed under way: refused, saying why.
+  req.max_under_way_s = 0.0;
+  test::Bits bits(1);
+  const HazardProposal p = tpl->propose(req, bits);
+  EXPECT_EQ(p.problem.code, refusal::kTtcUnreachable) << p.problem;
+}
+
 HazardSpec walker(double distance, double y, double speed, double heading_deg) {
   HazardSpec s;
   s.kind = "pedestrian_along_road";

@@ -233,34 +233,50 @@ HazardProposal PullOutTemplate::propose_as(const std::string& cls, int sign, con
   // lengthened (the ego accelerating on its recorded track).
   double t_go = d.uniform(0.3, 1.0);
   std::string last;
-  for (; t_go < latest; t_go += 0.25) {
+  for (; t_go < latest + sc.max_under_way; t_go += 0.25) {
     std::string why;
     const std::optional<PullOutShape> s = PullOutShape::make(y0, t_go, v1, lim, why);
     if (!s) return refused(refusal::kClassLimit, why);
     const std::optional<double> t_in = s->enters(half);
     if (!t_in) return refused(refusal::kPlacement, "the steering never brings it into the ego path");
+    // A pull-out that would enter the ego path after the horizon (a short clip) is already under way when the
+    // hazard appears, entering the path a drawn 40-70 % into the horizon, while max_under_way_s allows.
+    double under_way = 0.0;
     if (*t_in > latest) {
-      last = "it would enter the ego path " + fixed_text(*t_in, 1) + " s in, after " + fixed_text(latest, 1) + " s";
-      break;
+      under_way = round_to(*t_in - d.uniform(0.4, 0.7) * latest, 0.05);
+      if (under_way > sc.max_under_way) {
+        last = "it would enter the ego path " + fixed_text(*t_in, 1) + " s in, after " + fixed_text(latest, 1) +
+               " s" +
+               (sc.max_under_way > 0 ? ", and under way for " + fixed_text(under_way, 1) +
+                                           " s when it appears (max_under_way_s " +
+                                           fixed_text(sc.max_under_way, 1) + ")"
+                                     : std::string());
+        break;
+      }
     }
-    const double closing = sc.ego_speed_at(*t_in) - s->at(*t_in).vx;
+    const double enter = *t_in - under_way;  // when it enters the path, from the hazard's appearing
+    const double closing = sc.ego_speed_at(enter) - s->at(*t_in).vx;
     if (closing < 0.5) {
-      last = "the ego (" + fixed_text(sc.ego_speed_at(*t_in), 1) + " m/s then) is not faster than the vehicle (" +
+      last = "the ego (" + fixed_text(sc.ego_speed_at(enter), 1) + " m/s then) is not faster than the vehicle (" +
              fixed_text(s->at(*t_in).vx, 1) + " m/s) when it pulls into the lane";
       continue;
     }
-    // Placed so that the TTC is `ttc` as it enters the ego path.
-    const double x0 = front + sc.ego_travel(0.0, *t_in) + ttc * closing - s->at(*t_in).x;
+    // Placed so that the TTC is `ttc` as it enters the ego path (the design's x counts from where the ego was
+    // when the manoeuvre began).
+    const double x0 = front + sc.ego_travel(-under_way, enter) + ttc * closing - s->at(*t_in).x;
+    const double x_now = x0 + s->at(under_way).x - sc.ego_travel(-under_way, 0.0);  // as the hazard appears
     if (x0 > 150.0) return refused(refusal::kPlacement, "the vehicle would stand more than 150 m ahead");
-    if (const auto* o = sc.in_path_before(x0 + s->at(*t_in).x + size.length / 2.0, 5.0))
+    if (const auto* o = sc.in_path_before(x_now - s->at(under_way).x + s->at(*t_in).x + size.length / 2.0, 5.0))
       return refused(refusal::kTraffic, "a tracked " + o->label + " (track " + std::to_string(o->track_id) +
                                             ") " + fixed_text(o->x, 1) +
                                             " m ahead in the ego lane is short of where the " + cls +
                                             " would pull in");
-    if (!sc.visible(x0, y0))
-      return refused(refusal::kNotInView, "the parking place (" + fixed_text(x0, 1) + ", " + fixed_text(y0, 1) +
+    const double y_now = s->at(under_way).y;
+    if (!sc.visible(x_now, y_now))
+      return refused(refusal::kNotInView, "the parking place (" + fixed_text(x_now, 1) + ", " + fixed_text(y_now, 1) +
                                               ") m is outside the camera view");
-    if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return refused(refusal::kTraffic, p);
+    if (under_way == 0)
+      if (std::string p = sc.overlap_problem(x0, y0, size); !p.empty()) return refused(refusal::kTraffic, p);
     Json spec = hazard::proposal_spec(kind, cls, x0, y0, side, 0.0, 0.0,
                                       "parked on the " + side + ", pulls out into the ego lane", sc.target);
     kAfter.set(spec, round_to(t_go, 0.05));
@@ -268,8 +284,13 @@ HazardProposal PullOutTemplate::propose_as(const std::string& cls, int sign, con
     spec["rationale"] = "A " + cls + " parked on the " + side + " " + fixed_text(x0, 1) + " m ahead drives off after " +
                         fixed_text(t_go, 1) + " s to " + fixed_text(v1, 1) +
                         " m/s and steers into the ego lane " + fixed_text(*t_in, 1) + " s in, where the ego at " +
-                        fixed_text(sc.ego_speed_at(*t_in), 1) + " m/s closes in at a TTC near " +
+                        fixed_text(sc.ego_speed_at(enter), 1) + " m/s closes in at a TTC near " +
                         fixed_text(ttc, 1) + " s.";
+    if (under_way > 0) {
+      spec["under_way_s"] = under_way;
+      spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fixed_text(under_way, 1) +
+                          " s into the manoeuvre, already pulling out.";
+    }
     return {spec, {}};
   }
   return refused(refusal::kTtcUnreachable, "no wait before it pulls out fits the horizon: " +

@@ -34,7 +34,8 @@ struct PullOutShape {
 // Proposals: a car (4 in 6 draws), truck or bus (another class when the drawn one does not fit) parked at a road
 // edge the ego lane borders (the kerb, three times in four where the far edge of a one-way or divided road
 // borders it too; hazard::ProposalScene::edge_sides), in view from the start like anything beside the road; it drives off after 0.3-1 s and
-// is placed so that the TTC is the aimed one (ProposalRequest::aim x target) as it enters the ego path; refused
+// is placed so that the TTC is the aimed one (ProposalRequest::aim x target) as it enters the ego path (already
+// pulling out when it appears, under_way_s, where the horizon is too short for the whole manoeuvre); refused
 // where a lane lies beside the ego lane on either side (the vehicle would merge into it), when it cannot enter the
 // path within the horizon, when the ego is not faster than the vehicle once it pulls out, when a tracked road user drives in the ego lane
 // short of the place, or when the place is out of view or taken.
