@@ -43,6 +43,18 @@ class Feasibility : public ::testing::Test {
     s.target_ttc_s = 1.0;
     return s;
   }
+  // A person crossing from the right at `y`, `speed` m/s, as `kind`.
+  HazardSpec person(const std::string& kind, double y, double speed = 2.0) const {
+    HazardSpec p = stop();
+    p.kind = kind;
+    p.object_class = "person";
+    p.speed_mps = speed;
+    p.deceleration_mps2.reset();
+    p.heading_deg = 90;
+    p.side = "right";
+    p.lateral_offset_m = y;
+    return p;
+  }
   // The reasons' texts (codes: coded()).
   std::vector<std::string> check(const HazardSpec& s) const {
     std::vector<std::string> out;
@@ -75,14 +87,7 @@ TEST_F(Feasibility, ClassLimitsFromTheSharedTable) {
 TEST_F(Feasibility, SceneRulesFromThePrompt) {
   cfg_.sidewalks = false;
   cfg_.multi_lane = false;
-  HazardSpec p = stop();
-  p.kind = "pedestrian_crossing";
-  p.object_class = "person";
-  p.speed_mps = 2;
-  p.deceleration_mps2.reset();
-  p.heading_deg = 90;
-  p.side = "right";
-  p.lateral_offset_m = -5.5;
+  HazardSpec p = person("pedestrian_crossing", -5.5);
   std::vector<std::string> e = coded(p);
   ASSERT_FALSE(e.empty());
   EXPECT_EQ(e[0], "scene_lacks: /kind = \"pedestrian_crossing\" needs sidewalks: the scene has none (sidewalks = no)");
@@ -137,14 +142,7 @@ TEST_F(Feasibility, KindNeedsFromTheTemplates) {
 TEST_F(Feasibility, PersonOnTheShoulderOnlyWithTheExplicitRelaxation) {
   cfg_.sidewalks = false;
   cfg_.sidewalk_width_m = 2.5;
-  HazardSpec p = stop();
-  p.kind = "pedestrian_crossing";
-  p.object_class = "person";
-  p.speed_mps = 2;
-  p.deceleration_mps2.reset();
-  p.heading_deg = 90;
-  p.side = "right";
-  p.lateral_offset_m = -6.0;  // the right road edge is at 5.25 m: 0.75 m onto the shoulder
+  HazardSpec p = person("pedestrian_crossing", -6.0);  // the right road edge is at 5.25 m: 0.75 m onto the shoulder
   auto has = [](const std::vector<std::string>& e, const std::string& start) {
     for (const auto& m : e)
       if (m.rfind(start, 0) == 0) return true;
@@ -164,15 +162,8 @@ TEST_F(Feasibility, PersonOnTheShoulderOnlyWithTheExplicitRelaxation) {
 
 TEST_F(Feasibility, APersonMayStandBesideATrackedVehicleBeyondTheRoadEdge) {
   cfg_.sidewalks = false;
-  HazardSpec p = stop();
-  p.kind = "pedestrian_dart_out";
-  p.object_class = "person";
-  p.speed_mps = 3;
-  p.deceleration_mps2.reset();
-  p.heading_deg = 90;
-  p.side = "right";
-  p.initial_distance_m = 33.5;  // a metre beyond the front of the car below
-  p.lateral_offset_m = -7.5;  // the right road edge is at 5.25 m, no sidewalk
+  HazardSpec p = person("pedestrian_dart_out", -7.5, 3.0);  // the right road edge is at 5.25 m, no sidewalk
+  p.initial_distance_m = 33.5;                                 // a metre beyond the front of the car below
   auto lateral = [&] {
     std::vector<std::string> out;
     for (const std::string& m : check(p))

@@ -4,6 +4,8 @@
 // reasons.
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include "hazardforge/hazard/proposal.hpp"
 #include "scenario_support.hpp"
 
@@ -234,13 +236,12 @@ RoadLayout one_way_street() {
   return road;
 }
 
-// The sides of a kind's proposals on a road, over 24 seeds: {left, right} counts; every proposal plans.
-std::pair<int, int> proposal_sides(const hazard::TemplateBase& tpl, const RoadLayout& road) {
-  SceneContext scene = test_scene(10.0);
-  scene.road = road;
-  const ProposalRequest req = request_at(scene);
-  int left = 0, right = 0;
-  for (uint64_t seed = 1; seed <= 24; ++seed) {
+// Proposals for seeds 1..n, each answered and planned (its plan must pass); a proposal refused only for time
+// (ttc_unreachable) is skipped. `each` sees the spec and its plan; returns how many planned.
+int plan_proposals(const hazard::TemplateBase& tpl, const SceneContext& scene, const ProposalRequest& req, int n,
+                   const std::function<void(const HazardSpec&, const hazard::PlanOutcome&)>& each) {
+  int planned = 0;
+  for (uint64_t seed = 1; seed <= static_cast<uint64_t>(n); ++seed) {
     test::Bits bits(seed);
     const HazardProposal p = tpl.propose(req, bits);
     if (p.spec.is_null()) {
@@ -249,9 +250,21 @@ std::pair<int, int> proposal_sides(const hazard::TemplateBase& tpl, const RoadLa
     }
     const HazardSpec spec = answered(p, scene);
     const hazard::PlanOutcome o = tpl.evaluate(spec, scene);
-    EXPECT_TRUE(o.reasons.empty()) << seed << ": " << (o.reasons.empty() ? "" : o.reasons.front().text);
-    ++(spec.lateral_offset_m > 0 ? left : right);
+    EXPECT_TRUE(o.reasons.empty()) << seed << ": " << (o.reasons.empty() ? "" : o.reasons.front().text) << "\n"
+                                   << p.spec.dump();
+    each(spec, o);
+    ++planned;
   }
+  return planned;
+}
+
+// The sides of a kind's proposals on a road, over 24 seeds: {left, right} counts; every proposal plans.
+std::pair<int, int> proposal_sides(const hazard::TemplateBase& tpl, const RoadLayout& road) {
+  SceneContext scene = test_scene(10.0);
+  scene.road = road;
+  int left = 0, right = 0;
+  plan_proposals(tpl, scene, request_at(scene), 24,
+                 [&](const HazardSpec& spec, const hazard::PlanOutcome&) { ++(spec.lateral_offset_m > 0 ? left : right); });
   return {left, right};
 }
 
@@ -283,24 +296,14 @@ TEST(PullOut, OnAShortClipItIsAlreadyPullingOutWhenItAppears) {
   ProposalRequest req = request_at(scene);
   req.horizon_s = 1.4;
   req.max_under_way_s = 4.6;
-  int planned = 0;
-  for (uint64_t seed = 1; seed <= 12; ++seed) {
-    test::Bits bits(seed);
-    const HazardProposal p = tpl->propose(req, bits);
-    if (p.spec.is_null()) {
-      EXPECT_EQ(p.problem.code, refusal::kTtcUnreachable) << seed << ": " << p.problem;
-      continue;
-    }
-    const HazardSpec spec = answered(p, scene);
-    ASSERT_TRUE(spec.under_way_s) << p.spec.dump();
-    EXPECT_GT(*spec.under_way_s, 0.0);
-    EXPECT_LE(*spec.under_way_s, 4.6);
-    EXPECT_GT(spec.lateral_offset_m, 0.0);  // the median shoulder, on the left
-    const hazard::PlanOutcome o = tpl->evaluate(spec, scene);
-    ASSERT_TRUE(o.reasons.empty()) << seed << ": " << o.reasons.front() << "\n" << p.spec.dump();
-    EXPECT_LE(o.trajectory.intended_min_ttc_s, req.target_ttc_s + 0.05) << seed << ": " << p.spec.dump();
-    ++planned;
-  }
+  const int planned =
+      plan_proposals(*tpl, scene, req, 12, [&](const HazardSpec& spec, const hazard::PlanOutcome& o) {
+        ASSERT_TRUE(spec.under_way_s);
+        EXPECT_GT(*spec.under_way_s, 0.0);
+        EXPECT_LE(*spec.under_way_s, 4.6);
+        EXPECT_GT(spec.lateral_offset_m, 0.0);  // the median shoulder, on the left
+        EXPECT_LE(o.trajectory.intended_min_ttc_s, req.target_ttc_s + 0.05);
+      });
   EXPECT_GE(planned, 10);
   // Not allowed under way: refused, saying why.
   req.max_under_way_s = 0.0;
