@@ -173,14 +173,10 @@ TEST_F(Feasibility, APersonMayStandBesideATrackedVehicleBeyondTheRoadEdge) {
   EXPECT_EQ(lateral(), std::vector<std::string>{
                            "/lateral_offset_m = -7.5 puts the person off the road (|y| <= 5.25 m on the right)"});
   // A car parked in a bay there (its rear face 28 m ahead, centred at 30.25 m): the ground beside it is ground.
-  ObjectState bay;
+  ObjectState bay = scene_.objects.front();  // the standing car, 4.5 m long
   bay.track_id = 11;
-  bay.label = "car";
   bay.distance_m = 28.0;
   bay.lateral_m = -7.5;
-  bay.length_m = 4.5;
-  bay.width_m = 1.8;
-  bay.speed_mps = 0.0;
   scene_.objects.push_back(bay);
   EXPECT_TRUE(lateral().empty());
   // Not a person far from it.
