@@ -244,6 +244,7 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
   int64_t tick = 0;
   int64_t last_frame = 0;
   double last_ts = 0.0;
+  std::optional<int64_t> read_last;  // the last index the source read, in the frame window or not
   while (true) {
     const bool stop = sh.abort || (opt.interrupt && opt.interrupt->load()) ||
                       (opt.max_frames >= 0 && tick >= opt.max_frames);
@@ -269,6 +270,7 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
             ts = p.get<Frame>().timestamp;
             index = p.get<Frame>().index;
           }
+    if (produced && index) read_last = *index;
     if (produced && index && (*index < opt.first_frame || (opt.last_frame >= 0 && *index > opt.last_frame))) {
       n.process_s.pop_back();  // outside the frame window: it never leaves the source
       n.process_cpu_s.pop_back();
@@ -287,6 +289,14 @@ void run_source(NodeRuntime& n, Shared& sh, const RunOptions& opt) {
       n.done = ++tick;
       continue;
     }
+    // A frame window the recording does not reach is a mistake in the command, not an empty run.
+    if (tick == 0 && !stop && !n.failed && (opt.first_frame > 0 || opt.last_frame >= 0))
+      fail(n, sh, "frames",
+           "the frame window " + std::to_string(opt.first_frame) + ":" +
+               (opt.last_frame >= 0 ? std::to_string(opt.last_frame) : std::string()) +
+               " holds no frame of the recording (" +
+               (read_last ? "its frames end at index " + std::to_string(*read_last) : std::string("it has none")) +
+               ")");
     out.ts = last_ts;
     guarded(n, sh, "finish", [&] { n.stage->finish(n.ctx, out); });
     send(n, tick, last_frame, last_ts, true, out);

@@ -206,16 +206,27 @@ TEST(Scheduler, FrameWindowDropsFramesAtTheSourceAndKeepsTheRecordingsIndexes) {
   EXPECT_EQ(hf::test::g_finished["sink"], 1);
 }
 
-TEST(Scheduler, FrameWindowPastTheEndEndsTheStreamEmpty) {
+// A window past the recording's end (--frames 40: on 30 frames) is an error naming the window and where the
+// recording ends; the stages still finish, so what they wrote stays whole.
+TEST(Scheduler, FrameWindowPastTheEndIsAnErrorNamingWhereTheRecordingEnds) {
   hf::test::reset_seen();
   ComponentRegistry reg;
   hf::test::register_test_stages(reg);
   RunOptions o = quiet_options("window_past");
   o.first_frame = 40;  // the source has 30
   RunResult r = run_graph(graph_of(reg, chain(-1)), reg, o);
-  ASSERT_TRUE(r.ok());
+  ASSERT_FALSE(r.ok());
+  ASSERT_EQ(r.errors.size(), 1u);
+  EXPECT_NE(r.errors[0].find("frames: the frame window 40: holds no frame of the recording (its frames end at "
+                             "index 29)"),
+            std::string::npos)
+      << r.errors[0];
   EXPECT_EQ(r.frames, 0);
   EXPECT_EQ(hf::test::g_finished["sink"], 1);
+  // A window within it is no error.
+  o.first_frame = 25;
+  o.output_dir = quiet_options("window_end").output_dir;
+  EXPECT_TRUE(run_graph(graph_of(reg, chain(-1)), reg, o).ok());
 }
 
 TEST(FrameWindow, ParsesBothSidesAndRefusesNonsenseNamingTheText) {
