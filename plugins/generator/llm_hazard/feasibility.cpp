@@ -128,6 +128,22 @@ TtcSimulation simulate_ttc(const HazardSpec& spec, const ClassSize& size, double
   return sim;
 }
 
+namespace {
+
+// A tracked object's footprint as the templates place objects: centre x (hazard::centre_x), lateral offset,
+// measured size or its class's prior.
+struct Footprint2d {
+  double x, y, length, width;
+};
+
+Footprint2d tracked_footprint(const ObjectState& o, const SceneContext& scene, const ClassPriors& sizes) {
+  const ClassSize prior = sizes.has(o.label) ? sizes.at(o.label) : ClassSize{};
+  return {hazard::centre_x(o, scene.distance_origin_x, sizes), o.lateral_m,
+          o.length_m > 0 ? o.length_m : prior.length, o.width_m > 0 ? o.width_m : prior.width};
+}
+
+}  // namespace
+
 std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContext& scene,
                                        const FeasibilityConfig& cfg, std::vector<std::string>* skipped) {
   std::vector<Refusal> errs;
@@ -174,10 +190,8 @@ std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContex
     if (cls != "person") return false;
     for (const ObjectState& o : scene.objects) {
       if (!std::isfinite(o.distance_m) || !is_motor_vehicle(o.label)) continue;
-      const ClassSize other = cfg.sizes.has(o.label) ? cfg.sizes.at(o.label) : ClassSize{};
-      const double ow = o.width_m > 0 ? o.width_m : other.width, ol = o.length_m > 0 ? o.length_m : other.length;
-      const double ox = hazard::centre_x(o, scene.distance_origin_x, cfg.sizes);
-      if (std::abs(ox - spec.initial_distance_m) <= ol / 2.0 + 1.5 && std::abs(o.lateral_m - y) <= ow / 2.0 + 1.5)
+      const Footprint2d f = tracked_footprint(o, scene, cfg.sizes);
+      if (std::abs(f.x - spec.initial_distance_m) <= f.length / 2.0 + 1.5 && std::abs(f.y - y) <= f.width / 2.0 + 1.5)
         return true;
     }
     return false;
@@ -194,15 +208,13 @@ std::vector<Refusal> check_feasibility(const HazardSpec& spec, const SceneContex
     for (const ObjectState& o : scene.objects) {
       if (!std::isfinite(o.distance_m)) continue;
       if (taken && *taken == o.track_id) continue;
-      ClassSize other = cfg.sizes.has(o.label) ? cfg.sizes.at(o.label) : ClassSize{};
-      double ow = o.width_m > 0 ? o.width_m : other.width, ol = o.length_m > 0 ? o.length_m : other.length;
-      // Centre to centre, as the templates place objects (hazard::centre_x), not face to centre.
-      const double ox = hazard::centre_x(o, scene.distance_origin_x, cfg.sizes);
-      if (std::abs(ox - spec.initial_distance_m) < (ol + me.length) / 2.0 &&
-          std::abs(o.lateral_m - y) < (ow + me.width) / 2.0)
+      // Centre to centre, as the templates place objects, not face to centre.
+      const Footprint2d f = tracked_footprint(o, scene, cfg.sizes);
+      if (std::abs(f.x - spec.initial_distance_m) < (f.length + me.length) / 2.0 &&
+          std::abs(f.y - y) < (f.width + me.width) / 2.0)
         refuse(refusal::kTraffic, "start point (x " + num_text(spec.initial_distance_m) + " m, y " + num_text(y) +
                        " m) overlaps the detected " + o.label + " (track " + std::to_string(o.track_id) +
-                       ") centred at x " + num_text(ox) + " m, y " + num_text(o.lateral_m) + " m");
+                       ") centred at x " + num_text(f.x) + " m, y " + num_text(f.y) + " m");
     }
   }
 
