@@ -765,6 +765,7 @@ ObjectStates LlmHazardGenerator::planning_states(StageContext& ctx, const Frame&
   const auto at = recording_frames_.find(frame.index);
   if (at == recording_frames_.end()) return live;
   const ObjectStates& rec = at->second;
+  if (rec.distance_origin_x != live.distance_origin_x) return live;  // another estimator's frame
   ObjectStates out = live;
   if (rec.ego_speed_mps) out.ego_speed_mps = rec.ego_speed_mps;
   if (rec.ego_yaw_rate) out.ego_yaw_rate = rec.ego_yaw_rate;
@@ -778,7 +779,7 @@ ObjectStates LlmHazardGenerator::planning_states(StageContext& ctx, const Frame&
       const double inter = (r.box & o.box).area(), uni = r.box.area() + o.box.area() - inter;
       if (uni > 0 && inter / uni > best_iou) best = &r, best_iou = inter / uni;
     }
-    if (!best || rec.distance_origin_x != live.distance_origin_x) continue;
+    if (!best) continue;
     const int64_t id = o.track_id;
     const cv::Rect2f box = o.box;
     const float score = o.score;
