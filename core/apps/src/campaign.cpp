@@ -515,10 +515,17 @@ std::set<std::string> scene_refusal(const Json& attempt) {
   return r;
 }
 
+namespace {
+bool started_at_trigger(const Json& attempt) {
+  return attempt.is_object() && attempt.contains("window") && attempt["window"].is_object() &&
+         attempt["window"].value("from_start", false);
+}
+}  // namespace
+
 bool starts_at_trigger(const std::vector<Json>& attempts) {
   for (const Json& a : attempts) {
     if (!a.is_object()) continue;
-    if (a.contains("window") && a["window"].is_object() && a["window"].value("from_start", false)) return true;
+    if (started_at_trigger(a)) return true;
     if (a.value("outcome", "") != "no hazard") continue;
     for (const Refusal& r : attempt_refusals(a))
       if (r.code == refusal::kTtcUnreachable || r.code == refusal::kNotInView) return true;
@@ -627,9 +634,6 @@ std::optional<Planned> plan_next(const Pair& p, const std::vector<CampaignWindow
   // A hazard there from the window's first frame once one first seen far away could not do (the generator plans
   // it on the scouting pass's states).
   const bool from_start = !p.recording_states.empty() && starts_at_trigger(p.attempts);
-  auto started_at_trigger = [](const Json& a) {
-    return a.contains("window") && a["window"].is_object() && a["window"].value("from_start", false);
-  };
   // The generator refusing this kind for the same reasons at two different trigger frames, both run the way the
   // next would be: the scene does not allow it (no sidewalks, a single lane, ...); more windows and seeds would
   // only repeat the refusal.
