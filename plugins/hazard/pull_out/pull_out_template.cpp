@@ -264,9 +264,11 @@ HazardProposal PullOutTemplate::propose_as(const std::string& cls, int sign, con
     // Placed so that the TTC is `ttc` as it enters the ego path (the design's x counts from where the ego was
     // when the manoeuvre began).
     const double x0 = front + sc.ego_travel(-under_way, enter) + ttc * closing - s->at(*t_in).x;
-    const double x_now = x0 + s->at(under_way).x - sc.ego_travel(-under_way, 0.0);  // as the hazard appears
+    // The same in the ego's frame as the hazard appears: where it is then, and where it pulls in.
+    const double shift = sc.ego_travel(-under_way, 0.0);
+    const double x_now = x0 + s->at(under_way).x - shift, x_in = x0 + s->at(*t_in).x - shift;
     if (x0 > 150.0) return refused(refusal::kPlacement, "the vehicle would stand more than 150 m ahead");
-    if (const auto* o = sc.in_path_before(x_now - s->at(under_way).x + s->at(*t_in).x + size.length / 2.0, 5.0))
+    if (const auto* o = sc.in_path_before(x_in + size.length / 2.0, 5.0))
       return refused(refusal::kTraffic, "a tracked " + o->label + " (track " + std::to_string(o->track_id) +
                                             ") " + fixed_text(o->x, 1) +
                                             " m ahead in the ego lane is short of where the " + cls +
@@ -283,13 +285,16 @@ HazardProposal PullOutTemplate::propose_as(const std::string& cls, int sign, con
     kSpeed.set(spec, round_to(v1, 0.1));
     spec["rationale"] = "A " + cls + " parked on the " + side + " " + fixed_text(x0, 1) + " m ahead drives off after " +
                         fixed_text(t_go, 1) + " s to " + fixed_text(v1, 1) +
-                        " m/s and steers into the ego lane " + fixed_text(*t_in, 1) + " s in, where the ego at " +
+                        " m/s and steers into the ego lane " + fixed_text(enter, 1) + " s in, where the ego at " +
                         fixed_text(sc.ego_speed_at(enter), 1) + " m/s closes in at a TTC near " +
                         fixed_text(ttc, 1) + " s.";
     if (under_way > 0) {
       spec["under_way_s"] = under_way;
-      spec["rationale"] = spec["rationale"].get<std::string>() + " It appears " + fixed_text(under_way, 1) +
-                          " s into the manoeuvre, already pulling out.";
+      spec["rationale"] = "A " + cls + " that was parked on the " + side + " is already pulling out when it appears (" +
+                          fixed_text(under_way, 1) + " s into its manoeuvre, having driven off after " +
+                          fixed_text(t_go, 1) + " s; " + fixed_text(x_now, 1) + " m ahead) and steers into the ego lane " + fixed_text(enter, 1) + " s later, where the ego at " +
+                          fixed_text(sc.ego_speed_at(enter), 1) + " m/s closes in at a TTC near " +
+                          fixed_text(ttc, 1) + " s.";
     }
     return {spec, {}};
   }
