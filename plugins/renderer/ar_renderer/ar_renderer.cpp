@@ -11,6 +11,7 @@
 
 #include "hazardforge/assets/box_geometry.hpp"
 #include "hazardforge/error.hpp"
+#include "hazardforge/number_text.hpp"
 #include "hazardforge/geometry.hpp"
 #include "hazardforge/realism/compare.hpp"
 #include "hazardforge/realism/metrics.hpp"
@@ -39,7 +40,62 @@ cv::Vec3d rotate(const cv::Matx44d& T, const cv::Vec3d& v) {
 }  // namespace
 
 HazardRenderer::HazardRenderer(RendererOptions o, std::shared_ptr<const AssetLibrary> assets)
-    : opt_(o), assets_(std::move(assets)), ego_(o.ego) {}
+    : opt_(o), assets_(std::move(assets)), ego_(o.ego) {
+  if (opt_.footage) {
+    ClassPriors sizes = opt_.vehicle_sizes;
+    if (sizes.all().empty()) sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
+    harvest_ = std::make_unique<FootageHarvest>(opt_.footage_harvest, std::move(sizes));
+  }
+}
+
+std::vector<std::string> HazardRenderer::take_notes() {
+  std::vector<std::string> n;
+  n.swap(notes_);
+  return n;
+}
+
+double HazardRenderer::observe(const Frame& frame, const ObjectStates* states, const Tracks* tracks) {
+  if (!harvest_ || !identity_.empty()) return 0.0;
+  const double before = harvest_->seconds();
+  harvest_->offer(frame, footage_objects(states, tracks));
+  return harvest_->seconds() - before;
+}
+
+const LoadedAsset* HazardRenderer::first_pick(const HazardTrajectory& T, double az, double drawn_h) {
+  drawn_from_ = assets_.get();
+  if (!harvest_) return nullptr;
+  const std::string cls = T.object_class;
+  const std::vector<FootageCut> cuts = harvest_->cuts_of(cls);
+  std::string why;
+  if (cuts.empty()) {
+    why = "the footage offered no " + cls + " appearance before the hazard appeared (" + harvest_->summary() + ")";
+  } else {
+    footage_lib_ = std::make_unique<AssetLibrary>();
+    for (const FootageCut& c : cuts) footage_lib_->add(c.spec, c.bgra, opt_.footage_dir, false);
+    const std::string own = taken_id_ ? "track " + std::to_string(*taken_id_) : std::string();
+    const LoadedAsset& best = footage_lib_->select(cls, az, own, opt_.max_view_error_deg);
+    const double err = angle_diff_deg(best.spec.azimuth_deg, az);
+    const auto used = std::find_if(cuts.begin(), cuts.end(),
+                                   [&](const FootageCut& c) { return c.spec.file == best.spec.file; });
+    if (err > opt_.max_view_error_deg) {
+      why = "the footage's " + cls + " appearances show other views (nearest " + best.spec.view + ", " +
+            num_text(err, 0) + " deg from the hazard's " + view_for_azimuth(az) + ")";
+    } else if (best.spec.image_size.height * opt_.footage_max_upscale < drawn_h) {
+      why = "the footage's best " + best.spec.view + " " + cls + " is " +
+            std::to_string(best.spec.image_size.height) + " px tall, the hazard is drawn " +
+            num_text(drawn_h, 0) + " px tall (more than footage_max_upscale " +
+            num_text(opt_.footage_max_upscale, 1) + " times larger)";
+    } else {
+      drawn_from_ = footage_lib_.get();
+      notes_.push_back("appearance: " + best.spec.file + ", cut from this footage" +
+                       (best.spec.instance == own ? " (the taken-over object itself)" : "") + ": " +
+                       (used != cuts.end() ? used->why : best.spec.origin));
+      return &best;
+    }
+  }
+  warnings_.push_back("appearance: " + why + "; drawn from " + assets_->describe_folders());
+  return nullptr;
+}
 
 std::vector<std::string> HazardRenderer::take_warnings() {
   std::vector<std::string> w;
@@ -230,7 +286,8 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   res.hazard.box = cv::Rect2f(clipped);
 
   const double az = camera_azimuth_deg(f.camera.t_ego_cam, centre[0], centre[1], heading);
-  const LoadedAsset* picked = &assets_->select(T.object_class, az, identity_, opt_.max_view_error_deg);
+  const LoadedAsset* picked = identity_.empty() ? first_pick(T, az, proj->bounds.height) : nullptr;
+  if (!picked) picked = &drawn_from_->select(T.object_class, az, identity_, opt_.max_view_error_deg);
   if (identity_.empty()) {
     identity_ = picked->spec.instance;
     // A picture of the default set: one of its colours, the same for the same hazard (its class, start and
@@ -521,6 +578,19 @@ ComponentInfo ArRenderer::describe() {
           .describe("folder with assets.yaml and the pictures; empty = the default set (share/assets)"),
       ParamSpec::boolean("fallback_assets", true)
           .describe("use the default set for classes/views assets_dir lacks"),
+      ParamSpec::boolean("footage_appearances", true)
+          .describe("cut the recording's own whole, sharp, stable road users out of the frames before the "
+                    "hazard appears (grabCut seeded by their boxes, matted; view from their motion, size from "
+                    "the camera) and draw the hazard with one when it shows the needed view, else from "
+                    "assets_dir (the log says which and why); the cuts are written to appearances/ in the run "
+                    "folder, an asset folder for later runs"),
+      ParamSpec::number("footage_min_height_px", 40.0)
+          .range(8.0, 2000.0)
+          .describe("smallest box cut from the footage"),
+      ParamSpec::number("footage_max_upscale", 3.0)
+          .range(1.0, 20.0)
+          .describe("a footage cut is used only if the hazard is first drawn at most this many times its "
+                    "height (a larger one would show the cut's blur)"),
       ParamSpec::string("ego_motion", "auto")
           .one_of({"auto", "poses", "track", "constant_speed"})
           .describe(
@@ -624,7 +694,10 @@ RendererOptions renderer_options(const Params& p) {
   o.realism.annotations = p.get_bool("realism_annotations");
   o.realism.max_occlusion = p.get_double("realism_max_occlusion");
   o.scene_light = p.get_bool("scene_light");
-  if (o.scene_light) o.vehicle_sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
+  o.footage = p.get_bool("footage_appearances");
+  o.footage_harvest.min_height_px = p.get_double("footage_min_height_px");
+  o.footage_max_upscale = p.get_double("footage_max_upscale");
+  if (o.scene_light || o.footage) o.vehicle_sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
   return o;
 }
 
@@ -660,10 +733,18 @@ std::string describe_light(const SceneLight& l) {
 void ArRenderer::finish(StageContext& ctx, Outputs& /*out*/) {
   if (renderer_ && light_logged_)
     ctx.log(LogLevel::kInfo, "scene light over the clip: " + describe_light(renderer_->light()));
+  if (const FootageHarvest* h = renderer_ ? renderer_->harvest() : nullptr) {
+    const std::filesystem::path dir = ctx.output_dir() / kFootageFolder;
+    const int n = h->save(dir);
+    ctx.log(LogLevel::kInfo, "footage harvest: " + h->summary() +
+                                 (n > 0 ? "; written to " + dir.string() : std::string()));
+  }
 }
 
 void ArRenderer::open(StageContext& ctx) {
-  renderer_ = std::make_unique<HazardRenderer>(renderer_options(ctx.params()), load_assets(ctx.params()));
+  RendererOptions o = renderer_options(ctx.params());
+  o.footage_dir = ctx.output_dir() / kFootageFolder;
+  renderer_ = std::make_unique<HazardRenderer>(o, load_assets(ctx.params()));
   emit_visible_ = ctx.params().get_bool("visible_frames");
 }
 
@@ -694,11 +775,14 @@ void ArRenderer::process(StageContext& ctx, const Inputs& in, Outputs& out) {
   const Frame& f = in.require<Frame>("frames");
   std::shared_ptr<const HazardTrajectory> traj;
   if (const Packet* p = in.packet("trajectory"); p && !p->empty()) traj = p->share<HazardTrajectory>();
+  if (const double s = renderer_->observe(f, in.get<ObjectStates>("states"), in.get<Tracks>("tracks")); s > 0)
+    ctx.record_timing("footage_harvest", s);
   HazardRenderer::Result r =
       renderer_->render(f, traj,
                         merge_occluders(in.get<ObjectStates>("states"), in.get<Tracks>("tracks"),
                                         in.get<Detections>("detections")));
   for (const auto& w : renderer_->take_warnings()) ctx.log(LogLevel::kWarning, w);
+  for (const auto& n : renderer_->take_notes()) ctx.log(LogLevel::kInfo, n);
   ctx.record_timing("ego_motion", r.ego_seconds);
   if (r.prepare_seconds > 0) ctx.record_timing("asset_prepare", r.prepare_seconds);
   if (r.hazard.visible || r.composite_seconds > 0) ctx.record_timing("composite", r.composite_seconds);

@@ -10,6 +10,7 @@
 #include "compositor.hpp"
 #include "ego_motion.hpp"
 #include "hazardforge/assets/asset_library.hpp"
+#include "hazardforge/assets/footage_harvest.hpp"
 #include "hazardforge/geometry.hpp"
 #include "hazardforge/stage.hpp"
 #include "scene_light.hpp"
@@ -66,6 +67,13 @@ struct RendererOptions {
   bool scene_light = true;
   ClassPriors vehicle_sizes;  // share/class_sizes.yaml: the real vehicles' footprints (defaults when absent)
   int scene_light_max_samples = 300;  // vehicle views measured, then the estimate is kept
+  // Appearances cut from the recording itself (hazardforge/assets/footage_harvest.hpp) until the hazard is
+  // first drawn, preferred over the asset folders when one shows the needed view sharply enough: the camera's
+  // own look. `footage_dir` is where they are written (the run's bank) and named from.
+  bool footage = true;
+  FootageHarvestOptions footage_harvest;
+  double footage_max_upscale = 3.0;  // a cut drawn larger than this times its height is not used
+  std::filesystem::path footage_dir;
 };
 
 // Everything the stage does for one frame, without the graph plumbing (used by the stage and the benchmark).
@@ -89,12 +97,23 @@ class HazardRenderer {
   Result render(const Frame& frame, const std::shared_ptr<const HazardTrajectory>& trajectory,
                 const std::vector<OccluderCandidate>& occluders);
 
+  // Shows the harvest one frame's tracked objects (before the hazard is first drawn; a no-op after, or with
+  // the footage harvest off). Returns the seconds it took.
+  double observe(const Frame& frame, const ObjectStates* states, const Tracks* tracks);
+  // The footage harvest, null when off.
+  const FootageHarvest* harvest() const { return harvest_.get(); }
+
   const EgoTrajectory& ego() const { return ego_; }
   // The scene's light as measured so far on the recording's vehicles.
   SceneLight light() const { return light_.estimate(); }
   std::vector<std::string> take_warnings();
+  std::vector<std::string> take_notes();  // what the log should say at info level (the appearance chosen)
 
  private:
+  // The picture for the hazard's first drawn frame: a cut from this footage (the taken-over object's own
+  // first) when one shows the view within max_view_error_deg and the hazard is drawn at most
+  // footage_max_upscale times its height; else the asset folders'. Says which and why.
+  const LoadedAsset* first_pick(const HazardTrajectory& T, double azimuth_deg, double drawn_height_px);
   void start_hazard(const HazardTrajectory& t);
   void measure_realism(const Frame& original, const std::vector<OccluderCandidate>& objects,
                        Result& res) const;
@@ -123,8 +142,15 @@ class HazardRenderer {
   std::optional<double> lane_shift_;     // smoothed sideways correction keeping the hazard in its lane (m)
   bool warned_taken_missing_ = false;
   std::vector<std::string> warnings_;
+  std::vector<std::string> notes_;
   SceneLightEstimator light_;
+  std::unique_ptr<FootageHarvest> harvest_;
+  std::unique_ptr<AssetLibrary> footage_lib_;  // the harvest's cuts of the hazard's class, once picked
+  const AssetLibrary* drawn_from_ = nullptr;  // the library the hazard's pictures come from
 };
+
+// The run folder's sub-folder the footage harvest's cuts are written to (an asset folder).
+inline constexpr const char* kFootageFolder = "appearances";
 
 // Stage "ar_renderer" (kind renderer).
 //  inputs:  frames (Frame); trajectory (HazardTrajectory, sticky: the latest plan is used until a new one

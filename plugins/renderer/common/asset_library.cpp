@@ -277,6 +277,7 @@ struct AssetLibrary::Cache {
   std::map<size_t, std::unique_ptr<LoadedAsset>> prepared;
 };
 
+AssetLibrary::AssetLibrary() = default;
 AssetLibrary::AssetLibrary(AssetLibrary&&) noexcept = default;
 AssetLibrary& AssetLibrary::operator=(AssetLibrary&&) noexcept = default;
 AssetLibrary::~AssetLibrary() = default;

@@ -70,7 +70,7 @@ class AssetLibrary {
  public:
   // Loads every asset of `primary` and of `fallback` (skipped when empty or the same folder).
   static AssetLibrary load(const std::filesystem::path& primary, const std::filesystem::path& fallback = {});
-  AssetLibrary() = default;
+  AssetLibrary();
   AssetLibrary(AssetLibrary&&) noexcept;
   AssetLibrary& operator=(AssetLibrary&&) noexcept;
   ~AssetLibrary();
