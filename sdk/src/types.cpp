@@ -436,6 +436,7 @@ void to_json(Json& j, const HazardInstance& v) {
        {"in_picture_fraction", v.in_picture_fraction},
        {"visible_share", v.visible_share()}};
   if (v.drawn_box.area() > 0) j["drawn_box"] = rect(v.drawn_box);
+  if (!v.picture_file.empty()) j["picture"] = {{"file", v.picture_file}, {"source", v.picture_source}};
   if (v.appearance) j["appearance"] = *v.appearance;
   if (!v.references.empty()) j["references"] = v.references;
   if (v.taken_over)

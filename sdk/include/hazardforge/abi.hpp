@@ -25,9 +25,10 @@
 // road settled once, in SceneContext and HazardSpec; HazardSpec::track_id and under_way_s as fields, kind
 // fields through SpecField; refusals as typed codes (Refusal: HazardTemplate::check, HazardCatalog::check,
 // HazardProposal::problem, NoHazardFits::reasons); SceneContext::meta removed. 9.1: VerificationOutcome, a
-// scenario's typed verdict, with its failure codes (verdict::k*).
-#define HF_SDK_ABI_MAJOR 9
-#define HF_SDK_ABI_MINOR 1
+// scenario's typed verdict, with its failure codes (verdict::k*). 10.0: HazardInstance (v5) names the picture
+// drawn and where it came from (picture_file, picture_source).
+#define HF_SDK_ABI_MAJOR 10
+#define HF_SDK_ABI_MINOR 0
 #define HF_SDK_VERSION "0.1.0"
 
 #define HF_STR_INNER(x) #x

@@ -447,7 +447,7 @@ struct TakenOver {
 // Where the renderer put the hazard in one frame (the intent that verification checks against).
 struct HazardInstance {
   static constexpr const char* kTypeName = "HazardInstance";
-  static constexpr int kTypeVersion = 4;
+  static constexpr int kTypeVersion = 5;
   int64_t frame_index = 0;
   bool visible = false;
   std::string kind;
@@ -468,6 +468,10 @@ struct HazardInstance {
   std::optional<AppearanceStats> appearance;
   std::vector<AppearanceStats> references;
   std::optional<TakenOver> taken_over;  // set while a taken-over real object is being removed
+  // The picture drawn: its file and where it came from ("footage": cut from this recording; "harvested":
+  // from a dataset's annotated objects; "generated": the project's default renders); empty when not drawn.
+  std::string picture_file;
+  std::string picture_source;
 };
 
 // Codes of a scenario's verification failures (VerificationOutcome::reasons), by what failed.
