@@ -307,6 +307,8 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   }
   const LoadedAsset& asset = *picked;
   res.asset_file = (asset.dir / asset.spec.file).string();
+  res.hazard.picture_file = res.asset_file;
+  res.hazard.picture_source = asset.spec.source;
 
   Placement pl;
   pl.asset = &asset;
