@@ -1,0 +1,83 @@
+// The realism two-sample classifier test on synthetic crops: objects drawn from one distribution are not told
+// apart (AUC near 0.5), flat untextured boxes pasted on the same backgrounds are (AUC near 1).
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "hazardforge/realism/c2st.hpp"
+
+namespace hf::realism {
+namespace {
+
+cv::Mat noise(cv::Size s, cv::RNG& rng, double sigma_px, double contrast) {
+  cv::Mat n(s, CV_32F);
+  rng.fill(n, cv::RNG::NORMAL, 0.0, 1.0);
+  cv::GaussianBlur(n, n, cv::Size(), sigma_px);
+  cv::Scalar m, sd;
+  cv::meanStdDev(n, m, sd);
+  cv::Mat out;
+  n.convertTo(out, CV_8U, contrast / sd[0], 128);
+  cv::Mat bgr;
+  cv::cvtColor(out, bgr, cv::COLOR_GRAY2BGR);
+  return bgr;
+}
+
+// A picture of 200x160 with one object in the middle: textured like its background (a "real" one), or a flat
+// box of one colour with a hard edge (a toy insertion).
+std::vector<float> object_features(cv::RNG& rng, bool flat) {
+  cv::Mat img = noise({200, 160}, rng, 1.5, 25.0);
+  const int w = rng.uniform(50, 90), h = rng.uniform(40, 70);
+  const cv::Rect box(100 - w / 2, 80 - h / 2, w, h);
+  if (flat) {
+    img(box).setTo(cv::Scalar(rng.uniform(60, 200), rng.uniform(60, 200), rng.uniform(60, 200)));
+  } else {
+    cv::Mat obj = noise(box.size(), rng, 1.5, 25.0);
+    cv::Mat tint(box.size(), CV_8UC3, cv::Scalar(rng.uniform(-60, 60), rng.uniform(-60, 60), rng.uniform(-60, 60)));
+    cv::add(obj, tint, obj);
+    obj.copyTo(img(box));
+  }
+  return crop_features(img, cv::Rect2f(box));
+}
+
+TEST(C2st, RocAucCountsPairsAndTies) {
+  EXPECT_DOUBLE_EQ(roc_auc({0.1, 0.2, 0.8, 0.9}, {0, 0, 1, 1}), 1.0);
+  EXPECT_DOUBLE_EQ(roc_auc({0.9, 0.8, 0.2, 0.1}, {0, 0, 1, 1}), 0.0);
+  EXPECT_DOUBLE_EQ(roc_auc({0.5, 0.5, 0.5, 0.5}, {0, 1, 0, 1}), 0.5);
+  EXPECT_DOUBLE_EQ(roc_auc({0.1, 0.6, 0.4, 0.9}, {0, 0, 1, 1}), 0.75);
+}
+
+TEST(C2st, ObjectsFromOneDistributionAreNotToldApart) {
+  cv::RNG rng(11);
+  std::vector<std::vector<float>> a, b;
+  for (int i = 0; i < 60; ++i) a.push_back(object_features(rng, false));
+  for (int i = 0; i < 60; ++i) b.push_back(object_features(rng, false));
+  const C2stResult r = c2st(a, b);
+  EXPECT_EQ(r.n_real, 60);
+  EXPECT_EQ(r.folds, 5);
+  EXPECT_LT(std::abs(r.auc - 0.5), 0.15) << r.auc;
+  EXPECT_LE(r.ci_low, 0.5);
+  EXPECT_GE(r.ci_high, 0.5);
+}
+
+TEST(C2st, FlatBoxesAreToldApartFromTexturedObjects) {
+  cv::RNG rng(12);
+  std::vector<std::vector<float>> real, toy;
+  for (int i = 0; i < 40; ++i) real.push_back(object_features(rng, false));
+  for (int i = 0; i < 40; ++i) toy.push_back(object_features(rng, true));
+  const C2stResult r = c2st(real, toy);
+  EXPECT_GT(r.auc, 0.9);
+  EXPECT_GT(r.ci_low, 0.75);
+}
+
+TEST(C2st, TooFewCropsGiveNoAuc) {
+  cv::RNG rng(13);
+  std::vector<std::vector<float>> a, b;
+  for (int i = 0; i < 10; ++i) a.push_back(object_features(rng, false));
+  for (int i = 0; i < 3; ++i) b.push_back(object_features(rng, false));
+  EXPECT_TRUE(std::isnan(c2st(a, b).auc));
+  EXPECT_TRUE(crop_features(cv::Mat(100, 100, CV_8UC3, cv::Scalar::all(9)), cv::Rect2f(10, 10, 5, 5)).empty());
+  EXPECT_EQ(object_features(rng, false).size(), crop_feature_names().size());
+}
+
+}  // namespace
+}  // namespace hf::realism
