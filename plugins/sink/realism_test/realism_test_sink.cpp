@@ -14,6 +14,7 @@
 #include "hazardforge/number_text.hpp"
 #include "hazardforge/output_path.hpp"
 #include "hazardforge/realism/c2st.hpp"
+#include "hazardforge/realism/compare.hpp"
 
 namespace hf::render {
 
@@ -76,7 +77,7 @@ ComponentInfo RealismTestSink::describe() {
           .describe("an inserted crop needs this share of the object in the picture and unhidden"),
       ParamSpec::number("min_height_px", 24.0).range(8.0, 4000.0).describe("smallest crop"),
       ParamSpec::number("min_score", 0.5).range(0.0, 1.0).describe("weakest detection cropped"),
-      ParamSpec::number("size_range", 1.5)
+      ParamSpec::number("size_range", 3.0)
           .range(1.0, 10.0)
           .describe("real crops are kept when their height is within the inserted ones' range widened this "
                     "many times"),
@@ -155,10 +156,16 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
       h0 = std::min<double>(h0, c.box.height);
       h1 = std::max<double>(h1, c.box.height);
     }
+  // The real objects of its class; of its class group (car, truck, bus; person, pedestrian) when the
+  // recording has fewer than 5 of the class itself in the size range.
+  const ClassGroups& groups = realism::reference_groups();
+  auto in_range = [&](const Crop& c) { return c.box.height >= h0 / size_range_ && c.box.height <= h1 * size_range_; };
   for (const Crop& c : crops_)
-    if (!c.inserted && c.label == object_class_ && c.box.height >= h0 / size_range_ &&
-        c.box.height <= h1 * size_range_)
-      real.push_back(&c);
+    if (!c.inserted && c.label == object_class_ && in_range(c)) real.push_back(&c);
+  if (real.size() < 5)
+    for (const Crop& c : crops_)
+      if (!c.inserted && c.label != object_class_ && groups.same(c.label, object_class_) && in_range(c))
+        real.push_back(&c);
   real = spread(real, static_cast<size_t>(max_real_));
   std::vector<std::vector<float>> fr, fi;
   for (const Crop* c : real) fr.push_back(c->features);
@@ -186,7 +193,8 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
   std::string lines;
   auto line = [&](const Crop* c, const std::string& set) {
     Json l = {{"set", set},
-              {"class", c->label},
+              {"class", c->inserted ? c->label : object_class_},
+              {"label", c->label},
               {"source", c->inserted ? picture_source_ : std::string("recording")},
               {"frame", c->frame},
               {"box", {c->box.x, c->box.y, c->box.width, c->box.height}},

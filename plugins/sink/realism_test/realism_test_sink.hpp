@@ -42,7 +42,7 @@ class RealismTestSink : public Stage {
 
  private:
   std::filesystem::path file_, crops_file_, sheet_;
-  double min_visible_ = 0.7, min_height_ = 24, min_score_ = 0.5, size_range_ = 1.5;
+  double min_visible_ = 0.7, min_height_ = 24, min_score_ = 0.5, size_range_ = 3.0;
   int max_real_ = 300;
   unsigned seed_ = 1;
   std::vector<Crop> crops_;
