@@ -15,7 +15,7 @@ namespace hf::realism {
 
 namespace {
 
-constexpr int kSide = 32, kCells = 2, kBins = 8;
+constexpr int kSide = 32, kCells = 2, kBins = 8, kHeight = 48;
 
 double mean_in(const cv::Mat& m, const cv::Mat& mask) {
   return mask.empty() ? cv::mean(m)[0] : cv::mean(m, mask)[0];
@@ -41,13 +41,25 @@ const std::vector<std::string>& crop_feature_names() {
 
 std::vector<float> crop_features(const cv::Mat& bgr, const cv::Rect2f& box_f, double margin) {
   const cv::Rect img(0, 0, bgr.cols, bgr.rows);
-  const cv::Rect box = cv::Rect(cv::Rect2d(box_f)) & img;
-  if (box.width < 8 || box.height < 8) return {};
-  const int m = std::max(2, static_cast<int>(std::lround(margin * box.height)));
-  const cv::Rect outer = cv::Rect(box.x - m, box.y - m, box.width + 2 * m, box.height + 2 * m) & img;
-  if (outer.area() <= box.area()) return {};
-  const cv::Mat crop = bgr(outer);
-  const cv::Rect inner = box - outer.tl();
+  const cv::Rect box0 = cv::Rect(cv::Rect2d(box_f)) & img;
+  if (box0.width < 8 || box0.height < 8) return {};
+  const int m = std::max(2, static_cast<int>(std::lround(margin * box0.height)));
+  const cv::Rect outer0 = cv::Rect(box0.x - m, box0.y - m, box0.width + 2 * m, box0.height + 2 * m) & img;
+  if (outer0.area() <= box0.area()) return {};
+  // Every crop is seen at one size, the box kHeight px tall, as a person sees crops side by side: a large
+  // object is not told apart by its size alone.
+  const double s = static_cast<double>(kHeight) / box0.height;
+  cv::Mat crop;
+  cv::resize(bgr(outer0), crop,
+             cv::Size(std::max(1, static_cast<int>(std::lround(outer0.width * s))),
+                      std::max(1, static_cast<int>(std::lround(outer0.height * s)))),
+             0, 0, s < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+  const cv::Rect inner = cv::Rect(static_cast<int>(std::lround((box0.x - outer0.x) * s)),
+                                  static_cast<int>(std::lround((box0.y - outer0.y) * s)),
+                                  static_cast<int>(std::lround(box0.width * s)), kHeight) &
+                         cv::Rect(0, 0, crop.cols, crop.rows);
+  const cv::Rect box = inner;
+  if (inner.width < 4 || inner.area() >= crop.rows * crop.cols) return {};
   cv::Mat grey, gx, gy, mag, ang;
   cv::cvtColor(crop, grey, cv::COLOR_BGR2GRAY);
   cv::Sobel(grey, gx, CV_32F, 1, 0);

@@ -11,7 +11,8 @@
 namespace hf::realism {
 
 // Features of one object in a picture (BGR 8-bit), from the box grown by `margin` of its height on every
-// side (so the edge the object makes with its surroundings is part of it):
+// side (so the edge the object makes with its surroundings is part of it), resized so that the box is 48 px
+// tall (crops are compared at one size, as a person sees them side by side):
 //  - shape of the gradients: orientation histograms (8 bins) of 2x2 cells of the box resized to 32x32;
 //  - colour: L*a*b* mean and standard deviation inside the box's central half;
 //  - blur and noise: the Laplacian variance inside over that of the ring around the box (log), the share of
