@@ -41,6 +41,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kScoutNode = "campaign_scout";
+constexpr const char* kHarvestNode = "campaign_footage_harvest";
+constexpr const char* kFootageBank = "appearances";  // below the scouting run: the recording's own cuts
 
 double self_cpu_s() {
   struct rusage ru {};
@@ -214,6 +216,7 @@ struct Scouted {
   double cpu_s = 0;
   bool has_feedback = false;  // the generator takes `feedback`
   fs::path states;            // the recording's object states (scout.jsonl), when the generator takes them
+  fs::path appearances;       // cuts of the recording's own road users (an asset folder), when any were kept
 };
 
 // What the generator node reads (its risk and states inputs) is what the scout records.
@@ -256,6 +259,31 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
     req.extra_nodes = {scout_node};
     req.only_nodes = upstream_of(g, "generator");
     req.only_nodes.push_back(kScoutNode);
+    // The recording's own road users cut out over all of it, from what the renderer sees (its frames, states
+    // and tracks), when the scouting pass computes those anyway: the attempts draw their hazards with them.
+    if (const NodeSpec* ren = g.node("renderer")) {
+      Json inputs = Json::object();
+      bool computed = true;
+      for (const char* port : {"frames", "states", "tracks"})
+        if (auto it = ren->inputs.find(port); it != ren->inputs.end() && it->second.size() == 1) {
+          const std::string& src = it->second.front();
+          const std::string producer = src.substr(0, src.find('.'));
+          if (std::find(req.only_nodes.begin(), req.only_nodes.end(), producer) == req.only_nodes.end())
+            computed = false;
+          inputs[port] = src;
+        }
+      const bool has_footage_param = std::any_of(
+          ren->component->info.params.begin(), ren->component->info.params.end(),
+          [](const ParamSpec& p) { return p.name == "footage_assets_dir"; });
+      if (computed && inputs.contains("frames") && inputs.contains("states") && has_footage_param &&
+          host.registry().find("sink", "footage_harvester")) {
+        req.extra_nodes.push_back({{"id", kHarvestNode},
+                                   {"stage", "footage_harvester"},
+                                   {"inputs", inputs},
+                                   {"params", {{"out_dir", kFootageBank}}}});
+        req.only_nodes.push_back(kHarvestNode);
+      }
+    }
     req.folder_use = fs::exists(run_dir / "manifest.json") ? FolderUse::kOverwrite : FolderUse::kNew;
     const double cpu0 = self_cpu_s();
     RunOutcome r = run_config(host, req);
@@ -271,6 +299,7 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
   // The whole recording's states: an attempt runs on its window only, yet what the recording shows elsewhere
   // (people on the pavement) is a fact about the scene.
   if (takes_states) out.states = fs::absolute(run_dir / "scout.jsonl");
+  if (fs::exists(run_dir / kFootageBank / "assets.yaml")) out.appearances = fs::absolute(run_dir / kFootageBank);
   std::ifstream in(run_dir / "scout.jsonl");
   std::string line;
   while (std::getline(in, line)) {
@@ -569,6 +598,7 @@ namespace {
 struct Pair {
   const CampaignRecording* rec = nullptr;
   fs::path recording_states;  // the scout's object states, passed to the generator
+  fs::path appearances;       // the scout's cuts of the recording's road users, passed to the renderer
   std::string kind;
   size_t rec_index = 0;
   std::vector<Json> attempts;  // finished, in order
@@ -697,6 +727,8 @@ std::vector<std::string> attempt_args(const CampaignOptions& o, const CampaignSp
     args.insert(args.end(), {"--set", "generator.feedback=" + fs::absolute(feedback).string()});
   if (!p.recording_states.empty())
     args.insert(args.end(), {"--set", "generator.recording_states=" + p.recording_states.string()});
+  if (!p.appearances.empty())
+    args.insert(args.end(), {"--set", "renderer.footage_assets_dir=" + p.appearances.string()});
   return args;
 }
 
@@ -1097,6 +1129,7 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
         p.kind = k;
         p.rec_index = i;
         p.recording_states = sc.states;
+        p.appearances = sc.appearances;
         // Finished attempts of an earlier invocation: kept, never repeated. One whose campaign was killed
         // before it could record it is waited for if it still runs, and read back from its folder if its run
         // ended on its own.

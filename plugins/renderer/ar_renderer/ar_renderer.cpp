@@ -45,6 +45,19 @@ HazardRenderer::HazardRenderer(RendererOptions o, std::shared_ptr<const AssetLib
     ClassPriors sizes = opt_.vehicle_sizes;
     if (sizes.all().empty()) sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
     harvest_ = std::make_unique<FootageHarvest>(opt_.footage_harvest, std::move(sizes));
+    if (!opt_.footage_bank.empty() && fs::exists(opt_.footage_bank / kAssetIndexFile)) {
+      const AssetLibrary bank = AssetLibrary::load(opt_.footage_bank);
+      for (size_t i = 0; i < bank.specs().size(); ++i) {
+        FootageCut c;
+        c.spec = bank.specs()[i];
+        c.bgra = bank.picture(i);
+        c.folder = opt_.footage_bank;
+        c.spec.instance = "scouted " + c.spec.instance;  // that pass's track numbers are not this run's
+        c.why = "cut from this recording by the scouting pass (" + c.spec.origin + ", " + c.spec.view + " view, " +
+                num_text(c.spec.size_lwh[2], 2) + " m tall)";
+        bank_.push_back(std::move(c));
+      }
+    }
   }
 }
 
@@ -65,13 +78,19 @@ const LoadedAsset* HazardRenderer::first_pick(const HazardTrajectory& T, double 
   drawn_from_ = assets_.get();
   if (!harvest_) return nullptr;
   const std::string cls = T.object_class;
-  const std::vector<FootageCut> cuts = harvest_->cuts_of(cls);
+  std::vector<FootageCut> cuts = harvest_->cuts_of(cls);
+  for (const FootageCut& b : bank_)
+    if (b.spec.object_class == cls && std::none_of(cuts.begin(), cuts.end(), [&](const FootageCut& c) {
+          return c.spec.file == b.spec.file;
+        }))
+      cuts.push_back(b);
   std::string why;
   if (cuts.empty()) {
     why = "the footage offered no " + cls + " appearance before the hazard appeared (" + harvest_->summary() + ")";
   } else {
     footage_lib_ = std::make_unique<AssetLibrary>();
-    for (const FootageCut& c : cuts) footage_lib_->add(c.spec, c.bgra, opt_.footage_dir, false);
+    for (const FootageCut& c : cuts)
+      footage_lib_->add(c.spec, c.bgra, c.folder.empty() ? opt_.footage_dir : c.folder, false);
     const std::string own = taken_id_ ? "track " + std::to_string(*taken_id_) : std::string();
     const LoadedAsset& best = footage_lib_->select(cls, az, own, opt_.max_view_error_deg);
     const double err = angle_diff_deg(best.spec.azimuth_deg, az);
@@ -360,7 +379,14 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   }
 
   cv::Mat out = res.frame.image.clone();
-  res.composite = composite(out, pl, opt_.composite, compositor_);
+  // A cut from this recording has the camera's exposure and white balance already: moving its colours
+  // towards the surroundings' would only grey a dark car on a light road.
+  CompositeOptions co = opt_.composite;
+  if (asset.spec.source == "footage") {
+    co.harmonize_luma *= opt_.footage_harmonize;
+    co.harmonize_chroma *= opt_.footage_harmonize;
+  }
+  res.composite = composite(out, pl, co, compositor_);
   if (res.composite.drawn) res.frame.image = out;
   if (res.hazard.taken_over) {
     // What of the real object's box the drawn hazard does not hide (alpha below one half) stays inpainted.
@@ -589,6 +615,14 @@ ComponentInfo ArRenderer::describe() {
       ParamSpec::number("footage_min_height_px", 40.0)
           .range(8.0, 2000.0)
           .describe("smallest box cut from the footage"),
+      ParamSpec::path("footage_assets_dir", "")
+          .describe("an asset folder of cuts from this same recording made by an earlier pass over all of it "
+                    "(a campaign's scouting pass: the footage_harvester sink), chosen among like the run's "
+                    "own; empty = none"),
+      ParamSpec::number("footage_harmonize", 0.2)
+          .range(0.0, 1.0)
+          .describe("share of harmonize_luma and harmonize_chroma applied to a cut from this recording (its "
+                    "exposure and white balance are the camera's already)"),
       ParamSpec::number("footage_max_upscale", 3.0)
           .range(1.0, 20.0)
           .describe("a footage cut is used only if the hazard is first drawn at most this many times its "
@@ -699,6 +733,8 @@ RendererOptions renderer_options(const Params& p) {
   o.footage = p.get_bool("footage_appearances");
   o.footage_harvest.min_height_px = p.get_double("footage_min_height_px");
   o.footage_max_upscale = p.get_double("footage_max_upscale");
+  o.footage_bank = p.get_path("footage_assets_dir");
+  o.footage_harmonize = p.get_double("footage_harmonize");
   if (o.scene_light || o.footage) o.vehicle_sizes = ClassPriors::load(share_dir() + "/class_sizes.yaml");
   return o;
 }

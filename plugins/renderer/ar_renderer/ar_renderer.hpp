@@ -73,7 +73,11 @@ struct RendererOptions {
   bool footage = true;
   FootageHarvestOptions footage_harvest;
   double footage_max_upscale = 3.0;  // a cut drawn larger than this times its height is not used
+  double footage_harmonize = 0.2;    // share of the colour harmonisation applied to such a cut
   std::filesystem::path footage_dir;
+  // Cuts from this recording made by an earlier pass over all of it (a campaign's scouting pass, the
+  // footage_harvester sink), chosen among like the run's own; empty = none.
+  std::filesystem::path footage_bank;
 };
 
 // Everything the stage does for one frame, without the graph plumbing (used by the stage and the benchmark).
@@ -145,6 +149,7 @@ class HazardRenderer {
   std::vector<std::string> notes_;
   SceneLightEstimator light_;
   std::unique_ptr<FootageHarvest> harvest_;
+  std::vector<FootageCut> bank_;  // opt_.footage_bank's cuts
   std::unique_ptr<AssetLibrary> footage_lib_;  // the harvest's cuts of the hazard's class, once picked
   const AssetLibrary* drawn_from_ = nullptr;  // the library the hazard's pictures come from
 };

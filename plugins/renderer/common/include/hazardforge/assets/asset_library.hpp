@@ -89,6 +89,7 @@ class AssetLibrary {
   // default set's colours), in file order.
   std::vector<std::string> generated_instances(const std::string& object_class) const;
   const std::vector<AssetSpec>& specs() const { return specs_; }
+  const cv::Mat& picture(size_t i) const { return pictures_.at(i); }  // the BGRA picture of specs()[i]
   std::string describe_folders() const;
 
  private:

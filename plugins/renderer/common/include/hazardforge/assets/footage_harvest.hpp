@@ -64,6 +64,7 @@ struct FootageCut {
   int64_t track_id = -1;
   int64_t frame_index = -1;
   std::string why;
+  std::filesystem::path folder;  // the asset folder its picture was read from; empty = made in this run
 };
 
 // Hard silhouette of an object inside its box by grabCut seeded from the box alone: outside the box is
