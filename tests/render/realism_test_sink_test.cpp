@@ -1,5 +1,6 @@
 // The realism_test sink on synthetic frames: a flat box drawn into textured frames is told apart from the
-// textured real objects around it; the result, the crops' features and the contact sheet are written.
+// textured real objects around it; the result with its real-against-real control, the crops' features and the
+// contact sheet are written.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -22,16 +23,21 @@ TEST(RealismTestSink, AFlatBoxAmongTexturedCarsIsToldApartAndTheSheetIsWritten) 
   const CameraModel cam = hf::test::test_camera();
   for (int i = 0; i < 16; ++i) {
     cv::Mat orig = hf::test::textured_image({800, 450}, 20 + i);
-    Detections d;
+    Tracks d;
     d.frame_index = i;
-    d.image_size = orig.size();
     // Two real cars: textured patches, tinted.
     for (int k = 0; k < 2; ++k) {
       const cv::Rect r(60 + 300 * k + 7 * i, 150 + 5 * k, 90 + 3 * i, 60 + 2 * i);
       cv::Mat tex = hf::test::textured_image(r.size(), 200 + 10 * i + k), tint;
       cv::add(tex, cv::Scalar(30 * k, 10, 50), tint);
       tint.copyTo(orig(r));
-      d.items.push_back({cv::Rect2f(r), 2, "car", 0.9f});
+      Track t;
+      t.id = 7 + k;
+      t.box = cv::Rect2f(r);
+      t.label = "car";
+      t.score = 0.9f;
+      t.hits = i + 1;
+      d.items.push_back(t);
     }
     cv::Mat aug = orig.clone();
     const cv::Rect ins(560, 250, 100 + 2 * i, 70 + i);
@@ -48,7 +54,7 @@ TEST(RealismTestSink, AFlatBoxAmongTexturedCarsIsToldApartAndTheSheetIsWritten) 
     runner.push("original", fo, fo.timestamp);
     runner.push("augmented", fa, fa.timestamp);
     runner.push("hazard", h, fo.timestamp);
-    runner.push("detections", d, fo.timestamp);
+    runner.push("tracks", d, fo.timestamp);
   }
   runner.run();
   const fs::path dir = runner.output_dir();
@@ -60,6 +66,9 @@ TEST(RealismTestSink, AFlatBoxAmongTexturedCarsIsToldApartAndTheSheetIsWritten) 
   EXPECT_EQ(j["real_crops"], 32);
   EXPECT_GT(j["auc"].get<double>(), 0.9);
   EXPECT_GT(j["auc_ci95"][0].get<double>(), 0.7);
+  // The control splits the real crops by track: two cars, one on each side.
+  EXPECT_EQ(j["real_objects"], 2);
+  EXPECT_TRUE(j["control_auc"].is_number());
   int lines = 0;
   std::ifstream crops(dir / "realism" / "crops.jsonl");
   for (std::string l; std::getline(crops, l);) ++lines;

@@ -1,9 +1,12 @@
 // hf_c2st: the realism two-sample classifier test pooled over runs and campaigns. Reads every
 // realism/crops.jsonl below the folders given (written by the realism_test sink) and, per object class and
 // picture source (footage, harvested, generated), tests the inserted crops against the real crops of the same
-// runs (hazardforge/realism/c2st.hpp).
+// runs (hazardforge/realism/c2st.hpp), and, as the control, the real objects against each other (split in two
+// by object): a test that tells real objects apart measures identity as much as realism.
 //
 //   build/bin/hf_c2st runs/campaign_a runs/campaign_b [--json pooled.json]
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -25,7 +28,7 @@ namespace {
 
 struct RunCrops {
   fs::path file;
-  std::map<std::string, std::vector<std::vector<float>>> real;  // by class
+  std::map<std::string, std::map<int64_t, std::vector<std::vector<float>>>> real;  // by class, then track
   std::map<std::pair<std::string, std::string>, std::vector<std::vector<float>>> inserted;  // (class, source)
 };
 
@@ -48,7 +51,7 @@ RunCrops read_run(const fs::path& file) {
       throw std::runtime_error(file.string() + ":" + std::to_string(n) + ": needs set, class and features");
     std::vector<float> f = j["features"].get<std::vector<float>>();
     if (j["set"] == "real")
-      r.real[j["class"].get<std::string>()].push_back(std::move(f));
+      r.real[j["class"].get<std::string>()][j.value("track", int64_t{-1})].push_back(std::move(f));
     else
       r.inserted[{j["class"].get<std::string>(), j.value("source", std::string())}].push_back(std::move(f));
   }
@@ -79,9 +82,10 @@ int main(int argc, char** argv) {
     for (const auto& r : runs)
       for (const auto& [k, v] : r.inserted) groups.insert(k);
     Json out = Json::array();
-    std::cout << "class    picture source  runs  inserted  real  AUC   95 % interval\n";
+    std::cout << "class    picture source  runs  inserted  real  objects  AUC   95 % interval  control (real vs real)\n";
     for (const auto& g : groups) {
       std::vector<std::vector<float>> real, ins;
+      std::vector<const std::vector<std::vector<float>>*> objects;  // each real object's crops
       int n_runs = 0;
       for (const auto& r : runs) {
         auto it = r.inserted.find(g);
@@ -89,21 +93,35 @@ int main(int argc, char** argv) {
         ++n_runs;
         ins.insert(ins.end(), it->second.begin(), it->second.end());
         if (auto rr = r.real.find(g.first); rr != r.real.end())
-          real.insert(real.end(), rr->second.begin(), rr->second.end());
+          for (const auto& [track, crops] : rr->second) {
+            real.insert(real.end(), crops.begin(), crops.end());
+            objects.push_back(&crops);
+          }
       }
       const auto res = hf::realism::c2st(real, ins, 5, seed);
-      char row[200];
-      std::snprintf(row, sizeof row, "%-8s %-15s %4d  %8d  %4d  %s  %s\n", g.first.c_str(),
+      // The control: real against real, the objects split in two halves of about equal crop counts.
+      std::sort(objects.begin(), objects.end(), [](auto* a, auto* b) { return a->size() > b->size(); });
+      std::vector<std::vector<float>> half[2];
+      for (const auto* o : objects) {
+        auto& h = half[0].size() <= half[1].size() ? half[0] : half[1];
+        h.insert(h.end(), o->begin(), o->end());
+      }
+      const auto control = hf::realism::c2st(half[0], half[1], 5, seed);
+      char row[300];
+      const std::string ci = std::isfinite(res.auc)
+                                 ? "[" + hf::num_text(res.ci_low, 2) + ", " + hf::num_text(res.ci_high, 2) + "]"
+                                 : "too few crops";
+      std::snprintf(row, sizeof row, "%-8s %-15s %4d  %8d  %4d  %7zu  %-4s  %-13s  %s\n", g.first.c_str(),
                     g.second.empty() ? "(none)" : g.second.c_str(), n_runs, res.n_inserted, res.n_real,
-                    hf::num_text(res.auc, 2).c_str(),
-                    std::isfinite(res.auc)
-                        ? ("[" + hf::num_text(res.ci_low, 2) + ", " + hf::num_text(res.ci_high, 2) + "]").c_str()
-                        : "too few crops");
+                    objects.size(), hf::num_text(res.auc, 2).c_str(), ci.c_str(),
+                    std::isfinite(control.auc) ? hf::num_text(control.auc, 2).c_str() : "-");
       std::cout << row;
       Json j = {{"class", g.first}, {"picture_source", g.second}, {"runs", n_runs},
                 {"inserted_crops", res.n_inserted}, {"real_crops", res.n_real}, {"classifier", res.classifier}};
       j["auc"] = std::isfinite(res.auc) ? Json(res.auc) : Json();
       if (std::isfinite(res.auc)) j["auc_ci95"] = {res.ci_low, res.ci_high};
+      j["real_objects"] = objects.size();
+      j["control_auc"] = std::isfinite(control.auc) ? Json(control.auc) : Json();
       out.push_back(j);
     }
     if (!json_out.empty()) std::ofstream(json_out) << out.dump(2) << "\n";

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -67,7 +68,7 @@ ComponentInfo RealismTestSink::describe() {
   i.inputs = {port<Frame>("original", "frames before augmentation"),
               port<Frame>("augmented", "the same frames after augmentation"),
               port<HazardInstance>("hazard", "where the inserted object is drawn"),
-              port<Detections>("detections", "the original frames' detections (the real objects)")};
+              port<Tracks>("tracks", "the original frames' tracks (the real objects, each with its identity)")};
   i.params = {
       ParamSpec::string("file", "realism.json").describe("the test's result, below the run's output folder"),
       ParamSpec::string("crops_file", "realism/crops.jsonl").describe("every crop's features"),
@@ -104,7 +105,7 @@ void RealismTestSink::process(StageContext& /*ctx*/, const Inputs& in, Outputs& 
   const Frame& orig = in.require<Frame>("original");
   const Frame& aug = in.require<Frame>("augmented");
   const HazardInstance& hz = in.require<HazardInstance>("hazard");
-  const Detections& dets = in.require<Detections>("detections");
+  const Tracks& tracks = in.require<Tracks>("tracks");
   if (orig.image.empty() || aug.image.empty() || orig.image.size() != aug.image.size())
     throw Error(frame_name(orig) + ": the original and augmented frames must both have pictures of one size");
   if (!hz.object_class.empty()) object_class_ = hz.object_class;
@@ -128,18 +129,20 @@ void RealismTestSink::process(StageContext& /*ctx*/, const Inputs& in, Outputs& 
       }
     }
   }
-  for (size_t i = 0; i < dets.items.size(); ++i) {
-    const Detection& d = dets.items[i];
-    if (d.score < min_score_ || d.box.height < min_height_ || d.truncated || truncation_flags(d.box, size))
+  for (size_t i = 0; i < tracks.items.size(); ++i) {
+    const Track& d = tracks.items[i];
+    if (d.misses > 0 || d.score < min_score_ || d.box.height < min_height_ || d.truncated ||
+        truncation_flags(d.box, size))
       continue;
     bool overlapped = false;
-    for (size_t j = 0; j < dets.items.size() && !overlapped; ++j)
-      overlapped = j != i && (dets.items[j].box & d.box).area() > 0.05 * d.box.area();
+    for (size_t j = 0; j < tracks.items.size() && !overlapped; ++j)
+      overlapped = j != i && (tracks.items[j].box & d.box).area() > 0.05 * d.box.area();
     if (overlapped) continue;
     Crop c;
     c.frame = orig.index;
     c.label = d.label;
     c.box = d.box;
+    c.track_id = d.id;
     c.features = realism::crop_features(orig.image, d.box);
     if (c.features.empty()) continue;
     c.picture = sheet_picture(orig.image, d.box);
@@ -171,6 +174,24 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
   for (const Crop* c : real) fr.push_back(c->features);
   for (const Crop* c : ins) fi.push_back(c->features);
   const realism::C2stResult r = realism::c2st(fr, fi, 5, seed_);
+  // The control: real against real, the recording's objects split in two by identity (alternate tracks). A
+  // test that tells one real car from another measures identity, not realism: its AUC is the floor the
+  // inserted object's is read against.
+  std::map<int64_t, std::vector<const Crop*>> by_track;
+  for (const Crop* c : real) by_track[c->track_id].push_back(c);
+  std::vector<std::vector<float>> half[2];
+  {
+    std::vector<std::pair<size_t, int64_t>> sizes;
+    for (const auto& [id, v] : by_track) sizes.push_back({v.size(), id});
+    std::sort(sizes.rbegin(), sizes.rend());
+    size_t n[2] = {0, 0};
+    for (const auto& [count, id] : sizes) {
+      const int k = n[0] <= n[1] ? 0 : 1;  // the smaller half takes the next largest track
+      n[k] += count;
+      for (const Crop* c : by_track[id]) half[k].push_back(c->features);
+    }
+  }
+  const realism::C2stResult control = realism::c2st(half[0], half[1], 5, seed_);
 
   Json j = {{"object_class", object_class_},
             {"picture_source", picture_source_},
@@ -188,6 +209,14 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
     j["auc"] = nullptr;
     j["why_no_auc"] = "fewer than 5 crops of the inserted object or of real " + object_class_ + "s";
   }
+  j["real_objects"] = by_track.size();
+  if (std::isfinite(control.auc)) {
+    j["control_auc"] = control.auc;
+    j["control_auc_ci95"] = {control.ci_low, control.ci_high};
+  } else {
+    j["control_auc"] = nullptr;
+  }
+  j["control"] = "real against real: the recording's objects split in two by track (identity, not realism)";
   write_file_atomic(file_, j.dump(2) + "\n");
 
   std::string lines;
@@ -197,6 +226,7 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
               {"label", c->label},
               {"source", c->inserted ? picture_source_ : std::string("recording")},
               {"frame", c->frame},
+              {"track", c->track_id},
               {"box", {c->box.x, c->box.y, c->box.width, c->box.height}},
               {"features", c->features}};
     lines += l.dump() + "\n";
@@ -232,9 +262,11 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
     caption(out, title, {4, 16});
     return out;
   };
-  const std::string auc_text = std::isfinite(r.auc) ? "C2ST AUC " + num_text(r.auc, 2) + " [" + num_text(r.ci_low, 2) +
-                                                          ", " + num_text(r.ci_high, 2) + "]"
-                                                    : "C2ST: too few crops";
+  const std::string auc_text =
+      (std::isfinite(r.auc) ? "C2ST AUC " + num_text(r.auc, 2) + " [" + num_text(r.ci_low, 2) + ", " +
+                                  num_text(r.ci_high, 2) + "]"
+                            : std::string("C2ST: too few crops")) +
+      (std::isfinite(control.auc) ? " (real vs real " + num_text(control.auc, 2) + ")" : std::string());
   cv::Mat a = rows_of(show_real, "real " + object_class_ + " (" + std::to_string(real.size()) + " crops)");
   cv::Mat b = rows_of(show_ins, "inserted (" + std::to_string(ins.size()) + " crops, picture: " +
                                     (picture_source_.empty() ? "none" : picture_source_) + ") - " + auc_text);

@@ -13,14 +13,15 @@ namespace hf::render {
 
 // Stage "realism_test" (kind sink).
 //  inputs:  original (Frame), augmented (Frame): the same frame before and after augmentation; hazard
-//           (HazardInstance): where the inserted object is drawn; detections (Detections of the original
-//           frames): the recording's real objects.
+//           (HazardInstance): where the inserted object is drawn; tracks (Tracks of the original frames):
+//           the recording's real objects, each with its identity.
 //  outputs: none; in finish() writes <file> (realism.json: the C2ST's AUC with its 95 % interval, the crop
-//           counts, the picture's source), <crops_file> (realism/crops.jsonl: one line per crop with its
+//           counts, the picture's source, and the control: the same test of real against real objects split
+//           by track, which shows how much the test tells identities apart), <crops_file> (realism/crops.jsonl: one line per crop with its
 //           features, for pooling runs with hf_c2st) and <sheet> (realism/contact_sheet.png: real and
 //           inserted crops side by side).
 //  Crops: the inserted object in every frame where at least min_visible_share of it shows and its box is
-//  min_height_px tall; the recording's detections of the same class (score >= min_score, not cut by the
+//  min_height_px tall; the recording's tracked objects matched in the frame, of the same class (score >= min_score, not cut by the
 //  border, not overlapped by another box) in every frame, kept when their height lies within the inserted
 //  crops' range widened by size_range times on either side.
 class RealismTestSink : public Stage {
@@ -33,6 +34,7 @@ class RealismTestSink : public Stage {
   struct Crop {
     bool inserted = false;
     int64_t frame = 0;
+    int64_t track_id = -1;
     std::string label;
     cv::Rect2f box;
     std::vector<float> features;
