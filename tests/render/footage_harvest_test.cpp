@@ -170,5 +170,30 @@ TEST(FootageHarvest, KeepsAWholeSharpStableCarWithItsViewAndSize) {
   EXPECT_NEAR(x1, idx.assets[0].image_size.width - 1.0, 2.0);
 }
 
+// A track whose measured direction of travel flips between its cuts (velocity noise read as the car going the
+// other way) gives no appearance: its view would be a guess.
+TEST(FootageHarvest, ATrackWhoseDirectionFlipsIsNotKept) {
+  const CameraModel cam = test_camera();
+  FootageHarvest harvest(FootageHarvestOptions{}, ClassPriors{});
+  for (int i = 0; i < 10; ++i) {
+    cv::Mat img = hf::test::textured_image({1600, 900}, 7);
+    const cv::Mat car = paint_car_rear(img, cam, 12.0, 3.0, cv::Scalar(40, 40, 150), 3);
+    FootageObject o;
+    o.track_id = 4;
+    o.label = "car";
+    o.box = bounds(car);
+    o.score = 0.9f;
+    o.hits = i + 1;
+    o.distance_m = cam.t_ego_cam[0] + 12.0;
+    o.lateral_m = 3.0;
+    o.speed_mps = 5.0;
+    o.heading_rad = (i / 2) % 2 == 0 ? 0.0 : kPi;  // cut every second frame: each cut the other way
+    harvest.offer(hf::test::make_frame(i, 0.1 * i, img, cam), {o});
+  }
+  EXPECT_TRUE(harvest.cuts().empty()) << harvest.summary();
+  EXPECT_GT(harvest.rejections().count("its direction of travel changed between two cuts"), 0u)
+      << harvest.summary();
+}
+
 }  // namespace
 }  // namespace hf::render

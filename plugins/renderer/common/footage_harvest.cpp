@@ -22,7 +22,10 @@ namespace {
 constexpr int kNormSize = 64;          // silhouettes are compared at this size
 constexpr double kSnapDeg = 25.0;      // a heading this close to the road's direction is taken along it
 constexpr double kLaneHalfWidth = 2.0;  // a standing vehicle this close sideways is queued in the ego's lane
-constexpr double kMinSizeRatio = 0.6, kMaxSizeRatio = 1.6;  // measured size over the class's typical one
+constexpr double kMinSizeRatio = 0.6, kMaxSizeRatio = 1.6;  // measured height over the class's typical one
+constexpr double kMinWidthRatio = 0.75, kMaxWidthRatio = 1.3;  // the same for the width (seen head-on)
+constexpr double kHeadOnDeg = 12.0;      // within this of straight behind or ahead, the box's width is the object's
+constexpr double kMaxTurnDeg = 45.0;     // two cuts of one track whose directions differ more disagree
 
 cv::Rect whole_pixels(const cv::Rect2f& b) {
   const int x0 = static_cast<int>(std::floor(b.x)), y0 = static_cast<int>(std::floor(b.y));
@@ -268,14 +271,14 @@ void FootageHarvest::offer(const Frame& f, const std::vector<FootageObject>& obj
     const double x_c = o.distance_m + extent_x / 2;
     const double z_cam = cam.ego_to_cam(cv::Vec3d(o.distance_m, o.lateral_m, prior.height / 2))[2];
     const double az = camera_azimuth_deg(cam.t_ego_cam, x_c, o.lateral_m, c.yaw);
-    const bool head_on = angle_diff_deg(az, 0) < kSnapDeg || angle_diff_deg(az, 180) < kSnapDeg;
+    const bool head_on = angle_diff_deg(az, 0) < kHeadOnDeg || angle_diff_deg(az, 180) < kHeadOnDeg;
     cv::Vec3d size(prior.length, prior.width, prior.height);
     if (z_cam > 0.5) {
       size[2] = o.box.height * z_cam / cam.fy;
       if (head_on && !person) size[1] = o.box.width * z_cam / cam.fx;
     }
     if (size[2] < kMinSizeRatio * prior.height || size[2] > kMaxSizeRatio * prior.height ||
-        size[1] < kMinSizeRatio * prior.width || size[1] > kMaxSizeRatio * prior.width) {
+        size[1] < kMinWidthRatio * prior.width || size[1] > kMaxWidthRatio * prior.width) {
       reject("its size for its range is not a " + o.label + "'s");
       continue;
     }
@@ -290,9 +293,12 @@ void FootageHarvest::offer(const Frame& f, const std::vector<FootageObject>& obj
     cv::Mat norm;
     cv::resize(cut->mask(b - cut->crop.tl()), norm, {kNormSize, kNormSize}, 0, 0, cv::INTER_NEAREST);
     const bool recent = f.index - tc.last_frame <= 4 * opt_.every_frames;
-    const double consistency = (recent && !tc.last_mask.empty()) ? mask_iou(norm, tc.last_mask) : 0.0;
+    const bool same_way = tc.last_yaw && rad_to_deg(std::abs(angle_diff(c.yaw, *tc.last_yaw))) <= kMaxTurnDeg;
+    const double consistency =
+        (recent && same_way && !tc.last_mask.empty()) ? mask_iou(norm, tc.last_mask) : 0.0;
     tc.last_mask = norm;
     tc.last_frame = f.index;
+    tc.last_yaw = c.yaw;
 
     // The picture: the box plus a pixel; alpha matted around grabCut's edge, colour decontaminated.
     const cv::Rect pic = cv::Rect(b.x - 1, b.y - 1, b.width + 2, b.height + 2) & img;
@@ -345,7 +351,9 @@ void FootageHarvest::offer(const Frame& f, const std::vector<FootageObject>& obj
              num_text(consistency, 2) + "); " + c.view_why + "; " + num_text(size[2], 2) + " m tall, " +
              num_text(size[1], 2) + " m wide at " + num_text(o.distance_m, 1) + " m: " + s.view + " view";
     if (consistency < opt_.min_consistency) {
-      if (tc.pending) reject("the silhouette changed between two cuts of its track");
+      if (tc.pending)
+        reject(recent && !same_way ? "its direction of travel changed between two cuts"
+                                   : "the silhouette changed between two cuts of its track");
       tc.pending = std::move(fc);  // the first of a pair (or a new start): confirmed by the next cut
       continue;
     }

@@ -107,6 +107,7 @@ class FootageHarvest {
     std::vector<FootageCut> kept;  // best per view, confirmed
     std::optional<FootageCut> pending;  // last cut, not yet confirmed by another
     cv::Mat last_mask;                  // its silhouette normalised to 64x64
+    std::optional<double> last_yaw;     // the direction of travel it was cut with
     int64_t last_frame = -1000000;
     int confirmations = 0;
   };
