@@ -23,8 +23,9 @@ cv::Mat noise(cv::Size s, cv::RNG& rng, double sigma_px, double contrast) {
 }
 
 // A picture of 200x160 with one object in the middle: textured like its background (a "real" one), or a flat
-// box of one colour with a hard edge (a toy insertion).
-std::vector<float> object_features(cv::RNG& rng, bool flat) {
+// box of one colour with a hard edge (a toy insertion). `tint` >= 0 fixes the object's colour (one object seen
+// many times), else each is drawn at random.
+std::vector<float> object_features(cv::RNG& rng, bool flat, int tint = -1) {
   cv::Mat img = noise({200, 160}, rng, 1.5, 25.0);
   const int w = rng.uniform(50, 90), h = rng.uniform(40, 70);
   const cv::Rect box(100 - w / 2, 80 - h / 2, w, h);
@@ -32,8 +33,10 @@ std::vector<float> object_features(cv::RNG& rng, bool flat) {
     img(box).setTo(cv::Scalar(rng.uniform(60, 200), rng.uniform(60, 200), rng.uniform(60, 200)));
   } else {
     cv::Mat obj = noise(box.size(), rng, 1.5, 25.0);
-    cv::Mat tint(box.size(), CV_8UC3, cv::Scalar(rng.uniform(-60, 60), rng.uniform(-60, 60), rng.uniform(-60, 60)));
-    cv::add(obj, tint, obj);
+    cv::RNG colour(tint >= 0 ? static_cast<uint64_t>(tint) + 1000 : rng.next());
+    cv::Mat shade(box.size(), CV_8UC3,
+                  cv::Scalar(colour.uniform(-60, 60), colour.uniform(-60, 60), colour.uniform(-60, 60)));
+    cv::add(obj, shade, obj);
     obj.copyTo(img(box));
   }
   return crop_features(img, cv::Rect2f(box));
@@ -67,6 +70,31 @@ TEST(C2st, FlatBoxesAreToldApartFromTexturedObjects) {
   const C2stResult r = c2st(real, toy);
   EXPECT_GT(r.auc, 0.9);
   EXPECT_GT(r.ci_low, 0.75);
+}
+
+// With object ids the folds hold out whole objects (as many folds as the smaller sample has objects, at most
+// five); a sample of a single object can only be held out crop by crop, and the result says so.
+TEST(C2st, FoldsHoldOutWholeObjectsWhenBothSamplesHaveSeveral) {
+  cv::RNG rng(14);
+  std::vector<std::vector<float>> a, b;
+  std::vector<int64_t> ia, ib;
+  for (int o = 0; o < 6; ++o)
+    for (int k = 0; k < 10; ++k) {
+      a.push_back(object_features(rng, false, o));
+      ia.push_back(o);
+    }
+  for (int o = 0; o < 3; ++o)
+    for (int k = 0; k < 10; ++k) {
+      b.push_back(object_features(rng, true));
+      ib.push_back(o);
+    }
+  const C2stResult grouped = c2st(a, b, 5, 1, 1000, 5, ia, ib);
+  EXPECT_TRUE(grouped.grouped);
+  EXPECT_EQ(grouped.folds, 3);
+  EXPECT_GT(grouped.auc, 0.9);  // flat boxes stay flat boxes on objects the classifier never saw
+  const C2stResult single = c2st(a, b, 5, 1, 1000, 5, ia, std::vector<int64_t>(b.size(), 0));
+  EXPECT_FALSE(single.grouped);
+  EXPECT_EQ(single.folds, 5);
 }
 
 TEST(C2st, TooFewCropsGiveNoAuc) {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numeric>
 #include <random>
 
@@ -161,7 +162,8 @@ double roc_auc(const std::vector<double>& scores, const std::vector<int>& positi
 }
 
 C2stResult c2st(const std::vector<std::vector<float>>& real, const std::vector<std::vector<float>>& inserted,
-                int folds, unsigned seed, int bootstrap, int min_per_class) {
+                int folds, unsigned seed, int bootstrap, int min_per_class, const std::vector<int64_t>& real_objects,
+                const std::vector<int64_t>& inserted_objects) {
   C2stResult r;
   r.n_real = static_cast<int>(real.size());
   r.n_inserted = static_cast<int>(inserted.size());
@@ -173,19 +175,43 @@ C2stResult c2st(const std::vector<std::vector<float>>& real, const std::vector<s
   const size_t dims = real.front().size();
   std::vector<const std::vector<float>*> rows;
   std::vector<int> label;
-  for (const auto& v : real) rows.push_back(&v), label.push_back(0);
-  for (const auto& v : inserted) rows.push_back(&v), label.push_back(1);
+  std::vector<int64_t> object;  // per crop: its object, numbered within its class
+  auto add = [&](const std::vector<std::vector<float>>& v, const std::vector<int64_t>& ids, int cls) {
+    for (size_t i = 0; i < v.size(); ++i) {
+      rows.push_back(&v[i]);
+      label.push_back(cls);
+      object.push_back(ids.size() == v.size() ? ids[i] : -1 - static_cast<int64_t>(i));
+    }
+  };
+  add(real, real_objects, 0);
+  add(inserted, inserted_objects, 1);
   const size_t n = rows.size();
-  r.folds = std::min({folds, r.n_real, r.n_inserted});
-  // Stratified folds: each class shuffled and dealt round-robin.
+  // The objects of each class; with a single object in a class, crops are held out instead.
+  std::vector<int64_t> objs[2];
+  for (size_t i = 0; i < n; ++i)
+    if (std::find(objs[label[i]].begin(), objs[label[i]].end(), object[i]) == objs[label[i]].end())
+      objs[label[i]].push_back(object[i]);
+  r.grouped = objs[0].size() >= 2 && objs[1].size() >= 2 && (!real_objects.empty() || !inserted_objects.empty());
+  if (!r.grouped)
+    for (size_t i = 0; i < n; ++i) object[i] = -1 - static_cast<int64_t>(i);
+  for (auto& o : objs) o.clear();
+  for (size_t i = 0; i < n; ++i)
+    if (std::find(objs[label[i]].begin(), objs[label[i]].end(), object[i]) == objs[label[i]].end())
+      objs[label[i]].push_back(object[i]);
+  r.folds = static_cast<int>(std::min<size_t>({static_cast<size_t>(folds), objs[0].size(), objs[1].size()}));
+  if (r.folds < 2) {
+    r.auc = r.ci_low = r.ci_high = std::nan("");
+    return r;
+  }
+  // Stratified folds: each class's objects shuffled and dealt round-robin.
   std::mt19937 rng(seed);
   std::vector<int> fold(n);
   for (int cls = 0; cls < 2; ++cls) {
-    std::vector<size_t> ids;
+    std::shuffle(objs[cls].begin(), objs[cls].end(), rng);
+    std::map<int64_t, int> of;
+    for (size_t k = 0; k < objs[cls].size(); ++k) of[objs[cls][k]] = static_cast<int>(k % static_cast<size_t>(r.folds));
     for (size_t i = 0; i < n; ++i)
-      if (label[i] == cls) ids.push_back(i);
-    std::shuffle(ids.begin(), ids.end(), rng);
-    for (size_t k = 0; k < ids.size(); ++k) fold[ids[k]] = static_cast<int>(k % static_cast<size_t>(r.folds));
+      if (label[i] == cls) fold[i] = of[object[i]];
   }
   std::vector<double> score(n, 0.0);
   for (int k = 0; k < r.folds; ++k) {
@@ -231,22 +257,24 @@ C2stResult c2st(const std::vector<std::vector<float>>& real, const std::vector<s
     for (size_t i = 0; i < test.size(); ++i) score[test[i]] = sign * raw_te.at<float>(static_cast<int>(i));
   }
   r.auc = roc_auc(score, label);
-  // Stratified bootstrap of the out-of-fold scores.
-  std::vector<size_t> reals, ins;
-  for (size_t i = 0; i < n; ++i) (label[i] ? ins : reals).push_back(i);
-  std::vector<double> aucs;
-  std::vector<double> s;
+  // Stratified bootstrap of the out-of-fold scores, drawing whole objects.
+  std::map<int64_t, std::vector<size_t>> crops_of[2];
+  for (size_t i = 0; i < n; ++i) crops_of[label[i]][object[i]].push_back(i);
+  std::vector<const std::vector<size_t>*> groups[2];
+  for (int c = 0; c < 2; ++c)
+    for (const auto& [id, v] : crops_of[c]) groups[c].push_back(&v);
+  std::vector<double> aucs, s;
   std::vector<int> l;
   for (int b = 0; b < bootstrap; ++b) {
     s.clear();
     l.clear();
-    for (const auto* group : {&reals, &ins}) {
-      std::uniform_int_distribution<size_t> pick(0, group->size() - 1);
-      for (size_t k = 0; k < group->size(); ++k) {
-        const size_t i = (*group)[pick(rng)];
-        s.push_back(score[i]);
-        l.push_back(label[i]);
-      }
+    for (int c = 0; c < 2; ++c) {
+      std::uniform_int_distribution<size_t> pick(0, groups[c].size() - 1);
+      for (size_t k = 0; k < groups[c].size(); ++k)
+        for (size_t i : *groups[c][pick(rng)]) {
+          s.push_back(score[i]);
+          l.push_back(label[i]);
+        }
     }
     aucs.push_back(roc_auc(s, l));
   }

@@ -171,15 +171,22 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
         real.push_back(&c);
   real = spread(real, static_cast<size_t>(max_real_));
   std::vector<std::vector<float>> fr, fi;
-  for (const Crop* c : real) fr.push_back(c->features);
+  std::vector<int64_t> real_ids;
+  for (const Crop* c : real) {
+    fr.push_back(c->features);
+    real_ids.push_back(c->track_id);
+  }
   for (const Crop* c : ins) fi.push_back(c->features);
-  const realism::C2stResult r = realism::c2st(fr, fi, 5, seed_);
+  // One inserted object: the folds can only hold out its crops (C2stResult::grouped false).
+  const realism::C2stResult r =
+      realism::c2st(fr, fi, 5, seed_, 1000, 5, real_ids, std::vector<int64_t>(fi.size(), 0));
   // The control: real against real, the recording's objects split in two by identity (alternate tracks). A
   // test that tells one real car from another measures identity, not realism: its AUC is the floor the
   // inserted object's is read against.
   std::map<int64_t, std::vector<const Crop*>> by_track;
   for (const Crop* c : real) by_track[c->track_id].push_back(c);
   std::vector<std::vector<float>> half[2];
+  std::vector<int64_t> half_ids[2];
   {
     std::vector<std::pair<size_t, int64_t>> sizes;
     for (const auto& [id, v] : by_track) sizes.push_back({v.size(), id});
@@ -188,10 +195,14 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
     for (const auto& [count, id] : sizes) {
       const int k = n[0] <= n[1] ? 0 : 1;  // the smaller half takes the next largest track
       n[k] += count;
-      for (const Crop* c : by_track[id]) half[k].push_back(c->features);
+      for (const Crop* c : by_track[id]) {
+        half[k].push_back(c->features);
+        half_ids[k].push_back(id);
+      }
     }
   }
-  const realism::C2stResult control = realism::c2st(half[0], half[1], 5, seed_);
+  const realism::C2stResult control =
+      realism::c2st(half[0], half[1], 5, seed_, 1000, 5, half_ids[0], half_ids[1]);
 
   Json j = {{"object_class", object_class_},
             {"picture_source", picture_source_},
@@ -201,6 +212,7 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
             {"height_range_px", ins.empty() ? Json() : Json::array({h0 / size_range_, h1 * size_range_})},
             {"classifier", r.classifier},
             {"folds", r.folds},
+            {"folds_hold_out_objects", r.grouped},
             {"features", realism::crop_feature_names()}};
   if (std::isfinite(r.auc)) {
     j["auc"] = r.auc;
@@ -213,6 +225,7 @@ void RealismTestSink::finish(StageContext& ctx, Outputs& /*out*/) {
   if (std::isfinite(control.auc)) {
     j["control_auc"] = control.auc;
     j["control_auc_ci95"] = {control.ci_low, control.ci_high};
+    j["control_folds_hold_out_objects"] = control.grouped;
   } else {
     j["control_auc"] = nullptr;
   }

@@ -27,14 +27,20 @@ struct C2stResult {
   double auc = 0.5;  // NaN when either sample is too small (fewer than `min_per_class` crops)
   double ci_low = 0.0, ci_high = 1.0;  // 95 % bootstrap percentile interval
   int n_real = 0, n_inserted = 0, folds = 0;
+  // The folds held out whole objects (every crop of one object in one fold, the interval from resampling
+  // objects): the classifier had to tell objects it never saw. False when a sample has a single object, and
+  // the folds held out crops: then what it tells apart may be that one object's identity.
+  bool grouped = false;
   std::string classifier;  // what was fitted, for the report
 };
 
-// Stratified k-fold cross-validation (k = min(folds, smaller sample)) of a linear SVM (C = 1) on z-scored
-// features; the AUC of the out-of-fold decision values, its interval from `bootstrap` stratified resamples.
-// Deterministic for a seed.
+// Stratified k-fold cross-validation of a linear SVM (C = 1) on z-scored features; the AUC of the out-of-fold
+// decision values, its interval from `bootstrap` stratified resamples. With object ids for the crops
+// (`real_objects`, `inserted_objects`, one per crop; empty = every crop its own object) the folds hold out whole
+// objects (k = min(folds, objects in either sample)) and the resamples draw objects. Deterministic for a seed.
 C2stResult c2st(const std::vector<std::vector<float>>& real, const std::vector<std::vector<float>>& inserted,
-                int folds = 5, unsigned seed = 1, int bootstrap = 1000, int min_per_class = 5);
+                int folds = 5, unsigned seed = 1, int bootstrap = 1000, int min_per_class = 5,
+                const std::vector<int64_t>& real_objects = {}, const std::vector<int64_t>& inserted_objects = {});
 
 // Area under the ROC curve of scores where `positive` marks the class scored higher (Mann-Whitney, ties
 // count half).
