@@ -603,9 +603,14 @@ ComponentInfo ArRenderer::describe() {
   i.params = {
       ParamSpec::path("assets_dir", "")
           .from_scene("assets.dir")
-          .describe("folder with assets.yaml and the pictures; empty = the default set (share/assets)"),
+          .describe("folder with assets.yaml and the pictures; empty = the photographic default set when it "
+                    "was built at set-up, else the generated one (share/assets)"),
       ParamSpec::boolean("fallback_assets", true)
-          .describe("use the default set for classes/views assets_dir lacks"),
+          .describe("use the default sets for classes/views assets_dir lacks: the photographic one, then the "
+                    "generated one"),
+      ParamSpec::boolean("photo_assets", true)
+          .describe("the photographic default set cut at set-up out of the shared nuScenes scene (when it was "
+                    "built) comes before the generated one (share/assets)"),
       ParamSpec::boolean("footage_appearances", true)
           .describe("cut the recording's own whole, sharp, stable road users out of the frames before the "
                     "hazard appears (grabCut seeded by their boxes, matted; view from their motion, size from "
@@ -739,13 +744,23 @@ RendererOptions renderer_options(const Params& p) {
   return o;
 }
 
+std::filesystem::path photo_assets_dir() {
+#ifdef HF_PHOTO_ASSETS_DIR
+  const fs::path dir = HF_PHOTO_ASSETS_DIR;
+  if (fs::exists(dir / kAssetIndexFile)) return dir;
+#endif
+  return {};
+}
+
 std::shared_ptr<const AssetLibrary> load_assets(const Params& p) {
   const fs::path defaults = fs::path(share_dir()) / "assets";
+  const fs::path photo = p.get_bool("photo_assets") ? photo_assets_dir() : fs::path();
   fs::path dir = p.get_path("assets_dir");
-  if (dir.empty()) dir = defaults;
+  if (dir.empty()) dir = photo.empty() ? defaults : photo;
   if (!fs::is_directory(dir)) throw Error("assets_dir '" + dir.string() + "' is not a folder");
-  const fs::path fallback = p.get_bool("fallback_assets") ? defaults : fs::path();
-  return std::make_shared<const AssetLibrary>(AssetLibrary::load(dir, fallback));
+  std::vector<fs::path> fallbacks;
+  if (p.get_bool("fallback_assets")) fallbacks = {photo, defaults};
+  return std::make_shared<const AssetLibrary>(AssetLibrary::load(dir, fallbacks));
 }
 
 std::string describe_light(const SceneLight& l) {

@@ -192,7 +192,10 @@ class ArRenderer : public Stage {
 std::string describe_light(const SceneLight& light);
 // Reads the renderer's options from validated params (shared by the stage and the benchmark).
 RendererOptions renderer_options(const Params& p);
-// assets_dir resolved (empty = share_dir()/assets) and the library loaded with the default set as fallback.
+// The photographic default set cut out at set-up (tools/CMakeLists.txt), empty when it was not built.
+std::filesystem::path photo_assets_dir();
+// assets_dir resolved (empty = the photographic default set, else share_dir()/assets) and the library loaded
+// with the default sets as fallbacks (the photographic one, then the generated one).
 std::shared_ptr<const AssetLibrary> load_assets(const Params& p);
 
 }  // namespace hf::render

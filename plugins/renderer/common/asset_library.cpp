@@ -283,19 +283,27 @@ AssetLibrary& AssetLibrary::operator=(AssetLibrary&&) noexcept = default;
 AssetLibrary::~AssetLibrary() = default;
 
 void AssetLibrary::add(const AssetSpec& spec, const cv::Mat& bgra, const fs::path& dir, bool from_fallback) {
+  add_at(spec, bgra, dir, from_fallback ? 1 : 0);
+}
+
+void AssetLibrary::add_at(const AssetSpec& spec, const cv::Mat& bgra, const fs::path& dir, int level) {
   if (bgra.empty() || bgra.type() != CV_8UC4)
     throw Error("asset '" + spec.file + "': expected an 8-bit picture with an alpha channel (BGRA)");
   if (!cache_) cache_ = std::make_unique<Cache>();
   specs_.push_back(spec);
   specs_.back().image_size = bgra.size();
   dirs_.push_back(dir);
-  fallback_.push_back(from_fallback);
+  level_.push_back(level);
   pictures_.push_back(bgra);
 }
 
 AssetLibrary AssetLibrary::load(const fs::path& primary, const fs::path& fallback) {
+  return load(primary, fallback.empty() ? std::vector<fs::path>{} : std::vector<fs::path>{fallback});
+}
+
+AssetLibrary AssetLibrary::load(const fs::path& primary, const std::vector<fs::path>& fallbacks) {
   AssetLibrary lib;
-  auto load_dir = [&](const fs::path& dir, bool is_fallback) {
+  auto load_dir = [&](const fs::path& dir, int level) {
     const AssetIndex idx = load_asset_index(dir);
     lib.folders_.push_back(dir);
     for (const AssetSpec& s : idx.assets) {
@@ -308,12 +316,20 @@ AssetLibrary AssetLibrary::load(const fs::path& primary, const fs::path& fallbac
                     std::to_string(s.image_size.width) + ", " + std::to_string(s.image_size.height) +
                     "] does not match the picture's " + std::to_string(img.cols) + "x" +
                     std::to_string(img.rows));
-      lib.add(s, img, dir, is_fallback);
+      lib.add_at(s, img, dir, level);
     }
   };
-  load_dir(primary, false);
-  std::error_code ec;
-  if (!fallback.empty() && !fs::equivalent(primary, fallback, ec)) load_dir(fallback, true);
+  load_dir(primary, 0);
+  std::vector<fs::path> loaded{primary};
+  int level = 1;
+  for (const fs::path& f : fallbacks) {
+    std::error_code ec;
+    if (f.empty() || std::any_of(loaded.begin(), loaded.end(),
+                                 [&](const fs::path& d) { return fs::equivalent(d, f, ec); }))
+      continue;
+    load_dir(f, level++);
+    loaded.push_back(f);
+  }
   return lib;
 }
 
@@ -341,22 +357,29 @@ std::string AssetLibrary::describe_folders() const {
 
 const LoadedAsset& AssetLibrary::select(const std::string& cls, double az, const std::string& instance,
                                         double max_err) const {
-  long best[3] = {-1, -1, -1};  // same instance, primary folder, anywhere
-  double err[3] = {1e9, 1e9, 1e9};
+  // Tiers: the same instance, then each folder in order (primary, fallbacks), each taken when its nearest
+  // view is within max_err; else the nearest view anywhere.
+  const int levels = level_.empty() ? 1 : *std::max_element(level_.begin(), level_.end()) + 1;
+  std::vector<long> best(static_cast<size_t>(levels + 2), -1);
+  std::vector<double> err(best.size(), 1e9);
+  const size_t anywhere = best.size() - 1;
   for (size_t i = 0; i < specs_.size(); ++i) {
     const AssetSpec& a = specs_[i];
     if (a.object_class != cls) continue;
     const double e = angle_diff_deg(a.azimuth_deg, az);
-    const int tiers[3] = {(!instance.empty() && a.instance == instance) ? 0 : -1, fallback_[i] ? -1 : 1, 2};
-    for (int t : tiers)
-      if (t >= 0 && e < err[t] - 1e-9) {
+    for (size_t t : {(!instance.empty() && a.instance == instance) ? size_t{0} : anywhere,
+                     static_cast<size_t>(level_[i] + 1), anywhere})
+      if (e < err[t] - 1e-9) {
         err[t] = e;
         best[t] = static_cast<long>(i);
       }
   }
-  long pick = best[2];
-  for (int t = 1; t >= 0; --t)
-    if (best[t] >= 0 && err[t] <= max_err) pick = best[t];
+  long pick = best[anywhere];
+  for (size_t t = 0; t < anywhere; ++t)
+    if (best[t] >= 0 && err[t] <= max_err) {
+      pick = best[t];
+      break;
+    }
   if (pick < 0) {
     std::string have;
     for (const auto& c : classes()) have += (have.empty() ? "" : ", ") + c;
@@ -372,7 +395,7 @@ const LoadedAsset& AssetLibrary::prepared(size_t i) const {
   if (!slot) {
     slot = std::make_unique<LoadedAsset>(prepare_asset(specs_[i], pictures_[i]));
     slot->dir = dirs_[i];
-    slot->from_fallback = fallback_[i];
+    slot->from_fallback = level_[i] > 0;
   }
   return *slot;
 }

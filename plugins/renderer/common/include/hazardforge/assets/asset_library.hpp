@@ -70,6 +70,9 @@ class AssetLibrary {
  public:
   // Loads every asset of `primary` and of `fallback` (skipped when empty or the same folder).
   static AssetLibrary load(const std::filesystem::path& primary, const std::filesystem::path& fallback = {});
+  // The same with fallback folders in order of preference (empty ones and repeats skipped).
+  static AssetLibrary load(const std::filesystem::path& primary,
+                           const std::vector<std::filesystem::path>& fallbacks);
   AssetLibrary();
   AssetLibrary(AssetLibrary&&) noexcept;
   AssetLibrary& operator=(AssetLibrary&&) noexcept;
@@ -78,7 +81,8 @@ class AssetLibrary {
   void add(const AssetSpec& spec, const cv::Mat& bgra, const std::filesystem::path& dir, bool from_fallback);
 
   // The asset of `object_class` whose view is nearest `azimuth_deg`. Prefers `instance` (keeps one physical
-  // object through a hazard), then the primary folder, when their view is within `max_view_error_deg`.
+  // object through a hazard), then the primary folder, then each fallback folder in order, each when its view
+  // is within `max_view_error_deg`; else the nearest view anywhere.
   // Throws hf::Error naming the class and the classes available when there is none. Thread-safe.
   const LoadedAsset& select(const std::string& object_class, double azimuth_deg, const std::string& instance,
                             double max_view_error_deg) const;
@@ -95,9 +99,10 @@ class AssetLibrary {
  private:
   struct Cache;
   const LoadedAsset& prepared(size_t i) const;
+  void add_at(const AssetSpec& spec, const cv::Mat& bgra, const std::filesystem::path& dir, int level);
   std::vector<AssetSpec> specs_;
   std::vector<std::filesystem::path> dirs_;
-  std::vector<bool> fallback_;
+  std::vector<int> level_;  // 0 = the primary folder (or added as primary), k = the k-th fallback
   std::vector<cv::Mat> pictures_;
   std::vector<std::filesystem::path> folders_;
   std::unique_ptr<Cache> cache_;
