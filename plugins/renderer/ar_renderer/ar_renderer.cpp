@@ -69,6 +69,7 @@ std::vector<std::string> HazardRenderer::take_notes() {
 
 double HazardRenderer::observe(const Frame& frame, const ObjectStates* states, const Tracks* tracks) {
   if (!harvest_ || !identity_.empty()) return 0.0;
+  if (states) saw_states_ = true;
   const double before = harvest_->seconds();
   harvest_->offer(frame, footage_objects(states, tracks));
   return harvest_->seconds() - before;
@@ -112,7 +113,10 @@ const LoadedAsset* HazardRenderer::first_pick(const HazardTrajectory& T, double 
       return &best;
     }
   }
-  warnings_.push_back("appearance: " + why + "; drawn from " + assets_->describe_folders());
+  // Without tracked objects (no states input) there was nothing to cut: that is the graph's choice, not a
+  // shortcoming of the footage.
+  (saw_states_ || !bank_.empty() ? warnings_ : notes_)
+      .push_back("appearance: " + why + "; drawn from " + assets_->describe_folders());
   return nullptr;
 }
 

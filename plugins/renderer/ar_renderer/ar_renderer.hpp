@@ -150,6 +150,7 @@ class HazardRenderer {
   SceneLightEstimator light_;
   std::unique_ptr<FootageHarvest> harvest_;
   std::vector<FootageCut> bank_;  // opt_.footage_bank's cuts
+  bool saw_states_ = false;       // observe() was given tracked objects
   std::unique_ptr<AssetLibrary> footage_lib_;  // the harvest's cuts of the hazard's class, once picked
   const AssetLibrary* drawn_from_ = nullptr;  // the library the hazard's pictures come from
 };
