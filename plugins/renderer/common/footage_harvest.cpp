@@ -71,6 +71,27 @@ std::string short_view_reason(double yaw) {
   return num_text(deg, 0) + " deg from the ego's heading";
 }
 
+// The cut-out as a BGRA picture of `pic` (crop coordinates): alpha matted around the hard mask's edge (a band
+// of `band` px), colour decontaminated; the blurred mask when matting is off or fails.
+cv::Mat cut_picture(const cv::Mat& crop_img, const cv::Mat& mask, const cv::Rect& pic, int band, bool matting) {
+  cv::Mat alpha;
+  if (matting) {
+    try {
+      alpha = realism::matte(crop_img, realism::trimap_from_mask(mask, band));
+    } catch (const Error&) {
+      alpha.release();
+    }
+  }
+  if (alpha.empty()) cv::GaussianBlur(mask, alpha, cv::Size(), 0.7);
+  const cv::Mat colour = realism::decontaminate(crop_img, alpha);
+  std::vector<cv::Mat> ch;
+  cv::split(colour(pic), ch);
+  ch.push_back(alpha(pic).clone());
+  cv::Mat bgra;
+  cv::merge(ch, bgra);
+  return bgra;
+}
+
 }  // namespace
 
 std::vector<FootageObject> footage_objects(const ObjectStates* states, const Tracks* tracks) {
@@ -251,19 +272,6 @@ void FootageHarvest::offer(const Frame& f, const std::vector<FootageObject>& obj
       reject("blurred");
       continue;
     }
-    const auto cut = cut_from_box(f.image, o.box, person, opt_.grabcut_iterations);
-    if (!cut) {
-      reject("grabCut failed");
-      continue;
-    }
-    if (cut->fill < (person ? opt_.min_person_fill : opt_.min_vehicle_fill)) {
-      reject("the silhouette lost the object");
-      continue;
-    }
-    if (cut->box_iou < opt_.min_box_iou) {
-      reject("the silhouette disagrees with the box");
-      continue;
-    }
     // Size for its range (camera model): the near face's depth, the box's height (and width when the view
     // is head-on) in metres; a size far from the class's typical one means the range or the box is off.
     const ClassSize prior = sizes_.has(o.label) ? sizes_.at(o.label) : ClassSize{};
@@ -288,8 +296,27 @@ void FootageHarvest::offer(const Frame& f, const std::vector<FootageObject>& obj
       continue;
     }
 
-    // Silhouette consistency along the track: the cut, normalised to its box, against the track's last one.
+    // A track already cut in this view at about this size is not cut again (the cost is grabCut and matting).
     TrackCuts& tc = tracks_[o.track_id];
+    const std::string view = view_for_azimuth(az);
+    if (std::any_of(tc.kept.begin(), tc.kept.end(), [&](const FootageCut& k) {
+          return k.spec.view == view && k.spec.image_size.height * 1.15 >= o.box.height;
+        }))
+      continue;
+    const auto cut = cut_from_box(f.image, o.box, person, opt_.grabcut_iterations);
+    if (!cut) {
+      reject("grabCut failed");
+      continue;
+    }
+    if (cut->fill < (person ? opt_.min_person_fill : opt_.min_vehicle_fill)) {
+      reject("the silhouette lost the object");
+      continue;
+    }
+    if (cut->box_iou < opt_.min_box_iou) {
+      reject("the silhouette disagrees with the box");
+      continue;
+    }
+    // Silhouette consistency along the track: the cut, normalised to its box, against the track's last one.
     cv::Mat norm;
     cv::resize(cut->mask(b - cut->crop.tl()), norm, {kNormSize, kNormSize}, 0, 0, cv::INTER_NEAREST);
     const bool recent = f.index - tc.last_frame <= 4 * opt_.every_frames;
@@ -300,26 +327,14 @@ void FootageHarvest::offer(const Frame& f, const std::vector<FootageObject>& obj
     tc.last_frame = f.index;
     tc.last_yaw = c.yaw;
 
-    // The picture: the box plus a pixel; alpha matted around grabCut's edge, colour decontaminated.
+    // The picture: the box plus a pixel; matted when the cut is kept (a confirmed pair).
     const cv::Rect pic = cv::Rect(b.x - 1, b.y - 1, b.width + 2, b.height + 2) & img;
-    const cv::Mat crop_img = f.image(cut->crop);
-    cv::Mat alpha;
-    if (opt_.matting) {
-      const int band = std::max(1, static_cast<int>(std::lround(opt_.matting_band * o.box.height / 100.0)));
-      try {
-        alpha = realism::matte(crop_img, realism::trimap_from_mask(cut->mask, band));
-      } catch (const Error&) {
-        alpha.release();
-      }
-    }
-    if (alpha.empty()) cv::GaussianBlur(cut->mask, alpha, cv::Size(), 0.7);
-    const cv::Mat colour = realism::decontaminate(crop_img, alpha);
-    std::vector<cv::Mat> ch;
-    cv::split(colour(pic - cut->crop.tl()), ch);
-    ch.push_back(alpha(pic - cut->crop.tl()).clone());
-
-    FootageCut fc;
-    cv::merge(ch, fc.bgra);
+    Pending pend;
+    pend.crop_img = f.image(cut->crop).clone();
+    pend.mask = cut->mask;
+    pend.pic_in_crop = pic - cut->crop.tl();
+    pend.band = std::max(1, static_cast<int>(std::lround(opt_.matting_band * o.box.height / 100.0)));
+    FootageCut& fc = pend.cut;
     fc.track_id = o.track_id;
     fc.frame_index = f.index;
     AssetSpec& s = fc.spec;
@@ -354,20 +369,23 @@ void FootageHarvest::offer(const Frame& f, const std::vector<FootageObject>& obj
       if (tc.pending)
         reject(recent && !same_way ? "its direction of travel changed between two cuts"
                                    : "the silhouette changed between two cuts of its track");
-      tc.pending = std::move(fc);  // the first of a pair (or a new start): confirmed by the next cut
+      tc.pending = std::move(pend);  // the first of a pair (or a new start): confirmed by the next cut
       continue;
     }
-    auto keep = [&](FootageCut&& k) {
+    auto keep = [&](const Pending& k) {
       auto same = std::find_if(tc.kept.begin(), tc.kept.end(),
-                               [&](const FootageCut& e) { return e.spec.view == k.spec.view; });
+                               [&](const FootageCut& e) { return e.spec.view == k.cut.spec.view; });
+      if (same != tc.kept.end() && k.cut.quality <= same->quality) return;
+      FootageCut done = k.cut;
+      done.bgra = cut_picture(k.crop_img, k.mask, k.pic_in_crop, k.band, opt_.matting);
       if (same == tc.kept.end())
-        tc.kept.push_back(std::move(k));
-      else if (k.quality > same->quality)
-        *same = std::move(k);
+        tc.kept.push_back(std::move(done));
+      else
+        *same = std::move(done);
     };
-    if (tc.pending) keep(std::move(*tc.pending));
-    tc.pending = fc;
-    keep(std::move(fc));
+    if (tc.pending) keep(*tc.pending);
+    keep(pend);
+    tc.pending = std::move(pend);
     ++tc.confirmations;
   }
   seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -103,9 +103,15 @@ class FootageHarvest {
   double seconds() const { return seconds_; }
 
  private:
+  struct Pending {  // a cut before its picture is made (matting is the cost: only kept cuts pay it)
+    FootageCut cut;
+    cv::Mat crop_img, mask;
+    cv::Rect pic_in_crop;
+    int band = 1;
+  };
   struct TrackCuts {
-    std::vector<FootageCut> kept;  // best per view, confirmed
-    std::optional<FootageCut> pending;  // last cut, not yet confirmed by another
+    std::vector<FootageCut> kept;  // best per view, confirmed, with their pictures
+    std::optional<Pending> pending;  // last cut, not yet confirmed by another
     cv::Mat last_mask;                  // its silhouette normalised to 64x64
     std::optional<double> last_yaw;     // the direction of travel it was cut with
     int64_t last_frame = -1000000;
