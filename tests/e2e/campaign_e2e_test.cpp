@@ -54,6 +54,13 @@ TEST(CampaignEndToEnd, ResumingLosesNothingAndRepeatsNothing) {
   const std::string a1_record = test::read_file(a1 / "attempt.json"), a1_manifest = test::read_file(a1 / "manifest.json");
   const auto scout_time = fs::last_write_time(out / "recordings/nus/scout/scout.jsonl");
   EXPECT_FALSE(fs::exists(out / "attempts/nus/pedestrian_crossing"));
+  // The scouting pass also cut the recording's own road users out (the footage harvester ran on it); when it
+  // kept any, the attempts draw with them.
+  const std::string scout_manifest = test::read_file(out / "recordings/nus/scout/manifest.json");
+  EXPECT_NE(scout_manifest.find("campaign_footage_harvest"), std::string::npos);
+  EXPECT_EQ(fs::exists(out / "recordings/nus/scout/appearances/assets.yaml"),
+            a1_manifest.find("renderer.footage_assets_dir=") != std::string::npos)
+      << a1_manifest;
 
   // Again: the sudden stop is kept as it was (not run again), the pedestrian crossing runs; the scouting run too
   // is kept.
