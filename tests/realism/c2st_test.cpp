@@ -5,34 +5,22 @@
 #include <opencv2/imgproc.hpp>
 
 #include "hazardforge/realism/c2st.hpp"
+#include "realism_fixtures.hpp"
 
 namespace hf::realism {
 namespace {
-
-cv::Mat noise(cv::Size s, cv::RNG& rng, double sigma_px, double contrast) {
-  cv::Mat n(s, CV_32F);
-  rng.fill(n, cv::RNG::NORMAL, 0.0, 1.0);
-  cv::GaussianBlur(n, n, cv::Size(), sigma_px);
-  cv::Scalar m, sd;
-  cv::meanStdDev(n, m, sd);
-  cv::Mat out;
-  n.convertTo(out, CV_8U, contrast / sd[0], 128);
-  cv::Mat bgr;
-  cv::cvtColor(out, bgr, cv::COLOR_GRAY2BGR);
-  return bgr;
-}
 
 // A picture of 200x160 with one object in the middle: textured like its background (a "real" one), or a flat
 // box of one colour with a hard edge (a toy insertion). `tint` >= 0 fixes the object's colour (one object seen
 // many times), else each is drawn at random.
 std::vector<float> object_features(cv::RNG& rng, bool flat, int tint = -1) {
-  cv::Mat img = noise({200, 160}, rng, 1.5, 25.0);
+  cv::Mat img = texture({200, 160}, static_cast<unsigned>(rng.next()), 25.0, 1.5);
   const int w = rng.uniform(50, 90), h = rng.uniform(40, 70);
   const cv::Rect box(100 - w / 2, 80 - h / 2, w, h);
   if (flat) {
     img(box).setTo(cv::Scalar(rng.uniform(60, 200), rng.uniform(60, 200), rng.uniform(60, 200)));
   } else {
-    cv::Mat obj = noise(box.size(), rng, 1.5, 25.0);
+    cv::Mat obj = texture(box.size(), static_cast<unsigned>(rng.next()), 25.0, 1.5);
     cv::RNG colour(tint >= 0 ? static_cast<uint64_t>(tint) + 1000 : rng.next());
     cv::Mat shade(box.size(), CV_8UC3,
                   cv::Scalar(colour.uniform(-60, 60), colour.uniform(-60, 60), colour.uniform(-60, 60)));

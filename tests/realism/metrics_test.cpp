@@ -9,24 +9,10 @@
 #include "hazardforge/error.hpp"
 #include "hazardforge/realism/compare.hpp"
 #include "hazardforge/realism/metrics.hpp"
+#include "realism_fixtures.hpp"
 
 namespace hf::realism {
 namespace {
-
-// Band-limited grey texture around 128 with the given contrast.
-cv::Mat texture(cv::Size size, unsigned seed, double contrast, double sigma = 2.0) {
-  cv::RNG rng(seed);
-  cv::Mat n(size, CV_32F);
-  rng.fill(n, cv::RNG::NORMAL, 0.0, 1.0);
-  cv::GaussianBlur(n, n, cv::Size(), sigma);
-  cv::Scalar m, sd;
-  cv::meanStdDev(n, m, sd);
-  cv::Mat out;
-  n.convertTo(out, CV_8U, contrast / sd[0], 128);
-  cv::Mat bgr;
-  cv::cvtColor(out, bgr, cv::COLOR_GRAY2BGR);
-  return bgr;
-}
 
 // An ellipse-shaped object mask (0/255) over the whole picture.
 cv::Mat ellipse_mask(cv::Size size, cv::Point c, cv::Size axes) {

@@ -41,26 +41,6 @@ double laplacian_variance(const cv::Mat& gray) {
   return sd[0] * sd[0];
 }
 
-// Largest 8-connected component of a binary mask with its holes filled.
-cv::Mat largest_component(const cv::Mat& bin) {
-  cv::Mat labels, stats, cents;
-  const int n = cv::connectedComponentsWithStats(bin, labels, stats, cents, 8);
-  int best = -1, area = 0;
-  for (int i = 1; i < n; ++i)
-    if (stats.at<int>(i, cv::CC_STAT_AREA) > area) {
-      area = stats.at<int>(i, cv::CC_STAT_AREA);
-      best = i;
-    }
-  cv::Mat out(bin.size(), CV_8U, cv::Scalar(0));
-  if (best < 0) return out;
-  out = labels == best;
-  cv::Mat padded;
-  cv::copyMakeBorder(~out, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(255));
-  cv::floodFill(padded, cv::Point(0, 0), cv::Scalar(0));
-  out |= padded(cv::Rect(1, 1, out.cols, out.rows));
-  return out;
-}
-
 double mask_iou(const cv::Mat& a, const cv::Mat& b) {
   const double inter = cv::countNonZero(a & b), uni = cv::countNonZero(a | b);
   return uni > 0 ? inter / uni : 0.0;
@@ -150,7 +130,7 @@ std::optional<BoxCut> cut_from_box(const cv::Mat& bgr, const cv::Rect2f& box, bo
   }
   cv::Mat fg = (mask == cv::GC_FGD) | (mask == cv::GC_PR_FGD);
   cv::morphologyEx(fg, fg, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}));
-  out.mask = largest_component(fg);
+  out.mask = realism::largest_component(fg);
   out.fill = cv::countNonZero(out.mask(in_crop)) / std::max(1.0, static_cast<double>(in_crop.area()));
   const cv::Rect mb = cv::boundingRect(out.mask);
   const double inter = (mb & in_crop).area(), uni = mb.area() + in_crop.area() - inter;

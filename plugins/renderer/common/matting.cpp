@@ -105,4 +105,23 @@ cv::Mat decontaminate(const cv::Mat& bgr, const cv::Mat& alpha, double radius_px
   return out;
 }
 
+cv::Mat largest_component(const cv::Mat& bin) {
+  cv::Mat labels, stats, cents;
+  const int n = cv::connectedComponentsWithStats(bin, labels, stats, cents, 8);
+  int best = -1, area = 0;
+  for (int i = 1; i < n; ++i)
+    if (stats.at<int>(i, cv::CC_STAT_AREA) > area) {
+      area = stats.at<int>(i, cv::CC_STAT_AREA);
+      best = i;
+    }
+  cv::Mat out(bin.size(), CV_8U, cv::Scalar(0));
+  if (best < 0) return out;
+  out = labels == best;
+  cv::Mat padded;
+  cv::copyMakeBorder(~out, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(255));
+  cv::floodFill(padded, cv::Point(0, 0), cv::Scalar(0));
+  out |= padded(cv::Rect(1, 1, out.cols, out.rows));
+  return out;
+}
+
 }  // namespace hf::realism

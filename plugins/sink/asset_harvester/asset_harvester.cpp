@@ -59,28 +59,6 @@ std::vector<std::array<int, 4>> camera_facing_faces(const CameraModel& cam, cons
   return out;
 }
 
-// Largest 8-connected component of a binary mask, holes filled.
-cv::Mat largest_component(const cv::Mat& bin) {
-  cv::Mat labels, stats, cents;
-  const int n = cv::connectedComponentsWithStats(bin, labels, stats, cents, 8);
-  int best = -1, area = 0;
-  for (int i = 1; i < n; ++i)
-    if (stats.at<int>(i, cv::CC_STAT_AREA) > area) {
-      area = stats.at<int>(i, cv::CC_STAT_AREA);
-      best = i;
-    }
-  cv::Mat out(bin.size(), CV_8U, cv::Scalar(0));
-  if (best < 0) return out;
-  out = labels == best;
-  // Fill holes: background not connected to the border becomes foreground.
-  cv::Mat inv = ~out;
-  cv::Mat padded;
-  cv::copyMakeBorder(inv, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(255));
-  cv::floodFill(padded, cv::Point(0, 0), cv::Scalar(0));
-  out |= padded(cv::Rect(1, 1, out.cols, out.rows));
-  return out;
-}
-
 // The matte may extend a little past the faces (soft edges), never onto the road around them.
 cv::Mat grown_faces_for_alpha(const cv::Mat& faces_grown) {
   cv::Mat out;
@@ -287,7 +265,7 @@ void AssetHarvester::process(StageContext& /*ctx*/, const Inputs& in, Outputs& /
     cv::dilate(faces_mask, faces_grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5}));
     fg &= faces_grown;
     cv::morphologyEx(fg, fg, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}));
-    fg = largest_component(fg);
+    fg = realism::largest_component(fg);
     const double fill =
         cv::countNonZero(fg) / std::max(1.0, static_cast<double>(cv::countNonZero(hull_mask)));
     if (fill < min_fill_) {

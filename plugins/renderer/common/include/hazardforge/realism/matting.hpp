@@ -25,4 +25,8 @@ cv::Mat matte(const cv::Mat& bgr, const cv::Mat& trimap);
 // Opaque pixels keep their colour. The result composited on any background then carries none of the old one.
 cv::Mat decontaminate(const cv::Mat& bgr, const cv::Mat& alpha, double radius_px = 4.0);
 
+// The largest 8-connected component of a binary mask (non-zero = set) with its holes filled, 0/255 CV_8U: a
+// silhouette without specks and islands.
+cv::Mat largest_component(const cv::Mat& bin);
+
 }  // namespace hf::realism
