@@ -272,9 +272,11 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
             computed = false;
           inputs[port] = src;
         }
-      const bool has_footage_param = std::any_of(
-          ren->component->info.params.begin(), ren->component->info.params.end(),
-          [](const ParamSpec& p) { return p.name == "footage_assets_dir"; });
+      // Only for a renderer that takes such cuts and draws with them (footage_appearances not turned off).
+      const bool has_footage_param =
+          std::any_of(ren->component->info.params.begin(), ren->component->info.params.end(),
+                      [](const ParamSpec& p) { return p.name == "footage_assets_dir"; }) &&
+          ren->params.value("footage_appearances", true);
       if (computed && inputs.contains("frames") && inputs.contains("states") && has_footage_param &&
           host.registry().find("sink", "footage_harvester")) {
         req.extra_nodes.push_back({{"id", kHarvestNode},
