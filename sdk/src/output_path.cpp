@@ -36,6 +36,11 @@ fs::path resolve_output_path(const fs::path& run_dir, const std::string& relativ
   const fs::path root = fs::canonical(run_dir, ec);
   if (ec) throw Error(run_dir.string() + ": cannot use the run folder: " + ec.message());
   const fs::path normal = rel.lexically_normal();
+  // The host's own files in every run folder: a stage writing one would replace the run's record of itself.
+  for (const char* own : {"manifest.json", "timing.md", "run.log"})
+    if (!is_dir && normal == fs::path(own))
+      throw Error(shown + " is a file the host writes in every run folder (manifest.json, timing.md, run.log); "
+                          "choose another name");
   const fs::path target = run_dir / normal;
   // Folders are checked one by one before anything is created in them: create_directories() would follow a
   // planted symlink and make folders wherever it points.

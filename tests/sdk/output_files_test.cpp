@@ -48,6 +48,20 @@ TEST(OutputPath, RelativePathsResolveBelowTheRunFolderAndCreateTheirFolders) {
   EXPECT_TRUE(fs::is_directory(run / "stills"));
 }
 
+TEST(OutputPath, RefusesTheHostsOwnFiles) {
+  hf::test::TempDir t;
+  const fs::path run = t / "run";
+  fs::create_directories(run);
+  const std::string w = "node 'sink': param 'file'";
+  for (const char* own : {"manifest.json", "./timing.md", "run.log"})
+    EXPECT_NE(error_of([&] { hf::resolve_output_path(run, own, w); })
+                  .find("is a file the host writes in every run folder"),
+              std::string::npos)
+        << own;
+  EXPECT_EQ(hf::resolve_output_path(run, "records/manifest.json", w), run / "records/manifest.json");
+  EXPECT_EQ(hf::resolve_output_path(run, "run.log", w, /*is_dir=*/true), run / "run.log");
+}
+
 TEST(OutputPath, RefusesEmptyAbsoluteAndDotDot) {
   hf::test::TempDir t;
   const fs::path run = t / "run";

@@ -13,7 +13,8 @@ class StageContext;
 
 // Resolves `relative` (a param value such as "frames.jsonl" or "stills") below `run_dir` and creates the
 // folders it needs (`relative` itself too when `is_dir`). Refused with hf::Error "<what> = 'VALUE': ..." when
-// it is empty, absolute, contains a '..' component, or when an existing folder on the way is a symlink that
+// it is empty, absolute, contains a '..' component, names one of the host's own files (manifest.json,
+// timing.md, run.log at the top of the run folder), or when an existing folder on the way is a symlink that
 // leads outside `run_dir`. `what` names where the value came from, e.g. "node 'sink': param 'file'".
 std::filesystem::path resolve_output_path(const std::filesystem::path& run_dir, const std::string& relative,
                                           const std::string& what, bool is_dir = false);
