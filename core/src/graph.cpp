@@ -75,12 +75,21 @@ void apply_override(GraphConfig& cfg, const std::string& text, std::vector<Diagn
   const std::string node_id = text.substr(0, dot);
   const std::string key_path = text.substr(dot + 1, eq - dot - 1);
   Json value;
+  const std::string raw = text.substr(eq + 1);
   try {
-    value = parse_yaml(text.substr(eq + 1), "--set").value;
+    value = parse_yaml(raw, "--set").value;
   } catch (const Error& e) {
     diags.push_back({Severity::kError, where, std::string("cannot parse the value: ") + e.what()});
     return;
   }
+  // A command line has no comments: "Main St #5, downtown" is the street, not "Main St" and a comment. Where
+  // YAML read a '#' as a comment (or folded a line break), the text itself is the value.
+  const bool comment = raw.rfind('#', 0) == 0 || raw.find(" #") != std::string::npos ||
+                       raw.find("\t#") != std::string::npos || raw.find('\n') != std::string::npos;
+  const size_t b = raw.find_first_not_of(" \t"), e = raw.find_last_not_of(" \t\n");
+  const std::string whole = b == std::string::npos ? std::string() : raw.substr(b, e - b + 1);
+  const bool quoted = !whole.empty() && (whole.front() == '"' || whole.front() == '\'');  // YAML's own string
+  if (comment && !quoted && (value.is_null() || value.is_string())) value = whole;
   if (node_id == "scene") {  // --set scene.road.lanes_left=2
     Json* target = &cfg.doc.value["scene"];
     std::string ptr = "/scene";

@@ -115,6 +115,25 @@ nodes:
   EXPECT_DOUBLE_EQ(g.node("detector")->params["conf_threshold"].get<double>(), 0.9);
 }
 
+// A command line has no comments: a value with ' #' or a line break in it is kept whole, not cut there.
+TEST(Graph, OverrideValuesWithAHashOrALineBreakAreKeptWhole) {
+  auto file = write_temp("hash.yaml", R"(name: hash
+nodes:
+  - id: source
+    stage: test_source
+)");
+  GraphConfig cfg = load_graph_config(
+      file, {"scene.environment=Main St #5, downtown with sidewalks", "scene.note=#3", "scene.lines=one\ntwo",
+             "scene.plain=downtown", "scene.count=3", "scene.quoted=\"a # b\""});
+  const Json& scene = cfg.doc.value["scene"];
+  EXPECT_EQ(scene["environment"], "Main St #5, downtown with sidewalks");
+  EXPECT_EQ(scene["note"], "#3");
+  EXPECT_EQ(scene["lines"], "one\ntwo");
+  EXPECT_EQ(scene["plain"], "downtown");
+  EXPECT_EQ(scene["count"], 3);
+  EXPECT_EQ(scene["quoted"], "a # b");  // a YAML-quoted string is YAML's
+}
+
 TEST(Graph, BadOverridesAndUndefinedVariablesAreReportedTogether) {
   auto file = write_temp("bad_env.yaml", R"(name: env
 nodes:
