@@ -12,6 +12,7 @@
 #include "hazardforge/error.hpp"
 #include "hazardforge/number_text.hpp"
 #include "hazardforge/realism/matting.hpp"
+#include "hazardforge/realism/metrics.hpp"
 
 namespace hf::render {
 
@@ -31,14 +32,6 @@ cv::Rect whole_pixels(const cv::Rect2f& b) {
   const int x0 = static_cast<int>(std::floor(b.x)), y0 = static_cast<int>(std::floor(b.y));
   const int x1 = static_cast<int>(std::ceil(b.x + b.width)), y1 = static_cast<int>(std::ceil(b.y + b.height));
   return {x0, y0, x1 - x0, y1 - y0};
-}
-
-double laplacian_variance(const cv::Mat& gray) {
-  cv::Mat lap;
-  cv::Laplacian(gray, lap, CV_32F);
-  cv::Scalar mean, sd;
-  cv::meanStdDev(lap, mean, sd);
-  return sd[0] * sd[0];
 }
 
 double mask_iou(const cv::Mat& a, const cv::Mat& b) {
@@ -240,14 +233,14 @@ void FootageHarvest::offer(const Frame& f, const std::vector<FootageObject>& obj
   }
   cv::Mat gray;
   cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
-  const double frame_sharpness = std::max(1e-6, laplacian_variance(gray));
+  const double frame_sharpness = std::max(1e-6, realism::laplacian_variance(gray));
   const cv::Rect img(0, 0, f.image.cols, f.image.rows);
 
   for (const Candidate& c : cands) {
     const FootageObject& o = *c.o;
     const bool person = o.label == "person";
     const cv::Rect b = whole_pixels(o.box) & img;
-    const double sharp = laplacian_variance(gray(b)) / frame_sharpness;
+    const double sharp = realism::laplacian_variance(gray(b)) / frame_sharpness;
     if (sharp < opt_.min_sharpness) {
       reject("blurred");
       continue;
