@@ -436,6 +436,11 @@ void to_json(Json& j, const HazardInstance& v) {
        {"in_picture_fraction", v.in_picture_fraction},
        {"visible_share", v.visible_share()}};
   if (v.drawn_box.area() > 0) j["drawn_box"] = rect(v.drawn_box);
+  if (std::isfinite(v.heading_ego)) {
+    j["centre_ego"] = {v.centre_ego[0], v.centre_ego[1], v.centre_ego[2]};
+    j["heading_ego"] = v.heading_ego;
+    j["size_lwh"] = {v.size_lwh[0], v.size_lwh[1], v.size_lwh[2]};
+  }
   if (!v.picture_file.empty()) j["picture"] = {{"file", v.picture_file}, {"source", v.picture_source}};
   if (v.appearance) j["appearance"] = *v.appearance;
   if (!v.references.empty()) j["references"] = v.references;
@@ -467,6 +472,16 @@ void to_json(Json& j, const AppearanceStats& v) {
 }
 void to_json(Json& j, const Record& v) {
   j = {{"kind", v.kind}, {"data", v.data}};
+}
+void to_json(Json& j, const SystemResponse& v) {
+  Json dets = Json::array();
+  for (const Detection& d : v.detections)
+    dets.push_back({{"box", rect(d.box)}, {"label", d.label}, {"score", d.score}});
+  j = {{"frame", v.frame_index},
+       {"detections", std::move(dets)},
+       {"ttc_s", v.ttc_s ? finite_or_null(*v.ttc_s) : Json(nullptr)},
+       {"warning", v.warning},
+       {"brake", v.brake}};
 }
 void to_json(Json& j, const AnnotatedObject& v) {
   j = {{"instance", v.instance_id},

@@ -281,6 +281,9 @@ HazardRenderer::Result HazardRenderer::render(const Frame& f,
   }
   res.hazard.distance_m = centre[0];
   res.hazard.lateral_m = centre[1];
+  res.hazard.centre_ego = cv::Vec3d(centre[0], centre[1], 0.0);
+  res.hazard.heading_ego = wrap_angle(heading);
+  res.hazard.size_lwh = size;
 
   // Intended TTC by the GUIDE protocol: gap to the front bumper over the closing speed, when in the path.
   const cv::Vec3d v_obj = rotate(

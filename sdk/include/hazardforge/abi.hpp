@@ -26,8 +26,9 @@
 // fields through SpecField; refusals as typed codes (Refusal: HazardTemplate::check, HazardCatalog::check,
 // HazardProposal::problem, NoHazardFits::reasons); SceneContext::meta removed. 9.1: VerificationOutcome, a
 // scenario's typed verdict, with its failure codes (verdict::k*). 10.0: HazardInstance (v5) names the picture
-// drawn and where it came from (picture_file, picture_source).
-#define HF_SDK_ABI_MAJOR 10
+// drawn and where it came from (picture_file, picture_source). 11.0: HazardInstance (v6) carries its 3D box in the
+// ego frame (centre_ego, heading_ego, size_lwh); SystemResponse, a system under test's answer for a frame.
+#define HF_SDK_ABI_MAJOR 11
 #define HF_SDK_ABI_MINOR 0
 #define HF_SDK_VERSION "0.1.0"
 

@@ -76,6 +76,7 @@ inline constexpr const char* kSink = "sink";
 inline constexpr const char* kFilter = "filter";
 inline constexpr const char* kLlmProvider = "llm_provider";
 inline constexpr const char* kHazardTemplate = "hazard_template";
+inline constexpr const char* kSystem = "system";  // a system under test (hazardforge test)
 }  // namespace kind
 
 struct ComponentInfo {

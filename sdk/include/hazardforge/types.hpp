@@ -447,7 +447,7 @@ struct TakenOver {
 // Where the renderer put the hazard in one frame (the intent that verification checks against).
 struct HazardInstance {
   static constexpr const char* kTypeName = "HazardInstance";
-  static constexpr int kTypeVersion = 5;
+  static constexpr int kTypeVersion = 6;
   int64_t frame_index = 0;
   bool visible = false;
   std::string kind;
@@ -459,6 +459,11 @@ struct HazardInstance {
   double distance_m = kInf;     // longitudinal distance in the current ego frame
   double lateral_m = 0.0;
   double intended_ttc_s = kInf;
+  // Its 3D box in the current ego frame (the labels of a dataset export): the ground-contact centre (z = 0),
+  // heading (rad, 0 = the ego's forward axis, positive = to the left), length, width, height. Set while drawn.
+  cv::Vec3d centre_ego{kNaN, kNaN, 0.0};
+  double heading_ego = kNaN;
+  cv::Vec3d size_lwh{kNaN, kNaN, kNaN};
   double occluded_fraction = 0.0;    // share of its silhouette in the picture that nearer objects hide
   double in_picture_fraction = 1.0;  // share of its whole silhouette inside the picture (1 - truncation)
   // Share of the whole silhouette a camera sees: in the picture and not hidden.
@@ -502,6 +507,18 @@ struct VerificationOutcome {
   std::optional<double> redetection_rate;
 };
 
+// What a system under test answered for one frame (an external program's reply, or a graph's detections and
+// risk read as one): its detections, its TTC of the most critical object, and its warning and brake request.
+struct SystemResponse {
+  static constexpr const char* kTypeName = "SystemResponse";
+  static constexpr int kTypeVersion = 1;
+  int64_t frame_index = 0;
+  std::vector<Detection> detections;
+  std::optional<double> ttc_s;  // nullopt: the system names no time to collision
+  bool warning = false;         // a collision warning is given
+  bool brake = false;           // braking is requested
+};
+
 // Generic per-frame record (verification, evaluation) for sinks.
 struct Record {
   static constexpr const char* kTypeName = "Record";
@@ -527,6 +544,7 @@ void to_json(Json& j, const HazardTrajectory& v);
 void to_json(Json& j, const AppearanceStats& v);
 void to_json(Json& j, const HazardInstance& v);
 void to_json(Json& j, const Record& v);
+void to_json(Json& j, const SystemResponse& v);
 void to_json(Json& j, const LaneMarkingSide& v);
 void to_json(Json& j, const RoadMarkings& v);
 void to_json(Json& j, const RoadFactSource& v);
