@@ -256,7 +256,7 @@ int cmd_inspect_all(Host& host, bool markdown) {
   const std::vector<std::string> order = {
       kind::kSource,    kind::kDetector,    kind::kTracker, kind::kEstimator,      kind::kRiskMetric,
       kind::kGenerator, kind::kLlmProvider, kind::kPlanner, kind::kHazardTemplate, kind::kRenderer,
-      kind::kVerifier,  kind::kFilter,      kind::kSink};
+      kind::kVerifier,  kind::kFilter,      kind::kSystem,  kind::kSink};
   auto rank = [&](const std::string& k) {
     auto it = std::find(order.begin(), order.end(), k);
     return static_cast<size_t>(it - order.begin());

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "hazardforge/apps/campaign.hpp"
+#include "hazardforge/apps/system_test.hpp"
 #include "hazardforge/apps/commands.hpp"
 #include "hazardforge/core/host.hpp"
 #include "hazardforge/process_memory.hpp"
@@ -118,6 +119,23 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 100000));
   campaign->add_flag("-q,--quiet", copt_campaign.quiet, "Only finished attempts and the summary");
 
+  auto* test = app.add_subcommand(
+      "test", "Run systems under test over verified scenarios and score them (docs/testing-a-system.md)");
+  SystemTestOptions topt;
+  test->add_option("systems", topt.systems, "System files (YAML): a subgraph whose node 'system' answers")
+      ->required()
+      ->check(CLI::ExistingFile);
+  test->add_option("--scenarios", topt.scenarios, "Campaign folders, run folders or scenario packages")
+      ->required();
+  test->add_option("-o,--output", topt.output_dir, "Test folder (default runs/test)");
+  test->add_option("-j,--jobs", topt.jobs, "Runs in parallel")->check(CLI::Range(1, 64));
+  test->add_option("--critical-ttc", topt.critical_ttc_s, "The hazard is critical below this true TTC (s)")
+      ->check(CLI::Range(0.1, 20.0));
+  test->add_option("--min-lead", topt.min_lead_s, "A pass warns at least this long before that (s)")
+      ->check(CLI::Range(-10.0, 20.0));
+  test->add_option("--match-iou", topt.match_iou, "IoU at which a detection is the hazard")
+      ->check(CLI::Range(0.05, 1.0));
+
   auto* calibrate = app.add_subcommand("calibrate", "Calibrate a camera from chessboard photos");
   CalibrateOptions copt;
   calibrate->add_option("folder", copt.folder, "Folder of chessboard photos")
@@ -174,6 +192,11 @@ int main(int argc, char** argv) {
       copt_campaign.plugin_paths = plugin_paths;
       copt_campaign.interrupt = &g_interrupt;
       return cmd_campaign(host, copt_campaign);
+    }
+    if (*test) {
+      topt.plugin_paths = plugin_paths;
+      topt.interrupt = &g_interrupt;
+      return cmd_test(host, topt);
     }
     if (*calibrate) return cmd_calibrate(copt);
     if (*harvest) {
