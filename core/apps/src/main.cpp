@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "hazardforge/apps/campaign.hpp"
+#include "hazardforge/apps/dataset_export.hpp"
 #include "hazardforge/apps/system_test.hpp"
 #include "hazardforge/apps/commands.hpp"
 #include "hazardforge/core/host.hpp"
@@ -136,6 +137,14 @@ int main(int argc, char** argv) {
   test->add_option("--match-iou", topt.match_iou, "IoU at which a detection is the hazard")
       ->check(CLI::Range(0.05, 1.0));
 
+  auto* exp = app.add_subcommand("export", "Write verified scenarios as a KITTI tracking or COCO dataset");
+  ExportOptions xopt;
+  exp->add_option("scenarios", xopt.scenarios, "Campaign folders, run folders or scenario packages")->required();
+  exp->add_option("--format", xopt.format, "kitti-tracking or coco")
+      ->required()
+      ->check(CLI::IsMember({"kitti-tracking", "coco"}));
+  exp->add_option("-o,--output", xopt.output_dir, "A new folder for the dataset")->required();
+
   auto* calibrate = app.add_subcommand("calibrate", "Calibrate a camera from chessboard photos");
   CalibrateOptions copt;
   calibrate->add_option("folder", copt.folder, "Folder of chessboard photos")
@@ -198,6 +207,7 @@ int main(int argc, char** argv) {
       topt.interrupt = &g_interrupt;
       return cmd_test(host, topt);
     }
+    if (*exp) return cmd_export(xopt);
     if (*calibrate) return cmd_calibrate(copt);
     if (*harvest) {
       hopt.interrupt = &g_interrupt;
