@@ -3,6 +3,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <regex>
@@ -162,6 +163,11 @@ YamlDocument parse_yaml(const std::string& text, const std::string& file_name) {
 }
 
 YamlDocument load_yaml_file(const std::string& path) {
+  // A FIFO or a socket blocks on open until someone writes: refused before opening.
+  std::error_code ec;
+  const auto type = std::filesystem::status(path, ec).type();
+  if (type == std::filesystem::file_type::fifo || type == std::filesystem::file_type::socket)
+    throw Error(path + ": error: a FIFO or socket, not a file; a config is read from a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": error: cannot open file");
   // Read in pieces up to the limit: a device (/dev/zero) or a huge file is refused, not read into memory.

@@ -492,4 +492,28 @@ TEST(Hardening, SigtermEndsARunInterruptedLikeCtrlC) {
   EXPECT_EQ(s.manifest()["status"], "interrupted");
 }
 
+TEST(Hardening, AFifoAsSourceOrConfigIsRefusedInsteadOfBlockingForever) {
+  hf::test::TempDir dir;
+  const fs::path fifo = dir / "clip.mp4", run = dir / "run";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const fs::path config = dir / "graph.yaml";
+  std::ofstream(config)
+      << "nodes:\n  - id: source\n    stage: video\n    params: {path: clip.mp4, hfov_deg: 60}\n"
+      << "  - id: sink\n    stage: jsonl\n    inputs: {records: [source.frames]}\n";
+  // Without the check the open blocks until a writer comes; `timeout` turns that into exit 124.
+  const auto r = hf::test::run_command("timeout -s KILL 60 " + std::string(HF_EXE) + " run -q " + quote(config) +
+                                       " -o " + quote(run));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(has(r.out, "is a FIFO or socket, not a video file")) << r.out;
+  EXPECT_EQ(hf::test::read_json_file(run / "manifest.json")["status"], "failed");
+  // A config (or an include) that is a FIFO.
+  const fs::path fifo_config = dir / "fifo.yaml";
+  ASSERT_EQ(mkfifo(fifo_config.c_str(), 0600), 0);
+  const auto v = hf::test::run_command("timeout -s KILL 60 " + std::string(HF_EXE) + " validate " +
+                                       quote(fifo_config));
+  EXPECT_NE(v.code, 0);
+  EXPECT_NE(v.code, 137) << "blocked on the FIFO";
+  EXPECT_TRUE(has(v.out, "a FIFO or socket, not a file")) << v.out;
+}
+
 }  // namespace

@@ -61,6 +61,9 @@ void VideoSource::open(StageContext& ctx) {
   const Params& p = ctx.params();
   path_ = p.get_path("path").string();
   if (!fs::exists(path_)) throw Error("video file or image folder '" + path_ + "' does not exist");
+  // A FIFO or socket would block the open until a writer comes (and a stop signal cannot end it): refused.
+  if (const auto t = fs::status(path_).type(); t == fs::file_type::fifo || t == fs::file_type::socket)
+    throw Error("'" + path_ + "' is a FIFO or socket, not a video file, image folder or camera device");
   setup_.configure(ctx);
   start_ = p.get_int("start_frame");
   max_frames_ = p.get_int("max_frames");
