@@ -16,6 +16,7 @@
 #include <csignal>
 #include <cstring>
 #include <fstream>
+#include <thread>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -854,13 +855,25 @@ void wait_for_survivor(const Planned& a, const fs::path& out, bool quiet) {
   const fs::path lock = attempt_lock(a);
   const int fd = ::open(lock.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return;
+  char holder[64] = {};
   if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
-    char pid[32] = {};
-    if (::read(fd, pid, sizeof pid - 1) < 0) pid[0] = '\0';
+    if (::read(fd, holder, sizeof holder - 1) < 0) holder[0] = '\0';
     if (!quiet)
-      std::cerr << "campaign: attempt " << fs::relative(a.dir, out).string() << " (pid " << pid
+      std::cerr << "campaign: attempt " << fs::relative(a.dir, out).string() << " (pid " << holder
                 << ") of an earlier campaign is still running; waiting for it to end\n";
     while (flock(fd, LOCK_EX) != 0 && errno == EINTR) {
+    }
+  } else if (::read(fd, holder, sizeof holder - 1) > 0 && std::string(holder).rfind("slurm ", 0) == 0) {
+    // A task of a Slurm job array holds no lock here: it runs while the scheduler still has it.
+    std::string job(holder + 6);
+    job.erase(job.find_last_not_of(" \n") + 1);
+    bool told = false;
+    while (slurm_job_alive(job)) {
+      if (!quiet && !told)
+        std::cerr << "campaign: attempt " << fs::relative(a.dir, out).string() << " (Slurm task " << job
+                  << ") of an earlier campaign is still queued or running; waiting for it to end\n";
+      told = true;
+      std::this_thread::sleep_for(std::chrono::seconds(2));  // polling the scheduler
     }
   }
   ::close(fd);
@@ -1165,19 +1178,36 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
     return 1;
   }
 
+  std::unique_ptr<Executor> exec;
+  try {
+    exec = o.executor == "slurm" ? slurm_executor(o.slurm, out / "slurm") : local_executor();
+  } catch (const Error& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
   int started = 0;
-  std::map<pid_t, std::pair<Pair*, Planned>> running;
-  std::map<pid_t, std::chrono::steady_clock::time_point> started_at;
+  std::map<std::string, std::pair<Pair*, Planned>> running;
+  std::map<std::string, std::chrono::steady_clock::time_point> started_at;
+  std::vector<std::pair<std::string, fs::path>> unsubmitted;  // Slurm: tasks whose lock gets its job id
   const int jobs = std::max(1, o.jobs);
   bool interrupted = false;
+  auto submit = [&] {
+    exec->flush();
+    for (const auto& [id, lock] : unsubmitted) write_file_atomic(lock, exec->holder(id) + "\n");
+    unsubmitted.clear();
+  };
   auto finish_one = [&] {
-    const ChildExit ex = wait_any_child();
-    if (ex.pid <= 0) return;
-    auto it = running.find(ex.pid);
+    submit();
+    const TaskEnd te = exec->wait_any();
+    if (te.id.empty()) return;
+    auto it = running.find(te.id);
     if (it == running.end()) return;
+    ChildExit ex;
+    ex.exit_code = te.exit_code;
+    ex.cpu_s = te.cpu_s;
     Pair& p = *it->second.first;
     const Planned a = it->second.second;
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_at[ex.pid]).count();
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_at[te.id]).count();
     running.erase(it);
     p.running = false;
     std::error_code ec;
@@ -1203,7 +1233,7 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
   while (true) {
     if (o.interrupt && o.interrupt->load() && !interrupted) {
       interrupted = true;
-      for (auto& [pid, pa] : running) kill(pid, SIGINT);
+      exec->interrupt_all();
     }
     Pair* next_pair = nullptr;
     Planned next;
@@ -1235,20 +1265,24 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
         std::cerr << "error: " << lock.string() << ": cannot lock: " << std::strerror(errno) << "\n";
         return 1;
       }
-      pid_t pid = 0;
+      std::string id;
       try {
-        pid = spawn_logged(attempt_args(o, spec, *next_pair, next, fb), next.dir.string() + ".log", lock_fd);
+        id = exec->start(attempt_args(o, spec, *next_pair, next, fb), next.dir.string() + ".log", lock_fd);
       } catch (const Error&) {
         ::close(lock_fd);
         throw;
       }
-      const std::string pid_text = std::to_string(pid);
-      if (::write(lock_fd, pid_text.data(), pid_text.size()) < 0) {
+      if (o.executor == "slurm") {
+        unsubmitted.emplace_back(id, lock);  // its job id goes into the lock once sbatch gave one
+      } else {
+        const std::string holder = exec->holder(id);
+        if (::write(lock_fd, holder.data(), holder.size()) < 0) {
+        }
       }
-      ::close(lock_fd);  // the attempt holds the lock now, until it ends
+      ::close(lock_fd);  // a local attempt holds the lock now, until it ends
       next_pair->running = true;
-      running[pid] = {next_pair, next};
-      started_at[pid] = std::chrono::steady_clock::now();
+      running[id] = {next_pair, next};
+      started_at[id] = std::chrono::steady_clock::now();
       ++started;
       if (!o.quiet)
         std::cerr << "campaign: " << next_pair->rec->name << " / " << next_pair->kind << " #" << next.index

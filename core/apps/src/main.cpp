@@ -119,6 +119,21 @@ int main(int argc, char** argv) {
                        "Start at most N attempts now; running the campaign again goes on from there")
       ->check(CLI::Range(0, 100000));
   campaign->add_flag("-q,--quiet", copt_campaign.quiet, "Only finished attempts and the summary");
+  campaign->add_option("--executor", copt_campaign.executor,
+                       "Where attempts run: local (child processes) or slurm (tasks of job arrays; -j is the "
+                       "number of attempts queued or running)")
+      ->check(CLI::IsMember({"local", "slurm"}));
+  campaign->add_option("--slurm-partition", copt_campaign.slurm.partition, "sbatch --partition");
+  campaign->add_option("--slurm-account", copt_campaign.slurm.account, "sbatch --account");
+  campaign->add_option("--slurm-time", copt_campaign.slurm.time, "sbatch --time, per attempt (e.g. 00:30:00)");
+  campaign->add_option("--slurm-mem", copt_campaign.slurm.mem, "sbatch --mem, per attempt (e.g. 4G)");
+  campaign->add_option("--slurm-cpus-per-task", copt_campaign.slurm.cpus_per_task, "sbatch --cpus-per-task")
+      ->check(CLI::Range(1, 256));
+  campaign->add_option("--slurm-throttle", copt_campaign.slurm.throttle,
+                       "At most N tasks of one job array at once (--array=...%N)")
+      ->check(CLI::Range(0, 100000));
+  campaign->add_option("--slurm-arg", copt_campaign.slurm.sbatch_args, "An extra sbatch argument (repeatable)")
+      ->allow_extra_args(false);
 
   auto* test = app.add_subcommand(
       "test", "Run systems under test over verified scenarios and score them (docs/testing-a-system.md)");

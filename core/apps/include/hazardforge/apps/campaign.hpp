@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "hazardforge/apps/executor.hpp"
 #include "hazardforge/core/host.hpp"
 #include "hazardforge/refusal.hpp"
 
@@ -130,6 +131,8 @@ struct CampaignOptions {
   int jobs = 1;
   int max_attempts = -1;   // attempts started by this invocation (-1 = no limit); run again to go on
   bool quiet = false;
+  std::string executor = "local";  // local | slurm (attempts as tasks of Slurm job arrays)
+  SlurmOptions slurm;
   std::vector<std::string> plugin_paths;
   const std::atomic<bool>* interrupt = nullptr;
 };
