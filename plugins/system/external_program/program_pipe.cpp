@@ -1,10 +1,10 @@
-// ProgramPipe: fork/exec with pipes, poll() for every deadline, SIGPIPE held off while writing.
+// ProgramPipe: a child started by hf::spawn_child with pipes, poll() for every deadline, SIGPIPE held off
+// while writing.
 #include "program_pipe.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
 #include <pthread.h>
-#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -14,9 +14,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "hazardforge/child_process.hpp"
 #include "hazardforge/error.hpp"
-
-extern char** environ;
 
 namespace hf::system {
 
@@ -24,94 +23,38 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// argv[0] as a path: as given when it names a folder, else the first executable of that name on PATH.
-std::string resolve_program(const std::string& name) {
-  if (name.find('/') != std::string::npos) return name;
-  const char* path = std::getenv("PATH");
-  std::string dirs = path ? path : "/usr/local/bin:/usr/bin:/bin";
-  size_t start = 0;
-  while (start <= dirs.size()) {
-    const size_t end = std::min(dirs.find(':', start), dirs.size());
-    const std::string dir = dirs.substr(start, end - start);
-    const fs::path candidate = fs::path(dir.empty() ? "." : dir) / name;
-    if (access(candidate.c_str(), X_OK) == 0 && !fs::is_directory(candidate)) return candidate.string();
-    start = end + 1;
-  }
-  throw Error("cannot start '" + name + "': not found on PATH");
-}
-
 int remaining_ms(ProgramPipe::Clock::time_point deadline) {
-  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - ProgramPipe::Clock::now());
+  const auto left =
+      std::chrono::duration_cast<std::chrono::milliseconds>(deadline - ProgramPipe::Clock::now());
   return static_cast<int>(std::clamp<long long>(left.count(), 0, 60'000));
 }
 
 }  // namespace
 
-ProgramPipe::ProgramPipe(const std::vector<std::string>& argv_in, const fs::path& cwd, const fs::path& stderr_log) {
-  if (argv_in.empty() || argv_in[0].empty()) throw Error("the program's command is empty");
-  const std::string program = resolve_program(argv_in[0]);
-  std::vector<std::string> args = argv_in;
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  const std::string dir = cwd.string(), log = stderr_log.string();
-  int to_child[2], from_child[2], failed[2];
-  if (pipe2(to_child, O_CLOEXEC) != 0) throw Error("cannot start '" + program + "': " + std::strerror(errno));
+ProgramPipe::ProgramPipe(const std::vector<std::string>& argv, const fs::path& cwd,
+                         const fs::path& stderr_log) {
+  int to_child[2], from_child[2];
+  if (pipe2(to_child, O_CLOEXEC) != 0)
+    throw Error(std::string("cannot make a pipe: ") + std::strerror(errno));
   if (pipe2(from_child, O_CLOEXEC) != 0) {
     close(to_child[0]);
     close(to_child[1]);
-    throw Error("cannot start '" + program + "': " + std::strerror(errno));
+    throw Error(std::string("cannot make a pipe: ") + std::strerror(errno));
   }
-  if (pipe2(failed, O_CLOEXEC) != 0) {
+  ChildIo io;
+  io.stdin_fd = to_child[0];
+  io.stdout_fd = from_child[1];
+  io.log = stderr_log.string();
+  io.append = true;
+  io.cwd = cwd.string();
+  try {
+    pid_ = spawn_child(argv, io);
+  } catch (const Error&) {
     for (int fd : {to_child[0], to_child[1], from_child[0], from_child[1]}) close(fd);
-    throw Error("cannot start '" + program + "': " + std::strerror(errno));
-  }
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid < 0) {
-    const int err = errno;
-    for (int fd : {to_child[0], to_child[1], from_child[0], from_child[1], failed[0], failed[1]}) close(fd);
-    throw Error("cannot start '" + program + "': " + std::strerror(err));
-  }
-  if (pid == 0) {
-    // Async-signal-safe calls only (the parent has threads).
-    auto fail = [&](int err) {
-      if (write(failed[1], &err, sizeof err) < 0) {
-      }
-      _exit(127);
-    };
-    setpgid(0, 0);  // Ctrl-C on a terminal reaches the host only; the host ends the program itself
-    if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0) fail(errno);
-    if (getppid() != parent) _exit(128 + SIGTERM);
-    sigset_t none;
-    sigemptyset(&none);
-    sigprocmask(SIG_SETMASK, &none, nullptr);
-    signal(SIGPIPE, SIG_DFL);
-    const int err_fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (err_fd < 0) fail(errno);
-    if (dup2(to_child[0], STDIN_FILENO) < 0 || dup2(from_child[1], STDOUT_FILENO) < 0 ||
-        dup2(err_fd, STDERR_FILENO) < 0)
-      fail(errno);
-    if (chdir(dir.c_str()) != 0) fail(errno);
-    execve(program.c_str(), argv.data(), environ);
-    fail(errno);
+    throw;
   }
   close(to_child[0]);
   close(from_child[1]);
-  close(failed[1]);
-  int err = 0;
-  ssize_t n = 0;
-  do {
-    n = read(failed[0], &err, sizeof err);
-  } while (n < 0 && errno == EINTR);
-  close(failed[0]);
-  if (n == static_cast<ssize_t>(sizeof err)) {
-    close(to_child[1]);
-    close(from_child[0]);
-    waitpid(pid, nullptr, 0);
-    throw Error("cannot start '" + program + "' in '" + dir + "': " + std::strerror(err));
-  }
-  pid_ = pid;
   in_ = to_child[1];
   out_ = from_child[0];
   fcntl(in_, F_SETFL, fcntl(in_, F_GETFL) | O_NONBLOCK);
@@ -151,7 +94,8 @@ bool ProgramPipe::pump(Clock::time_point deadline, bool want_write) {
       const ssize_t got = read(out_, chunk, sizeof chunk);
       if (got > 0) {
         buffer_.append(chunk, static_cast<size_t>(got));
-        if (buffer_.size() > (64u << 20)) throw Error("the program wrote more than 64 MiB without a line break");
+        if (buffer_.size() > (64u << 20))
+          throw Error("the program wrote more than 64 MiB without a line break");
         continue;
       }
       if (got == 0) out_eof_ = true;
@@ -169,7 +113,8 @@ ProgramPipe::Status ProgramPipe::write_all(std::string_view bytes, Clock::time_p
   while (done < bytes.size()) {
     if (Clock::now() >= deadline) return Status::kTimeout;
     if (!pump(deadline, true)) continue;
-    // SIGPIPE held off in this thread while writing: a program that is gone gives EPIPE, not the host's death.
+    // SIGPIPE held off in this thread while writing: a program that is gone gives EPIPE, not the host's
+    // death.
     pthread_sigmask(SIG_BLOCK, &pipe_set, &old);
     const ssize_t w = write(in_, bytes.data() + done, bytes.size() - done);
     const int err = errno;
@@ -178,8 +123,10 @@ ProgramPipe::Status ProgramPipe::write_all(std::string_view bytes, Clock::time_p
       sigtimedwait(&pipe_set, nullptr, &zero);
     }
     pthread_sigmask(SIG_SETMASK, &old, nullptr);
-    if (w > 0) done += static_cast<size_t>(w);
-    else if (w < 0 && err == EPIPE) return Status::kClosed;
+    if (w > 0)
+      done += static_cast<size_t>(w);
+    else if (w < 0 && err == EPIPE)
+      return Status::kClosed;
     else if (w < 0 && err != EAGAIN && err != EINTR)
       throw Error(std::string("cannot write to the program: ") + std::strerror(err));
   }

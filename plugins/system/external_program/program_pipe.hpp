@@ -16,8 +16,8 @@ namespace hf::system {
 class ProgramPipe {
  public:
   using Clock = std::chrono::steady_clock;
-  // Starts `argv` (argv[0] searched on PATH when it has no '/') in `cwd`, its stderr appended to `stderr_log`.
-  // Throws hf::Error when it cannot start.
+  // Starts `argv` (argv[0] searched on PATH when it has no '/') in `cwd`, its stderr appended to
+  // `stderr_log`. Throws hf::Error when it cannot start.
   ProgramPipe(const std::vector<std::string>& argv, const std::filesystem::path& cwd,
               const std::filesystem::path& stderr_log);
   ~ProgramPipe();
@@ -34,7 +34,8 @@ class ProgramPipe {
   // Closes its input and waits for it to exit until the deadline, then kills it. Its exit status: the exit
   // code, or 128 + the signal.
   int finish(Clock::time_point deadline);
-  // Whether it has exited, and how (after kClosed): "exit code 3", "killed by signal 11 (Segmentation fault)".
+  // Whether it has exited, and how (after kClosed): "exit code 3", "killed by signal 11 (Segmentation
+  // fault)".
   std::string exit_text();
   pid_t pid() const { return pid_; }
 

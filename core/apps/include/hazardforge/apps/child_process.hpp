@@ -1,5 +1,5 @@
-// Child `hazardforge` processes for commands that run many graphs (experiment, campaign): started with their
-// output in a log file, reaped one at a time with their exit code and the CPU time they used.
+// Child `hazardforge` processes for commands that run many graphs (experiment, campaign, test): started by
+// hf::spawn_child with their output in a log file, reaped one at a time with their exit code and CPU time.
 #pragma once
 
 #include <sys/types.h>
