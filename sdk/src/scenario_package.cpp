@@ -14,8 +14,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-Json vec3(const cv::Vec3d& v) { return Json::array({v[0], v[1], v[2]}); }
-Json rect_json(const cv::Rect2f& r) { return Json::array({r.x, r.y, r.width, r.height}); }
+Json vec3(const cv::Vec3d& v) {
+  return Json::array({v[0], v[1], v[2]});
+}
+Json rect_json(const cv::Rect2f& r) {
+  return Json::array({r.x, r.y, r.width, r.height});
+}
 
 // Field readers that name what is wrong and where.
 const Json& field(const Json& j, const char* key, const std::string& where) {
@@ -93,8 +97,8 @@ double observation_angle(const Box3d& b) {
 }
 
 Json to_json(const LabelledObject& o) {
-  Json j = {{"track_id", o.track_id},  {"label", o.label},           {"inserted", o.inserted},
-            {"visible", o.visible},    {"box", rect_json(o.box)},    {"truncation", o.truncation},
+  Json j = {{"track_id", o.track_id},  {"label", o.label},        {"inserted", o.inserted},
+            {"visible", o.visible},    {"box", rect_json(o.box)}, {"truncation", o.truncation},
             {"occlusion", o.occlusion}};
   if (!o.kind.empty()) j["kind"] = o.kind;
   if (!o.instance_id.empty()) j["instance_id"] = o.instance_id;
@@ -132,8 +136,12 @@ Json to_json(const PackageFrame& f) {
 Json to_json(const PackageHeader& h) {
   Json origin;
   hf::to_json(origin, h.origin);
-  return {{"schema", kSchema},       {"kind", h.kind},      {"object_class", h.object_class},
-          {"origin", origin},        {"image_format", h.image_format}, {"frames", h.frames}};
+  return {{"schema", kSchema},
+          {"kind", h.kind},
+          {"object_class", h.object_class},
+          {"origin", origin},
+          {"image_format", h.image_format},
+          {"frames", h.frames}};
 }
 
 LabelledObject labelled_object_from_json(const Json& j, const std::string& where) {
@@ -206,7 +214,8 @@ std::optional<fs::path> find_package(const fs::path& dir) {
 
 Package read_package(const fs::path& dir) {
   const auto found = find_package(dir);
-  if (!found) throw Error("'" + dir.string() + "' holds no scenario package (scenario.json or scenario/scenario.json)");
+  if (!found)
+    throw Error("'" + dir.string() + "' holds no scenario package (scenario.json or scenario/scenario.json)");
   Package p;
   p.dir = *found;
   const fs::path head = p.dir / "scenario.json";

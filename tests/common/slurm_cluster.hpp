@@ -28,7 +28,8 @@ class SlurmCluster {
     }
     for (const char* b : {"munged", "slurmctld", "slurmd", "sbatch", "squeue", "scontrol"})
       if (run_command(std::string("command -v ") + b).code != 0) {
-        error_ = std::string(b) + " is not installed (the README's set-up installs slurmctld slurmd slurm-client munge)";
+        error_ = std::string(b) +
+                 " is not installed (the README's set-up installs slurmctld slurmd slurm-client munge)";
         return;
       }
     const auto root = dir_.path();
@@ -54,23 +55,23 @@ class SlurmCluster {
     munge_sock_ = sock;
     const int ctl = free_port(), slurmd = free_port();
     conf_ = root / "slurm.conf";
-    std::ofstream(conf_) << "ClusterName=hftest\nSlurmctldHost=" << host_ << "\nSlurmUser=root\nSlurmdUser=root\n"
-                         << "AuthType=auth/munge\nCredType=cred/munge\nAuthInfo=socket=" << sock << "\n"
-                         << "SlurmctldPort=" << ctl << "\nSlurmdPort=" << slurmd << "\n"
-                         << "StateSaveLocation=" << (root / "state").string() << "\n"
-                         << "SlurmdSpoolDir=" << (root / "spool").string() << "\n"
-                         << "SlurmctldPidFile=" << (root / "slurmctld.pid").string() << "\n"
-                         << "SlurmdPidFile=" << (root / "slurmd.pid").string() << "\n"
-                         << "SlurmctldLogFile=" << (root / "log/slurmctld.log").string() << "\n"
-                         << "SlurmdLogFile=" << (root / "log/slurmd.log").string() << "\n"
-                         << "ProctrackType=proctrack/linuxproc\nTaskPlugin=task/none\n"
-                         << "JobAcctGatherType=jobacct_gather/none\nAccountingStorageType=accounting_storage/none\n"
-                         << "SelectType=select/cons_tres\nSelectTypeParameters=CR_CPU\nSchedulerType=sched/backfill\n"
-                         << "MpiDefault=none\nReturnToService=2\nJobRequeue=1\nMinJobAge=600\nKillWait=10\n"
-                         << "SchedulerParameters=sched_interval=1\n"
-                         << "NodeName=" << host_ << " CPUs=" << std::thread::hardware_concurrency()
-                         << " State=UNKNOWN\n"
-                         << "PartitionName=hf Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n";
+    std::ofstream(conf_)
+        << "ClusterName=hftest\nSlurmctldHost=" << host_ << "\nSlurmUser=root\nSlurmdUser=root\n"
+        << "AuthType=auth/munge\nCredType=cred/munge\nAuthInfo=socket=" << sock << "\n"
+        << "SlurmctldPort=" << ctl << "\nSlurmdPort=" << slurmd << "\n"
+        << "StateSaveLocation=" << (root / "state").string() << "\n"
+        << "SlurmdSpoolDir=" << (root / "spool").string() << "\n"
+        << "SlurmctldPidFile=" << (root / "slurmctld.pid").string() << "\n"
+        << "SlurmdPidFile=" << (root / "slurmd.pid").string() << "\n"
+        << "SlurmctldLogFile=" << (root / "log/slurmctld.log").string() << "\n"
+        << "SlurmdLogFile=" << (root / "log/slurmd.log").string() << "\n"
+        << "ProctrackType=proctrack/linuxproc\nTaskPlugin=task/none\n"
+        << "JobAcctGatherType=jobacct_gather/none\nAccountingStorageType=accounting_storage/none\n"
+        << "SelectType=select/cons_tres\nSelectTypeParameters=CR_CPU\nSchedulerType=sched/backfill\n"
+        << "MpiDefault=none\nReturnToService=2\nJobRequeue=1\nMinJobAge=600\nKillWait=10\n"
+        << "SchedulerParameters=sched_interval=1\n"
+        << "NodeName=" << host_ << " CPUs=" << std::thread::hardware_concurrency() << " State=UNKNOWN\n"
+        << "PartitionName=hf Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n";
     setenv("SLURM_CONF", conf_.c_str(), 1);
     r = run_command("slurmctld -f " + quote(conf_) + " && slurmd -f " + quote(conf_));
     if (r.code != 0) {
@@ -86,16 +87,19 @@ class SlurmCluster {
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(500));
     }
-    error_ = "the node never became idle; slurmd log: " + run_command("tail -5 " + quote(root / "log/slurmd.log")).out;
+    error_ = "the node never became idle; slurmd log: " +
+             run_command("tail -5 " + quote(root / "log/slurmd.log")).out;
   }
   ~SlurmCluster() {
-    run_command("scancel --full --signal=KILL --user=root >/dev/null 2>&1; scontrol shutdown >/dev/null 2>&1");
+    run_command(
+        "scancel --full --signal=KILL --user=root >/dev/null 2>&1; scontrol shutdown >/dev/null 2>&1");
     for (const char* pid : {"slurmd.pid", "slurmctld.pid"}) {
       std::ifstream in(dir_.path() / pid);
       int p = 0;
       if (in >> p && p > 0) kill(p, SIGTERM);
     }
-    if (!munge_sock_.empty()) run_command("munged --stop --socket=" + quote(munge_sock_) + " >/dev/null 2>&1");
+    if (!munge_sock_.empty())
+      run_command("munged --stop --socket=" + quote(munge_sock_) + " >/dev/null 2>&1");
     unsetenv("SLURM_CONF");
   }
   SlurmCluster(const SlurmCluster&) = delete;

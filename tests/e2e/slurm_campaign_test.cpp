@@ -1,6 +1,6 @@
 // A campaign through a real single-node Slurm cluster (munged, slurmctld, slurmd started by the test): the
-// same verified pairs as a local run of the same campaign, and an attempt whose task is requeued while it runs
-// (as preemption or a lost node does) runs again and is counted once.
+// same verified pairs as a local run of the same campaign, and an attempt whose task is requeued while it
+// runs (as preemption or a lost node does) runs again and is counted once.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -25,7 +25,8 @@ std::set<std::string> verified_pairs(const fs::path& campaign) {
   std::set<std::string> v;
   const Json index = test::read_json_file(campaign / "index.json");
   for (const Json& a : index["attempts"])
-    if (a["passed"].get<bool>()) v.insert(a["recording"].get<std::string>() + "/" + a["kind"].get<std::string>());
+    if (a["passed"].get<bool>())
+      v.insert(a["recording"].get<std::string>() + "/" + a["kind"].get<std::string>());
   return v;
 }
 
@@ -35,12 +36,14 @@ TEST(SlurmCampaign, VerifiesTheSamePairsAsALocalRunAndCountsARequeuedAttemptOnce
   test::SlurmCluster cluster;
   ASSERT_TRUE(cluster.ready()) << cluster.error();
   test::TempDir dir;
-  std::ofstream(dir / "c.yaml") << "name: slurm\nkinds: [sudden_stop, pedestrian_crossing]\n"
-                                   "budget: {attempts: 1, cpu_s: 600}\nrecordings:\n  - name: nus\n    config: "
-                                << (test::source_dir() / "configs/paper.yaml").string()
-                                << "\n    set: [scene.assets.dir=]\n";  // the default appearance set: no harvest
+  std::ofstream(dir / "c.yaml")
+      << "name: slurm\nkinds: [sudden_stop, pedestrian_crossing]\n"
+         "budget: {attempts: 1, cpu_s: 600}\nrecordings:\n  - name: nus\n    config: "
+      << (test::source_dir() / "configs/paper.yaml").string()
+      << "\n    set: [scene.assets.dir=]\n";  // the default appearance set: no harvest
   const std::string cli = "HAZARDFORGE_SHARED=" + test::quote(shared) + " " + cluster.env() +
-                          test::quote(HF_BINARY_DIR "/bin/hazardforge") + " campaign " + test::quote(dir / "c.yaml");
+                          test::quote(HF_BINARY_DIR "/bin/hazardforge") + " campaign " +
+                          test::quote(dir / "c.yaml");
   const auto local = test::run_command(cli + " -o " + test::quote(dir / "local") + " -q -j 2");
   ASSERT_EQ(local.code, 0) << local.out;
 

@@ -64,7 +64,8 @@ TEST(ExternalProgram, AnswersPerFrameWithPathsAndWithRawBytes) {
       dir, "good.py",
       "    warn = msg['frame'] >= 2\n"
       "    print(json.dumps({'frame': msg['frame'], 'ttc_s': 3.0 - msg['frame'], 'warning': warn,\n"
-      "        'brake': msg['frame'] >= 3, 'detections': [{'box': [1, 2, 10, 12], 'label': 'car', 'score': 0.8,\n"
+      "        'brake': msg['frame'] >= 3, 'detections': [{'box': [1, 2, 10, 12], 'label': 'car', 'score': "
+      "0.8,\n"
       "        'seen': msg.get('image', str(msg.get('first_pixel')))}]}))");
   for (const std::string mode : {"path", "raw"}) {
     auto r = runner(client, "frames: " + mode);
@@ -92,13 +93,16 @@ TEST(ExternalProgram, CrashHangGarbageAndWrongFrameEachStopWithTheFrameNamed) {
     const char* body;
     const char* expect;
   } cases[] = {
-      {"crash.py", "    import os\n    os.abort() if msg['frame'] == 2 else None\n"
-                   "    print(json.dumps({'frame': msg['frame']}))",
+      {"crash.py",
+       "    import os\n    os.abort() if msg['frame'] == 2 else None\n"
+       "    print(json.dumps({'frame': msg['frame']}))",
        "exited without answering (killed by signal 6"},
-      {"hang.py", "    import time\n    time.sleep(600) if msg['frame'] == 2 else None\n"
-                  "    print(json.dumps({'frame': msg['frame']}))",
+      {"hang.py",
+       "    import time\n    time.sleep(600) if msg['frame'] == 2 else None\n"
+       "    print(json.dumps({'frame': msg['frame']}))",
        "did not answer within 2"},
-      {"garbage.py", "    print('loading model...' if msg['frame'] == 2 else json.dumps({'frame': msg['frame']}))",
+      {"garbage.py",
+       "    print('loading model...' if msg['frame'] == 2 else json.dumps({'frame': msg['frame']}))",
        "answered 'loading model...', which is not a JSON line"},
       {"wrong.py", "    print(json.dumps({'frame': msg['frame'] + (1 if msg['frame'] == 2 else 0)}))",
        "answered for frame 3 instead"},

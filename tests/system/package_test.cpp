@@ -7,12 +7,12 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "scenario_package_sink.hpp"
-#include "scenario_source.hpp"
 #include "hazardforge/angles.hpp"
 #include "hazardforge/error.hpp"
 #include "hazardforge/scenario_package.hpp"
 #include "hazardforge/testing/stage_runner.hpp"
+#include "scenario_package_sink.hpp"
+#include "scenario_source.hpp"
 #include "temp_dir.hpp"
 
 namespace hf {
@@ -20,7 +20,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-CameraModel camera() { return CameraModel::pinhole(640, 360, 500, 500, 320, 180, 1.5, 0.0, 1.5); }
+CameraModel camera() {
+  return CameraModel::pinhole(640, 360, 500, 500, 320, 180, 1.5, 0.0, 1.5);
+}
 
 TEST(ScenarioPackage, Box3dFollowsKittiConventions) {
   const CameraModel cam = camera();
@@ -47,9 +49,7 @@ TEST(ScenarioPackage, ReadBackNamesTheFileLineAndFieldOfAFault) {
   h.kind = "cut_in";
   h.object_class = "car";
   h.frames = 2;
-  {
-    std::ofstream(dir / "scenario.json") << scenario::to_json(h).dump();
-  }
+  { std::ofstream(dir / "scenario.json") << scenario::to_json(h).dump(); }
   scenario::PackageFrame f;
   f.frame = 3;
   f.timestamp = 0.3;
@@ -155,7 +155,7 @@ TEST(ScenarioPackageSink, WritesPicturesAndLabelsThatTheScenarioSourceReadsBack)
   EXPECT_DOUBLE_EQ(*p.frames[1].ego_speed_mps, 8.0);
 
   auto src = testing::StageRunner::create<source::ScenarioSource>("path: " + sink.output_dir().string() +
-                                                                   "\nview: augmented");
+                                                                  "\nview: augmented");
   src.run();
   const auto frames = src.collect<Frame>("frames");
   ASSERT_EQ(frames.size(), 3u);
@@ -163,8 +163,8 @@ TEST(ScenarioPackageSink, WritesPicturesAndLabelsThatTheScenarioSourceReadsBack)
   EXPECT_DOUBLE_EQ(*frames[1].ego.speed_mps, 8.0);
   EXPECT_EQ(frames[1].camera.fx, cam.fx);
   EXPECT_EQ(frames[1].image.at<cv::Vec3b>(160, 310), cv::Vec3b(0, 0, 255));  // PNG: lossless
-  auto orig_src = testing::StageRunner::create<source::ScenarioSource>("path: " + dir.string() +
-                                                                        "\nview: original");
+  auto orig_src =
+      testing::StageRunner::create<source::ScenarioSource>("path: " + dir.string() + "\nview: original");
   orig_src.run();
   EXPECT_EQ(orig_src.collect<Frame>("frames")[1].image.at<cv::Vec3b>(160, 310), cv::Vec3b(40, 60, 80));
 }

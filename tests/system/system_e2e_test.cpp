@@ -1,7 +1,7 @@
 // Testing systems with a real scenario, end to end through the CLI: a verified hazard on the Udacity highway
 // clip, tested with both built-in chains, the reference external client (C++), the Python skeleton client and
-// a client that crashes; the report, its JUnit XML read by python3-junitparser; the scenario exported as KITTI
-// tracking and COCO, read back by independent readers and by the project's own KITTI source.
+// a client that crashes; the report, its JUnit XML read by python3-junitparser; the scenario exported as
+// KITTI tracking and COCO, read back by independent readers and by the project's own KITTI source.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -31,8 +31,8 @@ class SystemEndToEnd : public ::testing::Test {
     shared_ = new fs::path(test::shared_dir());
     dir_ = new test::TempDir();
     const auto r = run_command("HAZARDFORGE_SHARED=" + quote(*shared_) + " " + quote(kExe) + " run " +
-                               quote(test::source_dir() / "configs/pedestrian_crossing_udacity.yaml") + " -o " +
-                               quote(run_dir()) + " -q");
+                               quote(test::source_dir() / "configs/pedestrian_crossing_udacity.yaml") +
+                               " -o " + quote(run_dir()) + " -q");
     run_ok_ = r.code == 0;
     run_out_ = new std::string(r.out);
   }
@@ -74,18 +74,20 @@ TEST_F(SystemEndToEnd, SystemsAreTestedSideBySideAndBadOnesAreNamedWithoutLosing
                                       "nodes:\n  - id: system\n    stage: external_program\n"
                                       "    inputs: {frames: $frames}\n    params: {command: [python3, "
                                    << quote(test::source_dir() / "docs/examples/sut/sut_client.py") << "]}\n";
-  std::ofstream(t / "crash.py") << "import json, sys\nsys.stdin.readline()\nfor n, line in enumerate(sys.stdin):\n"
-                                   "    if n == 3: raise SystemExit(7)\n"
-                                   "    print(json.dumps({'frame': json.loads(line)['frame']}), flush=True)\n";
-  std::ofstream(t / "crash.yaml") << "description: a client that exits at its 4th frame\ninputs: {frames: frames}\n"
-                                     "nodes:\n  - id: system\n    stage: external_program\n"
-                                     "    inputs: {frames: $frames}\n    params: {command: [python3, crash.py]}\n";
+  std::ofstream(t / "crash.py")
+      << "import json, sys\nsys.stdin.readline()\nfor n, line in enumerate(sys.stdin):\n"
+         "    if n == 3: raise SystemExit(7)\n"
+         "    print(json.dumps({'frame': json.loads(line)['frame']}), flush=True)\n";
+  std::ofstream(t / "crash.yaml")
+      << "description: a client that exits at its 4th frame\ninputs: {frames: frames}\n"
+         "nodes:\n  - id: system\n    stage: external_program\n"
+         "    inputs: {frames: $frames}\n    params: {command: [python3, crash.py]}\n";
   const fs::path out = t / "test";
-  const auto r = run_command(env() + quote(kExe) + " test " + quote(test::source_dir() / "configs/sut/paper.yaml") +
-                             " " + quote(test::source_dir() / "configs/sut/filtered.yaml") + " " +
-                             quote(test::source_dir() / "configs/sut/reference_client.yaml") + " " +
-                             quote(t / "python.yaml") + " " + quote(t / "crash.yaml") + " --scenarios " +
-                             quote(run_dir()) + " -o " + quote(out) + " -j 2");
+  const auto r = run_command(
+      env() + quote(kExe) + " test " + quote(test::source_dir() / "configs/sut/paper.yaml") + " " +
+      quote(test::source_dir() / "configs/sut/filtered.yaml") + " " +
+      quote(test::source_dir() / "configs/sut/reference_client.yaml") + " " + quote(t / "python.yaml") + " " +
+      quote(t / "crash.yaml") + " --scenarios " + quote(run_dir()) + " -o " + quote(out) + " -j 2");
   EXPECT_EQ(r.code, 3) << r.out;  // a system's error makes the command fail; the others' results are kept
   const Json rep = read_json_file(out / "report.json");
   ASSERT_EQ(rep["systems"].size(), 5u);
@@ -111,8 +113,8 @@ TEST_F(SystemEndToEnd, SystemsAreTestedSideBySideAndBadOnesAreNamedWithoutLosing
   EXPECT_NE(err.find("frame "), std::string::npos) << err;
 
   // The JUnit XML as a CI server reads it (Debian's python3-junitparser).
-  const auto j = run_command("/usr/bin/python3 " + quote(test::source_dir() / "tests/system/check_junit.py") + " " +
-                             quote(out / "junit.xml"));
+  const auto j = run_command("/usr/bin/python3 " + quote(test::source_dir() / "tests/system/check_junit.py") +
+                             " " + quote(out / "junit.xml"));
   ASSERT_EQ(j.code, 0) << j.out;
   const Json ju = Json::parse(j.out);
   ASSERT_EQ(ju["suites"].size(), 5u);
@@ -136,9 +138,11 @@ TEST_F(SystemEndToEnd, ExportsReadBackWithTheRenderersDrawnBoxes) {
   ASSERT_FALSE(drawn.empty());
   // KITTI tracking, read by an independent reader (tests/system/read_kitti_tracking.py).
   ASSERT_EQ(run_command(quote(kExe) + " export " + quote(run_dir()) + " --format kitti-tracking -o " +
-                        quote(t / "kitti")).code, 0);
-  const auto k = run_command("python3 " + quote(test::source_dir() / "tests/system/read_kitti_tracking.py") + " " +
-                             quote(t / "kitti"));
+                        quote(t / "kitti"))
+                .code,
+            0);
+  const auto k = run_command("python3 " + quote(test::source_dir() / "tests/system/read_kitti_tracking.py") +
+                             " " + quote(t / "kitti"));
   ASSERT_EQ(k.code, 0) << k.out;
   const Json kj = Json::parse(k.out);
   // Label frames are positions in the package; the package's frames are the run's.
@@ -166,8 +170,10 @@ TEST_F(SystemEndToEnd, ExportsReadBackWithTheRenderersDrawnBoxes) {
   EXPECT_EQ(compared, drawn.size());
 
   // COCO, read by an independent reader (tests/system/read_coco.py).
-  ASSERT_EQ(run_command(quote(kExe) + " export " + quote(run_dir()) + " --format coco -o " + quote(t / "coco")).code,
-            0);
+  ASSERT_EQ(
+      run_command(quote(kExe) + " export " + quote(run_dir()) + " --format coco -o " + quote(t / "coco"))
+          .code,
+      0);
   const auto c = run_command("python3 " + quote(test::source_dir() / "tests/system/read_coco.py") + " " +
                              quote(t / "coco"));
   ASSERT_EQ(c.code, 0) << c.out;

@@ -48,10 +48,14 @@ std::string kitti_type(const std::string& label) {
   return "Misc";
 }
 // KITTI's occlusion states from the hidden share: fully visible, partly, largely.
-int kitti_occluded(double hidden) { return hidden < 0.2 ? 0 : hidden < 0.5 ? 1 : 2; }
+int kitti_occluded(double hidden) {
+  return hidden < 0.2 ? 0 : hidden < 0.5 ? 1 : 2;
+}
 // The tracking benchmark's truncation levels (integers, unlike the object benchmark's fraction) from the
 // share outside the picture: inside, partly out, largely out.
-int kitti_truncated(double out) { return out < 0.01 ? 0 : out < 0.5 ? 1 : 2; }
+int kitti_truncated(double out) {
+  return out < 0.01 ? 0 : out < 0.5 ? 1 : 2;
+}
 
 // The labelled objects of a frame: the inserted one while it shows, then the recording's.
 std::vector<const scenario::LabelledObject*> labels_of(const scenario::PackageFrame& f) {
@@ -92,9 +96,8 @@ void export_kitti(const std::vector<Scenario>& scenarios, const fs::path& out) {
         if (o->box3d) {
           const auto& d = *o->box3d;
           lab << g(scenario::observation_angle(d)) << " " << box << " " << g(d.dimensions_hwl[0]) << " "
-              << g(d.dimensions_hwl[1]) << " "
-              << g(d.dimensions_hwl[2]) << " " << g(d.location_cam[0]) << " " << g(d.location_cam[1]) << " "
-              << g(d.location_cam[2]) << " " << g(d.rotation_y) << "\n";
+              << g(d.dimensions_hwl[1]) << " " << g(d.dimensions_hwl[2]) << " " << g(d.location_cam[0]) << " "
+              << g(d.location_cam[1]) << " " << g(d.location_cam[2]) << " " << g(d.rotation_y) << "\n";
         } else {  // KITTI's values for an unknown 3D box
           lab << "-10 " << box << " -1 -1 -1 -1000 -1000 -1000 -10\n";
         }
@@ -109,28 +112,31 @@ void export_kitti(const std::vector<Scenario>& scenarios, const fs::path& out) {
     // Calibration: every camera is this one (P = [K | 0]); the "velodyne" frame is the ego frame.
     const CameraModel& cam = sc.pkg.frames.front().camera;
     std::ostringstream c;
-    const std::string P = g(cam.fx) + " 0 " + g(cam.cx) + " 0 0 " + g(cam.fy) + " " + g(cam.cy) + " 0 0 0 1 0";
+    const std::string P =
+        g(cam.fx) + " 0 " + g(cam.cx) + " 0 0 " + g(cam.fy) + " " + g(cam.cy) + " 0 0 0 1 0";
     for (int i = 0; i < 4; ++i) c << "P" << i << ": " << P << "\n";
     c << "R_rect 1 0 0 0 1 0 0 0 1\n";
     const cv::Matx33d R = cam.R_ego_cam.t();
     const cv::Vec3d t = -(R * cam.t_ego_cam);
     c << "Tr_velo_cam";
-    for (int r = 0; r < 3; ++r) c << " " << g(R(r, 0)) << " " << g(R(r, 1)) << " " << g(R(r, 2)) << " " << g(t[r]);
+    for (int r = 0; r < 3; ++r)
+      c << " " << g(R(r, 0)) << " " << g(R(r, 1)) << " " << g(R(r, 2)) << " " << g(t[r]);
     c << "\nTr_imu_velo 1 0 0 0 0 1 0 0 0 0 1 0\n";
     write_file_atomic(train / "calib" / (S + ".txt"), c.str());
     seqs += S + " " + sc.id + " " + sc.pkg.header.kind + " " + sc.pkg.header.object_class + "\n";
   }
   write_file_atomic(out / "sequences.txt", seqs);
-  std::cerr << "export: " << scenarios.size() << " sequences, " << labels << " labels in KITTI tracking format in "
-            << out.string() << "\n";
+  std::cerr << "export: " << scenarios.size() << " sequences, " << labels
+            << " labels in KITTI tracking format in " << out.string() << "\n";
 }
 
 void export_coco(const std::vector<Scenario>& scenarios, const fs::path& out) {
-  static const std::map<std::string, int> ids = {{"person", 1}, {"bicycle", 2}, {"car", 3},
-                                                 {"motorcycle", 4}, {"bus", 6}, {"truck", 8}};
+  static const std::map<std::string, int> ids = {{"person", 1},     {"bicycle", 2}, {"car", 3},
+                                                 {"motorcycle", 4}, {"bus", 6},     {"truck", 8}};
   fs::create_directories(out / "images");
   Json images = Json::array(), anns = Json::array(), cats = Json::array();
-  for (const auto& [name, id] : ids) cats.push_back({{"id", id}, {"name", name}, {"supercategory", name == "person" ? "person" : "vehicle"}});
+  for (const auto& [name, id] : ids)
+    cats.push_back({{"id", id}, {"name", name}, {"supercategory", name == "person" ? "person" : "vehicle"}});
   std::sort(cats.begin(), cats.end(), [](const Json& a, const Json& b) { return a["id"] < b["id"]; });
   int64_t image_id = 0, ann_id = 0;
   for (size_t s = 0; s < scenarios.size(); ++s) {
@@ -174,7 +180,8 @@ void export_coco(const std::vector<Scenario>& scenarios, const fs::path& out) {
                   {"truncation", o->truncation},
                   {"occlusion", o->occlusion}};
         if (o->box3d) {
-          a["location_cam"] = {o->box3d->location_cam[0], o->box3d->location_cam[1], o->box3d->location_cam[2]};
+          a["location_cam"] = {o->box3d->location_cam[0], o->box3d->location_cam[1],
+                               o->box3d->location_cam[2]};
           a["dimensions_hwl"] = {o->box3d->dimensions_hwl[0], o->box3d->dimensions_hwl[1],
                                  o->box3d->dimensions_hwl[2]};
           a["rotation_y"] = o->box3d->rotation_y;
@@ -215,8 +222,10 @@ int cmd_export(const ExportOptions& o) {
       return 2;
     }
     fs::create_directories(out);
-    if (o.format == "kitti-tracking") export_kitti(scenarios, out);
-    else export_coco(scenarios, out);
+    if (o.format == "kitti-tracking")
+      export_kitti(scenarios, out);
+    else
+      export_coco(scenarios, out);
   } catch (const Error& e) {
     std::cerr << "export: " << e.what() << "\n";
     return 1;

@@ -11,8 +11,8 @@
 #include <fstream>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "hazardforge/apps/child_process.hpp"
@@ -138,7 +138,10 @@ class SlurmExecutor : public Executor {
       write_file_atomic(dir / (std::to_string(i) + ".args"), argv);
       write_file_atomic(dir / (std::to_string(i) + ".log"), fs::absolute(queued_[i].log).string());
     }
-    std::vector<std::string> cmd = {"sbatch", "--parsable", "--requeue", "--job-name=hazardforge-campaign",
+    std::vector<std::string> cmd = {"sbatch",
+                                    "--parsable",
+                                    "--requeue",
+                                    "--job-name=hazardforge-campaign",
                                     "--array=0-" + std::to_string(queued_.size() - 1) +
                                         (o_.throttle > 0 ? "%" + std::to_string(o_.throttle) : ""),
                                     "--output=" + (dir / "%a.slurm.out").string(),
@@ -154,8 +157,8 @@ class SlurmExecutor : public Executor {
     std::string out = capture(cmd, code);
     while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
     if (code != 0 || out.empty() || out.find_first_not_of("0123456789;") != std::string::npos)
-      throw Error("sbatch refused the campaign's job array (" + dir.string() + "): " +
-                  (out.empty() ? "exit " + std::to_string(code) : out));
+      throw Error("sbatch refused the campaign's job array (" + dir.string() +
+                  "): " + (out.empty() ? "exit " + std::to_string(code) : out));
     const std::string job = out.substr(0, out.find(';'));
     write_file_atomic(dir / "job", job + "\n");
     for (size_t i = 0; i < queued_.size(); ++i) {
@@ -182,7 +185,8 @@ class SlurmExecutor : public Executor {
         if (auto e = ended()) return *e;  // it wrote its exit file just before leaving the queue
         TaskEnd te{it->first, 1, 0};
         std::ofstream(it->second.log, std::ios::app)
-            << "error: Slurm task " << it->second.slurm << " left the queue without an exit status (cancelled, "
+            << "error: Slurm task " << it->second.slurm
+            << " left the queue without an exit status (cancelled, "
             << "or its node was lost and it was not requeued); its Slurm output: "
             << (it->second.dir / (std::to_string(it->second.index) + ".slurm.out")).string() << "\n";
         running_.erase(it);
@@ -260,7 +264,9 @@ class SlurmExecutor : public Executor {
 
 }  // namespace
 
-std::unique_ptr<Executor> local_executor() { return std::make_unique<LocalExecutor>(); }
+std::unique_ptr<Executor> local_executor() {
+  return std::make_unique<LocalExecutor>();
+}
 
 std::unique_ptr<Executor> slurm_executor(const SlurmOptions& o, const fs::path& state_dir) {
   int code = 0;

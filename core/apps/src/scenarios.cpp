@@ -42,13 +42,15 @@ std::vector<Scenario> find_scenarios(const std::vector<std::string>& roots) {
     if (fs::is_regular_file(root / "index.json")) {
       const Json index = read_json_file(root / "index.json");
       if (!index.contains("attempts") || !index["attempts"].is_array())
-        throw Error("'" + (root / "index.json").string() + "' has no list 'attempts': not a campaign's index");
+        throw Error("'" + (root / "index.json").string() +
+                    "' has no list 'attempts': not a campaign's index");
       size_t found = 0;
       for (const Json& a : index["attempts"]) {
         if (!a.value("passed", false)) continue;
         const fs::path run = root / a.value("folder", "");
         if (!scenario::find_package(run)) {
-          std::cerr << "test: " << run.string() << " is verified but has no scenario package (a run from before "
+          std::cerr << "test: " << run.string()
+                    << " is verified but has no scenario package (a run from before "
                     << "the scenario_package sink); skipped\n";
           continue;
         }
@@ -59,7 +61,8 @@ std::vector<Scenario> find_scenarios(const std::vector<std::string>& roots) {
     } else if (scenario::find_package(root)) {
       add(root, root.filename().string(), "");
     } else {
-      throw Error("'" + r + "' is neither a campaign folder (index.json), a run folder (scenario/) nor a "
+      throw Error("'" + r +
+                  "' is neither a campaign folder (index.json), a run folder (scenario/) nor a "
                   "scenario package (scenario.json)");
     }
   }

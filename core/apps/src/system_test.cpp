@@ -54,15 +54,20 @@ System read_system(const std::string& file) {
     }
   }
   if (!found)
-    throw Error(file + ": a system under test has a node with id 'system' whose output 'response' is its answer "
+    throw Error(file +
+                ": a system under test has a node with id 'system' whose output 'response' is its answer "
                 "(stage external_program, or risk_response after a graph's detections and risk)");
   s.name = safe_path_component(s.file.stem().string());
   return s;
 }
 
-double iou(const cv::Rect2f& a, const cv::Rect2f& b) { return hf::box_iou(a, b); }
+double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
+  return hf::box_iou(a, b);
+}
 
-Json num(std::optional<double> v) { return v && std::isfinite(*v) ? Json(*v) : Json(); }
+Json num(std::optional<double> v) {
+  return v && std::isfinite(*v) ? Json(*v) : Json();
+}
 
 double median(std::vector<double> v) {
   if (v.empty()) return kNaN;
@@ -91,7 +96,8 @@ std::vector<ResponseLine> read_responses(const fs::path& file) {
       for (const Json& d : j.value("detections", Json::array())) {
         Detection det;
         const Json& b = d.at("box");
-        det.box = cv::Rect2f(b.at(0).get<float>(), b.at(1).get<float>(), b.at(2).get<float>(), b.at(3).get<float>());
+        det.box = cv::Rect2f(b.at(0).get<float>(), b.at(1).get<float>(), b.at(2).get<float>(),
+                             b.at(3).get<float>());
         det.label = d.value("label", "");
         det.score = d.value("score", 1.f);
         r.detections.push_back(det);
@@ -187,12 +193,9 @@ Json score_scenario(const scenario::Package& pkg, const std::vector<ResponseLine
                     {"median_ttc_error_s", num(median(ttc_errors))}};
   const std::optional<double> lead =
       t_warn && t_critical ? std::optional<double>(*t_critical - *t_warn) : std::nullopt;
-  s["warning"] = {{"critical_at_s", num(t_critical)},
-                  {"first_visible_s", num(t_first_visible)},
-                  {"warned_at_s", num(t_warn)},
-                  {"true_ttc_at_warning_s", num(true_ttc_at_warning)},
-                  {"brake_at_s", num(t_brake)},
-                  {"lead_s", num(lead)}};
+  s["warning"] = {{"critical_at_s", num(t_critical)}, {"first_visible_s", num(t_first_visible)},
+                  {"warned_at_s", num(t_warn)},       {"true_ttc_at_warning_s", num(true_ttc_at_warning)},
+                  {"brake_at_s", num(t_brake)},       {"lead_s", num(lead)}};
   s["control"] = {{"frames", control_frames}, {"false_warning_frames", false_warnings}};
   std::string verdict, why;
   if (!t_critical) {
@@ -225,7 +228,9 @@ struct Job {
   fs::path config, dir;
 };
 
-std::string quoted(const std::string& s) { return json_text(Json(s)); }  // a YAML double-quoted scalar
+std::string quoted(const std::string& s) {
+  return json_text(Json(s));
+}  // a YAML double-quoted scalar
 
 // The generated config of one run: the scenario's frames through the system into system/responses.jsonl.
 std::string run_config(const System& sys, const Scenario& sc, bool augmented) {
@@ -298,8 +303,7 @@ std::string svg_timeline(const Json& scen_per_system, const std::vector<std::str
   s << "<svg width='" << W << "' height='" << H << "' xmlns='http://www.w3.org/2000/svg' font-size='10'>";
   s << "<rect x='" << L << "' y='8' width='" << W - L - 8 << "' height='" << H - B - 8
     << "' fill='none' stroke='#999'/>";
-  for (int v = 0; v <= 6; v += 2)
-    s << "<text x='4' y='" << Y(v) + 3 << "'>" << v << " s</text>";
+  for (int v = 0; v <= 6; v += 2) s << "<text x='4' y='" << Y(v) + 3 << "'>" << v << " s</text>";
   s << "<line x1='" << L << "' x2='" << W - 8 << "' y1='" << Y(1.5) << "' y2='" << Y(1.5)
     << "' stroke='#bbb' stroke-dasharray='4 3'/>";
   s << "<text x='" << L + 2 << "' y='" << H - 6 << "'>" << fixed_text(t0, 1) << " s</text><text x='" << W - 50
@@ -309,8 +313,8 @@ std::string svg_timeline(const Json& scen_per_system, const std::vector<std::str
     for (const Json& p : tl) {
       if (!p[key].is_number()) {
         if (!pts.empty())
-          s << "<polyline fill='none' stroke='" << colour << "' stroke-width='" << width << "' points='" << pts
-            << "'/>";
+          s << "<polyline fill='none' stroke='" << colour << "' stroke-width='" << width << "' points='"
+            << pts << "'/>";
         pts.clear();
         continue;
       }
@@ -400,8 +404,9 @@ void write_reports(const fs::path& out, const Json& report) {
        "body{font-family:sans-serif;margin:1.5em}table{border-collapse:collapse}td,th{border:1px solid #ccc;"
        "padding:3px 7px;font-size:13px}.passed{color:#1a7f37}.failed{color:#cf222e}.error{color:#9a6700}"
        "</style></head><body><h1>System test</h1>";
-  h << "<p>Pass rule: a warning or brake request at least " << num_text(report["rule"]["min_lead_s"].get<double>())
-    << " s before the hazard's true TTC falls below " << num_text(report["rule"]["critical_ttc_s"].get<double>())
+  h << "<p>Pass rule: a warning or brake request at least "
+    << num_text(report["rule"]["min_lead_s"].get<double>()) << " s before the hazard's true TTC falls below "
+    << num_text(report["rule"]["critical_ttc_s"].get<double>())
     << " s; a detection is the hazard at IoU &ge; " << num_text(report["rule"]["match_iou"].get<double>())
     << ". The control run (original frames) should give no warning.</p>";
   h << "<table><tr><th>system</th><th>scenarios</th><th>passed</th><th>failed</th><th>errors</th>"
@@ -409,9 +414,10 @@ void write_reports(const fs::path& out, const Json& report) {
        "<th>time in the system</th></tr>";
   for (const Json& sys : report["systems"]) {
     const Json& p = sys["pooled"];
-    h << "<tr><td>" << xml_escape(sys["name"].get<std::string>()) << "</td><td>" << p["scenarios"] << "</td><td>"
-      << p["passed"] << "</td><td>" << p["failed"] << "</td><td>" << p["errors"] << "</td><td>" << p["detected"]
-      << "</td><td>" << (p["recall"].is_number() ? fixed_text(p["recall"].get<double>(), 2) : "-") << "</td><td>"
+    h << "<tr><td>" << xml_escape(sys["name"].get<std::string>()) << "</td><td>" << p["scenarios"]
+      << "</td><td>" << p["passed"] << "</td><td>" << p["failed"] << "</td><td>" << p["errors"] << "</td><td>"
+      << p["detected"] << "</td><td>"
+      << (p["recall"].is_number() ? fixed_text(p["recall"].get<double>(), 2) : "-") << "</td><td>"
       << (p["median_lead_s"].is_number() ? fixed_text(p["median_lead_s"].get<double>(), 2) + " s" : "-")
       << "</td><td>" << p["control_false_warning_frames"] << " / " << p["control_frames"] << "</td><td>"
       << (p["overhead_share"].is_number()
@@ -420,7 +426,8 @@ void write_reports(const fs::path& out, const Json& report) {
               : "-")
       << "</td></tr>";
   }
-  h << "</table><h2>Scenarios</h2><p>Timelines: the hazard's true TTC in black, each system's TTC in its colour "
+  h << "</table><h2>Scenarios</h2><p>Timelines: the hazard's true TTC in black, each system's TTC in its "
+       "colour "
        "(the dashed line: the critical TTC), its warnings as ticks along the bottom (thick: brake).</p>";
   std::map<std::string, Json> per_scenario;
   std::vector<std::string> order;
@@ -432,7 +439,8 @@ void write_reports(const fs::path& out, const Json& report) {
     }
   for (const auto& id : order) {
     const Json& by = per_scenario[id];
-    h << "<h3>" << xml_escape(id) << "</h3><table><tr><th>system</th><th>verdict</th><th>why</th>"
+    h << "<h3>" << xml_escape(id)
+      << "</h3><table><tr><th>system</th><th>verdict</th><th>why</th>"
          "<th>first detected</th><th>recall</th><th>lead</th><th>control</th></tr>";
     for (const auto& n : names) {
       if (!by.contains(n)) continue;
@@ -445,14 +453,17 @@ void write_reports(const fs::path& out, const Json& report) {
         continue;
       }
       const Json& d = sc["detection"];
-      h << "<td>" << (d["first_detected_s"].is_number()
-                          ? fixed_text(d["first_detected_s"].get<double>(), 2) + " s at " +
-                                (d["range_at_first_detection_m"].is_number()
-                                     ? fixed_text(d["range_at_first_detection_m"].get<double>(), 1) + " m"
-                                     : std::string("?"))
-                          : std::string("never"))
-        << "</td><td>" << (d["recall"].is_number() ? fixed_text(d["recall"].get<double>(), 2) : "-") << "</td><td>"
-        << (sc["warning"]["lead_s"].is_number() ? fixed_text(sc["warning"]["lead_s"].get<double>(), 2) + " s" : "-")
+      h << "<td>"
+        << (d["first_detected_s"].is_number()
+                ? fixed_text(d["first_detected_s"].get<double>(), 2) + " s at " +
+                      (d["range_at_first_detection_m"].is_number()
+                           ? fixed_text(d["range_at_first_detection_m"].get<double>(), 1) + " m"
+                           : std::string("?"))
+                : std::string("never"))
+        << "</td><td>" << (d["recall"].is_number() ? fixed_text(d["recall"].get<double>(), 2) : "-")
+        << "</td><td>"
+        << (sc["warning"]["lead_s"].is_number() ? fixed_text(sc["warning"]["lead_s"].get<double>(), 2) + " s"
+                                                : "-")
         << "</td><td>" << sc["control"]["false_warning_frames"].size() << " false warnings</td></tr>";
     }
     h << "</table>" << svg_timeline(by, names);
@@ -541,7 +552,8 @@ int cmd_test(Host& /*host*/, const SystemTestOptions& o) {
       for (const auto& p : o.plugin_paths) args.insert(args.end(), {"--plugin-path", p});
       args.insert(args.end(), {"run", j.config.string(), "-o", j.dir.string(), "-q", "--overwrite"});
       if (systems[j.system].external)
-        args.insert(args.end(), {"--set", "system.working_dir=" + systems[j.system].file.parent_path().string()});
+        args.insert(args.end(),
+                    {"--set", "system.working_dir=" + systems[j.system].file.parent_path().string()});
       started[next] = std::chrono::steady_clock::now();
       running[spawn_logged(args, j.dir.string() + ".log")] = next;
       ++next;
@@ -551,12 +563,15 @@ int cmd_test(Host& /*host*/, const SystemTestOptions& o) {
   }
   PassRule rule{o.critical_ttc_s, o.min_lead_s, o.match_iou};
   Json report = {{"schema", "hazardforge-test/1"},
-                 {"rule", {{"critical_ttc_s", rule.critical_ttc_s}, {"min_lead_s", rule.min_lead_s},
-                           {"match_iou", rule.match_iou}}},
+                 {"rule",
+                  {{"critical_ttc_s", rule.critical_ttc_s},
+                   {"min_lead_s", rule.min_lead_s},
+                   {"match_iou", rule.match_iou}}},
                  {"systems", Json::array()}};
   for (size_t i = 0; i < systems.size(); ++i) {
     Json sys = {{"name", systems[i].name}, {"file", systems[i].file.string()}, {"scenarios", Json::array()}};
-    int passed = 0, failed = 0, errors = 0, detected = 0, ctl_frames = 0, ctl_warned = 0, vis = 0, matched = 0;
+    int passed = 0, failed = 0, errors = 0, detected = 0, ctl_frames = 0, ctl_warned = 0, vis = 0,
+        matched = 0;
     double system_cpu = 0, runs_wall = 0, system_s = 0;
     std::vector<double> leads;
     for (size_t k = 0; k < scenarios.size(); ++k) {
@@ -572,8 +587,9 @@ int cmd_test(Host& /*host*/, const SystemTestOptions& o) {
       for (const Job* j : {&ja, &jc})
         if (codes[static_cast<size_t>(j - jobs.data())] != 0 && error.empty())
           error = "scenario " + sc.id + " (" + (j->augmented ? "augmented" : "control") + "): " +
-                  (codes[static_cast<size_t>(j - jobs.data())] < 0 ? std::string("not run (interrupted)")
-                                                                   : run_error(j->dir, codes[static_cast<size_t>(j - jobs.data())]));
+                  (codes[static_cast<size_t>(j - jobs.data())] < 0
+                       ? std::string("not run (interrupted)")
+                       : run_error(j->dir, codes[static_cast<size_t>(j - jobs.data())]));
       if (error.empty()) {
         try {
           entry = score_scenario(sc.pkg, read_responses(ja.dir / "system" / "responses.jsonl"),
@@ -617,9 +633,9 @@ int cmd_test(Host& /*host*/, const SystemTestOptions& o) {
                      {"system_s", system_s},
                      {"overhead_share", runs_wall > 0 ? Json(1.0 - system_s / runs_wall) : Json()}};
     report["systems"].push_back(sys);
-    std::cerr << "test: " << systems[i].name << ": " << passed << " passed, " << failed << " failed, " << errors
-              << " errors of " << scenarios.size() << " scenarios; control: " << ctl_warned << " of "
-              << ctl_frames << " frames warned\n";
+    std::cerr << "test: " << systems[i].name << ": " << passed << " passed, " << failed << " failed, "
+              << errors << " errors of " << scenarios.size() << " scenarios; control: " << ctl_warned
+              << " of " << ctl_frames << " frames warned\n";
   }
   write_reports(out, report);
   std::cerr << "test: report in " << (out / "report.html").string() << ", " << (out / "junit.xml").string()

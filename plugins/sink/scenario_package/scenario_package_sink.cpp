@@ -60,7 +60,8 @@ std::vector<scenario::LabelledObject> ScenarioPackageSink::recorded_objects(cons
     o.instance_id = a.instance_id;
     o.occlusion = std::clamp(a.occlusion, 0.0, 1.0);
     const double z_bottom = a.center_ego[2] - a.size_lwh[2] / 2;
-    const auto corners = render::box_corners(a.center_ego[0], a.center_ego[1], a.yaw_ego, a.size_lwh, z_bottom);
+    const auto corners =
+        render::box_corners(a.center_ego[0], a.center_ego[1], a.yaw_ego, a.size_lwh, z_bottom);
     const auto proj = render::project_box(f.camera, corners, 0.3);
     if (!proj) continue;  // (part of) it is behind the camera
     const cv::Rect2d full = a.box2d ? *a.box2d : proj->bounds;
@@ -72,9 +73,9 @@ std::vector<scenario::LabelledObject> ScenarioPackageSink::recorded_objects(cons
     o.box3d = scenario::box3d(f.camera, cv::Vec3d(a.center_ego[0], a.center_ego[1], z_bottom), a.yaw_ego,
                               a.size_lwh);
     o.distance_m = a.center_ego[0];
-    auto [it, added] = track_ids_.try_emplace(a.instance_id.empty() ? "#" + std::to_string(track_ids_.size())
-                                                                    : a.instance_id,
-                                              static_cast<int64_t>(track_ids_.size()) + 1);
+    auto [it, added] = track_ids_.try_emplace(
+        a.instance_id.empty() ? "#" + std::to_string(track_ids_.size()) : a.instance_id,
+        static_cast<int64_t>(track_ids_.size()) + 1);
     o.track_id = it->second;
     out.push_back(std::move(o));
   }
@@ -95,7 +96,8 @@ void ScenarioPackageSink::process(StageContext& /*ctx*/, const Inputs& in, Outpu
   for (const auto& [sub, img] : {std::pair<const char*, const cv::Mat*>{"augmented", &aug.image},
                                  std::pair<const char*, const cv::Mat*>{"original", &orig.image}}) {
     const fs::path p = dir_ / sub / file;
-    if (!cv::imwrite(p.string(), *img, opts)) throw Error(frame_name(orig) + ": cannot write '" + p.string() + "'");
+    if (!cv::imwrite(p.string(), *img, opts))
+      throw Error(frame_name(orig) + ": cannot write '" + p.string() + "'");
   }
   scenario::PackageFrame pf;
   pf.frame = orig.index;

@@ -11,9 +11,10 @@ ComponentInfo SystemResponsesSink::describe() {
   i.name = "system_responses";
   i.kind = kind::kSink;
   i.summary = "a system under test's answers, one JSON line per frame (system/responses.jsonl)";
-  i.doc = "Writes what a system under test answered for each frame: its detections, TTC, warning and brake "
-          "request, with the frame's timestamp. hazardforge test scores these lines against the scenario's "
-          "labels (docs/testing-a-system.md).";
+  i.doc =
+      "Writes what a system under test answered for each frame: its detections, TTC, warning and brake "
+      "request, with the frame's timestamp. hazardforge test scores these lines against the scenario's "
+      "labels (docs/testing-a-system.md).";
   i.inputs = {port<SystemResponse>("response", "the system's answer per frame")};
   i.params = {ParamSpec::string("file", "system/responses.jsonl").describe("below the run's output folder")};
   return i;

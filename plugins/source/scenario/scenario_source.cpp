@@ -36,8 +36,8 @@ bool ScenarioSource::next(StageContext& /*ctx*/, Outputs& out) {
   Frame f;
   f.index = pf.frame;
   f.timestamp = pf.timestamp;
-  f.image = read_color_image(file, "scenario picture '" + file.string() + "' (frame " +
-                                       std::to_string(pf.frame) + ")");
+  f.image = read_color_image(
+      file, "scenario picture '" + file.string() + "' (frame " + std::to_string(pf.frame) + ")");
   if (f.image.cols != pf.camera.width || f.image.rows != pf.camera.height)
     throw Error("scenario picture '" + file.string() + "' (frame " + std::to_string(pf.frame) + ") is " +
                 std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) + ", its camera " +

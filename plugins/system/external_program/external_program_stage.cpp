@@ -96,9 +96,10 @@ ComponentInfo ExternalProgramStage::describe() {
   i.outputs = {port<Detections>("detections", "the program's detections"),
                port<SystemResponse>("response", "the program's answer: detections, TTC, warning, brake")};
   i.params = {
-      ParamSpec::string_list("command", {}).describe("the program and its arguments (argv; ${NAME} is taken "
-                                                     "from the environment); the program is looked up on "
-                                                     "PATH when it has no '/'"),
+      ParamSpec::string_list("command", {})
+          .describe("the program and its arguments (argv; ${NAME} is taken "
+                    "from the environment); the program is looked up on "
+                    "PATH when it has no '/'"),
       ParamSpec::string("frames", "path")
           .one_of({"path", "raw"})
           .describe("how a frame is given: the picture file's path, or its raw BGR bytes after the line"),
@@ -107,8 +108,9 @@ ComponentInfo ExternalProgramStage::describe() {
       ParamSpec::number("exit_timeout_s", 5.0).range(0.0, 600).describe("time to exit after the last frame"),
       ParamSpec::integer("max_answer_bytes", 1 << 20).range(64, 1 << 28).describe("longest answer line"),
       ParamSpec::path("working_dir", "").describe("the program's working folder (empty: the config's)"),
-      ParamSpec::string("stderr_log", "system/stderr.log").describe("the program's standard error, below "
-                                                                   "the run folder"),
+      ParamSpec::string("stderr_log", "system/stderr.log")
+          .describe("the program's standard error, below "
+                    "the run folder"),
   };
   return i;
 }
@@ -185,16 +187,16 @@ void ExternalProgramStage::process(StageContext& /*ctx*/, const Inputs& in, Outp
   }
   const auto wrote = program_->write_all(bytes, deadline);
   if (wrote == ProgramPipe::Status::kClosed)
-    throw Error(what + " exited before taking the frame (" + program_->exit_text() + "); its standard error: " +
-                stderr_log_.string());
+    throw Error(what + " exited before taking the frame (" + program_->exit_text() +
+                "); its standard error: " + stderr_log_.string());
   if (wrote == ProgramPipe::Status::kTimeout)
     throw Error(what + " did not read the frame within " + std::to_string(limit) + " s");
   std::string answer;
   bool too_long = false;
   const auto got = program_->read_line(answer, deadline, max_reply_, too_long);
   if (got == ProgramPipe::Status::kClosed)
-    throw Error(what + " exited without answering (" + program_->exit_text() + "); its standard error: " +
-                stderr_log_.string());
+    throw Error(what + " exited without answering (" + program_->exit_text() +
+                "); its standard error: " + stderr_log_.string());
   if (got == ProgramPipe::Status::kTimeout)
     throw Error(what + " did not answer within " + std::to_string(limit) + " s");
   if (too_long) throw Error(what + " answered a line longer than " + std::to_string(max_reply_) + " bytes");

@@ -15,7 +15,8 @@ ComponentInfo RiskResponseStage::describe() {
   i.doc =
       "Turns an assessment chain into a warning system for hazardforge test: the answer per frame holds the "
       "chain's detections, its TTC (the metric's deciding value over the objects in the ego's path), a "
-      "warning when the metric labels the frame Unsafe (its own threshold), and a brake request when that TTC "
+      "warning when the metric labels the frame Unsafe (its own threshold), and a brake request when that "
+      "TTC "
       "is below brake_below_s. The metric must be TTC-like (lower is riskier).";
   i.inputs = {port<Detections>("detections", "the chain's detections"),
               port<RiskAssessment>("risk", "the chain's TTC-like risk")};
@@ -26,7 +27,9 @@ ComponentInfo RiskResponseStage::describe() {
   return i;
 }
 
-void RiskResponseStage::open(StageContext& ctx) { brake_below_ = ctx.params().get_double("brake_below_s"); }
+void RiskResponseStage::open(StageContext& ctx) {
+  brake_below_ = ctx.params().get_double("brake_below_s");
+}
 
 void RiskResponseStage::process(StageContext& /*ctx*/, const Inputs& in, Outputs& out) {
   const Detections& d = in.require<Detections>("detections");

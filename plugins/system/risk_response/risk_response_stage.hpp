@@ -8,8 +8,8 @@ namespace hf::system {
 // Stage "risk_response" (kind system).
 //  inputs:  detections (Detections), risk (RiskAssessment, a TTC-like metric: lower is riskier).
 //  outputs: response (SystemResponse): the detections; the TTC of the object the metric finds most critical
-//           (its deciding value); a warning when the metric labels the frame Unsafe; a brake request when that
-//           TTC is below brake_below_s.
+//           (its deciding value); a warning when the metric labels the frame Unsafe; a brake request when
+//           that TTC is below brake_below_s.
 class RiskResponseStage : public Stage {
  public:
   static ComponentInfo describe();

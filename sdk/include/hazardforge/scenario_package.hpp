@@ -40,8 +40,8 @@ Box3d box3d(const CameraModel& cam, const cv::Vec3d& bottom_centre_ego, double h
 double observation_angle(const Box3d& b);
 
 struct LabelledObject {
-  int64_t track_id = 0;     // 0: the inserted object; the recording's objects from 1
-  std::string label;        // car, truck, bus, person, bicycle, motorcycle
+  int64_t track_id = 0;  // 0: the inserted object; the recording's objects from 1
+  std::string label;     // car, truck, bus, person, bicycle, motorcycle
   bool inserted = false;
   std::string kind;         // the inserted object's hazard kind
   std::string instance_id;  // the dataset's identity of a recorded object
@@ -50,8 +50,8 @@ struct LabelledObject {
   double truncation = 0.0;  // share outside the picture, 0..1
   double occlusion = 0.0;   // share hidden by nearer objects, 0..1
   std::optional<Box3d> box3d;
-  double distance_m = kNaN;      // longitudinal, ego frame
-  std::optional<double> ttc_s;   // ground truth: the planned time to collision (nullopt: not closing)
+  double distance_m = kNaN;     // longitudinal, ego frame
+  std::optional<double> ttc_s;  // ground truth: the planned time to collision (nullopt: not closing)
 };
 
 struct PackageFrame {

@@ -10,9 +10,9 @@
 namespace hf::apps {
 
 struct TaskEnd {
-  std::string id;      // start()'s id; empty: nothing is running
-  int exit_code = 0;   // the command's exit status (128 + signal when killed)
-  double cpu_s = 0;    // its user + system CPU time
+  std::string id;     // start()'s id; empty: nothing is running
+  int exit_code = 0;  // the command's exit status (128 + signal when killed)
+  double cpu_s = 0;   // its user + system CPU time
 };
 
 class Executor {
@@ -37,9 +37,9 @@ std::unique_ptr<Executor> local_executor();
 struct SlurmOptions {
   std::string partition, account, time, mem;
   int cpus_per_task = 1;
-  int throttle = 0;                     // at most this many tasks of an array at once (0: no %N)
+  int throttle = 0;                      // at most this many tasks of an array at once (0: no %N)
   std::vector<std::string> sbatch_args;  // added to every sbatch
-  double poll_s = 2.0;                  // how often squeue is asked
+  double poll_s = 2.0;                   // how often squeue is asked
 };
 // Tasks as Slurm job arrays (sbatch --array, --requeue), their scripts and exit files in `state_dir` on the
 // shared filesystem. A task whose job is requeued (preemption, node loss) runs again from the start; one
