@@ -32,12 +32,11 @@ scenario::Package package() {
   return p;
 }
 
-std::vector<apps::ResponseLine> answers(int warn_from, bool detect, int from = 0) {
-  std::vector<apps::ResponseLine> v;
+std::vector<SystemResponse> answers(int warn_from, bool detect, int from = 0) {
+  std::vector<SystemResponse> v;
   for (int i = from; i <= 20; ++i) {
-    apps::ResponseLine r;
-    r.frame = 100 + i;
-    r.timestamp = 0.1 * i;
+    SystemResponse r;
+    r.frame_index = 100 + i;
     r.warning = warn_from >= 0 && i >= warn_from;
     if (detect && i >= 7) {
       r.detections.push_back(Detection{cv::Rect2f(102, 101, 50, 40), 2, "car", 0.9f});

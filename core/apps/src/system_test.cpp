@@ -16,6 +16,7 @@
 #include "hazardforge/apps/scenarios.hpp"
 #include "hazardforge/atomic_file.hpp"
 #include "hazardforge/class_groups.hpp"
+#include "hazardforge/core/scheduler.hpp"
 #include "hazardforge/error.hpp"
 #include "hazardforge/geometry.hpp"
 #include "hazardforge/json_text.hpp"
@@ -61,35 +62,30 @@ System read_system(const std::string& file) {
   return s;
 }
 
-double iou(const cv::Rect2f& a, const cv::Rect2f& b) {
-  return hf::box_iou(a, b);
-}
 
 Json num(std::optional<double> v) {
   return v && std::isfinite(*v) ? Json(*v) : Json();
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+// The median of some values; none for none.
+std::optional<double> median_of(const std::vector<double>& v) {
+  return v.empty() ? std::nullopt : std::optional<double>(core::median(v));
 }
 
 }  // namespace
 
-std::vector<ResponseLine> read_responses(const fs::path& file) {
+std::vector<SystemResponse> read_responses(const fs::path& file) {
   std::ifstream in(file);
   if (!in) throw Error("'" + file.string() + "' cannot be read");
-  std::vector<ResponseLine> out;
+  std::vector<SystemResponse> out;
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
     if (line.empty()) continue;
     const std::string where = "'" + file.string() + "' line " + std::to_string(n);
     try {
       const Json j = Json::parse(line);
-      ResponseLine r;
-      r.frame = j.at("frame").get<int64_t>();
-      r.timestamp = j.value("timestamp", 0.0);
+      SystemResponse r;
+      r.frame_index = j.at("frame").get<int64_t>();
       if (j.contains("ttc_s") && j["ttc_s"].is_number()) r.ttc_s = j["ttc_s"].get<double>();
       r.warning = j.value("warning", false);
       r.brake = j.value("brake", false);
@@ -110,11 +106,11 @@ std::vector<ResponseLine> read_responses(const fs::path& file) {
   return out;
 }
 
-Json score_scenario(const scenario::Package& pkg, const std::vector<ResponseLine>& augmented,
-                    const std::vector<ResponseLine>& control, const PassRule& rule) {
-  std::map<int64_t, const ResponseLine*> aug, ctl;
-  for (const auto& r : augmented) aug[r.frame] = &r;
-  for (const auto& r : control) ctl[r.frame] = &r;
+Json score_scenario(const scenario::Package& pkg, const std::vector<SystemResponse>& augmented,
+                    const std::vector<SystemResponse>& control, const PassRule& rule) {
+  std::map<int64_t, const SystemResponse*> aug, ctl;
+  for (const auto& r : augmented) aug[r.frame_index] = &r;
+  for (const auto& r : control) ctl[r.frame_index] = &r;
   const std::string cls = pkg.header.object_class;
   std::optional<double> t_first_visible, t_critical, t_warn, t_brake, t_detect;
   std::optional<double> range_at_detection, true_ttc_at_warning;
@@ -123,7 +119,7 @@ Json score_scenario(const scenario::Package& pkg, const std::vector<ResponseLine
   Json timeline = Json::array();
   for (const auto& f : pkg.frames) {
     const auto it = aug.find(f.frame);
-    const ResponseLine* r = it == aug.end() ? nullptr : it->second;
+    const SystemResponse* r = it == aug.end() ? nullptr : it->second;
     if (r) ++answered;
     const bool placed = f.hazard.has_value();
     const bool vis = placed && f.hazard->visible;
@@ -136,7 +132,7 @@ Json score_scenario(const scenario::Package& pkg, const std::vector<ResponseLine
       double best = 0;
       const Detection* best_d = nullptr;
       for (const auto& d : r->detections) {
-        const double v = iou(d.box, f.hazard->box);
+        const double v = box_iou(d.box, f.hazard->box);
         if (v > 0.1) ++overlapping;
         if (v > best) {
           best = v;
@@ -190,7 +186,7 @@ Json score_scenario(const scenario::Package& pkg, const std::vector<ResponseLine
                     {"recall", visible ? Json(double(matched) / visible) : Json()},
                     {"precision", overlapping ? Json(double(matched) / overlapping) : Json()},
                     {"right_class_frames", right_class},
-                    {"median_ttc_error_s", num(median(ttc_errors))}};
+                    {"median_ttc_error_s", num(median_of(ttc_errors))}};
   const std::optional<double> lead =
       t_warn && t_critical ? std::optional<double>(*t_critical - *t_warn) : std::nullopt;
   s["warning"] = {{"critical_at_s", num(t_critical)}, {"first_visible_s", num(t_first_visible)},
@@ -625,7 +621,7 @@ int cmd_test(Host& /*host*/, const SystemTestOptions& o) {
                      {"errors", errors},
                      {"detected", detected},
                      {"recall", vis ? Json(double(matched) / vis) : Json()},
-                     {"median_lead_s", num(median(leads))},
+                     {"median_lead_s", num(median_of(leads))},
                      {"control_frames", ctl_frames},
                      {"control_false_warning_frames", ctl_warned},
                      {"cpu_s", system_cpu},

@@ -33,20 +33,12 @@ struct PassRule {
   double match_iou = 0.5;
 };
 
-// A system's answers for one view of one scenario, by frame.
-struct ResponseLine {
-  int64_t frame = 0;
-  double timestamp = 0;
-  std::vector<Detection> detections;
-  std::optional<double> ttc_s;
-  bool warning = false, brake = false;
-};
-// Reads system/responses.jsonl; throws hf::Error naming the file and line.
-std::vector<ResponseLine> read_responses(const std::filesystem::path& file);
+// Reads system/responses.jsonl (the system_responses sink's SystemResponse lines); throws hf::Error naming the file and line.
+std::vector<SystemResponse> read_responses(const std::filesystem::path& file);
 
 // What one system did in one scenario (the JSON of report.json's scenario entries).
-Json score_scenario(const scenario::Package& pkg, const std::vector<ResponseLine>& augmented,
-                    const std::vector<ResponseLine>& control, const PassRule& rule);
+Json score_scenario(const scenario::Package& pkg, const std::vector<SystemResponse>& augmented,
+                    const std::vector<SystemResponse>& control, const PassRule& rule);
 
 int cmd_test(core::Host& host, const SystemTestOptions& o);
 
