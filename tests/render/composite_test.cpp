@@ -458,6 +458,40 @@ TEST(Composite, HarmonisationMovesLightnessTowardsTheSurroundings) {
   EXPECT_GT(bright, bright0 + 5);
 }
 
+TEST(Composite, OnAGrayscaleCameraThePictureIsGreyOnAColourCameraItKeepsItsColour) {
+  // The default car (coloured lamps and body) drawn into the same texture seen by a grayscale camera and by a
+  // colour one (the texture plus coloured patches). Chroma of a pixel: max(B, G, R) - min(B, G, R).
+  auto drawn_chroma = [](const cv::Mat& img) {
+    RendererOptions o = options();
+    o.composite.feather_px = 0;
+    o.composite.grain = false;
+    HazardRenderer r(o, std::make_shared<const AssetLibrary>(AssetLibrary::load(test::default_asset_dir())));
+    auto traj = std::make_shared<const HazardTrajectory>(
+        static_object("car", 12.0, 0.0, 0.0, 0.0, 1.0, 0.0, cv::Vec3d(4.5, 1.85, 1.52)));
+    const auto res = r.render(make_frame(0, 0.0, img, test_camera(), cv::Matx44d::eye()), traj, {});
+    EXPECT_TRUE(res.composite.drawn);
+    std::vector<int> chroma;
+    const cv::Mat roi = res.frame.image(res.composite.roi);
+    for (int y = 0; y < roi.rows; ++y)
+      for (int x = 0; x < roi.cols; ++x)
+        if (res.composite.alpha.at<uint8_t>(y, x) >= 253) {
+          const auto& p = roi.at<cv::Vec3b>(y, x);
+          chroma.push_back(std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}));
+        }
+    EXPECT_GT(chroma.size(), 1000u);
+    std::sort(chroma.begin(), chroma.end());
+    return chroma.empty() ? -1 : chroma[chroma.size() * 99 / 100];
+  };
+  const cv::Mat grey = hf::test::textured_image();
+  cv::Mat colour = grey.clone(), patches(9, 16, CV_8UC3);
+  cv::randu(patches, cv::Scalar::all(0), cv::Scalar::all(255));
+  cv::resize(patches, patches, grey.size(), 0, 0, cv::INTER_NEAREST);
+  cv::addWeighted(grey, 0.6, patches, 0.4, 0.0, colour);
+  const int on_grey = drawn_chroma(grey), on_colour = drawn_chroma(colour);
+  EXPECT_LE(on_grey, 2) << "a grayscale camera shows no colour";
+  EXPECT_GE(on_colour, 20) << "a colour camera keeps the picture's colours";
+}
+
 TEST(ArRendererStage, PassesFramesThroughUntilTheHazardStartsAndEmitsOneInstancePerFrame) {
   auto runner = hf::testing::StageRunner::create<ArRenderer>("ego_motion: poses\nshadow: false");
   const cv::Mat img = hf::test::textured_image();

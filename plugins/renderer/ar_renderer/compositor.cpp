@@ -3,6 +3,7 @@
 #include "compositor.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -217,6 +218,15 @@ cv::Mat background_ring(const cv::Mat& alpha, cv::Rect at, cv::Size roi, cv::Mat
   return work(cv::Rect(cv::Point(0, 0), roi));
 }
 
+// Whether the camera records no colour: over every frame sampled so far, 99.5 % of the frame lies within
+// kMonochromeReach of one Lab a/b point. A grey pixel (R = G = B) is a = b = 128 exactly; a grayscale video
+// through a 4:2:0 codec and 8-bit rounding reads 0 or 1. A colour camera on a street reads 4 or more even
+// under an overcast sky (nuScenes scene-0916: 4 to 9 in a, 6 to 22 in b).
+constexpr double kMonochromeReach = 2.0;
+bool monochrome_camera(const CompositorState& ex) {
+  return ex.gamut_reach[0] >= 0 && ex.gamut_reach[0] <= kMonochromeReach && ex.gamut_reach[1] <= kMonochromeReach;
+}
+
 // Per-channel affine map in Lab moving the asset's statistics part of the way to the surroundings'.
 cv::Mat harmonisation_lut(const LoadedAsset& a, const CompositorState& ex, const CompositeOptions& o) {
   cv::Mat lut(1, 256, CV_8UC3);
@@ -229,12 +239,44 @@ cv::Mat harmonisation_lut(const LoadedAsset& a, const CompositorState& ex, const
     const double st = so * std::pow(sr / so, s);
     gain[c] = std::clamp(st / so, 0.5, 2.0);
     off[c] = mt - gain[c] * mo;
+    if (c > 0 && monochrome_camera(ex)) {
+      // A camera that records no colour: the picture takes the camera's grey (or tint) too.
+      gain[c] = 0.0;
+      off[c] = ex.gamut_centre[c - 1];
+    }
   }
   auto* p = lut.ptr<cv::Vec3b>(0);
   for (int v = 0; v < 256; ++v)
     for (int c = 0; c < 3; ++c) p[v][c] = cv::saturate_cast<uint8_t>(gain[c] * v + off[c]);
   return lut;
 }
+
+}  // namespace
+
+void camera_gamut(const cv::Mat& image, cv::Vec2d& centre, cv::Vec2d& reach) {
+  // Nearest-neighbour sampling keeps each pixel's own colour (averaging would shrink the reach).
+  const double f = std::min(1.0, 160.0 / std::max(1, std::max(image.cols, image.rows)));
+  cv::Mat small, lab;
+  cv::resize(image, small, cv::Size(), f, f, cv::INTER_NEAREST);
+  cv::cvtColor(small, lab, cv::COLOR_BGR2Lab);
+  for (int c = 0; c < 2; ++c) {
+    std::array<int, 256> hist{}, dev{};
+    for (int y = 0; y < lab.rows; ++y) {
+      const auto* p = lab.ptr<cv::Vec3b>(y);
+      for (int x = 0; x < lab.cols; ++x) ++hist[p[x][c + 1]];
+    }
+    const int n = static_cast<int>(lab.total());
+    int median = 0;
+    for (int acc = 0; median < 255 && (acc += hist[static_cast<size_t>(median)]) * 2 < n;) ++median;
+    for (int v = 0; v < 256; ++v) dev[static_cast<size_t>(std::abs(v - median))] += hist[static_cast<size_t>(v)];
+    int r = 0;
+    for (int acc = 0; r < 255 && (acc += dev[static_cast<size_t>(r)]) < 0.995 * n;) ++r;
+    centre[c] = median;
+    reach[c] = r;
+  }
+}
+
+namespace {
 
 // x * y / 255 for x * y <= 65025, rounded (the usual (t + (t >> 8)) >> 8 with t = x y + 128).
 uint32_t mul_div255(uint32_t x, uint32_t y) {
@@ -495,12 +537,19 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       ++ex.noise_frames;
     }
   }
+  if (ex.frame % 4 == 0) {
+    // What colours the camera records: the widest reach so far (a camera's gamut does not shrink).
+    cv::Vec2d centre, reach;
+    camera_gamut(image, centre, reach);
+    ex.gamut_centre = ex.gamut_reach[0] < 0 ? centre : ex.gamut_centre * 0.8 + centre * 0.2;
+    for (int c = 0; c < 2; ++c) ex.gamut_reach[c] = std::max(ex.gamut_reach[c], reach[c]);
+  }
   ++ex.frame;
   // The harmonised, premultiplied, feathered picture at this level. It is rebuilt only when the asset or
   // level changes, when the (smoothed, so settling) harmonisation moves by more than two grey levels, or when
   // the feather width in picture pixels drifts by a quarter as the object's size changes.
   const cv::Mat lut =
-      ex.valid && (o.harmonize_luma > 0 || o.harmonize_chroma > 0) ? harmonisation_lut(a, ex, o) : cv::Mat();
+      ex.valid ? harmonisation_lut(a, ex, o) : cv::Mat();
   const double level_face_h = (sy1 - sy0) * f;
   const double feather = o.feather_px > 0.05 ? o.feather_px * level_face_h / std::max(iy1 - iy0, 1.0) : 0.0;
   bool rebuild = st.sprite_asset != &a || st.sprite_level != r.level ||

@@ -53,6 +53,9 @@ struct Placement {
 struct CompositorState {
   cv::Scalar mean, stddev;
   bool valid = false;
+  // The colours the camera records (camera_gamut): the neutral point of Lab a and b, and the widest reach
+  // from it seen so far in this hazard's frames (0 for a grayscale camera; -1 before the first frame).
+  cv::Vec2d gamut_centre{128, 128}, gamut_reach{-1, -1};
   double noise_sigma = 0.0;  // sensor noise around the object (8-bit grey levels), smoothed
   int noise_frames = 0;      // frames it was measured on
   int64_t frame = 0;         // moves the grain pattern every frame
@@ -98,6 +101,11 @@ std::vector<int> mapping_corners(const AssetSpec& asset, const std::array<cv::Po
 // The homography from an asset's level-0 pixels to image pixels, fitted on those corners (4 corners: exact;
 // 6: least squares).
 cv::Matx33d asset_homography(const LoadedAsset& asset, const std::array<cv::Point2d, 8>& corners_px);
+
+// The colours a camera records in one frame: the median of Lab a and b over a coarse grid of the frame
+// (`centre`) and how far the 99.5th percentile of |a - median| and |b - median| reaches (`reach`). A grayscale
+// camera reads a reach of 0 or 1; a colour camera on a street reads tens (signs, lights, cars, sky).
+void camera_gamut(const cv::Mat& image, cv::Vec2d& centre, cv::Vec2d& reach);
 
 // Draws the object into `image` (BGR 8-bit, modified in place).
 CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOptions& o,
