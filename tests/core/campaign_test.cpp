@@ -9,6 +9,8 @@
 #include <csignal>
 #include <fstream>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "command.hpp"
 #include "hazardforge/apps/campaign.hpp"
 #include "hazardforge/apps/child_process.hpp"
@@ -343,6 +345,128 @@ TEST(CampaignAttempts, AnAttemptThatEndedOnItsOwnIsReadBackNotRunAgain) {
   EXPECT_EQ(with_status("failed"), 1);
   EXPECT_EQ(with_status("interrupted"), std::nullopt);
   EXPECT_EQ(with_status("running"), std::nullopt);
+}
+
+// ---- recordings found, not listed
+// ---------------------------------------------------------------------------
+
+bool has(const std::vector<std::string>& v, const std::string& x) {
+  return std::find(v.begin(), v.end(), x) != v.end();
+}
+
+TEST(CampaignRecordingsFrom, ANuscenesDatarootGivesEveryMatchingSceneWithItsLogsDrivingSide) {
+  test::TempDir dir;
+  const auto tables = dir / "v1.0-mini";
+  std::filesystem::create_directories(tables);
+  std::ofstream(tables / "scene.json")
+      << R"([{"token":"s1","name":"scene-0001","log_token":"l1"},{"token":"s2","name":"scene-0002","log_token":"l2"},
+             {"token":"s3","name":"scene-0916","log_token":"l1"},{"token":"s4"}])";
+  std::ofstream(tables / "log.json") << R"([{"token":"l1","location":"singapore-onenorth"},
+                                            {"token":"l2","location":"boston-seaport"}])";
+  FoundRecordings f = nuscenes_recordings(dir.path(), "", {"scene-000*"});
+  ASSERT_EQ(f.found.size(), 2u);
+  EXPECT_EQ(f.found[0].name, "scene-0001");
+  EXPECT_TRUE(has(f.found[0].set, "scene.road.driving_side=left"));
+  EXPECT_TRUE(has(f.found[0].set, "source.scenes=[\"scene-0001\"]"));
+  EXPECT_TRUE(has(f.found[0].set, "source.version=\"v1.0-mini\""));
+  EXPECT_TRUE(has(f.found[1].set, "scene.road.driving_side=right"));
+  ASSERT_EQ(f.skipped.size(), 1u);  // the scene without a name
+  EXPECT_EQ(nuscenes_recordings(dir.path(), "v1.0-mini", {}).found.size(), 3u);
+
+  // No log table: the camera files' log names carry the UTC offset (+0800: Singapore).
+  std::filesystem::remove(tables / "log.json");
+  std::filesystem::create_directories(dir / "samples" / "CAM_FRONT");
+  std::ofstream(dir / "samples" / "CAM_FRONT" / "n015-2018-10-08-15-36-50+0800__CAM_FRONT__1.jpg") << "x";
+  f = nuscenes_recordings(dir.path(), "", {"scene-0916"});
+  ASSERT_EQ(f.found.size(), 1u);
+  EXPECT_TRUE(has(f.found[0].set, "scene.road.driving_side=left"));
+  // Two table folders and none named; no table at all.
+  std::filesystem::create_directories(dir / "v1.0-trainval");
+  std::ofstream(dir / "v1.0-trainval" / "scene.json") << "[]";
+  EXPECT_THROW(nuscenes_recordings(dir.path(), "", {}), Error);
+  EXPECT_THROW(nuscenes_recordings(dir / "samples", "", {}), Error);
+}
+
+TEST(CampaignRecordingsFrom, AKittiRawRootGivesEveryDriveWithItsCameraAndRate) {
+  test::TempDir dir;
+  const auto date = dir / "2011_09_26";
+  std::filesystem::create_directories(date / "2011_09_26_drive_0001_sync" / "image_02" / "data");
+  std::filesystem::create_directories(date / "2011_09_26_drive_0002_sync" / "image_02" / "data");
+  cv::imwrite((date / "2011_09_26_drive_0001_sync" / "image_02" / "data" / "0000000000.png").string(),
+              cv::Mat(4, 4, CV_8UC3, cv::Scalar::all(9)));
+  std::ofstream(date / "calib_cam_to_cam.txt")
+      << "calib_time: 09-Jan-2012\nP_rect_02: 7.215377e+02 0 6.095593e+02 4.485728e+01 0 7.215377e+02 "
+         "1.728540e+02 2.163791e-01 0 0 1 2.745884e-03\n";
+  const FoundRecordings f = kitti_raw_recordings(dir.path());
+  ASSERT_EQ(f.found.size(), 1u);
+  EXPECT_EQ(f.found[0].name, "2011_09_26_drive_0001_sync");
+  const auto& set = f.found[0].set;
+  EXPECT_TRUE(has(set, "source.fps=10"));
+  EXPECT_TRUE(has(set, "scene.camera.fx=721.5377"));
+  EXPECT_TRUE(has(set, "scene.camera.cx=609.5593"));
+  EXPECT_TRUE(has(set, "scene.camera.cy=172.854"));
+  EXPECT_TRUE(has(set, "scene.camera.height_m=1.65"));
+  EXPECT_TRUE(has(set, "scene.road.driving_side=right"));
+  ASSERT_EQ(f.skipped.size(), 1u);  // drive 2 has no frames
+  EXPECT_NE(f.skipped[0].what.find("drive_0002"), std::string::npos);
+  EXPECT_THROW(kitti_raw_recordings(dir / "nothing"), Error);
+}
+
+TEST(CampaignRecordingsFrom, FilePatternsGiveVideosAndPictureFoldersAndLeaveOutWhatCannotBeRead) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir / "a" / "frames");
+  std::filesystem::create_directories(dir / "b");
+  std::filesystem::create_directories(dir / "a" / "notes");
+  std::ofstream(dir / "a" / "drive #1.mp4") << "not empty";
+  std::ofstream(dir / "a" / "empty.mp4");
+  std::ofstream(dir / "a" / "readme.txt") << "x";
+  std::ofstream(dir / "b" / "drive #1.MP4") << "not empty";
+  cv::imwrite((dir / "a" / "frames" / "0001.jpg").string(), cv::Mat(4, 4, CV_8UC3, cv::Scalar::all(9)));
+  const FoundRecordings f = file_recordings(
+      {(dir / "a" / "*").string(), (dir / "b" / "*.{mp4,MP4}").string(), (dir / "c*").string()});
+  std::vector<std::string> names, taken;
+  for (const auto& r : f.found) names.push_back(unique_recording_name(r.name, taken));
+  EXPECT_EQ(names, (std::vector<std::string>{"drive__1", "frames", "drive__1-2"}));
+  EXPECT_TRUE(has(f.found[0].set, "source.path=\"" + (dir / "a" / "drive #1.mp4").string() + "\""));
+  std::vector<std::string> skipped;
+  for (const auto& k : f.skipped)
+    skipped.push_back(std::filesystem::path(k.what).filename().string() + ": " + k.reason);
+  EXPECT_TRUE(has(skipped, "empty.mp4: empty"));
+  EXPECT_TRUE(has(skipped, "notes: a folder without pictures (png, jpg, bmp, tif)"));
+  EXPECT_TRUE(has(skipped, "c*: matches nothing"));
+  EXPECT_EQ(f.skipped.size(), 3u);  // readme.txt is not a recording and not reported
+}
+
+TEST(CampaignRecordingsFrom, AnEntrysErrorsNameFileLineAndKey) {
+  test::TempDir dir;
+  std::ofstream(dir / "g.yaml") << "nodes: []\n";
+  const auto spec = dir / "c.yaml";
+  std::ofstream(spec)
+      << "name: c\nrecordings_from:\n  - videos: x/*.mp4\n    nuscenes: y\n    config: g.yaml\n"
+      << "  - kitti_raw: k\n    config: g.yaml\n    scenes: [a]\n  - videos: x.mp4\n";
+  try {
+    load_campaign(spec.string());
+    FAIL() << "accepted";
+  } catch (const DiagnosticError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(":3:"), std::string::npos) << what;
+    EXPECT_NE(what.find("an entry names one source"), std::string::npos) << what;
+    EXPECT_NE(what.find("'scenes' and 'version' belong to a nuscenes entry"), std::string::npos) << what;
+    EXPECT_NE(what.find("needs a 'config'"), std::string::npos) << what;
+  }
+  // Found entries come after the listed ones, named uniquely, with the entry's overrides last.
+  std::filesystem::create_directories(dir / "v");
+  std::ofstream(dir / "v" / "a.mp4") << "x";
+  std::ofstream(spec) << "name: c\nrecordings:\n  - {name: a, config: g.yaml}\nrecordings_from:\n"
+                      << "  - {videos: v/*.mp4, config: g.yaml, set: [source.fps=5]}\n"
+                      << "  - {videos: [w/*.mp4], config: g.yaml}\n";
+  const CampaignSpec s = load_campaign(spec.string());
+  ASSERT_EQ(s.recordings.size(), 2u);
+  EXPECT_EQ(s.recordings[1].name, "a-2");
+  EXPECT_EQ(s.recordings[1].set.back(), "source.fps=5");
+  ASSERT_EQ(s.skipped.size(), 1u);
+  EXPECT_NE(s.skipped[0].what.find("c.yaml:6: "), std::string::npos) << s.skipped[0].what;
+  EXPECT_EQ(s.skipped[0].reason, "matches nothing");
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -213,6 +214,57 @@ TEST(CampaignEndToEnd, AThirdPartyHazardKindIsGeneratedAndVerified) {
   EXPECT_TRUE(v["passed"].get<bool>());
   EXPECT_GT(v["unsafe"]["attributed_frames"].get<int>(), 0);
   EXPECT_TRUE(fs::exists(scenario / "scenario.xosc"));
+}
+
+// Recordings found by recordings_from on the real data: a video file pattern and a nuScenes dataroot. What
+// cannot be used — a pattern matching nothing, a file that does not decode — is reported and left out, the
+// rest is scouted; `campaign status` reads it back from the folder alone.
+TEST(CampaignEndToEnd, RecordingsFoundInPatternsAndADatasetAndWhatCannotBeReadIsLeftOut) {
+  const fs::path shared = test::shared_dir();
+  HF_REQUIRE_SHARED(shared / "data/udacity-highway/test_video.mp4");
+  HF_REQUIRE_SHARED(shared / "data/nuscenes/v1.0-mini/scene.json");
+  HF_REQUIRE_SHARED(shared / "models/yolov8n/yolov8n_deq_640x384.onnx");
+  test::TempDir dir;
+  std::ofstream(dir / "broken.mp4") << std::string(4096, '\x5a');  // not a video
+  std::ofstream(dir / "c.yaml")
+      << "name: found\nkinds: [sudden_stop]\nbudget: {attempts: 1, cpu_s: 600}\nrecordings_from:\n"
+      << "  - videos: [" << (shared / "data/udacity-highway/*.mp4").string() << ", "
+      << (dir / "*.mp4").string() << ", " << (dir / "none/*.mp4").string() << "]\n"
+      << "    config: " << (test::source_dir() / "configs/video.yaml").string() << "\n"
+      << "  - nuscenes: " << (shared / "data/nuscenes").string() << "\n    scenes: [\"scene-09*\"]\n"
+      << "    config: " << (test::source_dir() / "configs/pedestrian_crossing.yaml").string() << "\n";
+  const fs::path out = dir / "out";
+  const auto r = test::run_command(hazardforge(shared) + " campaign " + test::quote(dir / "c.yaml") + " -o " +
+                                   test::quote(out) + " --max-attempts 0");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("c.yaml:5: " + (dir / "none/*.mp4").string() + ": matches nothing"), std::string::npos)
+      << r.out;
+  const Json index = test::read_json_file(out / "index.json");
+  std::map<std::string, Json> recs;
+  for (const Json& rec : index["recordings"]) recs[rec["name"].get<std::string>()] = rec;
+  ASSERT_TRUE(recs.count("test_video")) << index["recordings"].dump();
+  EXPECT_FALSE(recs["test_video"]["windows"].empty());  // scouted: it has candidate windows
+  // The nuScenes scene's driving side from the camera files' log names (the shared tables have no log.json).
+  ASSERT_TRUE(recs.count("scene-0916"));
+  EXPECT_FALSE(recs["scene-0916"]["windows"].empty());
+  const Json set = recs["scene-0916"]["set"];
+  EXPECT_NE(std::find(set.begin(), set.end(), Json("scene.road.driving_side=left")), set.end()) << set.dump();
+  std::map<std::string, std::string> skipped;
+  for (const Json& k : index["skipped"])
+    skipped[k["what"].get<std::string>()] = k["reason"].get<std::string>();
+  ASSERT_EQ(skipped.size(), 2u) << index["skipped"].dump();
+  EXPECT_NE(skipped["broken"].find("not a video OpenCV/FFmpeg can decode"), std::string::npos)
+      << skipped["broken"];
+
+  const auto st = test::run_command(hazardforge(shared) + " campaign status " + test::quote(out) + " --json");
+  ASSERT_EQ(st.code, 0) << st.out;
+  const Json status = Json::parse(st.out);
+  EXPECT_EQ(status["skipped"].size(), 2u);
+  EXPECT_TRUE(status["attempts"].empty());
+  EXPECT_FALSE(status["complete"].get<bool>());
+  const auto text = test::run_command(hazardforge(shared) + " campaign status " + test::quote(out));
+  EXPECT_NE(text.out.find("left out: broken: its scouting run failed"), std::string::npos) << text.out;
+  EXPECT_EQ(test::run_command(hazardforge(shared) + " campaign status " + test::quote(dir.path())).code, 1);
 }
 
 }  // namespace

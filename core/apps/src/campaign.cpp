@@ -93,13 +93,14 @@ CampaignSpec load_campaign(const std::string& file) {
     bad("", "a campaign is a mapping with 'recordings' (and optionally name, kinds, budget, windows)");
     throw DiagnosticError(std::move(diags));
   }
-  static const std::set<std::string> kKeys = {"name",   "description", "kinds",          "budget",
-                                              "windows", "recordings", "scenarios_per_pair"};
+  static const std::set<std::string> kKeys = {"name",       "description",     "kinds",
+                                              "budget",     "windows",         "recordings",
+                                              "recordings_from", "scenarios_per_pair"};
   for (auto it = v.begin(); it != v.end(); ++it)
     if (!kKeys.count(it.key()))
       bad("/" + it.key(), "unknown key '" + it.key() +
                               "' (a campaign has name, description, kinds, budget, windows, scenarios_per_pair, "
-                              "recordings)");
+                              "recordings, recordings_from)");
   s.name = v.value("name", fs::path(file).stem().string());
   if (!safe_name(s.name)) bad("/name", "name '" + s.name + "' must be letters, digits, '-', '_' or '.'");
   s.description = v.value("description", "");
@@ -160,11 +161,39 @@ CampaignSpec load_campaign(const std::string& file) {
   number(w, "/windows", "seeds_per_window", seeds, 1, 100);
   s.seeds_per_window = static_cast<int>(seeds);
 
-  if (!v.contains("recordings") || !v["recordings"].is_array() || v["recordings"].empty()) {
-    bad(v.contains("recordings") ? "/recordings" : "",
-        "a campaign needs 'recordings': a list of {name, config, set}");
-  } else {
-    std::set<std::string> names;
+  auto read_set = [&](const Json& r, const std::string& ptr, std::vector<std::string>& out) {
+    if (!r.contains("set")) return;
+    const Json& set = r["set"];
+    if (set.is_string()) out.push_back(set.get<std::string>());
+    else if (set.is_array())
+      for (size_t k = 0; k < set.size(); ++k)
+        if (set[k].is_string()) out.push_back(set[k].get<std::string>());
+        else bad(ptr + "/set/" + std::to_string(k), "an override is a string 'node.param=value'");
+    else bad(ptr + "/set", "'set' is a list of overrides 'node.param=value'");
+  };
+  auto read_config = [&](const Json& r, const std::string& ptr,
+                         const std::string& what) -> std::optional<fs::path> {
+    if (!r.contains("config") || !r["config"].is_string()) {
+      bad(ptr, what + " needs a 'config': the scenario graph to run on it");
+      return std::nullopt;
+    }
+    fs::path c = expand_vars(r["config"].get<std::string>());
+    if (c.is_relative()) c = s.file.parent_path() / c;
+    c = c.lexically_normal();
+    if (!fs::exists(c)) bad(ptr + "/config", "config " + c.string() + " not found");
+    return c;
+  };
+  const bool listed = v.contains("recordings"), found = v.contains("recordings_from");
+  if ((!listed || !v["recordings"].is_array() || v["recordings"].empty()) &&
+      (!found || !v["recordings_from"].is_array() || v["recordings_from"].empty())) {
+    bad(listed ? "/recordings" : found ? "/recordings_from" : "",
+        "a campaign needs 'recordings' (a list of {name, config, set}) or 'recordings_from' (a list of "
+        "{nuscenes | kitti_raw | videos, config, set})");
+  } else if (listed && !v["recordings"].is_array()) {
+    bad("/recordings", "'recordings' is a list of {name, config, set}");
+  }
+  std::vector<std::string> names;
+  if (listed && v["recordings"].is_array()) {
     for (size_t i = 0; i < v["recordings"].size(); ++i) {
       const std::string ptr = "/recordings/" + std::to_string(i);
       const Json& r = v["recordings"][i];
@@ -182,27 +211,102 @@ CampaignSpec load_campaign(const std::string& file) {
         continue;
       }
       rec.name = r["name"].get<std::string>();
-      if (!names.insert(rec.name).second) bad(ptr + "/name", "two recordings are both named '" + rec.name + "'");
-      if (!r.contains("config") || !r["config"].is_string()) {
-        bad(ptr, "recording '" + rec.name + "' needs a 'config': the scenario graph to run on it");
-        continue;
-      }
-      fs::path c = expand_vars(r["config"].get<std::string>());
-      if (c.is_relative()) c = s.file.parent_path() / c;
-      rec.config = c.lexically_normal();
+      if (std::find(names.begin(), names.end(), rec.name) != names.end())
+        bad(ptr + "/name", "two recordings are both named '" + rec.name + "'");
+      names.push_back(rec.name);
+      const auto c = read_config(r, ptr, "recording '" + rec.name + "'");
+      if (!c) continue;
+      rec.config = *c;
       rec.set_base = fs::absolute(s.file).parent_path();
-      if (!fs::exists(rec.config)) bad(ptr + "/config", "config " + rec.config.string() + " not found");
-      if (r.contains("set")) {
-        const Json& set = r["set"];
-        if (set.is_string()) rec.set.push_back(set.get<std::string>());
-        else if (set.is_array())
-          for (size_t k = 0; k < set.size(); ++k)
-            if (set[k].is_string()) rec.set.push_back(set[k].get<std::string>());
-            else bad(ptr + "/set/" + std::to_string(k), "an override is a string 'node.param=value'");
-        else bad(ptr + "/set", "'set' is a list of overrides 'node.param=value'");
-      }
+      read_set(r, ptr, rec.set);
       s.recordings.push_back(std::move(rec));
     }
+  }
+  // Recordings found in datasets and file patterns: a wrong key is the campaign file's error; what an entry
+  // finds but cannot use is reported and left out.
+  if (found && v["recordings_from"].is_array())
+    for (size_t i = 0; i < v["recordings_from"].size(); ++i) {
+      const std::string ptr = "/recordings_from/" + std::to_string(i);
+      const Json& r = v["recordings_from"][i];
+      static const std::set<std::string> kSources = {"nuscenes", "kitti_raw", "videos"};
+      static const std::set<std::string> kKeys2 = {"nuscenes", "kitti_raw", "videos", "config",
+                                                   "set",      "scenes",    "version"};
+      if (!r.is_object()) {
+        bad(ptr, "an entry is {nuscenes: DATAROOT | kitti_raw: FOLDER | videos: PATTERNS, config, set}");
+        continue;
+      }
+      std::vector<std::string> sources;
+      for (auto it = r.begin(); it != r.end(); ++it) {
+        if (!kKeys2.count(it.key()))
+          bad(ptr + "/" + it.key(), "unknown key '" + it.key() +
+                                        "' in recordings_from (nuscenes, kitti_raw or videos; config, set; "
+                                        "scenes and version for nuscenes)");
+        if (kSources.count(it.key())) sources.push_back(it.key());
+      }
+      if (sources.size() != 1) {
+        bad(ptr, "an entry names one source: nuscenes, kitti_raw or videos");
+        continue;
+      }
+      const std::string src = sources.front();
+      if ((r.contains("scenes") || r.contains("version")) && src != "nuscenes")
+        bad(ptr, "'scenes' and 'version' belong to a nuscenes entry");
+      std::vector<std::string> strings;  // the source's value(s), and nuScenes scene patterns
+      auto string_list = [&](const Json& x, const std::string& at, std::vector<std::string>& out) {
+        if (x.is_string()) out.push_back(x.get<std::string>());
+        else if (x.is_array() && std::all_of(x.begin(), x.end(), [](const Json& e) { return e.is_string(); }))
+          for (const Json& e : x) out.push_back(e.get<std::string>());
+        else bad(at, "a text or a list of texts");
+      };
+      string_list(r[src], ptr + "/" + src, strings);
+      const auto c = read_config(r, ptr, "a recordings_from entry");
+      std::vector<std::string> set;
+      read_set(r, ptr, set);
+      if (!c || strings.empty()) continue;
+      auto path_of = [&](const std::string& text) {
+        fs::path p = expand_vars(text);
+        return p.is_relative() ? (s.file.parent_path() / p).lexically_normal() : p;
+      };
+      FoundRecordings f;
+      try {
+        if (src == "nuscenes") {
+          std::vector<std::string> scenes;
+          if (r.contains("scenes")) string_list(r["scenes"], ptr + "/scenes", scenes);
+          if (strings.size() != 1) bad(ptr + "/nuscenes", "one dataroot per entry");
+          f = nuscenes_recordings(path_of(strings.front()), r.value("version", ""), scenes);
+        } else if (src == "kitti_raw") {
+          for (const std::string& root : strings) {
+            FoundRecordings k = kitti_raw_recordings(path_of(root));
+            f.found.insert(f.found.end(), k.found.begin(), k.found.end());
+            f.skipped.insert(f.skipped.end(), k.skipped.begin(), k.skipped.end());
+          }
+        } else {
+          std::vector<std::string> patterns;
+          for (const std::string& p : strings) patterns.push_back(path_of(p).string());
+          f = file_recordings(patterns);
+        }
+      } catch (const Error& e) {
+        f.skipped.push_back({ptr, e.what()});
+      }
+      for (SkippedRecording& k : f.skipped) {
+        k.what = s.file.string() + ":" + std::to_string(doc.at(ptr).line) + ": " + k.what;
+        s.skipped.push_back(std::move(k));
+      }
+      for (FoundRecording& fr : f.found) {
+        CampaignRecording rec;
+        rec.where = doc.at(ptr);
+        rec.name = unique_recording_name(fr.name, names);
+        rec.config = *c;
+        rec.set_base = fs::absolute(s.file).parent_path();
+        rec.set = std::move(fr.set);
+        rec.set.insert(rec.set.end(), set.begin(), set.end());  // the entry's own overrides win
+        s.recordings.push_back(std::move(rec));
+      }
+    }
+  if (diags.empty() && s.recordings.empty()) {
+    const std::string first =
+        s.skipped.empty() ? std::string("none") : s.skipped.front().what + ": " + s.skipped.front().reason;
+    bad(found ? "/recordings_from" : "/recordings",
+        "no recording found (" + std::to_string(s.skipped.size()) + " left out: " + first + ")");
   }
   if (!diags.empty()) throw DiagnosticError(std::move(diags));
   return s;
@@ -974,6 +1078,10 @@ std::string summary_markdown(const CampaignSpec& s, const Json& sum, const std::
        << (p.verified() > 0 ? "verified" : p.stopped.empty() ? "pending" : "not verified: " + p.stopped) << " | "
        << p.attempts.size() << " | " << fixed(p.cpu(), 0) << " | " << last << " |\n";
   }
+  if (!s.skipped.empty()) {
+    md << "\n| left out | why |\n|---|---|\n";
+    for (const SkippedRecording& k : s.skipped) md << "| " << k.what << " | " << k.reason << " |\n";
+  }
   for (const char* table : {"by_kind", "by_recording"}) {
     md << "\n| " << (std::string(table) == "by_kind" ? "kind" : "recording")
        << " | verified pairs | attempts | verified attempts | yield |\n|---|---:|---:|---:|---:|\n";
@@ -1073,6 +1181,9 @@ void write_reports(const CampaignSpec& s, const fs::path& out, const std::vector
     index["recordings"].push_back({{"name", r.name}, {"config", r.config.string()}, {"set", r.set},
                                    {"windows", wl}});
   }
+  index["skipped"] = Json::array();
+  for (const SkippedRecording& k : s.skipped)
+    index["skipped"].push_back({{"what", k.what}, {"reason", k.reason}});
   for (const Pair& p : pairs)
     for (const Json& a : p.attempts) index["attempts"].push_back(a);
   write_file_atomic(out / "index.json", json_text(index, 2) + "\n");
@@ -1126,10 +1237,22 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
     } else {
       write_file_atomic(copy, json_text(this_spec, 2) + "\n");
     }
+    for (const SkippedRecording& k : spec.skipped)
+      std::cerr << "warning: campaign: left out " << k.what << ": " << k.reason << "\n";
     for (size_t i = 0; i < spec.recordings.size(); ++i) {
       const CampaignRecording& r = spec.recordings[i];
       if (!o.quiet) std::cerr << "campaign: scouting " << r.name << " (" << r.config.string() << ")\n";
-      Scouted sc = scout(host, spec, r, out / "recordings" / r.name, o);
+      Scouted sc;
+      try {
+        sc = scout(host, spec, r, out / "recordings" / r.name, o);
+      } catch (const Error& e) {
+        // A recording that cannot be read (gone, corrupt, a graph its data does not fit) is left out, and
+        // scouted again when the campaign runs again.
+        if (o.interrupt && o.interrupt->load()) throw Error("interrupted while scouting " + r.name);
+        spec.skipped.push_back({r.name, std::string("its scouting run failed: ") + redact_urls(e.what())});
+        std::cerr << "warning: campaign: left out " << r.name << ": " << spec.skipped.back().reason << "\n";
+        continue;
+      }
       if (o.interrupt && o.interrupt->load()) throw Error("interrupted while scouting " + r.name);
       scout_cpu += sc.cpu_s;
       feedback_ok[r.name] = sc.has_feedback;
@@ -1175,6 +1298,13 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
     }
   } catch (const Error& e) {
     std::cerr << "error: " << redact_urls(e.what()) << "\n";
+    return 1;
+  }
+  if (pairs.empty()) {
+    write_reports(spec, out, pairs, windows, scout_cpu,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), false);
+    std::cerr << "error: campaign: no recording could be scouted (" << spec.skipped.size()
+              << " left out; see " << (out / "summary.md").string() << ")\n";
     return 1;
   }
 

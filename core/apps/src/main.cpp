@@ -112,7 +112,20 @@ int main(int argc, char** argv) {
   auto* campaign = app.add_subcommand(
       "campaign", "Search recordings x hazard kinds in closed loop for verified scenarios (docs/campaigns.md)");
   CampaignOptions copt_campaign;
-  campaign->add_option("spec", copt_campaign.spec, "Campaign file (YAML)")->required()->check(CLI::ExistingFile);
+  campaign->add_option("spec", copt_campaign.spec, "Campaign file (YAML)")->check(CLI::ExistingFile);
+  auto* campaign_status = campaign->add_subcommand(
+      "status",
+      "What a campaign folder holds now: pairs and attempts by state, failed attempts with their logs");
+  std::string status_dir;
+  bool status_json = false;
+  campaign_status->add_option("dir", status_dir, "Campaign folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  campaign_status->add_flag("--json", status_json, "Print it as one JSON object");
+  campaign->callback([&] {
+    if (!*campaign_status && copt_campaign.spec.empty())
+      throw CLI::RequiredError("campaign: a campaign file (or 'status DIR')");
+  });
   campaign->add_option("-o,--output", copt_campaign.output_dir, "Campaign folder (default runs/<name>)");
   campaign->add_option("-j,--jobs", copt_campaign.jobs, "Attempts in parallel")->check(CLI::Range(1, 64));
   campaign->add_option("--max-attempts", copt_campaign.max_attempts,
@@ -212,6 +225,7 @@ int main(int argc, char** argv) {
       eopt.interrupt = &g_interrupt;
       return cmd_experiment(host, eopt);
     }
+    if (*campaign_status) return cmd_campaign_status(status_dir, status_json);
     if (*campaign) {
       copt_campaign.plugin_paths = plugin_paths;
       copt_campaign.interrupt = &g_interrupt;

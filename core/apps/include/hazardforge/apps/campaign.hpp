@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "hazardforge/apps/executor.hpp"
+#include "hazardforge/apps/recordings_from.hpp"
 #include "hazardforge/core/host.hpp"
 #include "hazardforge/refusal.hpp"
 
@@ -49,7 +50,8 @@ struct CampaignSpec {
   int seeds_per_window = 2;        // attempts at one trigger frame before the next window
   double traffic_wait_s = 1.0;  // after a refusal that names only traffic, the next window is this much later
   double min_horizon_s = 3.0;   // the generator shortens its horizon down to this while no hazard fits
-  std::vector<CampaignRecording> recordings;
+  std::vector<CampaignRecording> recordings;  // listed, then found by recordings_from
+  std::vector<SkippedRecording> skipped;      // found but not usable (reported; the campaign goes on)
 };
 
 // Reads and checks a campaign file (every problem at once, with file and line). Throws hf::DiagnosticError.
@@ -143,5 +145,11 @@ struct CampaignOptions {
 std::optional<int> finished_run_exit_code(const std::filesystem::path& run);
 
 int cmd_campaign(Host& host, const CampaignOptions& o);
+
+// `hazardforge campaign status DIR`: what a campaign folder holds now, read from its files alone (no
+// campaign file, no plugins): pairs and attempts by state, the recordings left out, every failed attempt with
+// its log, attempts still running or queued, and Slurm tasks without an exit status. `json` prints it as one
+// JSON object instead. Returns 0, or 1 when DIR is not a campaign folder.
+int cmd_campaign_status(const std::filesystem::path& dir, bool json);
 
 }  // namespace hf::apps
