@@ -253,6 +253,29 @@ void to_json(Json& j, const Detection& v) {
 void to_json(Json& j, const Detections& v) {
   j = {{"frame", v.frame_index}, {"detector", v.detector}, {"items", v.items}};
 }
+void from_json(const Json& j, Detection& v) {
+  auto bad = [&](const char* what) { return Error(std::string("a detection's ") + what + ": " + j.dump()); };
+  if (!j.is_object()) throw bad("record is not an object");
+  const Json& b = j.contains("box") ? j["box"] : Json();
+  if (!b.is_array() || b.size() != 4 || !std::all_of(b.begin(), b.end(), [](const Json& x) { return x.is_number(); }))
+    throw bad("'box' is not [x, y, width, height]");
+  v.box = {b[0].get<float>(), b[1].get<float>(), b[2].get<float>(), b[3].get<float>()};
+  if (!j.contains("class_id") || !j["class_id"].is_number_integer()) throw bad("'class_id' is not an integer");
+  if (!j.contains("label") || !j["label"].is_string()) throw bad("'label' is not a text");
+  if (!j.contains("score") || !j["score"].is_number()) throw bad("'score' is not a number");
+  v.class_id = j["class_id"].get<int>();
+  v.label = j["label"].get<std::string>();
+  v.score = j["score"].get<float>();
+  v.annotation_index = j.value("annotation_index", -1);
+  v.truncated = j.value("truncated", 0u);
+}
+void from_json(const Json& j, Detections& v) {
+  if (!j.is_object() || !j.contains("items") || !j["items"].is_array())
+    throw Error("a detections record needs 'items', a list: " + j.dump().substr(0, 200));
+  v.frame_index = j.value("frame", int64_t{0});
+  v.detector = j.value("detector", "");
+  v.items = j["items"].get<std::vector<Detection>>();
+}
 void to_json(Json& j, const Track& v) {
   j = {{"id", v.id},         {"box", rect(v.box)},
        {"label", v.label},   {"score", v.score},

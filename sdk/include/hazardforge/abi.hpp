@@ -28,8 +28,9 @@
 // scenario's typed verdict, with its failure codes (verdict::k*). 10.0: HazardInstance (v5) names the picture
 // drawn and where it came from (picture_file, picture_source). 11.0: HazardInstance (v6) carries its 3D box in the
 // ego frame (centre_ego, heading_ego, size_lwh); SystemResponse, a system under test's answer for a frame.
+// 11.1: Detections read back from their JSON record (from_json), for a recorded stream replayed.
 #define HF_SDK_ABI_MAJOR 11
-#define HF_SDK_ABI_MINOR 0
+#define HF_SDK_ABI_MINOR 1
 #define HF_SDK_VERSION "0.1.0"
 
 #define HF_STR_INNER(x) #x

@@ -532,6 +532,10 @@ void to_json(Json& j, const CameraModel& v);
 void from_json(const Json& j, CameraModel& v);
 void to_json(Json& j, const Detection& v);
 void to_json(Json& j, const Detections& v);
+// Read back what to_json wrote (a recorded stream replayed); image_size is not recorded. Throws hf::Error
+// naming the field.
+void from_json(const Json& j, Detection& v);
+void from_json(const Json& j, Detections& v);
 void to_json(Json& j, const Track& v);
 void to_json(Json& j, const Tracks& v);
 void to_json(Json& j, const ObjectState& v);
