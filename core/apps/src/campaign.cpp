@@ -44,6 +44,8 @@ namespace {
 constexpr const char* kScoutNode = "campaign_scout";
 constexpr const char* kHarvestNode = "campaign_footage_harvest";
 constexpr const char* kFootageBank = "appearances";  // below the scouting run: the recording's own cuts
+constexpr const char* kPerceptionNode = "campaign_perception";
+constexpr const char* kPerceptionFile = "perception.jsonl";  // the detectors' output on the original frames
 
 double self_cpu_s() {
   struct rusage ru {};
@@ -78,70 +80,119 @@ bool safe_name(const std::string& s) {
 
 // ---- the campaign file ---------------------------------------------------------------------------------------
 
-}  // namespace
-
-CampaignSpec load_campaign(const std::string& file) {
-  YamlDocument doc = load_yaml_file(file);
-  const Json& v = doc.value;
+// Reads a campaign file into a CampaignSpec part by part, collecting every problem with its file and line.
+struct CampaignReader {
+  const YamlDocument& doc;
+  CampaignSpec& s;
   std::vector<Diagnostic> diags;
-  auto bad = [&](const std::string& ptr, const std::string& msg) {
+  std::vector<std::string> names;  // the recordings' names so far
+
+  const Json& v() const { return doc.value; }
+  void bad(const std::string& ptr, const std::string& msg) {
     diags.push_back({Diagnostic::Severity::kError, doc.at(ptr), msg});
-  };
-  CampaignSpec s;
-  s.file = fs::absolute(file).lexically_normal();
-  if (!v.is_object()) {
-    bad("", "a campaign is a mapping with 'recordings' (and optionally name, kinds, budget, windows)");
-    throw DiagnosticError(std::move(diags));
   }
-  static const std::set<std::string> kKeys = {"name",       "description",     "kinds",
-                                              "budget",     "windows",         "recordings",
-                                              "recordings_from", "scenarios_per_pair"};
-  for (auto it = v.begin(); it != v.end(); ++it)
-    if (!kKeys.count(it.key()))
-      bad("/" + it.key(), "unknown key '" + it.key() +
-                              "' (a campaign has name, description, kinds, budget, windows, scenarios_per_pair, "
-                              "recordings, recordings_from)");
-  s.name = v.value("name", fs::path(file).stem().string());
-  if (!safe_name(s.name)) bad("/name", "name '" + s.name + "' must be letters, digits, '-', '_' or '.'");
-  s.description = v.value("description", "");
-  if (v.contains("kinds")) {
-    if (!v["kinds"].is_array()) bad("/kinds", "'kinds' is a list of hazard kinds (hazard_template names)");
-    else
-      for (size_t i = 0; i < v["kinds"].size(); ++i)
-        if (v["kinds"][i].is_string()) s.kinds.push_back(v["kinds"][i].get<std::string>());
-        else bad("/kinds/" + std::to_string(i), "a kind is a name, e.g. cut_in");
-  }
-  auto number = [&](const Json& obj, const std::string& ptr, const std::string& key, double& out, double lo,
-                    double hi) {
+  void number(const Json& obj, const std::string& ptr, const std::string& key, double& out, double lo,
+              double hi) {
     if (!obj.contains(key)) return;
     if (!obj[key].is_number() || obj[key].get<double>() < lo || obj[key].get<double>() > hi) {
       bad(ptr + "/" + key, "'" + key + "' must be a number in [" + fixed(lo, 1) + ", " + fixed(hi, 1) + "]");
       return;
     }
     out = obj[key].get<double>();
-  };
-  auto section = [&](const std::string& key, const std::set<std::string>& allowed) -> Json {
-    if (!v.contains(key)) return Json::object();
-    if (!v[key].is_object()) {
+  }
+  void integer(const Json& obj, const std::string& ptr, const std::string& key, int& out, double lo,
+               double hi) {
+    double d = out;
+    number(obj, ptr, key, d, lo, hi);
+    out = static_cast<int>(d);
+  }
+  Json section(const std::string& key, const std::set<std::string>& allowed) {
+    if (!v().contains(key)) return Json::object();
+    if (!v()[key].is_object()) {
       bad("/" + key, "'" + key + "' is a mapping");
       return Json::object();
     }
-    for (auto it = v[key].begin(); it != v[key].end(); ++it)
+    for (auto it = v()[key].begin(); it != v()[key].end(); ++it)
       if (!allowed.count(it.key())) {
         std::string list;
         for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        bad("/" + key + "/" + it.key(), "unknown key '" + it.key() + "' in '" + key + "' (one of " + list + ")");
+        bad("/" + key + "/" + it.key(),
+            "unknown key '" + it.key() + "' in '" + key + "' (one of " + list + ")");
       }
-    return v[key];
-  };
+    return v()[key];
+  }
+  void read_set(const Json& r, const std::string& ptr, std::vector<std::string>& out) {
+    if (!r.contains("set")) return;
+    const Json& set = r["set"];
+    if (set.is_string())
+      out.push_back(set.get<std::string>());
+    else if (set.is_array())
+      for (size_t k = 0; k < set.size(); ++k)
+        if (set[k].is_string())
+          out.push_back(set[k].get<std::string>());
+        else
+          bad(ptr + "/set/" + std::to_string(k), "an override is a string 'node.param=value'");
+    else
+      bad(ptr + "/set", "'set' is a list of overrides 'node.param=value'");
+  }
+  std::optional<fs::path> read_config(const Json& r, const std::string& ptr, const std::string& what) {
+    if (!r.contains("config") || !r["config"].is_string()) {
+      bad(ptr, what + " needs a 'config': the scenario graph to run on it");
+      return std::nullopt;
+    }
+    fs::path c = expand_vars(r["config"].get<std::string>());
+    if (c.is_relative()) c = s.file.parent_path() / c;
+    c = c.lexically_normal();
+    if (!fs::exists(c)) bad(ptr + "/config", "config " + c.string() + " not found");
+    return c;
+  }
+  void string_list(const Json& x, const std::string& at, std::vector<std::string>& out) {
+    if (x.is_string())
+      out.push_back(x.get<std::string>());
+    else if (x.is_array() && std::all_of(x.begin(), x.end(), [](const Json& e) { return e.is_string(); }))
+      for (const Json& e : x) out.push_back(e.get<std::string>());
+    else
+      bad(at, "a text or a list of texts");
+  }
+  fs::path path_of(const std::string& text) const {
+    fs::path p = expand_vars(text);
+    return p.is_relative() ? (s.file.parent_path() / p).lexically_normal() : p;
+  }
+
+  void head(const std::string& file);
+  void listed();
+  void found();
+  void found_entry(const Json& r, const std::string& ptr);
+};
+
+// name, description, kinds, budget, scenarios_per_pair, windows.
+void CampaignReader::head(const std::string& file) {
+  static const std::set<std::string> kKeys = {
+      "name",    "description", "kinds",           "budget",
+      "windows", "recordings",  "recordings_from", "scenarios_per_pair"};
+  for (auto it = v().begin(); it != v().end(); ++it)
+    if (!kKeys.count(it.key()))
+      bad("/" + it.key(),
+          "unknown key '" + it.key() +
+              "' (a campaign has name, description, kinds, budget, windows, scenarios_per_pair, "
+              "recordings, recordings_from)");
+  s.name = v().value("name", fs::path(file).stem().string());
+  if (!safe_name(s.name)) bad("/name", "name '" + s.name + "' must be letters, digits, '-', '_' or '.'");
+  s.description = v().value("description", "");
+  if (v().contains("kinds")) {
+    if (!v()["kinds"].is_array())
+      bad("/kinds", "'kinds' is a list of hazard kinds (hazard_template names)");
+    else
+      for (size_t i = 0; i < v()["kinds"].size(); ++i)
+        if (v()["kinds"][i].is_string())
+          s.kinds.push_back(v()["kinds"][i].get<std::string>());
+        else
+          bad("/kinds/" + std::to_string(i), "a kind is a name, e.g. cut_in");
+  }
   const Json budget = section("budget", {"attempts", "cpu_s"});
-  double attempts = s.attempts;
-  number(budget, "/budget", "attempts", attempts, 1, 1000);
-  s.attempts = static_cast<int>(attempts);
+  integer(budget, "/budget", "attempts", s.attempts, 1, 1000);
   number(budget, "/budget", "cpu_s", s.cpu_s, 1, 1e7);
-  double per_pair = s.scenarios_per_pair;
-  number(v, "", "scenarios_per_pair", per_pair, 1, 100);
-  s.scenarios_per_pair = static_cast<int>(per_pair);
+  integer(v(), "", "scenarios_per_pair", s.scenarios_per_pair, 1, 100);
   const Json w = section(
       "windows", {"history_s", "history_frames", "min_left_s", "max_horizon_s", "margin_s", "spacing_s",
                   "seeds_per_window", "min_ego_speed_mps", "lead_s", "traffic_wait_s", "min_horizon_s"});
@@ -154,161 +205,155 @@ CampaignSpec load_campaign(const std::string& file) {
   number(w, "/windows", "lead_s", s.lead_s, 0, 20);
   number(w, "/windows", "traffic_wait_s", s.traffic_wait_s, 0, 60);
   number(w, "/windows", "min_horizon_s", s.min_horizon_s, 0, 60);
-  double history_frames = s.history_frames;
-  number(w, "/windows", "history_frames", history_frames, 0, 1000);
-  s.history_frames = static_cast<int>(history_frames);
-  double seeds = s.seeds_per_window;
-  number(w, "/windows", "seeds_per_window", seeds, 1, 100);
-  s.seeds_per_window = static_cast<int>(seeds);
+  integer(w, "/windows", "history_frames", s.history_frames, 0, 1000);
+  integer(w, "/windows", "seeds_per_window", s.seeds_per_window, 1, 100);
+}
 
-  auto read_set = [&](const Json& r, const std::string& ptr, std::vector<std::string>& out) {
-    if (!r.contains("set")) return;
-    const Json& set = r["set"];
-    if (set.is_string()) out.push_back(set.get<std::string>());
-    else if (set.is_array())
-      for (size_t k = 0; k < set.size(); ++k)
-        if (set[k].is_string()) out.push_back(set[k].get<std::string>());
-        else bad(ptr + "/set/" + std::to_string(k), "an override is a string 'node.param=value'");
-    else bad(ptr + "/set", "'set' is a list of overrides 'node.param=value'");
-  };
-  auto read_config = [&](const Json& r, const std::string& ptr,
-                         const std::string& what) -> std::optional<fs::path> {
-    if (!r.contains("config") || !r["config"].is_string()) {
-      bad(ptr, what + " needs a 'config': the scenario graph to run on it");
-      return std::nullopt;
+// recordings: each {name, config, set}.
+void CampaignReader::listed() {
+  if (!v().contains("recordings")) return;
+  const Json& list = v()["recordings"];
+  if (!list.is_array()) {
+    bad("/recordings", "'recordings' is a list of {name, config, set}");
+    return;
+  }
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string ptr = "/recordings/" + std::to_string(i);
+    const Json& r = list[i];
+    if (!r.is_object()) {
+      bad(ptr, "a recording is {name, config, set}");
+      continue;
     }
-    fs::path c = expand_vars(r["config"].get<std::string>());
-    if (c.is_relative()) c = s.file.parent_path() / c;
-    c = c.lexically_normal();
-    if (!fs::exists(c)) bad(ptr + "/config", "config " + c.string() + " not found");
-    return c;
-  };
+    for (auto it = r.begin(); it != r.end(); ++it)
+      if (it.key() != "name" && it.key() != "config" && it.key() != "set")
+        bad(ptr + "/" + it.key(), "unknown key '" + it.key() + "' in a recording (name, config, set)");
+    CampaignRecording rec;
+    rec.where = doc.at(ptr);
+    if (!r.contains("name") || !r["name"].is_string() || !safe_name(r["name"].get<std::string>())) {
+      bad(ptr + "/name", "a recording needs a 'name' of letters, digits, '-', '_' or '.'");
+      continue;
+    }
+    rec.name = r["name"].get<std::string>();
+    if (std::find(names.begin(), names.end(), rec.name) != names.end())
+      bad(ptr + "/name", "two recordings are both named '" + rec.name + "'");
+    names.push_back(rec.name);
+    const auto c = read_config(r, ptr, "recording '" + rec.name + "'");
+    if (!c) continue;
+    rec.config = *c;
+    rec.set_base = fs::absolute(s.file).parent_path();
+    read_set(r, ptr, rec.set);
+    s.recordings.push_back(std::move(rec));
+  }
+}
+
+// recordings_from: recordings found in datasets and file patterns. A wrong key is the campaign file's error;
+// what an entry finds but cannot use is reported and left out.
+void CampaignReader::found() {
+  if (!v().contains("recordings_from")) return;
+  if (!v()["recordings_from"].is_array()) {
+    bad("/recordings_from", "'recordings_from' is a list of {nuscenes | kitti_raw | videos, config, set}");
+    return;
+  }
+  for (size_t i = 0; i < v()["recordings_from"].size(); ++i)
+    found_entry(v()["recordings_from"][i], "/recordings_from/" + std::to_string(i));
+}
+
+void CampaignReader::found_entry(const Json& r, const std::string& ptr) {
+  static const std::set<std::string> kSources = {"nuscenes", "kitti_raw", "videos"};
+  static const std::set<std::string> kKeys = {"nuscenes", "kitti_raw", "videos", "config",
+                                              "set",      "scenes",    "version"};
+  if (!r.is_object()) {
+    bad(ptr, "an entry is {nuscenes: DATAROOT | kitti_raw: FOLDER | videos: PATTERNS, config, set}");
+    return;
+  }
+  std::vector<std::string> sources;
+  for (auto it = r.begin(); it != r.end(); ++it) {
+    if (!kKeys.count(it.key()))
+      bad(ptr + "/" + it.key(), "unknown key '" + it.key() +
+                                    "' in recordings_from (nuscenes, kitti_raw or videos; config, set; "
+                                    "scenes and version for nuscenes)");
+    if (kSources.count(it.key())) sources.push_back(it.key());
+  }
+  if (sources.size() != 1) {
+    bad(ptr, "an entry names one source: nuscenes, kitti_raw or videos");
+    return;
+  }
+  const std::string src = sources.front();
+  if ((r.contains("scenes") || r.contains("version")) && src != "nuscenes")
+    bad(ptr, "'scenes' and 'version' belong to a nuscenes entry");
+  std::vector<std::string> values;  // the source's value(s)
+  string_list(r[src], ptr + "/" + src, values);
+  const auto c = read_config(r, ptr, "a recordings_from entry");
+  std::vector<std::string> set;
+  read_set(r, ptr, set);
+  if (!c || values.empty()) return;
+  FoundRecordings f;
+  try {
+    if (src == "nuscenes") {
+      std::vector<std::string> scenes;
+      if (r.contains("scenes")) string_list(r["scenes"], ptr + "/scenes", scenes);
+      if (values.size() != 1) bad(ptr + "/nuscenes", "one dataroot per entry");
+      f = nuscenes_recordings(path_of(values.front()), r.value("version", ""), scenes);
+    } else if (src == "kitti_raw") {
+      for (const std::string& root : values) {
+        FoundRecordings k = kitti_raw_recordings(path_of(root));
+        f.found.insert(f.found.end(), k.found.begin(), k.found.end());
+        f.skipped.insert(f.skipped.end(), k.skipped.begin(), k.skipped.end());
+      }
+    } else {
+      std::vector<std::string> patterns;
+      for (const std::string& p : values) patterns.push_back(path_of(p).string());
+      f = file_recordings(patterns);
+    }
+  } catch (const Error& e) {
+    f.skipped.push_back({ptr, e.what()});
+  }
+  for (SkippedRecording& k : f.skipped) {
+    k.what = s.file.string() + ":" + std::to_string(doc.at(ptr).line) + ": " + k.what;
+    s.skipped.push_back(std::move(k));
+  }
+  for (FoundRecording& fr : f.found) {
+    CampaignRecording rec;
+    rec.where = doc.at(ptr);
+    rec.name = unique_recording_name(fr.name, names);
+    rec.config = *c;
+    rec.set_base = fs::absolute(s.file).parent_path();
+    rec.set = std::move(fr.set);
+    rec.set.insert(rec.set.end(), set.begin(), set.end());  // the entry's own overrides win
+    s.recordings.push_back(std::move(rec));
+  }
+}
+
+}  // namespace
+
+CampaignSpec load_campaign(const std::string& file) {
+  YamlDocument doc = load_yaml_file(file);
+  CampaignSpec s;
+  s.file = fs::absolute(file).lexically_normal();
+  CampaignReader r{doc, s, {}, {}};
+  if (!doc.value.is_object()) {
+    r.bad("", "a campaign is a mapping with 'recordings' (and optionally name, kinds, budget, windows)");
+    throw DiagnosticError(std::move(r.diags));
+  }
+  r.head(file);
+  const Json& v = doc.value;
   const bool listed = v.contains("recordings"), found = v.contains("recordings_from");
   if ((!listed || !v["recordings"].is_array() || v["recordings"].empty()) &&
-      (!found || !v["recordings_from"].is_array() || v["recordings_from"].empty())) {
-    bad(listed ? "/recordings" : found ? "/recordings_from" : "",
-        "a campaign needs 'recordings' (a list of {name, config, set}) or 'recordings_from' (a list of "
-        "{nuscenes | kitti_raw | videos, config, set})");
-  } else if (listed && !v["recordings"].is_array()) {
-    bad("/recordings", "'recordings' is a list of {name, config, set}");
-  }
-  std::vector<std::string> names;
-  if (listed && v["recordings"].is_array()) {
-    for (size_t i = 0; i < v["recordings"].size(); ++i) {
-      const std::string ptr = "/recordings/" + std::to_string(i);
-      const Json& r = v["recordings"][i];
-      if (!r.is_object()) {
-        bad(ptr, "a recording is {name, config, set}");
-        continue;
-      }
-      for (auto it = r.begin(); it != r.end(); ++it)
-        if (it.key() != "name" && it.key() != "config" && it.key() != "set")
-          bad(ptr + "/" + it.key(), "unknown key '" + it.key() + "' in a recording (name, config, set)");
-      CampaignRecording rec;
-      rec.where = doc.at(ptr);
-      if (!r.contains("name") || !r["name"].is_string() || !safe_name(r["name"].get<std::string>())) {
-        bad(ptr + "/name", "a recording needs a 'name' of letters, digits, '-', '_' or '.'");
-        continue;
-      }
-      rec.name = r["name"].get<std::string>();
-      if (std::find(names.begin(), names.end(), rec.name) != names.end())
-        bad(ptr + "/name", "two recordings are both named '" + rec.name + "'");
-      names.push_back(rec.name);
-      const auto c = read_config(r, ptr, "recording '" + rec.name + "'");
-      if (!c) continue;
-      rec.config = *c;
-      rec.set_base = fs::absolute(s.file).parent_path();
-      read_set(r, ptr, rec.set);
-      s.recordings.push_back(std::move(rec));
-    }
-  }
-  // Recordings found in datasets and file patterns: a wrong key is the campaign file's error; what an entry
-  // finds but cannot use is reported and left out.
-  if (found && v["recordings_from"].is_array())
-    for (size_t i = 0; i < v["recordings_from"].size(); ++i) {
-      const std::string ptr = "/recordings_from/" + std::to_string(i);
-      const Json& r = v["recordings_from"][i];
-      static const std::set<std::string> kSources = {"nuscenes", "kitti_raw", "videos"};
-      static const std::set<std::string> kKeys2 = {"nuscenes", "kitti_raw", "videos", "config",
-                                                   "set",      "scenes",    "version"};
-      if (!r.is_object()) {
-        bad(ptr, "an entry is {nuscenes: DATAROOT | kitti_raw: FOLDER | videos: PATTERNS, config, set}");
-        continue;
-      }
-      std::vector<std::string> sources;
-      for (auto it = r.begin(); it != r.end(); ++it) {
-        if (!kKeys2.count(it.key()))
-          bad(ptr + "/" + it.key(), "unknown key '" + it.key() +
-                                        "' in recordings_from (nuscenes, kitti_raw or videos; config, set; "
-                                        "scenes and version for nuscenes)");
-        if (kSources.count(it.key())) sources.push_back(it.key());
-      }
-      if (sources.size() != 1) {
-        bad(ptr, "an entry names one source: nuscenes, kitti_raw or videos");
-        continue;
-      }
-      const std::string src = sources.front();
-      if ((r.contains("scenes") || r.contains("version")) && src != "nuscenes")
-        bad(ptr, "'scenes' and 'version' belong to a nuscenes entry");
-      std::vector<std::string> strings;  // the source's value(s), and nuScenes scene patterns
-      auto string_list = [&](const Json& x, const std::string& at, std::vector<std::string>& out) {
-        if (x.is_string()) out.push_back(x.get<std::string>());
-        else if (x.is_array() && std::all_of(x.begin(), x.end(), [](const Json& e) { return e.is_string(); }))
-          for (const Json& e : x) out.push_back(e.get<std::string>());
-        else bad(at, "a text or a list of texts");
-      };
-      string_list(r[src], ptr + "/" + src, strings);
-      const auto c = read_config(r, ptr, "a recordings_from entry");
-      std::vector<std::string> set;
-      read_set(r, ptr, set);
-      if (!c || strings.empty()) continue;
-      auto path_of = [&](const std::string& text) {
-        fs::path p = expand_vars(text);
-        return p.is_relative() ? (s.file.parent_path() / p).lexically_normal() : p;
-      };
-      FoundRecordings f;
-      try {
-        if (src == "nuscenes") {
-          std::vector<std::string> scenes;
-          if (r.contains("scenes")) string_list(r["scenes"], ptr + "/scenes", scenes);
-          if (strings.size() != 1) bad(ptr + "/nuscenes", "one dataroot per entry");
-          f = nuscenes_recordings(path_of(strings.front()), r.value("version", ""), scenes);
-        } else if (src == "kitti_raw") {
-          for (const std::string& root : strings) {
-            FoundRecordings k = kitti_raw_recordings(path_of(root));
-            f.found.insert(f.found.end(), k.found.begin(), k.found.end());
-            f.skipped.insert(f.skipped.end(), k.skipped.begin(), k.skipped.end());
-          }
-        } else {
-          std::vector<std::string> patterns;
-          for (const std::string& p : strings) patterns.push_back(path_of(p).string());
-          f = file_recordings(patterns);
-        }
-      } catch (const Error& e) {
-        f.skipped.push_back({ptr, e.what()});
-      }
-      for (SkippedRecording& k : f.skipped) {
-        k.what = s.file.string() + ":" + std::to_string(doc.at(ptr).line) + ": " + k.what;
-        s.skipped.push_back(std::move(k));
-      }
-      for (FoundRecording& fr : f.found) {
-        CampaignRecording rec;
-        rec.where = doc.at(ptr);
-        rec.name = unique_recording_name(fr.name, names);
-        rec.config = *c;
-        rec.set_base = fs::absolute(s.file).parent_path();
-        rec.set = std::move(fr.set);
-        rec.set.insert(rec.set.end(), set.begin(), set.end());  // the entry's own overrides win
-        s.recordings.push_back(std::move(rec));
-      }
-    }
-  if (diags.empty() && s.recordings.empty()) {
+      (!found || !v["recordings_from"].is_array() || v["recordings_from"].empty()))
+    r.bad(listed  ? "/recordings"
+          : found ? "/recordings_from"
+                  : "",
+          "a campaign needs 'recordings' (a list of {name, config, set}) or 'recordings_from' (a list of "
+          "{nuscenes | kitti_raw | videos, config, set})");
+  r.listed();
+  r.found();
+  if (r.diags.empty() && s.recordings.empty()) {
     const std::string first =
         s.skipped.empty() ? std::string("none") : s.skipped.front().what + ": " + s.skipped.front().reason;
-    bad(found ? "/recordings_from" : "/recordings",
-        "no recording found (" + std::to_string(s.skipped.size()) + " left out: " + first + ")");
+    r.bad(found ? "/recordings_from" : "/recordings",
+          "no recording found (" + std::to_string(s.skipped.size()) + " left out: " + first + ")");
   }
-  if (!diags.empty()) throw DiagnosticError(std::move(diags));
+  if (!r.diags.empty()) throw DiagnosticError(std::move(r.diags));
   return s;
 }
 
@@ -322,7 +367,21 @@ struct Scouted {
   bool has_feedback = false;  // the generator takes `feedback`
   fs::path states;            // the recording's object states (scout.jsonl), when the generator takes them
   fs::path appearances;       // cuts of the recording's own road users (an asset folder), when any were kept
+  bool generator_prefers_appearances = false;  // the generator draws their classes first (recording_appearances)
+  fs::path perception;        // the detectors' detections on every original frame (kPerceptionFile) ...
+  std::vector<std::string> cached_detectors;  // ... of these nodes, which the attempts read back
 };
+
+// The detector nodes an attempt can read back from the scouting pass instead of detecting again: those
+// upstream of the generator (they see the original frames, as in the scouting pass).
+std::vector<std::string> cacheable_detectors(const Graph& g) {
+  std::vector<std::string> out;
+  for (const std::string& id : upstream_of(g, "generator"))
+    if (const NodeSpec* n = g.node(id); n && n->component && n->component->info.kind == kind::kDetector &&
+                                         n->component->info.name != "detection_replay")
+      out.push_back(id);
+  return out;
+}
 
 // What the generator node reads (its risk and states inputs) is what the scout records.
 Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec, const fs::path& dir,
@@ -337,9 +396,11 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
                 " has no node 'generator' and 'verifier' (include configs/subgraphs/hazard_ar.yaml)");
   for (const ParamSpec& p : gen->component->info.params)
     if (p.name == "feedback") out.has_feedback = true;
-  bool takes_states = false;
-  for (const ParamSpec& p : gen->component->info.params)
+  bool takes_states = false, takes_appearances = false;
+  for (const ParamSpec& p : gen->component->info.params) {
     if (p.name == "recording_states") takes_states = true;
+    if (p.name == "recording_appearances") takes_appearances = true;
+  }
   Json records = Json::array();
   for (const char* port : {"states", "risk"})
     if (auto it = gen->inputs.find(port); it != gen->inputs.end())
@@ -364,6 +425,17 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
     req.extra_nodes = {scout_node};
     req.only_nodes = upstream_of(g, "generator");
     req.only_nodes.push_back(kScoutNode);
+    // Perception once per recording: the detections on every original frame, for the attempts to read back.
+    if (o.perception_cache)
+      if (const std::vector<std::string> dets = cacheable_detectors(g); !dets.empty()) {
+        Json recs = Json::array();
+        for (const std::string& id : dets) recs.push_back(id + ".detections");
+        req.extra_nodes.push_back({{"id", kPerceptionNode},
+                                   {"stage", "jsonl"},
+                                   {"inputs", {{"records", recs}}},
+                                   {"params", {{"file", kPerceptionFile}, {"csv", false}}}});
+        req.only_nodes.push_back(kPerceptionNode);
+      }
     // The recording's own road users cut out over all of it, from what the renderer sees (its frames, states
     // and tracks), when the scouting pass computes those anyway: the attempts draw their hazards with them.
     if (const NodeSpec* ren = g.node("renderer")) {
@@ -406,7 +478,16 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
   // The whole recording's states: an attempt runs on its window only, yet what the recording shows elsewhere
   // (people on the pavement) is a fact about the scene.
   if (takes_states) out.states = fs::absolute(run_dir / "scout.jsonl");
-  if (fs::exists(run_dir / kFootageBank / "assets.yaml")) out.appearances = fs::absolute(run_dir / kFootageBank);
+  if (fs::exists(run_dir / kFootageBank / "assets.yaml")) {
+    out.appearances = fs::absolute(run_dir / kFootageBank);
+    out.generator_prefers_appearances = takes_appearances;
+  }
+  // A scouting run of an earlier version, or with the cache off, has no such record: its attempts detect.
+  if (o.perception_cache && fs::exists(run_dir / kPerceptionFile) &&
+      host.registry().find(kind::kDetector, "detection_replay")) {
+    out.perception = fs::absolute(run_dir / kPerceptionFile);
+    out.cached_detectors = cacheable_detectors(g);
+  }
   std::ifstream in(run_dir / "scout.jsonl");
   std::string line;
   while (std::getline(in, line)) {
@@ -706,6 +787,9 @@ struct Pair {
   const CampaignRecording* rec = nullptr;
   fs::path recording_states;  // the scout's object states, passed to the generator
   fs::path appearances;       // the scout's cuts of the recording's road users, passed to the renderer
+  bool generator_prefers_appearances = false;  // ... and to the generator, which draws their classes first
+  fs::path perception;        // the scout's detections, read back by these detector nodes
+  std::vector<std::string> cached_detectors;
   std::string kind;
   size_t rec_index = 0;
   std::vector<Json> attempts;  // finished, in order
@@ -836,6 +920,12 @@ std::vector<std::string> attempt_args(const CampaignOptions& o, const CampaignSp
     args.insert(args.end(), {"--set", "generator.recording_states=" + p.recording_states.string()});
   if (!p.appearances.empty())
     args.insert(args.end(), {"--set", "renderer.footage_assets_dir=" + p.appearances.string()});
+  if (!p.appearances.empty() && p.generator_prefers_appearances)
+    args.insert(args.end(), {"--set", "generator.recording_appearances=" + p.appearances.string()});
+  for (const std::string& id : p.cached_detectors)
+    args.insert(args.end(), {"--set", id + ".stage=detection_replay", "--set",
+                             id + ".file=" + Json(p.perception.string()).dump(), "--set",
+                             id + ".record=" + id + ".detections"});
   return args;
 }
 
@@ -1201,6 +1291,116 @@ std::optional<int> finished_run_exit_code(const fs::path& run) {
   return std::nullopt;
 }
 
+namespace {
+
+// Plugins loaded, the kinds checked, the campaign file kept beside the results (a folder holds one campaign).
+void prepare_campaign_folder(Host& host, CampaignSpec& spec, const CampaignOptions& o, const fs::path& out) {
+  std::vector<std::string> load_errors = host.load_plugins();
+  for (const auto& e : load_errors) std::cerr << "warning: " << e << "\n";
+  const std::vector<std::string> registered = host.registry().component_names(kind::kHazardTemplate);
+  if (spec.kinds.empty()) spec.kinds = registered;
+  for (const std::string& k : spec.kinds)
+    if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
+      std::string list;
+      for (const auto& r : registered) list += (list.empty() ? "" : ", ") + r;
+      throw Error(o.spec + ": kind '" + k + "' is not a registered hazard_template (registered: " + list +
+                  ")");
+    }
+  fs::create_directories(out);
+  // The campaign file beside its results, so a folder says what made it; a different one is refused.
+  const Json this_spec = load_yaml_file(o.spec).value;
+  const fs::path copy = out / "campaign.json";
+  if (fs::exists(copy)) {
+    const Json before = read_json(copy);
+    if (before != this_spec)
+      throw Error(out.string() + " holds a campaign of a different campaign file; use a new folder");
+  } else {
+    write_file_atomic(copy, json_text(this_spec, 2) + "\n");
+  }
+}
+
+// Finished attempts of an earlier invocation: kept, never repeated. One whose campaign was killed before it
+// could record it is waited for if it still runs, and read back from its folder if its run ended on its own.
+void read_back_attempts(Pair& p, const std::vector<CampaignWindow>& windows, const CampaignSpec& spec,
+                        const fs::path& out, bool quiet) {
+  for (int n = 1;; ++n) {
+    std::string why;
+    auto next = plan_next(p, windows, spec, out, &why);
+    if (!next) break;
+    Json done = read_json(next->dir / "attempt.json");
+    if (!done.is_object()) {
+      wait_for_survivor(*next, out, quiet);
+      const std::optional<int> code = finished_run_exit_code(next->dir);
+      if (!code) break;
+      std::error_code ec;
+      fs::rename(next->dir.string() + ".log", next->dir / "run.log", ec);
+      ChildExit ex;
+      ex.exit_code = *code;
+      const Json m = read_json(next->dir / "manifest.json");
+      done = collect_attempt(p, *next, ex, m.value("wall_seconds", 0.0), out);
+      done["read_back"] = true;  // no CPU time: the campaign that started it did not reap it
+      if (done.value("passed", false)) done["scenario"] = fs::relative(publish(done, out), out).string();
+      write_file_atomic(next->dir / "attempt.json", json_text(done, 2) + "\n");
+    }
+    p.attempts.push_back(done);
+  }
+}
+
+// What the scouting passes give the attempts: the (recording, kind) pairs with their finished attempts, each
+// recording's candidate windows and whether its generator takes feedback.
+struct Scouting {
+  std::vector<Pair> pairs;
+  std::map<std::string, std::vector<CampaignWindow>> windows;
+  std::map<std::string, bool> feedback_ok;
+  double cpu_s = 0;
+};
+
+// Scouts every recording (a recording that cannot be scouted is left out, in spec.skipped).
+Scouting scout_recordings(Host& host, CampaignSpec& spec, const CampaignOptions& o, const fs::path& out) {
+  Scouting sc_out;
+  for (const SkippedRecording& k : spec.skipped)
+    std::cerr << "warning: campaign: left out " << k.what << ": " << k.reason << "\n";
+  for (size_t i = 0; i < spec.recordings.size(); ++i) {
+    const CampaignRecording& r = spec.recordings[i];
+    if (!o.quiet) std::cerr << "campaign: scouting " << r.name << " (" << r.config.string() << ")\n";
+    Scouted sc;
+    try {
+      sc = scout(host, spec, r, out / "recordings" / r.name, o);
+    } catch (const Error& e) {
+      // A recording that cannot be read (gone, corrupt, a graph its data does not fit) is left out, and
+      // scouted again when the campaign runs again.
+      if (o.interrupt && o.interrupt->load()) throw Error("interrupted while scouting " + r.name);
+      spec.skipped.push_back({r.name, std::string("its scouting run failed: ") + redact_urls(e.what())});
+      std::cerr << "warning: campaign: left out " << r.name << ": " << spec.skipped.back().reason << "\n";
+      continue;
+    }
+    if (o.interrupt && o.interrupt->load()) throw Error("interrupted while scouting " + r.name);
+    sc_out.cpu_s += sc.cpu_s;
+    sc_out.feedback_ok[r.name] = sc.has_feedback;
+    sc_out.windows[r.name] = candidate_windows(sc.frames, spec);
+    if (!o.quiet)
+      std::cerr << "campaign: " << r.name << ": " << sc.frames.size() << " frames, "
+                << sc_out.windows[r.name].size() << " candidate trigger frames"
+                << (sc.has_feedback ? "" : " (the generator takes no feedback)") << "\n";
+    for (const std::string& k : spec.kinds) {
+      Pair p;
+      p.rec = &spec.recordings[i];
+      p.kind = k;
+      p.rec_index = i;
+      p.recording_states = sc.states;
+      p.appearances = sc.appearances;
+      p.generator_prefers_appearances = sc.generator_prefers_appearances;
+      p.perception = sc.perception;
+      p.cached_detectors = sc.cached_detectors;
+      read_back_attempts(p, sc_out.windows[r.name], spec, out, o.quiet);
+      sc_out.pairs.push_back(std::move(p));
+    }
+  }
+  return sc_out;
+}
+
+}  // namespace
+
 int cmd_campaign(Host& host, const CampaignOptions& o) {
   CampaignSpec spec;
   try {
@@ -1210,96 +1410,20 @@ int cmd_campaign(Host& host, const CampaignOptions& o) {
     return 1;
   }
   const auto t0 = std::chrono::steady_clock::now();
-  const fs::path out = fs::absolute(o.output_dir.empty() ? fs::path("runs") / spec.name : fs::path(o.output_dir));
-  std::vector<Pair> pairs;
-  std::map<std::string, std::vector<CampaignWindow>> windows;
-  std::map<std::string, bool> feedback_ok;
-  double scout_cpu = 0;
+  const fs::path out =
+      fs::absolute(o.output_dir.empty() ? fs::path("runs") / spec.name : fs::path(o.output_dir));
+  Scouting scouted;
   try {
-    std::vector<std::string> load_errors = host.load_plugins();
-    for (const auto& e : load_errors) std::cerr << "warning: " << e << "\n";
-    const std::vector<std::string> registered = host.registry().component_names(kind::kHazardTemplate);
-    if (spec.kinds.empty()) spec.kinds = registered;
-    for (const std::string& k : spec.kinds)
-      if (std::find(registered.begin(), registered.end(), k) == registered.end()) {
-        std::string list;
-        for (const auto& r : registered) list += (list.empty() ? "" : ", ") + r;
-        throw Error(o.spec + ": kind '" + k + "' is not a registered hazard_template (registered: " + list + ")");
-      }
-    fs::create_directories(out);
-    // The campaign file beside its results, so a folder says what made it; a different one is refused.
-    const Json this_spec = load_yaml_file(o.spec).value;
-    const fs::path copy = out / "campaign.json";
-    if (fs::exists(copy)) {
-      const Json before = read_json(copy);
-      if (before != this_spec)
-        throw Error(out.string() + " holds a campaign of a different campaign file; use a new folder");
-    } else {
-      write_file_atomic(copy, json_text(this_spec, 2) + "\n");
-    }
-    for (const SkippedRecording& k : spec.skipped)
-      std::cerr << "warning: campaign: left out " << k.what << ": " << k.reason << "\n";
-    for (size_t i = 0; i < spec.recordings.size(); ++i) {
-      const CampaignRecording& r = spec.recordings[i];
-      if (!o.quiet) std::cerr << "campaign: scouting " << r.name << " (" << r.config.string() << ")\n";
-      Scouted sc;
-      try {
-        sc = scout(host, spec, r, out / "recordings" / r.name, o);
-      } catch (const Error& e) {
-        // A recording that cannot be read (gone, corrupt, a graph its data does not fit) is left out, and
-        // scouted again when the campaign runs again.
-        if (o.interrupt && o.interrupt->load()) throw Error("interrupted while scouting " + r.name);
-        spec.skipped.push_back({r.name, std::string("its scouting run failed: ") + redact_urls(e.what())});
-        std::cerr << "warning: campaign: left out " << r.name << ": " << spec.skipped.back().reason << "\n";
-        continue;
-      }
-      if (o.interrupt && o.interrupt->load()) throw Error("interrupted while scouting " + r.name);
-      scout_cpu += sc.cpu_s;
-      feedback_ok[r.name] = sc.has_feedback;
-      windows[r.name] = candidate_windows(sc.frames, spec);
-      if (!o.quiet)
-        std::cerr << "campaign: " << r.name << ": " << sc.frames.size() << " frames, " << windows[r.name].size()
-                  << " candidate trigger frames" << (sc.has_feedback ? "" : " (the generator takes no feedback)")
-                  << "\n";
-      for (const std::string& k : spec.kinds) {
-        Pair p;
-        p.rec = &spec.recordings[i];
-        p.kind = k;
-        p.rec_index = i;
-        p.recording_states = sc.states;
-        p.appearances = sc.appearances;
-        // Finished attempts of an earlier invocation: kept, never repeated. One whose campaign was killed
-        // before it could record it is waited for if it still runs, and read back from its folder if its run
-        // ended on its own.
-        for (int n = 1;; ++n) {
-          std::string why;
-          auto next = plan_next(p, windows[r.name], spec, out, &why);
-          if (!next) break;
-          Json done = read_json(next->dir / "attempt.json");
-          if (!done.is_object()) {
-            wait_for_survivor(*next, out, o.quiet);
-            const std::optional<int> code = finished_run_exit_code(next->dir);
-            if (!code) break;
-            std::error_code ec;
-            fs::rename(next->dir.string() + ".log", next->dir / "run.log", ec);
-            ChildExit ex;
-            ex.exit_code = *code;
-            const Json m = read_json(next->dir / "manifest.json");
-            done = collect_attempt(p, *next, ex, m.value("wall_seconds", 0.0), out);
-            done["read_back"] = true;  // no CPU time: the campaign that started it did not reap it
-            if (done.value("passed", false))
-              done["scenario"] = fs::relative(publish(done, out), out).string();
-            write_file_atomic(next->dir / "attempt.json", json_text(done, 2) + "\n");
-          }
-          p.attempts.push_back(done);
-        }
-        pairs.push_back(std::move(p));
-      }
-    }
+    prepare_campaign_folder(host, spec, o, out);
+    scouted = scout_recordings(host, spec, o, out);
   } catch (const Error& e) {
     std::cerr << "error: " << redact_urls(e.what()) << "\n";
     return 1;
   }
+  std::vector<Pair>& pairs = scouted.pairs;
+  std::map<std::string, std::vector<CampaignWindow>>& windows = scouted.windows;
+  std::map<std::string, bool>& feedback_ok = scouted.feedback_ok;
+  const double scout_cpu = scouted.cpu_s;
   if (pairs.empty()) {
     write_reports(spec, out, pairs, windows, scout_cpu,
                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), false);

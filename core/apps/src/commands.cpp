@@ -290,6 +290,23 @@ int cmd_graph(Host& host, const CommonOptions& o) {
 }
 
 int cmd_eval(Host& host, const CommonOptions& o) {
+  // A graph without an evaluation sink writes no report: refused before it runs (a run that completes and
+  // then fails the command would leave a manifest saying "completed" behind an exit code of 1).
+  try {
+    const Graph g = load_graph(host, o.config, o.overrides, nullptr, o.load_config_plugins, {}, o.set_base);
+    const bool evaluates = std::any_of(g.nodes.begin(), g.nodes.end(), [](const NodeSpec& n) {
+      return n.component && n.component->info.kind == kind::kSink && n.component->info.name == "evaluation";
+    });
+    if (!evaluates) {
+      std::cerr << "error: " << o.config
+                << ": the graph has no evaluation sink (stage 'evaluation'), so it writes no report; 'eval' is "
+                   "for evaluation configs (configs/eval_*.yaml), 'run' for the others\n";
+      return 1;
+    }
+  } catch (const Error& e) {
+    std::cerr << redact_urls(e.what()) << "\n";
+    return 1;
+  }
   RunOutcome out = run_config(host, run_request(o));
   if (!out.message.empty()) std::cerr << redact_urls(out.message) << "\n";
   if (out.exit_code != 0) return out.exit_code;

@@ -132,6 +132,9 @@ int main(int argc, char** argv) {
                        "Start at most N attempts now; running the campaign again goes on from there")
       ->check(CLI::Range(0, 100000));
   campaign->add_flag("-q,--quiet", copt_campaign.quiet, "Only finished attempts and the summary");
+  campaign->add_flag("!--no-perception-cache", copt_campaign.perception_cache,
+                     "Attempts detect on the original frames again instead of reading back the scouting "
+                     "pass's detections");
   campaign->add_option("--executor", copt_campaign.executor,
                        "Where attempts run: local (child processes) or slurm (tasks of job arrays; -j is the "
                        "number of attempts queued or running)")

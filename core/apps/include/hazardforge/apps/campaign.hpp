@@ -134,6 +134,8 @@ struct CampaignOptions {
   int max_attempts = -1;   // attempts started by this invocation (-1 = no limit); run again to go on
   bool quiet = false;
   std::string executor = "local";  // local | slurm (attempts as tasks of Slurm job arrays)
+  // Attempts read the scouting pass's detections on the original frames back instead of detecting again.
+  bool perception_cache = true;
   SlurmOptions slurm;
   std::vector<std::string> plugin_paths;
   const std::atomic<bool>* interrupt = nullptr;
