@@ -176,7 +176,7 @@ class OfflineScene {
         *reply_, templates_, summary_.context,
         llm_hazard::feasibility_config(settings_, limits_, sizes_, frame.timestamp, std::nullopt));
     base_.emplace(llm_hazard::proposal_request(settings_, summary_.context));
-    catalog_.emplace(*checker_, settings_.allowed_kinds, *base_);
+    catalog_.emplace(*checker_, settings_.allowed_kinds, *base_, settings_.rules.recording_classes);
   }
   OfflineScene(const OfflineScene&) = delete;
 

@@ -290,6 +290,41 @@ TEST(OfflinePlanner, ClassesAreDrawnAmongTheDrawableOnes) {
   }
 }
 
+// Same-camera appearances first: with the recording's own cuts showing motorcycles, a kind that may be one is
+// planned as one whenever such a plan fits (this street's plans are otherwise cars, the largest that fits), and
+// as any of its classes when none does, so no draw that finds a hazard without the preference finds none with
+// it; a kind that cannot be one (a person crossing) keeps its own classes.
+TEST(OfflinePlanner, AKindIsDrawnAsAClassTheRecordingsOwnCutsShowFirst) {
+  OfflinePlanner p = planner();
+  const std::vector<std::string> defaults = {"bus", "car", "motorcycle", "person", "truck"};
+  auto scene = [&](const char* kind, std::vector<std::string> own) {
+    llm_hazard::SceneSettings s = street(true, true, 10.0, {kind}, defaults);
+    s.rules.recording_classes = std::move(own);
+    return std::make_unique<test::OfflineScene>(std::move(s), test::make_frame(5, 2.5, "test"),
+                                                test::make_states(5, 2.5), test::make_risk(5, true));
+  };
+  auto drawn_class = [&](const char* kind, std::vector<std::string> own, int64_t seed) -> std::string {
+    try {
+      return Json::parse(p.complete(request(scene(kind, std::move(own)), seed)).content)["object_class"];
+    } catch (const Error&) {  // nothing fits this draw
+      return "";
+    }
+  };
+  int motorcycles = 0, motorcycles_without = 0;
+  for (int64_t seed = 1; seed <= 16; ++seed)
+    for (const char* kind : {"cut_in", "sudden_stop"}) {
+      const std::string with = drawn_class(kind, {"motorcycle"}, seed), without = drawn_class(kind, {}, seed);
+      motorcycles += with == "motorcycle";
+      motorcycles_without += without == "motorcycle";
+      if (!without.empty()) {
+        EXPECT_FALSE(with.empty()) << kind << " seed " << seed;
+      }
+    }
+  EXPECT_GE(motorcycles, 3);
+  EXPECT_GT(motorcycles, motorcycles_without);
+  EXPECT_EQ(drawn_class("pedestrian_crossing", {"motorcycle"}, 1), "person");
+}
+
 TEST(OfflinePlanner, PersonOnTheShoulderOnlyWhenExplicitlyAllowed) {
   OfflinePlanner p = planner();
   EXPECT_THROW(p.complete(request(short_highway({"pedestrian_crossing"}, 1.0, false), 3)), Error);

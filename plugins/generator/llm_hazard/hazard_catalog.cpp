@@ -1,6 +1,8 @@
 // The generator's verdict on a reply and the catalog of hazard kinds it offers providers.
 #include "hazard_catalog.hpp"
 
+#include <algorithm>
+
 #include <hazardforge/error.hpp>
 
 namespace hf::llm_hazard {
@@ -40,8 +42,8 @@ CheckedReply ReplyChecker::check(const Json& reply) const {
 }
 
 TemplateCatalog::TemplateCatalog(const ReplyChecker& checker, std::vector<std::string> kinds,
-                                 const ProposalRequest& base)
-    : checker_(checker), kinds_(std::move(kinds)), base_(base) {}
+                                 const ProposalRequest& base, std::vector<std::string> recording_classes)
+    : checker_(checker), kinds_(std::move(kinds)), base_(base), recording_classes_(std::move(recording_classes)) {}
 
 HazardKindInfo kind_info_of(const std::map<std::string, std::unique_ptr<HazardTemplate>>& templates,
                             const std::string& kind) {
@@ -65,15 +67,32 @@ HazardProposal TemplateCatalog::propose(const std::string& kind, double aim,
   ProposalRequest r = base_;
   r.aim = aim;
   r.avoid_tracks = avoid_tracks;
-  HazardProposal p;
-  try {
-    p = t->second->propose(r, draw);
-  } catch (const Error& e) {
-    return {nullptr, {refusal::kSpec, e.what(), kind}};
+  auto propose_with = [&](const ProposalRequest& req) -> HazardProposal {
+    HazardProposal p;
+    try {
+      p = t->second->propose(req, draw);
+    } catch (const Error& e) {
+      return {nullptr, {refusal::kSpec, e.what(), kind}};
+    }
+    if (!p.problem.empty() && p.problem.kind.empty()) p.problem.kind = kind;
+    if (p.spec.is_object()) complete_reply(p.spec, checker_.reply_schema());
+    return p;
+  };
+  // The camera's own appearances first: as a class the recording's cuts show, when the kind may be one.
+  const HazardKindInfo info = kind_info_of(checker_.templates(), kind);
+  std::vector<std::string> own;
+  for (const std::string& c : recording_classes_)
+    if (base_.class_allowed(c) && (info.object_classes.empty() || std::find(info.object_classes.begin(),
+                                                                           info.object_classes.end(),
+                                                                           c) != info.object_classes.end()))
+      own.push_back(c);
+  if (!own.empty()) {
+    ProposalRequest preferred = r;
+    preferred.object_classes = own;
+    HazardProposal p = propose_with(preferred);
+    if (p.spec.is_object()) return p;
   }
-  if (!p.problem.empty() && p.problem.kind.empty()) p.problem.kind = kind;
-  if (p.spec.is_object()) complete_reply(p.spec, checker_.reply_schema());
-  return p;
+  return propose_with(r);
 }
 
 std::vector<Refusal> TemplateCatalog::check(const Json& reply) const {

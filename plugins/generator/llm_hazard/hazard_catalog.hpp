@@ -43,8 +43,11 @@ class ReplyChecker {
 class TemplateCatalog : public HazardCatalog {
  public:
   // `kinds`: the allowed kinds in the generator's order; `base`: the scene and settings every proposal gets
-  // (aim and avoid_tracks are set per call).
-  TemplateCatalog(const ReplyChecker& checker, std::vector<std::string> kinds, const ProposalRequest& base);
+  // (aim and avoid_tracks are set per call). `recording_classes`: classes the recording's own cut appearances
+  // show; a kind that may be one of them is proposed as one of them first, and as any of its classes only
+  // when no such plan fits.
+  TemplateCatalog(const ReplyChecker& checker, std::vector<std::string> kinds, const ProposalRequest& base,
+                  std::vector<std::string> recording_classes = {});
   std::vector<HazardKindInfo> kinds() const override;
   HazardProposal propose(const std::string& kind, double aim, const std::vector<int64_t>& avoid_tracks,
                          RandomDraw& draw) const override;
@@ -54,6 +57,7 @@ class TemplateCatalog : public HazardCatalog {
   const ReplyChecker& checker_;
   std::vector<std::string> kinds_;
   const ProposalRequest& base_;
+  std::vector<std::string> recording_classes_;
 };
 
 // What the kind's template says about it, under the kind's name; the name only when no template is registered.

@@ -165,6 +165,11 @@ ComponentInfo LlmHazardGenerator::describe() {
               "folder of appearance assets (assets.yaml) the renderer draws from; the hazard's class must "
               "have pictures there or in the default set (share/assets), which the renderer falls back to; "
               "empty = the default set"),
+      ParamSpec::path("recording_appearances", "")
+          .describe(
+              "folder of appearances cut from this recording (assets.yaml; a campaign's scouting run writes "
+              "one): the offline planner draws a kind that may be one of their classes as one of them, so the "
+              "renderer can draw it with the camera's own picture; empty = every drawable class alike"),
       ParamSpec::path("recording_states", "")
           .describe(
               "JSON-lines file of the whole recording's object states, as the jsonl sink writes them (a "
@@ -439,6 +444,8 @@ void LlmHazardGenerator::open(StageContext& ctx) {
   rules_.asset_classes = asset_classes(assets_dir.string());
   rules_.assets_where = assets_dir.empty() ? "the default set, share/assets"
                                            : assets_dir.string() + " and the default set, share/assets";
+  rules_.recording_classes = own_asset_classes(p.get_path("recording_appearances").string());
+  if (!p.get_path("recording_appearances").empty()) ctx.record_resource(p.get_path("recording_appearances"));
   rules_.take_over_tracks = p.get_bool("take_over_tracks");
   rules_.entry_max_height = p.get_double("entry_max_height");
   rules_.clearance_m = p.get_double("clearance_m");
@@ -874,7 +881,7 @@ std::optional<HazardSpec> LlmHazardGenerator::generate(StageContext& ctx, const 
   // One verdict for the model's replies and the offline provider's plans.
   const ReplyChecker checker(*reply_validator_, templates_, scene.context, fc);
   const ProposalRequest proposal = proposal_request(s, scene.context);
-  const TemplateCatalog catalog(checker, allowed_kinds_, proposal);
+  const TemplateCatalog catalog(checker, allowed_kinds_, proposal, rules_.recording_classes);
 
   LlmRequest req;
   req.messages = {{"user", prompt}};

@@ -127,6 +127,14 @@ std::vector<std::string> asset_classes(const std::string& dir) {
   return {classes.begin(), classes.end()};
 }
 
+std::vector<std::string> own_asset_classes(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::set<std::string> classes;
+  if (!dir.empty() && fs::exists(fs::path(dir) / "assets.yaml"))
+    for (const render::AssetSpec& a : render::load_asset_index(dir).assets) classes.insert(a.object_class);
+  return {classes.begin(), classes.end()};
+}
+
 std::vector<Refusal> check_spec_rules(const HazardSpec& spec, const SceneContext& scene,
                                       const SceneRules& rules) {
   std::vector<Refusal> errs;

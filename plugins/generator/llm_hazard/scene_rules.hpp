@@ -17,6 +17,9 @@ struct SceneRules {
   // Classes with appearance assets (empty = not checked) and where they were read, for messages.
   std::vector<std::string> asset_classes;
   std::string assets_where;
+  // Classes the recording's own cut appearances show (the same camera and light): a kind that may be one of
+  // them is drawn as one of them.
+  std::vector<std::string> recording_classes;
   // A spec may take over a tracked object (HazardSpec::track_id) only when the renderer removes the real one.
   bool take_over_tracks = true;
   // A hazard that appears fully in view, unhidden, on the road must be at most this tall (share of the image
@@ -31,6 +34,8 @@ struct SceneRules {
 // The classes the assets in `dir` (assets.yaml) and, as the renderer falls back to it, in the default set
 // (share/assets) show; `dir` empty = the default set only. Sorted, unique.
 std::vector<std::string> asset_classes(const std::string& dir);
+// The classes the assets in `dir` alone show (no default set); `dir` empty or without assets.yaml = none.
+std::vector<std::string> own_asset_classes(const std::string& dir);
 
 // Spec-level rules: the class has appearance assets; no tracked object is taken over unless allowed.
 std::vector<Refusal> check_spec_rules(const HazardSpec& spec, const SceneContext& scene, const SceneRules& rules);
