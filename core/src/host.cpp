@@ -4,6 +4,8 @@
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/output_path.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -218,6 +220,38 @@ void remove_run_entry(const std::filesystem::path& dir, const std::string& rel) 
 
 // Makes `dir` ready for a run as `use` allows and returns the entries in it that the run does not own (the
 // user's files, kept by --overwrite); throws hf::Error with what to do otherwise.
+namespace {
+
+// A run holds its folder for as long as it runs: an exclusive flock on the folder itself (no file of its own
+// in it), on a descriptor closed on exec, so a program a stage starts does not keep it. A second run into the
+// same folder (--resume or --overwrite while the first still writes) is refused instead of writing beside it.
+class FolderLock {
+ public:
+  FolderLock() = default;
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+  ~FolderLock() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  bool held() const { return fd_ >= 0; }
+  void take(const std::filesystem::path& dir) {
+    fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd_ < 0) return;  // not a folder we can open: claim_run_folder says what is wrong with it
+    if (flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      ::close(fd_);
+      fd_ = -1;
+      throw Error(dir.string() +
+                  ": another run is still writing into this folder; wait for it to end or choose another "
+                  "folder");
+    }
+  }
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace
+
 std::vector<std::string> claim_run_folder(const std::filesystem::path& dir, FolderUse use,
                                           const Json& config) {
   std::error_code ec;
@@ -305,11 +339,14 @@ RunOutcome run_config(Host& host, const RunRequest& req) {
                      ? std::filesystem::path("runs") / (safe_path_component(graph.name) + "-" + utc_stamp())
                      : req.output_dir;
   std::vector<std::string> kept;  // what the folder held that this run did not write
+  FolderLock folder_lock;         // held until this function returns: the run's folder is its own
   try {
-    kept = claim_run_folder(o.output_dir, req.folder_use, cfg.doc.value);
     std::error_code ec;
+    if (std::filesystem::is_directory(o.output_dir, ec)) folder_lock.take(o.output_dir);
+    kept = claim_run_folder(o.output_dir, req.folder_use, cfg.doc.value);
     std::filesystem::create_directories(o.output_dir, ec);
     if (ec) throw Error(o.output_dir.string() + ": cannot create output folder: " + ec.message());
+    if (!folder_lock.held()) folder_lock.take(o.output_dir);
   } catch (const std::exception& e) {
     o.exit_code = 1;
     o.message = std::string("error: ") + e.what();

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <sys/inotify.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -490,6 +491,67 @@ TEST(Hardening, SigtermEndsARunInterruptedLikeCtrlC) {
   ASSERT_TRUE(WIFEXITED(st)) << "ended by signal " << WTERMSIG(st);
   EXPECT_EQ(WEXITSTATUS(st), 130);
   EXPECT_EQ(s.manifest()["status"], "interrupted");
+}
+
+// A run into a folder another run is still writing into (--resume or --overwrite) is refused: two writers
+// would mix their files and the second's manifest would describe neither. The first run is held in its sink's
+// open of a FIFO no one reads yet; the test knows it is under way when its manifest ("running") is renamed into
+// place (inotify), and lets it finish afterwards.
+TEST(Hardening, ASecondRunIntoAFolderStillBeingWrittenIsRefused) {
+  Scene s;
+  ASSERT_EQ(s.run_cli().code, 0);
+  fs::remove(s.run / "frames.jsonl");
+  ASSERT_EQ(mkfifo((s.run / "frames.jsonl").c_str(), 0600), 0);
+  const int in = inotify_init1(IN_CLOEXEC);
+  ASSERT_GE(in, 0);
+  ASSERT_GE(inotify_add_watch(in, s.run.c_str(), IN_MOVED_TO), 0);
+  const std::string config = s.config.string(), run = s.run.string();
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    execl(HF_EXE, HF_EXE, "run", "-q", config.c_str(), "-o", run.c_str(), "--resume",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  for (bool started = false; !started;) {  // until the first run's manifest is renamed into place
+    alignas(inotify_event) char buf[4096];
+    const ssize_t n = ::read(in, buf, sizeof buf);
+    ASSERT_GT(n, 0);
+    for (ssize_t at = 0; at < n;) {
+      const auto* ev = reinterpret_cast<const inotify_event*>(buf + at);
+      if (ev->len > 0 && std::string(ev->name) == "manifest.json") started = true;
+      at += static_cast<ssize_t>(sizeof(inotify_event) + ev->len);
+    }
+  }
+  ::close(in);
+  EXPECT_EQ(s.manifest()["status"], "running");
+  for (const char* use : {"--resume", "--overwrite"}) {
+    const auto second = s.run_cli(use);
+    EXPECT_EQ(second.code, 1) << use << ": " << second.out;
+    EXPECT_TRUE(has(second.out, run + ": another run is still writing into this folder")) << second.out;
+  }
+  const int fd = ::open((s.run / "frames.jsonl").c_str(), O_RDONLY);  // lets the first run go on
+  ASSERT_GE(fd, 0);
+  char buf[4096];
+  while (::read(fd, buf, sizeof buf) > 0) {
+  }
+  ::close(fd);
+  int st = 0;
+  ASSERT_EQ(waitpid(pid, &st, 0), pid);
+  ASSERT_TRUE(WIFEXITED(st));
+  EXPECT_EQ(WEXITSTATUS(st), 0);
+  EXPECT_EQ(s.manifest()["status"], "completed");  // the first run's, untouched by the refused ones
+  EXPECT_TRUE(fs::is_fifo(s.run / "frames.jsonl"));  // --overwrite removed nothing
+}
+
+// `eval` on a graph without an evaluation sink is refused before it runs: no run folder whose manifest says
+// "completed" behind a failing command.
+TEST(Hardening, EvalOfAGraphWithoutAnEvaluationSinkIsRefusedBeforeItRuns) {
+  Scene s;
+  const auto c = hf::test::run_command(std::string(HF_EXE) + " eval " + quote(s.config) + " -o " + quote(s.run));
+  EXPECT_EQ(c.code, 1) << c.out;
+  EXPECT_TRUE(has(c.out, s.config.string() + ": the graph has no evaluation sink (stage 'evaluation')")) << c.out;
+  EXPECT_FALSE(fs::exists(s.run));
 }
 
 TEST(Hardening, AFifoAsSourceOrConfigIsRefusedInsteadOfBlockingForever) {
