@@ -48,6 +48,18 @@ struct Scene {
   hf::Json manifest() const { return hf::test::read_json_file(run / "manifest.json"); }
 };
 
+// Starts `hazardforge run -q CONFIG -o RUN --resume` of the scene as a child process; its pid (-1: no fork).
+pid_t start_resumed_run(const Scene& s) {
+  const std::string config = s.config.string(), run = s.run.string();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl(HF_EXE, HF_EXE, "run", "-q", config.c_str(), "-o", run.c_str(), "--resume",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  return pid;
+}
+
 // Every file below `root`, relative; used to show that nothing appeared outside the run folder.
 std::vector<std::string> files_below(const fs::path& root) {
   std::vector<std::string> v;
@@ -470,14 +482,8 @@ TEST(Hardening, SigtermEndsARunInterruptedLikeCtrlC) {
   ASSERT_EQ(s.run_cli().code, 0);
   fs::remove(s.run / "frames.jsonl");
   ASSERT_EQ(mkfifo((s.run / "frames.jsonl").c_str(), 0600), 0);
-  const std::string config = s.config.string(), run = s.run.string();
-  const pid_t pid = fork();
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    execl(HF_EXE, HF_EXE, "run", "-q", config.c_str(), "-o", run.c_str(), "--resume",
-          static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  const pid_t pid = start_resumed_run(s);
+  ASSERT_GT(pid, 0);
   // Opening the FIFO returns once the run's sink has opened it for writing: the run is under way.
   const int fd = ::open((s.run / "frames.jsonl").c_str(), O_RDONLY);
   ASSERT_GE(fd, 0);
@@ -505,14 +511,9 @@ TEST(Hardening, ASecondRunIntoAFolderStillBeingWrittenIsRefused) {
   const int in = inotify_init1(IN_CLOEXEC);
   ASSERT_GE(in, 0);
   ASSERT_GE(inotify_add_watch(in, s.run.c_str(), IN_MOVED_TO), 0);
-  const std::string config = s.config.string(), run = s.run.string();
-  const pid_t pid = fork();
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    execl(HF_EXE, HF_EXE, "run", "-q", config.c_str(), "-o", run.c_str(), "--resume",
-          static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  const std::string run = s.run.string();
+  const pid_t pid = start_resumed_run(s);
+  ASSERT_GT(pid, 0);
   for (bool started = false; !started;) {  // until the first run's manifest is renamed into place
     alignas(inotify_event) char buf[4096];
     const ssize_t n = ::read(in, buf, sizeof buf);

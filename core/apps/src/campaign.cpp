@@ -27,6 +27,7 @@
 #include "hazardforge/atomic_file.hpp"
 #include "hazardforge/apps/campaign.hpp"
 #include "hazardforge/apps/child_process.hpp"
+#include "hazardforge/apps/scenarios.hpp"
 #include "hazardforge/json_text.hpp"
 #include "hazardforge/markup.hpp"
 #include "hazardforge/params.hpp"
@@ -59,16 +60,6 @@ std::string fixed(double v, int digits) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(digits) << v;
   return os.str();
-}
-
-Json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) return nullptr;
-  try {
-    return Json::parse(in);
-  } catch (const std::exception&) {
-    return nullptr;
-  }
 }
 
 bool safe_name(const std::string& s) {
@@ -410,7 +401,7 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
                            {"stage", "jsonl"},
                            {"inputs", {{"records", records}}},
                            {"params", {{"file", "scout.jsonl"}, {"csv", false}}}};
-  const Json manifest = read_json(run_dir / "manifest.json");
+  const Json manifest = read_json_or_null(run_dir / "manifest.json");
   const bool done = manifest.is_object() && manifest.value("status", "") == "completed" &&
                     fs::exists(run_dir / "scout.jsonl");
   if (!done) {
@@ -472,7 +463,7 @@ Scouted scout(Host& host, const CampaignSpec& spec, const CampaignRecording& rec
       throw Error("recording '" + rec.name + "': the scouting run failed (" + run_dir.string() + "):\n" +
                   r.message);
   } else {
-    const Json cpu = read_json(run_dir / "cpu.json");
+    const Json cpu = read_json_or_null(run_dir / "cpu.json");
     out.cpu_s = cpu.is_object() ? cpu.value("cpu_s", 0.0) : 0.0;
   }
   // The whole recording's states: an attempt runs on its window only, yet what the recording shows elsewhere
@@ -953,14 +944,14 @@ Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, doubl
             {"wall_s", wall_s},
             {"passed", false},
             {"reasons", Json::array()}};
-  const Json spec = read_json(a.dir / "hazard_spec.json");
+  const Json spec = read_json_or_null(a.dir / "hazard_spec.json");
   if (spec.is_object()) {
     e["spec"] = spec;
     e["object_class"] = spec.value("object_class", "");
   }
   // The verifier's typed verdict (its verification.json); a file that does not read as one is a failed run.
   std::optional<VerificationOutcome> v;
-  if (const Json file = read_json(a.dir / "verification.json"); file.is_object()) {
+  if (const Json file = read_json_or_null(a.dir / "verification.json"); file.is_object()) {
     try {
       v = file.get<VerificationOutcome>();
     } catch (const Error& err) {
@@ -981,7 +972,7 @@ Json collect_attempt(const Pair& p, const Planned& a, const ChildExit& ex, doubl
     e["spurious_frames"] = v->spurious_frames;
     e["redetection_rate"] = v->redetection_rate ? Json(*v->redetection_rate) : Json();
   }
-  const Json m = read_json(a.dir / "manifest.json");
+  const Json m = read_json_or_null(a.dir / "manifest.json");
   e["status"] = m.is_object() ? m.value("status", "missing") : "missing";
   if (m.is_object() && m.value("failed_to_start", false)) e["failed_to_start"] = true;
   // No manifest at all: the run ended before it began, as it will at every window.
@@ -1284,7 +1275,7 @@ void write_reports(const CampaignSpec& s, const fs::path& out, const std::vector
 }  // namespace
 
 std::optional<int> finished_run_exit_code(const fs::path& run) {
-  const Json m = read_json(run / "manifest.json");
+  const Json m = read_json_or_null(run / "manifest.json");
   const std::string status = m.is_object() ? m.value("status", "") : "";
   if (status == "completed" || status == "incomplete") return 0;
   if (status == "failed") return 1;
@@ -1311,7 +1302,7 @@ void prepare_campaign_folder(Host& host, CampaignSpec& spec, const CampaignOptio
   const Json this_spec = load_yaml_file(o.spec).value;
   const fs::path copy = out / "campaign.json";
   if (fs::exists(copy)) {
-    const Json before = read_json(copy);
+    const Json before = read_json_or_null(copy);
     if (before != this_spec)
       throw Error(out.string() + " holds a campaign of a different campaign file; use a new folder");
   } else {
@@ -1327,7 +1318,7 @@ void read_back_attempts(Pair& p, const std::vector<CampaignWindow>& windows, con
     std::string why;
     auto next = plan_next(p, windows, spec, out, &why);
     if (!next) break;
-    Json done = read_json(next->dir / "attempt.json");
+    Json done = read_json_or_null(next->dir / "attempt.json");
     if (!done.is_object()) {
       wait_for_survivor(*next, out, quiet);
       const std::optional<int> code = finished_run_exit_code(next->dir);
@@ -1336,7 +1327,7 @@ void read_back_attempts(Pair& p, const std::vector<CampaignWindow>& windows, con
       fs::rename(next->dir.string() + ".log", next->dir / "run.log", ec);
       ChildExit ex;
       ex.exit_code = *code;
-      const Json m = read_json(next->dir / "manifest.json");
+      const Json m = read_json_or_null(next->dir / "manifest.json");
       done = collect_attempt(p, *next, ex, m.value("wall_seconds", 0.0), out);
       done["read_back"] = true;  // no CPU time: the campaign that started it did not reap it
       if (done.value("passed", false)) done["scenario"] = fs::relative(publish(done, out), out).string();

@@ -12,6 +12,7 @@
 
 #include "hazardforge/apps/campaign.hpp"
 #include "hazardforge/apps/executor.hpp"
+#include "hazardforge/apps/scenarios.hpp"
 #include "hazardforge/json_text.hpp"
 
 namespace hf::apps {
@@ -20,16 +21,6 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 namespace {
-
-Json read_json_or_null(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) return nullptr;
-  try {
-    return Json::parse(in);
-  } catch (const std::exception&) {
-    return nullptr;
-  }
-}
 
 // An attempt's lock without its attempt.json: still running (a local process holds the lock, or its Slurm
 // task is queued or running), or stopped half-way (the campaign runs it again when it runs again).

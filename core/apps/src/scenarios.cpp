@@ -21,6 +21,16 @@ Json read_json_file(const fs::path& p) {
   }
 }
 
+Json read_json_or_null(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) return nullptr;
+  try {
+    return Json::parse(in);
+  } catch (const std::exception&) {
+    return nullptr;
+  }
+}
+
 // The scenarios of a campaign (its verified attempts), of a run folder or of a package folder.
 std::vector<Scenario> find_scenarios(const std::vector<std::string>& roots) {
   std::vector<Scenario> out;

@@ -23,5 +23,7 @@ std::vector<Scenario> find_scenarios(const std::vector<std::string>& roots);
 
 // A JSON file's content; throws hf::Error naming the file.
 nlohmann::json read_json_file(const std::filesystem::path& p);
+// The same, or null when the file is missing or not JSON (a campaign folder's files while tasks write them).
+nlohmann::json read_json_or_null(const std::filesystem::path& p);
 
 }  // namespace hf::apps
