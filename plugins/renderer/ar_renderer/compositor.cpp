@@ -224,7 +224,8 @@ cv::Mat background_ring(const cv::Mat& alpha, cv::Rect at, cv::Size roi, cv::Mat
 // under an overcast sky (nuScenes scene-0916: 4 to 9 in a, 6 to 22 in b).
 constexpr double kMonochromeReach = 2.0;
 bool monochrome_camera(const CompositorState& ex) {
-  return ex.gamut_reach[0] >= 0 && ex.gamut_reach[0] <= kMonochromeReach && ex.gamut_reach[1] <= kMonochromeReach;
+  return ex.gamut_reach[0] >= 0 && ex.gamut_reach[0] <= kMonochromeReach &&
+         ex.gamut_reach[1] <= kMonochromeReach;
 }
 
 // Per-channel affine map in Lab moving the asset's statistics part of the way to the surroundings'.
@@ -537,8 +538,10 @@ CompositeResult composite(cv::Mat& image, const Placement& p, const CompositeOpt
       ++ex.noise_frames;
     }
   }
-  if (ex.frame % 4 == 0) {
-    // What colours the camera records: the widest reach so far (a camera's gamut does not shrink).
+  const bool colour_known = ex.gamut_reach[0] > kMonochromeReach || ex.gamut_reach[1] > kMonochromeReach;
+  if (ex.frame % 4 == 0 && !colour_known) {
+    // What colours the camera records: the widest reach so far (a camera's gamut does not shrink, so once it
+    // is known to record colour it is not sampled again).
     cv::Vec2d centre, reach;
     camera_gamut(image, centre, reach);
     ex.gamut_centre = ex.gamut_reach[0] < 0 ? centre : ex.gamut_centre * 0.8 + centre * 0.2;
